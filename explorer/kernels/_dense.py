@@ -1,0 +1,109 @@
+"""The dense reference method: Newton on seed 000's full square system, and its eq. 29–30 tangent.
+
+Unknowns are the x, y of every vertex (2 n_vertices); equations are one squared-length residual per
+link plus the coordinate equations of the crank tip and the fixed vertices. No structure is used,
+which makes this the simple, slow reference the block method is checked against.
+"""
+
+import numpy as np
+from numba import njit
+
+from ._blocks import MAX_MOVE, NOCONV, OK, lu_solve
+
+
+@njit(cache=True)
+def _assemble(P, link_a, link_b, L, known, known_pos, M, rhs, with_residual):
+    """Fill M (2nv, 2nv) with the full Jacobian at P; if ``with_residual``, rhs = −F(P) and return the worst scaled residual."""
+    nv = P.shape[0]
+    n = 2 * nv
+    nl = link_a.shape[0]
+    for i in range(n):
+        for j in range(n):
+            M[i, j] = 0.0
+    worst = 0.0
+    for e in range(nl):
+        u = link_a[e]
+        w = link_b[e]
+        gx = P[w, 0] - P[u, 0]
+        gy = P[w, 1] - P[u, 1]
+        M[e, 2 * u] = -2.0 * gx
+        M[e, 2 * u + 1] = -2.0 * gy
+        M[e, 2 * w] = 2.0 * gx
+        M[e, 2 * w + 1] = 2.0 * gy
+        if with_residual:
+            d2 = L[e] * L[e]
+            res = gx * gx + gy * gy - d2
+            rhs[e] = -res
+            worst = max(worst, abs(res) / d2)
+    for k in range(known.shape[0]):
+        v = known[k]
+        for ax in range(2):
+            r = nl + 2 * k + ax
+            M[r, 2 * v + ax] = 1.0
+            if with_residual:
+                res = P[v, ax] - known_pos[k, ax]
+                rhs[r] = -res
+                worst = max(worst, abs(res) / (1.0 + abs(known_pos[k, ax])))
+    return worst
+
+
+@njit(cache=True)
+def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, known_vel, known_acc, h, hp,
+                tol, maxit, want_acc, M, rhs):
+    """Predict from P0/V0/Vp, then full-system Newton; on success fill P1, V1 (and A1).
+
+    ``known`` (n_known,) lists the crank tip then the fixed vertices, with their target positions,
+    velocities and accelerations ``known_pos``/``known_vel``/``known_acc`` (n_known, 2).
+    Returns (code, iterations); code is OK or NOCONV.
+    """
+    nv = P0.shape[0]
+    n = 2 * nv
+    shortest = np.inf
+    for e in range(L.shape[0]):
+        shortest = min(shortest, L[e])
+    lim = MAX_MOVE * shortest
+    c = 0.5 * h * h / hp if hp > 0.0 else 0.0
+    for v in range(nv):
+        for ax in range(2):
+            P1[v, ax] = P0[v, ax] + h * V0[v, ax] + c * (V0[v, ax] - Vp[v, ax])
+    it = 0
+    while True:
+        if _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, True) <= tol:
+            break
+        if it >= maxit or lu_solve(M, rhs, n) == 0.0:
+            return NOCONV, it
+        norm = 0.0
+        for v in range(nv):
+            norm = max(norm, rhs[2 * v] * rhs[2 * v] + rhs[2 * v + 1] * rhs[2 * v + 1])
+        s = 1.0 if norm <= lim * lim else lim / np.sqrt(norm)
+        for v in range(nv):
+            P1[v, 0] += s * rhs[2 * v]
+            P1[v, 1] += s * rhs[2 * v + 1]
+        it += 1
+    # seed 000 eq. 29–30: M dV/dθ = B, B = the known vertices' rates, zero for the link rows
+    nl = link_a.shape[0]
+    _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, False)
+    for e in range(nl):
+        rhs[e] = 0.0
+    for k in range(known.shape[0]):
+        rhs[nl + 2 * k] = known_vel[k, 0]
+        rhs[nl + 2 * k + 1] = known_vel[k, 1]
+    if lu_solve(M, rhs, n) == 0.0:
+        return NOCONV, it
+    for v in range(nv):
+        V1[v, 0] = rhs[2 * v]
+        V1[v, 1] = rhs[2 * v + 1]
+    if want_acc:
+        _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, False)
+        for e in range(nl):
+            wx = V1[link_b[e], 0] - V1[link_a[e], 0]
+            wy = V1[link_b[e], 1] - V1[link_a[e], 1]
+            rhs[e] = -2.0 * (wx * wx + wy * wy)
+        for k in range(known.shape[0]):
+            rhs[nl + 2 * k] = known_acc[k, 0]
+            rhs[nl + 2 * k + 1] = known_acc[k, 1]
+        lu_solve(M, rhs, n)
+        for v in range(nv):
+            A1[v, 0] = rhs[2 * v]
+            A1[v, 1] = rhs[2 * v + 1]
+    return OK, it

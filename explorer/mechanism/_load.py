@@ -1,0 +1,187 @@
+"""Reading and validating mechanism TOML files (the file shape is a public contract)."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from importlib import resources
+from pathlib import Path
+
+from ..errors import UserError, where
+from ._model import Crank, Link, Mechanism, _check_length
+
+_TOP_KEYS = {"name", "description", "foot", "crank", "fixed", "guess", "links"}
+_CRANK_KEYS = {"center", "radius", "tip"}
+_LINK_KEYS = {"a", "b", "length", "name"}
+
+
+def builtin_mechanisms() -> tuple[str, ...]:
+    """Names of the mechanisms shipped with explorer (``jansen``, ``fourbar``, ...)."""
+    folder = resources.files("explorer.mechanism") / "builtin"
+    return tuple(sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml")))
+
+
+def load_mechanism(name_or_path) -> Mechanism:
+    """Load a built-in mechanism by name (``"jansen"``) or any mechanism ``.toml`` file by path.
+
+    Raises :class:`~explorer.errors.UserError` with a one-line message naming the file and key for
+    malformed files, unknown vertices, duplicate links, non-positive or non-finite lengths, a missing
+    guess, or a graph that does not have exactly one degree of freedom driven by the crank.
+    """
+    text, source = _read(name_or_path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise UserError(f"{source}: not valid TOML: {exc}") from None
+    return mechanism_from_dict(data, source)
+
+
+def _read(name_or_path) -> tuple[str, str]:
+    s = str(name_or_path)
+    if s in builtin_mechanisms() and not Path(s).exists():
+        res = resources.files("explorer.mechanism") / "builtin" / f"{s}.toml"
+        return res.read_text(encoding="utf-8"), f"builtin:{s}"
+    path = Path(s)
+    if not path.is_file():
+        raise UserError(
+            f"{s}: no such mechanism file or built-in (built-ins: {', '.join(builtin_mechanisms())})"
+        )
+    try:
+        return path.read_text(encoding="utf-8"), str(path)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{s}: cannot read: {exc}") from None
+
+
+def _point(source: str, key: str, value) -> tuple[float, float]:
+    ok = isinstance(value, list) and len(value) == 2 and all(
+        isinstance(c, (int, float)) and not isinstance(c, bool) for c in value
+    )
+    if not ok or not all(math.isfinite(float(c)) for c in value):
+        raise UserError(f"{where(source, key)}: expected [x, y] with two finite numbers, got {value!r}")
+    return float(value[0]), float(value[1])
+
+
+def _string(source: str, key: str, value) -> str:
+    if not isinstance(value, str) or not value:
+        raise UserError(f"{where(source, key)}: expected a non-empty string, got {value!r}")
+    return value
+
+
+def _table(source: str, key: str, value) -> dict:
+    if not isinstance(value, dict):
+        raise UserError(f"{where(source, key)}: expected a table, got {value!r}")
+    return value
+
+
+def _unknown_keys(source: str, prefix: str, table: dict, allowed: set[str]) -> None:
+    for k in table:
+        if k not in allowed:
+            raise UserError(
+                f"{where(source, prefix + k)}: unknown key (allowed: {', '.join(sorted(allowed))})"
+            )
+
+
+def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
+    """Validate a parsed mechanism table (the TOML shape) and build a :class:`Mechanism`."""
+    _table(source, "", data)
+    _unknown_keys(source, "", data, _TOP_KEYS)
+    for k in ("name", "foot", "crank", "links"):
+        if k not in data:
+            raise UserError(f"{where(source, k)}: missing required key")
+    name = _string(source, "name", data["name"])
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise UserError(f"{where(source, 'description')}: expected a string, got {description!r}")
+
+    crank_t = _table(source, "crank", data["crank"])
+    _unknown_keys(source, "crank.", crank_t, _CRANK_KEYS)
+    for k in sorted(_CRANK_KEYS):
+        if k not in crank_t:
+            raise UserError(f"{where(source, 'crank.' + k)}: missing required key")
+    crank = Crank(
+        center=_point(source, "crank.center", crank_t["center"]),
+        radius=_check_length(source, "crank.radius", crank_t["radius"]),
+        tip=_string(source, "crank.tip", crank_t["tip"]),
+    )
+    fixed = {
+        str(k): _point(source, f"fixed.{k}", v)
+        for k, v in _table(source, "fixed", data.get("fixed", {})).items()
+    }
+    guess = {
+        str(k): _point(source, f"guess.{k}", v)
+        for k, v in _table(source, "guess", data.get("guess", {})).items()
+    }
+    if crank.tip in fixed:
+        raise UserError(f"{where(source, 'fixed.' + crank.tip)}: vertex {crank.tip!r} is the crank tip and cannot be fixed")
+    for v in guess:
+        if v in fixed or v == crank.tip:
+            raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is fixed or the crank tip and takes no guess")
+
+    raw_links = data["links"]
+    if not isinstance(raw_links, list) or not raw_links:
+        raise UserError(f"{where(source, 'links')}: expected one or more [[links]] tables, got {raw_links!r}")
+    vertices = [crank.tip, *fixed, *guess]
+    known = set(vertices)
+    links: list[Link] = []
+    seen_names: set[str] = set()
+    seen_pairs: dict[frozenset, str] = {}
+    for i, lt in enumerate(raw_links):
+        key = f"links[{i}]"
+        _table(source, key, lt)
+        _unknown_keys(source, key + ".", lt, _LINK_KEYS)
+        for k in ("a", "b", "length"):
+            if k not in lt:
+                raise UserError(f"{where(source, f'{key}.{k}')}: missing required key")
+        a = _string(source, f"{key}.a", lt["a"])
+        b = _string(source, f"{key}.b", lt["b"])
+        for end, v in (("a", a), ("b", b)):
+            if v not in known:
+                raise UserError(
+                    f"{where(source, f'{key}.{end}')}: vertex {v!r} is neither the crank tip, fixed, nor in "
+                    f"[guess] (a missing guess or an unknown vertex)"
+                )
+        if a == b:
+            raise UserError(f"{where(source, key)}: link joins vertex {a!r} to itself")
+        lname = _string(source, f"{key}.name", lt.get("name", f"{a}-{b}"))
+        length = _check_length(source, f"{key}.length", lt["length"])
+        if lname in seen_names:
+            raise UserError(f"{where(source, f'{key}.name')}: duplicate link name {lname!r}")
+        pair = frozenset((a, b))
+        if pair in seen_pairs:
+            raise UserError(f"{where(source, key)}: duplicate link {a}-{b} (already given as {seen_pairs[pair]!r})")
+        seen_names.add(lname)
+        seen_pairs[pair] = lname
+        links.append(Link(lname, a, b, length))
+
+    foot = _string(source, "foot", data["foot"])
+    if foot not in known:
+        raise UserError(f"{where(source, 'foot')}: unknown vertex {foot!r} (known: {', '.join(vertices)})")
+    _check_degrees_of_freedom(source, crank, fixed, guess, links)
+    return Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source)
+
+
+def _check_degrees_of_freedom(source, crank, fixed, guess, links) -> None:
+    """Count check: 2 unknowns per guessed vertex, one equation per link that moves something.
+
+    With the crank tip's and fixed vertices' coordinate equations this is seed 000's square system,
+    leaving exactly the one degree of freedom that the crank drives.
+    """
+    grounded = {crank.tip, *fixed}
+    for l in links:
+        if l.a in grounded and l.b in grounded:
+            raise UserError(
+                f"{where(source, 'links.' + l.name)}: link joins two driven or fixed vertices "
+                f"({l.a}, {l.b}); it would lock the crank or duplicate the ground"
+            )
+    touched = {v for l in links for v in (l.a, l.b)}
+    for v in guess:
+        if v not in touched:
+            raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is on no link")
+    n_eq, n_unknown = len(links), 2 * len(guess)
+    if n_eq != n_unknown:
+        dof = n_unknown - n_eq + 1
+        raise UserError(
+            f"{where(source, 'links')}: {n_eq} link equations for {n_unknown} unknown coordinates gives "
+            f"{dof} degrees of freedom; a crank-driven linkage needs exactly 1 "
+            f"(add or remove {abs(n_unknown - n_eq)} link(s))"
+        )

@@ -1,0 +1,138 @@
+"""The mechanism data model: a planar linkage as a graph of pin joints and rigid links."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+from ..errors import UserError, where
+
+
+@dataclass(frozen=True)
+class Link:
+    """A rigid link of ``length`` (model units) between vertices ``a`` and ``b``."""
+
+    name: str
+    a: str
+    b: str
+    length: float
+
+
+@dataclass(frozen=True)
+class Crank:
+    """The driver: vertex ``tip`` moves on a circle of ``radius`` about ``center``.
+
+    The crank angle θ (radians) is measured counter-clockwise from +x, so the tip sits at
+    ``center + radius * (cos θ, sin θ)``.
+    """
+
+    center: tuple[float, float]
+    radius: float
+    tip: str
+
+
+def _frozen(d: Mapping[str, tuple[float, float]]) -> Mapping[str, tuple[float, float]]:
+    return MappingProxyType({k: (float(v[0]), float(v[1])) for k, v in d.items()})
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """A crank-driven planar linkage (the vertex formulation of seed 000).
+
+    Attributes
+    ----------
+    name, description : str
+    vertices : tuple[str, ...]
+        Every vertex name, in a fixed order: the crank tip, the fixed vertices, then the guessed
+        ones, each group in file order. Position arrays index vertices in this order.
+    links : tuple[Link, ...]
+        Rigid links in file order; ``lengths`` arrays follow this order.
+    crank : Crank
+    fixed : Mapping[str, (x, y)]
+        Ground pivots.
+    guess : Mapping[str, (x, y)]
+        Rough positions at θ = 0 for every other vertex; they choose the assembly (branch).
+    foot : str
+        The vertex whose path is the gait.
+    source : str
+        Where the mechanism came from (a file path or ``builtin:NAME``), used in error messages.
+    """
+
+    name: str
+    description: str
+    vertices: tuple[str, ...]
+    links: tuple[Link, ...]
+    crank: Crank
+    fixed: Mapping[str, tuple[float, float]]
+    guess: Mapping[str, tuple[float, float]]
+    foot: str
+    source: str = "<memory>"
+    _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "fixed", _frozen(self.fixed))
+        object.__setattr__(self, "guess", _frozen(self.guess))
+        object.__setattr__(self, "_index", MappingProxyType({v: i for i, v in enumerate(self.vertices)}))
+
+    # -- lookups ---------------------------------------------------------------------------
+    def vertex_index(self, name: str) -> int:
+        """Index of vertex ``name`` in :attr:`vertices` (UserError if unknown)."""
+        try:
+            return self._index[str(name)]
+        except KeyError:
+            raise UserError(
+                f"{where(self.source, 'vertices')}: unknown vertex {name!r} "
+                f"(known: {', '.join(self.vertices)})"
+            ) from None
+
+    def link_index(self, name: str) -> int:
+        """Index of the link called ``name`` in :attr:`links` (UserError if unknown)."""
+        for i, link in enumerate(self.links):
+            if link.name == name:
+                return i
+        raise UserError(
+            f"{where(self.source, 'links')}: unknown link {name!r} "
+            f"(known: {', '.join(l.name for l in self.links)})"
+        )
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        return tuple(l.name for l in self.links)
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """Link lengths, shape (n_links,), in :attr:`links` order."""
+        return np.array([l.length for l in self.links], dtype=np.float64)
+
+    # -- variants --------------------------------------------------------------------------
+    def with_lengths(self, lengths: Mapping[str, float] | None = None, crank: float | None = None) -> "Mechanism":
+        """A variant with some link lengths (by link name) and/or the crank radius replaced.
+
+        The mechanism it is called on is left untouched.
+        """
+        lengths = dict(lengths or {})
+        names = set(self.link_names)
+        for k, v in lengths.items():
+            if k not in names:
+                self.link_index(k)  # raises the UserError naming the link
+            _check_length(self.source, f"links.{k}.length", v)
+        links = tuple(replace(l, length=float(lengths[l.name])) if l.name in lengths else l for l in self.links)
+        new_crank = self.crank
+        if crank is not None:
+            _check_length(self.source, "crank.radius", crank)
+            new_crank = replace(self.crank, radius=float(crank))
+        return replace(self, links=links, crank=new_crank)
+
+
+def _check_length(source: str, key: str, value) -> float:
+    """Return ``value`` as a float, or raise UserError unless it is finite and > 0."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise UserError(f"{where(source, key)}: expected a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or v <= 0.0:
+        raise UserError(f"{where(source, key)}: length must be finite and > 0, got {value!r}")
+    return v
