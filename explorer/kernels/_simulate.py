@@ -12,6 +12,8 @@ from ..errors import UserError, where
 from ..mechanism import Mechanism
 from ..plan import DYAD, Plan, make_plan
 from ._blocks import solve_general
+from ._closed import closed_batch_jit
+from ._dyads import dyad_batch_jit
 from ._cycle import (BLOCK, DENSE, STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK,
                      block_signs, cycle_batch_jit)
 
@@ -23,7 +25,7 @@ STATUS_NAMES = {
     STATUS_NOCONV: "no-convergence",
     STATUS_INVALID: "invalid",
 }
-METHODS = {"block": BLOCK, "dense": DENSE}
+METHODS = {"block": BLOCK, "dense": DENSE, "closed": -1}
 DEFAULT_TOLERANCE = 1e-10
 DEFAULT_MAX_ITERATIONS = 50
 
@@ -217,7 +219,8 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
     """Solve ``mech`` over one crank cycle at θ_k = 2πk/steps, k = 0 … steps−1.
 
     method "block" runs Newton block by block in plan order; "dense" runs Newton on the full
-    system (the reference). ``tolerance`` bounds every scaled residual (|p_b − p_a|² − d²)/d².
+    system (the reference); "closed" (all-dyad plans, positions only) places each dyad by
+    circle–circle intersection on the nominal branch: the exact answer, with no branch tracking. ``tolerance`` bounds every scaled residual (|p_b − p_a|² − d²)/d².
     Velocities dV/dθ (per radian) and accelerations d²V/dθ² are returned when asked for.
     The cycle is ok only if every step converged on the branch chosen at θ = 0 (by the guess),
     no assembly gap hides between samples, and the cycle closes on itself.
@@ -264,14 +267,35 @@ def _run(mech, plan, lengths, crank, steps, out_idx, velocities, accelerations, 
     known = np.concatenate([[plan.tip], fixed_idx]).astype(np.int64)
     fixed_pos = np.array([mech.fixed[mech.vertices[i]] for i in fixed_idx], dtype=np.float64).reshape(-1, 2)
     c = mech.crank.center
-    cycle_batch_jit(METHODS[method], *plan.arrays(blocks), plan.link_a, plan.link_b, known, fixed_pos,
-                    np.ascontiguousarray(lengths, dtype=np.float64), np.ascontiguousarray(crank, dtype=np.float64),
-                    float(c[0]), float(c[1]), P0, signs[blocks], cth, sth, float(tolerance), int(max_iterations),
-                    np.asarray(out_idx, dtype=np.int64), bool(velocities), bool(accelerations), pos, vel, acc,
-                    status, fth, fbl, its)
+    common = (np.ascontiguousarray(lengths, dtype=np.float64), np.ascontiguousarray(crank, dtype=np.float64),
+              float(c[0]), float(c[1]), P0, signs[blocks], cth, sth, float(tolerance), int(max_iterations),
+              np.asarray(out_idx, dtype=np.int64), bool(velocities), bool(accelerations), pos, vel, acc,
+              status, fth, fbl, its)
+    if method == "closed":
+        if velocities or accelerations or not all(plan.blocks[b].kind == DYAD for b in blocks):
+            raise UserError("method 'closed': the closed form gives positions only, and only for all-dyad plans")
+        closed_batch_jit(*_dyad_tables(plan, blocks), plan.tip, fixed_idx, fixed_pos, *common[:8],
+                         common[10], pos, status, fth)
+        fbl[:] = -1
+        its[:] = 0
+    elif method == "block" and all(plan.blocks[b].kind == DYAD for b in blocks):
+        dyad_batch_jit(*_dyad_tables(plan, blocks), plan.tip, fixed_idx, fixed_pos, *common)
+    else:
+        cycle_batch_jit(METHODS[method], *plan.arrays(blocks), plan.link_a, plan.link_b, known, fixed_pos, *common)
     # report the failing block by its index in the full plan
     fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
     return pos, vel, acc, status, fth, fbl, its
+
+
+def _dyad_tables(plan: Plan, blocks) -> tuple:
+    """(dv, dpa, dpb, dla, dlb): placed vertex, parents and links of each dyad in ``blocks``, int64 (n,)."""
+    rows = []
+    for b in blocks:
+        v = plan.blocks[b].vertices[0]
+        la, lb = plan.blocks[b].links
+        rows.append((v, _other(plan, la, v), _other(plan, lb, v), la, lb))
+    return tuple(np.array(col, dtype=np.int64).reshape(-1) for col in zip(*rows)) if rows else \
+        tuple(np.zeros(0, dtype=np.int64) for _ in range(5))
 
 
 def simulate_batch(mech: Mechanism, lengths, crank, steps: int = 360, *, vertices=None, velocities: bool = True,
