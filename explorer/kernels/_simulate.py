@@ -12,10 +12,10 @@ from ..errors import UserError, where
 from ..mechanism import Mechanism
 from ..plan import DYAD, Plan, make_plan
 from ._blocks import solve_general
-from ._closed import closed_batch_jit
-from ._dyads import dyad_batch_jit
+from ._closed import closed_batch_jit, closed_cycle
+from ._dyads import dyad_batch_jit, dyad_cycle
 from ._cycle import (BLOCK, DENSE, STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK,
-                     block_signs, cycle_batch_jit)
+                     block_signs, cycle_batch_jit, run_cycle)
 
 #: Status code -> name; the same codes are stored in results files as ``/status``.
 STATUS_NAMES = {
@@ -267,21 +267,36 @@ def _run(mech, plan, lengths, crank, steps, out_idx, velocities, accelerations, 
     known = np.concatenate([[plan.tip], fixed_idx]).astype(np.int64)
     fixed_pos = np.array([mech.fixed[mech.vertices[i]] for i in fixed_idx], dtype=np.float64).reshape(-1, 2)
     c = mech.crank.center
-    common = (np.ascontiguousarray(lengths, dtype=np.float64), np.ascontiguousarray(crank, dtype=np.float64),
-              float(c[0]), float(c[1]), P0, signs[blocks], cth, sth, float(tolerance), int(max_iterations),
-              np.asarray(out_idx, dtype=np.int64), bool(velocities), bool(accelerations), pos, vel, acc,
-              status, fth, fbl, its)
+    lengths = np.ascontiguousarray(lengths, dtype=np.float64)
+    crank = np.ascontiguousarray(crank, dtype=np.float64)
+    out_idx = np.asarray(out_idx, dtype=np.int64)
+    sg = np.ascontiguousarray(signs[blocks])
+    all_dyads = all(plan.blocks[b].kind == DYAD for b in blocks)
+    # One design runs the serial cycle kernel: a parallel region on a busy machine waits for every thread.
     if method == "closed":
-        if velocities or accelerations or not all(plan.blocks[b].kind == DYAD for b in blocks):
+        if velocities or accelerations or not all_dyads:
             raise UserError("method 'closed': the closed form gives positions only, and only for all-dyad plans")
-        closed_batch_jit(*_dyad_tables(plan, blocks), plan.tip, fixed_idx, fixed_pos, *common[:8],
-                         common[10], pos, status, fth)
+        head = (*_dyad_tables(plan, blocks), plan.tip, fixed_idx, fixed_pos)
+        if N == 1:
+            status[0], fth[0] = closed_cycle(*head, lengths[0], crank[0], c[0], c[1], sg, cth, sth, out_idx, pos[0],
+                                             P0.copy())
+        else:
+            closed_batch_jit(*head, lengths, crank, c[0], c[1], P0, sg, cth, sth, out_idx, pos, status, fth)
         fbl[:] = -1
         its[:] = 0
-    elif method == "block" and all(plan.blocks[b].kind == DYAD for b in blocks):
-        dyad_batch_jit(*_dyad_tables(plan, blocks), plan.tip, fixed_idx, fixed_pos, *common)
     else:
-        cycle_batch_jit(METHODS[method], *plan.arrays(blocks), plan.link_a, plan.link_b, known, fixed_pos, *common)
+        if method == "block" and all_dyads:
+            head, batch_kernel, cycle_kernel = (*_dyad_tables(plan, blocks), plan.tip, fixed_idx, fixed_pos), \
+                dyad_batch_jit, dyad_cycle
+        else:
+            head, batch_kernel, cycle_kernel = (METHODS[method], *plan.arrays(blocks), plan.link_a, plan.link_b, known,
+                                                fixed_pos), cycle_batch_jit, run_cycle
+        tail = (float(c[0]), float(c[1]), P0, sg, cth, sth, float(tolerance), int(max_iterations), out_idx,
+                bool(velocities), bool(accelerations))
+        if N == 1:
+            status[0], fth[0], fbl[0], its[0] = cycle_kernel(*head, lengths[0], crank[0], *tail, pos[0], vel[0], acc[0])
+        else:
+            batch_kernel(*head, lengths, crank, *tail, pos, vel, acc, status, fth, fbl, its)
     # report the failing block by its index in the full plan
     fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
     return pos, vel, acc, status, fth, fbl, its

@@ -1,0 +1,77 @@
+"""Kernel throughput on ±2 % Jansen variants, as ratios against baselines measured in the same run.
+
+    python benchmarks/bench_kernels.py [--variants 10000] [--steps 360] [--repeat 3]
+
+Baselines: the exact closed form (the speed limit) and dense full-system Newton (the simple
+reference). Rows: block Newton with the foot path only, with velocities, with accelerations, and
+with every vertex kept (what scene pruning saves), plus one 360-step cycle of a single design.
+The machines are shared and noisy: read the ratios, not the absolute figures. Each figure is the
+best of --repeat runs after a warm-up run that compiles (or loads the cached) kernels.
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+import explorer
+
+
+def _best(fn, repeat):
+    fn()  # warm-up: compile or load from cache
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--variants", type=int, default=10_000)
+    ap.add_argument("--steps", type=int, default=360)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--dense-variants", type=int, default=1_000, help="dense Newton is slow: run it on a subset")
+    a = ap.parse_args(argv)
+
+    mech = explorer.load_mechanism("jansen")
+    rng = np.random.default_rng(1)
+    n = a.variants
+    lengths = mech.lengths * (1 + rng.uniform(-0.02, 0.02, (n, len(mech.links))))
+    crank = mech.crank.radius * (1 + rng.uniform(-0.02, 0.02, n))
+    lengths[0], crank[0] = mech.lengths, mech.crank.radius
+    configs = n * a.steps
+
+    def batch(n_rows=n, **kw):
+        return lambda: explorer.simulate_batch(mech, lengths[:n_rows], crank[:n_rows], a.steps, **kw)
+
+    rows = []
+    closed = _best(batch(velocities=False, method="closed"), a.repeat)
+    rows.append(("closed form, foot positions", closed, configs))
+    block = _best(batch(velocities=False), a.repeat)
+    rows.append(("block Newton, foot positions", block, configs))
+    rows.append(("block Newton, foot + velocities", _best(batch(velocities=True), a.repeat), configs))
+    rows.append(("block Newton, foot + vel + acc", _best(batch(velocities=True, accelerations=True), a.repeat),
+                 configs))
+    rows.append(("block Newton, all vertices + vel", _best(batch(vertices="all", velocities=True), a.repeat), configs))
+    nd = min(a.dense_variants, n)
+    rows.append((f"dense Newton ({nd} variants), foot + vel", _best(batch(nd, method="dense"), a.repeat), nd * a.steps))
+
+    print(f"{n} ±2 % Jansen variants x {a.steps} steps, {explorer.__version__}; best of {a.repeat}")
+    print(f"{'method':44s} {'M configs/s':>12s} {'time vs closed':>15s} {'vs block pos':>13s}")
+    per_closed, per_block = closed / configs, block / configs  # seconds per configuration
+    for name, t, c in rows:
+        per = t / c
+        print(f"{name:44s} {1e-6 / per:12.2f} {per / per_closed:15.2f} {per / per_block:13.2f}")
+    one = _best(lambda: explorer.simulate(mech, a.steps, velocities=True), a.repeat)
+    one_dense = _best(lambda: explorer.simulate(mech, a.steps, velocities=True, method="dense"), a.repeat)
+    print(f"one {a.steps}-step cycle with velocities: block {one * 1e3:.3f} ms, dense {one_dense * 1e3:.3f} ms "
+          f"(dense/block = {one_dense / one:.1f})")
+    status = explorer.simulate_batch(mech, lengths, crank, a.steps, velocities=False).status
+    counts = {explorer.STATUS_NAMES[k]: int(v) for k, v in enumerate(np.bincount(status, minlength=5)) if v}
+    print("block Newton outcome:", counts)
+
+
+if __name__ == "__main__":
+    main()
