@@ -1,7 +1,11 @@
 """Numba kernels and the public solvers over them: ``simulate`` (one design) and ``simulate_batch`` (N variants)."""
 
-from ._simulate import (DEFAULT_TOLERANCE, METHODS, STATUS_NAMES, Batch, Cycle, Failure, assemble, crank_table,
+from ._cache import guard_cache
+
+guard_cache()  # before any kernel is loaded from the on-disk cache
+
+from ._simulate import (DEFAULT_TOLERANCE, METHODS, STATUS_NAMES, Batch, Cycle, Failure, assemble,  # noqa: E402
                         plan_for, simulate, simulate_batch)
 
-__all__ = ["DEFAULT_TOLERANCE", "METHODS", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "crank_table",
-           "plan_for", "simulate", "simulate_batch"]
+__all__ = ["DEFAULT_TOLERANCE", "METHODS", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "plan_for",
+           "simulate", "simulate_batch"]

@@ -58,119 +58,19 @@ def _hermite_extremes(q0, m0, q1, m1, h):
     return lo, hi
 
 
-@njit(cache=True, inline="always")
-def dyad_gap_suspect(P0, V0, P1, V1, a, b, da, db, h):
-    """True if the squared distance of a dyad's parents a, b may leave [(da−db)², (da+db)²] between two samples h apart."""
-    ux = P0[a, 0] - P0[b, 0]
-    uy = P0[a, 1] - P0[b, 1]
-    q0 = ux * ux + uy * uy
-    m0 = 2.0 * (ux * (V0[a, 0] - V0[b, 0]) + uy * (V0[a, 1] - V0[b, 1]))
-    wx = P1[a, 0] - P1[b, 0]
-    wy = P1[a, 1] - P1[b, 1]
-    q1 = wx * wx + wy * wy
-    m1 = 2.0 * (wx * (V1[a, 0] - V1[b, 0]) + wy * (V1[a, 1] - V1[b, 1]))
-    hi_lim = (da + db) * (da + db)
-    lo_lim = (da - db) * (da - db)
-    # cheap sufficient test first: the Hermite basis overshoots by at most 4/27 h (|m0| + |m1|)
-    ext = (4.0 / 27.0) * h * (abs(m0) + abs(m1))
-    if max(q0, q1) + ext < hi_lim * (1.0 - GAP_MARGIN) and min(q0, q1) - ext > lo_lim * (1.0 + GAP_MARGIN):
+@njit(cache=True)
+def gap_suspect(q0, m0, q1, m1, h, hi2, lo2):
+    """True if a dyad's squared parent distance q may leave [lo2, hi2] between two samples a step h apart.
+
+    q0, q1 are its values and m0, m1 its slopes dq/dparameter at the two ends. A cheap bound comes
+    first (the Hermite basis overshoots by at most 4/27·|h|·(|m0| + |m1|)); only when it cannot rule
+    trouble out are the extremes of the cubic Hermite interpolant computed.
+    """
+    ext = (4.0 / 27.0) * abs(h) * (abs(m0) + abs(m1))
+    if max(q0, q1) + ext < hi2 * (1.0 - GAP_MARGIN) and min(q0, q1) - ext > lo2 * (1.0 + GAP_MARGIN):
         return False
     lo, hi = _hermite_extremes(q0, m0, q1, m1, h)
-    return hi >= hi_lim * (1.0 - GAP_MARGIN) or lo <= lo_lim * (1.0 + GAP_MARGIN)
-
-
-@njit(cache=True, inline="always")
-def solve_dyad(P0, V0, Vp, P1, V1, A1, v, a, b, da, db, h, hp, tol, maxit, sign_ref, want_acc, checks):
-    """Place vertex v at distances da, db from the already-placed parents a, b (rows of P1).
-
-    Predicts from the state P0/V0 a step h earlier (second order, using the tangent Vp of the step
-    hp before that), then runs Newton with a step limit. ``sign_ref`` is the branch to keep (±1.0),
-    or 0.0 to accept either. On success writes P1[v], V1[v] and, if
-    ``want_acc``, A1[v]. Returns (code, iterations). With ``checks`` off, the SUSPECT tests (gap
-    between samples, too large a move) are skipped: for the θ = 0 solve (h = 0, predictor = P0) and
-    for the smallest refinement step.
-    """
-    ax = P1[a, 0]
-    ay = P1[a, 1]
-    bx = P1[b, 0]
-    by = P1[b, 1]
-    gx = bx - ax
-    gy = by - ay
-    q = gx * gx + gy * gy
-    if q > (da + db) * (da + db) or q < (da - db) * (da - db):
-        return INFEASIBLE, 0
-    if checks and dyad_gap_suspect(P0, V0, P1, V1, a, b, da, db, h):
-        return SUSPECT, 0
-    lim = MAX_MOVE * min(da, db)
-    mx = h * V0[v, 0]
-    my = h * V0[v, 1]
-    if hp > 0.0:
-        c = 0.5 * h * h / hp
-        mx += c * (V0[v, 0] - Vp[v, 0])
-        my += c * (V0[v, 1] - Vp[v, 1])
-    if checks and mx * mx + my * my > lim * lim:
-        return SUSPECT, 0
-    px = P0[v, 0] + mx
-    py = P0[v, 1] + my
-    px_pred = px
-    py_pred = py
-    da2 = da * da
-    db2 = db * db
-    it = 0
-    while True:
-        ex = px - ax
-        ey = py - ay
-        fx = px - bx
-        fy = py - by
-        ra = ex * ex + ey * ey - da2
-        rb = fx * fx + fy * fy - db2
-        if abs(ra) <= tol * da2 and abs(rb) <= tol * db2:
-            break
-        if it >= maxit:
-            return NOCONV, it
-        det = ex * fy - ey * fx
-        if det == 0.0:
-            return NOCONV, it
-        inv = 0.5 / det
-        dx = (ey * rb - ra * fy) * inv
-        dy = (fx * ra - ex * rb) * inv
-        n2 = dx * dx + dy * dy
-        if n2 > lim * lim:
-            s = lim / np.sqrt(n2)
-            dx *= s
-            dy *= s
-        px += dx
-        py += dy
-        it += 1
-    det = ex * fy - ey * fx  # = cross(b − a, p − a): the dyad's orientation, its branch sign
-    if det == 0.0 or (sign_ref != 0.0 and (det > 0.0) != (sign_ref > 0.0)):
-        return SIGN, it
-    if checks:
-        mx = px - px_pred
-        my = py - py_pred
-        if mx * mx + my * my > lim * lim:
-            return SUSPECT, it
-    P1[v, 0] = px
-    P1[v, 1] = py
-    # tangent: (p − a)·v_p = (p − a)·v_a and (p − b)·v_p = (p − b)·v_b
-    r1 = ex * V1[a, 0] + ey * V1[a, 1]
-    r2 = fx * V1[b, 0] + fy * V1[b, 1]
-    inv = 1.0 / det
-    vx = (r1 * fy - ey * r2) * inv
-    vy = (ex * r2 - fx * r1) * inv
-    V1[v, 0] = vx
-    V1[v, 1] = vy
-    if want_acc:
-        # (p − a)·a_p = (p − a)·a_a − |v_p − v_a|², likewise for b
-        wax = vx - V1[a, 0]
-        way = vy - V1[a, 1]
-        wbx = vx - V1[b, 0]
-        wby = vy - V1[b, 1]
-        s1 = ex * A1[a, 0] + ey * A1[a, 1] - (wax * wax + way * way)
-        s2 = fx * A1[b, 0] + fy * A1[b, 1] - (wbx * wbx + wby * wby)
-        A1[v, 0] = (s1 * fy - ey * s2) * inv
-        A1[v, 1] = (ex * s2 - fx * s1) * inv
-    return OK, it
+    return hi >= hi2 * (1.0 - GAP_MARGIN) or lo <= lo2 * (1.0 + GAP_MARGIN)
 
 
 @njit(cache=True)
@@ -269,7 +169,7 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, links, link_a, link_b, L, h, hp
     for j in range(nb):
         v = verts[j]
         loc[v] = j
-        c = 0.5 * h * h / hp if hp > 0.0 else 0.0
+        c = 0.5 * h * h / hp if hp != 0.0 else 0.0
         P1[v, 0] = P0[v, 0] + h * V0[v, 0] + c * (V0[v, 0] - Vp[v, 0])
         P1[v, 1] = P0[v, 1] + h * V0[v, 1] + c * (V0[v, 1] - Vp[v, 1])
     code = OK

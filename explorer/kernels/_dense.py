@@ -62,7 +62,7 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, kno
     for e in range(L.shape[0]):
         shortest = min(shortest, L[e])
     lim = MAX_MOVE * shortest
-    c = 0.5 * h * h / hp if hp > 0.0 else 0.0
+    c = 0.5 * h * h / hp if hp != 0.0 else 0.0
     for v in range(nv):
         for ax in range(2):
             P1[v, ax] = P0[v, ax] + h * V0[v, ax] + c * (V0[v, ax] - Vp[v, ax])

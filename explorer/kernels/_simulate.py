@@ -13,9 +13,10 @@ from ..mechanism import Mechanism
 from ..plan import DYAD, Plan, make_plan
 from ._blocks import solve_general
 from ._closed import closed_batch_jit, closed_cycle
-from ._dyads import dyad_batch_jit, dyad_cycle
-from ._cycle import (BLOCK, DENSE, STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK,
-                     block_signs, cycle_batch_jit, run_cycle)
+from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
+from ._batch import dyad_batch_jit, dyad_cycle, generic_batch_jit, generic_cycle
+from ._generic import BLOCK, DENSE, block_signs
+from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
 
 #: Status code -> name; the same codes are stored in results files as ``/status``.
 STATUS_NAMES = {
@@ -25,7 +26,7 @@ STATUS_NAMES = {
     STATUS_NOCONV: "no-convergence",
     STATUS_INVALID: "invalid",
 }
-METHODS = {"block": BLOCK, "dense": DENSE, "closed": -1}
+METHODS = ("block", "dense", "closed")
 DEFAULT_TOLERANCE = 1e-10
 DEFAULT_MAX_ITERATIONS = 50
 
@@ -39,11 +40,15 @@ _KIND_TEXT = {
 
 @dataclass(frozen=True)
 class Failure:
-    """Why a cycle is not ok.
+    """Why a cycle (or path) is not ok.
 
     kind : "assembly" | "branch" | "no-convergence" | "invalid"
-    theta : crank angle in radians where it failed (the first angle that could not be solved,
-        located to within Δθ/65536; 2π for a cycle that does not close on itself).
+    theta : driver parameter where it failed: the first crank angle (radians) going forward from
+        θ = 0 that could not be solved, located to within Δθ/65536 (2π for a cycle that does not
+        close on itself); for a path driver, the time in seconds.
+    theta_end : for a crank, the first angle that could not be solved going backward (clockwise)
+        from θ = 0: the design cannot move through [theta, theta_end], and the samples there are
+        NaN; None when not applicable.
     block : index of the failing block in the plan, or None.
     vertex : name of the first vertex that block places, or None.
     message : one readable line.
@@ -51,6 +56,7 @@ class Failure:
 
     kind: str
     theta: float
+    theta_end: float | None
     block: int | None
     vertex: str | None
     message: str
@@ -58,13 +64,14 @@ class Failure:
 
 @dataclass(frozen=True)
 class Cycle:
-    """One design solved over a crank cycle.
+    """One design solved over a crank cycle (or along its prescribed path).
 
-    theta : (steps,) crank angles θ_k = 2πk/steps, radians.
-    positions : (steps, n_vertices, 2), model units; NaN from a failure on.
-    velocities : (steps, n_vertices, 2) dV/dθ, units per radian, or None if not asked for.
-    accelerations : (steps, n_vertices, 2) d²V/dθ², or None if not asked for.
-    ok : True only if the whole cycle solved on one branch and closed on itself.
+    theta : (steps,) the driver parameter at each sample: crank angles θ_k = 2πk/steps in
+        radians, or times t_k = T·k/(steps−1) in seconds for a path driver.
+    positions : (steps, n_vertices, 2), model units; NaN where the design could not be solved.
+    velocities : (steps, n_vertices, 2) dV/dθ per radian (dV/dt per second for a path), or None.
+    accelerations : (steps, n_vertices, 2) d²V/dθ² (d²V/dt²), or None if not asked for.
+    ok : True only if every sample solved on one branch (and a crank cycle closed on itself).
     failure : None, or a :class:`Failure`.
     iterations : total Newton iterations spent.
     """
@@ -79,23 +86,31 @@ class Cycle:
     iterations: int
 
     def path(self, vertex: str) -> np.ndarray:
-        """Positions of ``vertex`` over the cycle, shape (steps, 2)."""
+        """Positions of ``vertex`` at every sample, shape (steps, 2)."""
         return self.positions[:, self.mechanism.vertex_index(vertex)]
 
     def velocity(self, vertex: str) -> np.ndarray:
-        """dV/dθ of ``vertex`` over the cycle, shape (steps, 2) (per radian of crank)."""
+        """Velocity of ``vertex`` at every sample, shape (steps, 2): per radian of crank, or per second for a path."""
         if self.velocities is None:
             raise UserError("velocities were not computed: call simulate(..., velocities=True)")
         return self.velocities[:, self.mechanism.vertex_index(vertex)]
 
+    def link_angle(self, link: str) -> np.ndarray:
+        """Direction of link ``link`` (from its ``a`` to its ``b`` vertex) at every sample, radians in (−π, π], shape (steps,)."""
+        lk = self.mechanism.links[self.mechanism.link_index(link)]
+        d = self.path(lk.b) - self.path(lk.a)
+        return np.arctan2(d[:, 1], d[:, 0])
+
 
 @dataclass(frozen=True)
 class Batch:
-    """Many variants of one mechanism, solved over a crank cycle.
+    """Many variants of one mechanism, each solved at every sample of its driver.
 
-    theta : (steps,); paths / velocities / accelerations : dict vertex -> (N, steps, 2);
-    status : (N,) int8 codes (see STATUS_NAMES); fail_theta : (N,) radians, NaN when ok;
-    fail_block : (N,) plan block index, −1 when ok; iterations : (N,) total Newton iterations.
+    theta : (steps,) driver parameter (see :class:`Cycle`); paths / velocities / accelerations :
+    dict vertex -> (N, steps, 2); status : (N,) int8 codes (see STATUS_NAMES); fail_theta : (N,)
+    where it failed, NaN when ok; fail_theta_end : (N,) end of the unreachable crank range (see
+    :class:`Failure`), NaN when not applicable; fail_block : (N,) plan block index, −1 when ok;
+    iterations : (N,) total Newton iterations.
     """
 
     theta: np.ndarray
@@ -104,13 +119,14 @@ class Batch:
     accelerations: dict
     status: np.ndarray
     fail_theta: np.ndarray
+    fail_theta_end: np.ndarray
     fail_block: np.ndarray
     iterations: np.ndarray
 
 
-# -- cached per topology and per step count --------------------------------------------------------
+# -- cached per topology and per driver and step count --------------------------------------------
 def _topology(mech: Mechanism) -> tuple:
-    return (mech.vertices, tuple((l.a, l.b) for l in mech.links), mech.crank.tip, tuple(mech.fixed))
+    return (mech.vertices, tuple((l.a, l.b) for l in mech.links), mech.driven, tuple(mech.fixed))
 
 
 _PLANS: dict = {}
@@ -124,19 +140,51 @@ def plan_for(mech: Mechanism) -> Plan:
     return _PLANS[key]
 
 
-@lru_cache(maxsize=32)
-def crank_table(steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """θ_k = 2πk/steps with cos θ_k and sin θ_k, each (steps,) and read-only (one table per step count)."""
-    theta = 2.0 * np.pi * np.arange(steps) / steps
-    out = (theta, np.cos(theta), np.sin(theta))
-    for a in out:
+@dataclass(frozen=True)
+class _Drive:
+    kind: int
+    prm: np.ndarray  # driver parameters (see _drive)
+    params: np.ndarray  # (S,) the sample parameters
+    table: np.ndarray  # (S, 6) unit values at the samples
+    t_end: float
+    closed: bool
+    center: tuple[float, float]  # the driven vertex sits at center + scale * unit value
+
+
+@lru_cache(maxsize=64)
+def _drive_for(driver, steps: int) -> _Drive:
+    """Sample parameters and driver table for a Crank or PathDriver (computed once per driver and step count)."""
+    if hasattr(driver, "tip"):  # a crank
+        kind, prm, t_end, closed, center = CRANK, np.zeros(0), 2.0 * np.pi, True, driver.center
+        params = 2.0 * np.pi * np.arange(steps) / steps
+    else:
+        law = QUINTIC if driver.timing == "quintic" else LINEAR
+        head = [driver.duration, law]
+        if driver.kind == "line":
+            kind, prm = LINE, np.array(head + [*driver.points[0], *driver.points[1]])
+        elif driver.kind == "arc":
+            kind, prm = ARC, np.array(head + [*driver.center, driver.radius, driver.start_angle, driver.end_angle])
+        else:
+            from scipy.interpolate import CubicSpline
+
+            pts = np.array(driver.points, dtype=np.float64)
+            spline = CubicSpline(np.linspace(0.0, 1.0, len(pts)), pts, bc_type="natural")
+            kind, prm = SPLINE, np.concatenate([head, [len(pts)], spline.c.ravel()])
+        t_end, closed, center = driver.duration, False, (0.0, 0.0)
+        params = driver.duration * np.arange(steps) / (steps - 1)
+    table = drive_table(kind, prm, params)
+    for a in (prm, params, table):
         a.setflags(write=False)
-    return out
+    return _Drive(kind, prm, params, table, t_end, closed, (float(center[0]), float(center[1])))
 
 
-# -- assembly at θ = 0 -------------------------------------------------------------------------------
+def _scale(mech: Mechanism) -> float:
+    return mech.crank.radius if mech.crank is not None else 1.0
+
+
+# -- assembly at the first sample ------------------------------------------------------------------
 def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
-    """Positions (n_vertices, 2) of ``mech`` at θ = 0 on the branch its guess selects.
+    """Positions (n_vertices, 2) of ``mech`` at its first sample on the branch its guess selects.
 
     A dyad takes the circle–circle intersection on the same side of its parents as the guess; a
     general block runs damped Newton from the guess. Returns (positions, None) or (partial, Failure).
@@ -147,8 +195,8 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
         P[mech.vertex_index(v)] = xy
     for v, xy in mech.fixed.items():
         P[mech.vertex_index(v)] = xy
-    c, r = mech.crank.center, mech.crank.radius
-    P[plan.tip] = (c[0] + r, c[1])
+    drv = _drive_for(mech.crank or mech.path, 3)
+    P[plan.tip] = np.array(drv.center) + _scale(mech) * drv.table[0, :2]
     L = mech.lengths
     n = 2 * len(mech.vertices)
     loc, M, rhs = np.full(len(mech.vertices), -1, dtype=np.int64), np.empty((n, n)), np.empty(n)
@@ -159,14 +207,14 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
             (a, la), (b, lb) = [(_other(plan, e, v), e) for e in blk.links]
             p = _circle_intersection(P[a], P[b], L[la], L[lb], P[v])
             if p is None:
-                return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, k)
+                return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, math.nan, k)
             P[v] = p
         else:
             P1 = P.copy()
             code, _ = solve_general(P, Z, Z, P1, Z.copy(), Z.copy(), np.array(blk.vertices), np.array(blk.links),
                                     plan.link_a, plan.link_b, L, 0.0, 0.0, 1e-13, 200, 0.0, False, False, loc, M, rhs)
             if code != 0:
-                return P, _failure(mech, plan, STATUS_NOCONV, 0.0, k)
+                return P, _failure(mech, plan, STATUS_NOCONV, 0.0, math.nan, k)
             P = P1
     return P, None
 
@@ -189,24 +237,31 @@ def _circle_intersection(a, b, da, db, guess):
     return a + x * u + (y if side >= 0.0 else -y) * perp
 
 
-def _failure(mech: Mechanism, plan: Plan, status: int, theta: float, block: int) -> Failure:
+def _failure(mech: Mechanism, plan: Plan, status: int, theta: float, theta_end: float, block: int) -> Failure:
     kind = STATUS_NAMES[int(status)]
     vertex = mech.vertices[plan.blocks[block].vertices[0]] if block >= 0 else None
-    at = f"θ = {math.degrees(theta):.4f}°"
     who = f"vertex {vertex}" if vertex is not None else "the design"
-    if theta >= 2 * math.pi - 1e-12 and kind == "branch":
+    if mech.crank is None:
+        at = f"t = {theta:.6g} s"
+    else:
+        at = f"θ = {math.degrees(theta):.4f}°"
+        if theta_end == theta_end:  # not NaN: the reachable range ends on both sides
+            at += f" (it cannot turn through θ = {math.degrees(theta):.4f}° … {math.degrees(theta_end):.4f}°)"
+    if mech.crank is not None and kind == "branch" and theta >= 2 * math.pi - 1e-12:
         msg = f"{who}: the cycle does not close on its starting configuration after a full crank turn"
     else:
         msg = f"{who} {_KIND_TEXT[kind]} at {at}"
-    return Failure(kind, float(theta), None if block < 0 else int(block), vertex, msg)
+    return Failure(kind, float(theta), None if theta_end != theta_end else float(theta_end),
+                   None if block < 0 else int(block), vertex, msg)
 
 
 # -- the public solvers ------------------------------------------------------------------------------
 def _check_common(steps, tolerance, method, max_iterations):
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 3:
         raise UserError(f"steps: expected an integer ≥ 3, got {steps!r}")
-    if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and 0 < tolerance < 1):
-        raise UserError(f"tolerance: expected a number in (0, 1), got {tolerance!r}")
+    if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and 1e-15 <= tolerance < 1):
+        raise UserError(f"tolerance: expected a number in [1e-15, 1) (double precision ends near 1e-16), "
+                        f"got {tolerance!r}")
     if method not in METHODS:
         raise UserError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
     if not (isinstance(max_iterations, (int, np.integer)) and max_iterations >= 1):
@@ -216,31 +271,33 @@ def _check_common(steps, tolerance, method, max_iterations):
 def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TOLERANCE, method: str = "block",
              velocities: bool = True, accelerations: bool = False,
              max_iterations: int = DEFAULT_MAX_ITERATIONS) -> Cycle:
-    """Solve ``mech`` over one crank cycle at θ_k = 2πk/steps, k = 0 … steps−1.
+    """Solve ``mech`` at every sample of its driver: θ_k = 2πk/steps for a crank (k = 0 … steps−1),
+    t_k = T·k/(steps−1) for a prescribed path of duration T.
 
     method "block" runs Newton block by block in plan order; "dense" runs Newton on the full
     system (the reference); "closed" (all-dyad plans, positions only) places each dyad by
-    circle–circle intersection on the nominal branch: the exact answer, with no branch tracking. ``tolerance`` bounds every scaled residual (|p_b − p_a|² − d²)/d².
-    Velocities dV/dθ (per radian) and accelerations d²V/dθ² are returned when asked for.
-    The cycle is ok only if every step converged on the branch chosen at θ = 0 (by the guess),
-    no assembly gap hides between samples, and the cycle closes on itself.
+    circle–circle intersection on the starting branch: exact, but blind to branch changes.
+    ``tolerance`` bounds every scaled residual (|p_b − p_a|² − d²)/d². Velocities and
+    accelerations are returned when asked for. The result is ok only if every sample solved on the
+    branch chosen at the start (by the guess), no assembly gap hides between samples, and a crank
+    cycle closes on itself.
     """
     _check_common(steps, tolerance, method, max_iterations)
     plan = plan_for(mech)
-    theta, _, _ = crank_table(steps)
+    drv = _drive_for(mech.crank or mech.path, steps)
     nv = len(mech.vertices)
     P0, fail = assemble(mech)
     if fail is not None:
         nan = np.full((steps, nv, 2), np.nan)
-        return Cycle(mech, theta, nan, nan.copy() if velocities else None, nan.copy() if accelerations else None,
-                     False, fail, 0)
+        return Cycle(mech, drv.params, nan, nan.copy() if velocities else None,
+                     nan.copy() if accelerations else None, False, fail, 0)
     signs = _signs(plan, P0)
-    out = _run(mech, plan, mech.lengths[None, :], np.array([mech.crank.radius]), steps, np.arange(nv),
-               velocities, accelerations, tolerance, method, max_iterations, P0, signs, np.arange(plan.n_blocks))
-    pos, vel, acc, status, fth, fbl, its = out
+    pos, vel, acc, status, fth, fend, fbl, its = _run(
+        mech, plan, mech.lengths[None, :], np.array([_scale(mech)]), steps, np.arange(nv), velocities, accelerations,
+        tolerance, method, max_iterations, P0, signs, np.arange(plan.n_blocks))
     st = int(status[0])
-    failure = None if st == STATUS_OK else _failure(mech, plan, st, float(fth[0]), int(fbl[0]))
-    return Cycle(mech, theta, pos[0], vel[0] if velocities else None, acc[0] if accelerations else None,
+    failure = None if st == STATUS_OK else _failure(mech, plan, st, float(fth[0]), float(fend[0]), int(fbl[0]))
+    return Cycle(mech, drv.params, pos[0], vel[0] if velocities else None, acc[0] if accelerations else None,
                  st == STATUS_OK, failure, int(its[0]))
 
 
@@ -250,10 +307,21 @@ def _signs(plan: Plan, P: np.ndarray) -> np.ndarray:
                        np.empty((n, n)), np.empty(n))
 
 
-def _run(mech, plan, lengths, crank, steps, out_idx, velocities, accelerations, tolerance, method, max_iterations,
+def _dyad_tables(plan: Plan, blocks) -> tuple:
+    """(dv, dpa, dpb, dla, dlb): placed vertex, parents and links of each dyad in ``blocks``, int64 (n,)."""
+    cols = [[], [], [], [], []]
+    for b in blocks:
+        v = plan.blocks[b].vertices[0]
+        la, lb = plan.blocks[b].links
+        for col, x in zip(cols, (v, _other(plan, la, v), _other(plan, lb, v), la, lb)):
+            col.append(x)
+    return tuple(np.array(c, dtype=np.int64) for c in cols)
+
+
+def _run(mech, plan, lengths, scale, steps, out_idx, velocities, accelerations, tolerance, method, max_iterations,
          P0, signs, blocks):
-    """Allocate the outputs and call the batch kernel on the plan restricted to ``blocks``."""
-    _, cth, sth = crank_table(steps)
+    """Allocate the outputs and call the kernel for ``method`` on the plan restricted to ``blocks``."""
+    drv = _drive_for(mech.crank or mech.path, steps)
     N = lengths.shape[0]
     k = len(out_idx)
     pos = np.empty((N, steps, k, 2))
@@ -261,96 +329,102 @@ def _run(mech, plan, lengths, crank, steps, out_idx, velocities, accelerations, 
     acc = np.empty((N, steps if accelerations else 0, k, 2))
     status = np.empty(N, dtype=np.int8)
     fth = np.empty(N)
-    fbl = np.empty(N, dtype=np.int64)
-    its = np.empty(N, dtype=np.int64)
-    fixed_idx = plan.fixed
-    known = np.concatenate([[plan.tip], fixed_idx]).astype(np.int64)
-    fixed_pos = np.array([mech.fixed[mech.vertices[i]] for i in fixed_idx], dtype=np.float64).reshape(-1, 2)
-    c = mech.crank.center
+    fend = np.full(N, np.nan)
+    fbl = np.full(N, -1, dtype=np.int64)
+    its = np.zeros(N, dtype=np.int64)
     lengths = np.ascontiguousarray(lengths, dtype=np.float64)
-    crank = np.ascontiguousarray(crank, dtype=np.float64)
+    scale = np.ascontiguousarray(scale, dtype=np.float64)
     out_idx = np.asarray(out_idx, dtype=np.int64)
     sg = np.ascontiguousarray(signs[blocks])
-    all_dyads = all(plan.blocks[b].kind == DYAD for b in blocks)
-    # One design runs the serial cycle kernel: a parallel region on a busy machine waits for every thread.
+    # One design runs the serial kernel: a parallel region on a busy machine waits for every thread.
     if method == "closed":
-        if velocities or accelerations or not all_dyads:
+        if velocities or accelerations or not all(plan.blocks[b].kind == DYAD for b in blocks):
             raise UserError("method 'closed': the closed form gives positions only, and only for all-dyad plans")
-        head = (*_dyad_tables(plan, blocks), plan.tip, fixed_idx, fixed_pos)
+        head = (*_dyad_tables(plan, blocks), plan.tip, drv.kind, drv.prm, drv.table, drv.params, drv.t_end,
+                drv.closed, *drv.center)
         if N == 1:
-            status[0], fth[0] = closed_cycle(*head, lengths[0], crank[0], c[0], c[1], sg, cth, sth, out_idx, pos[0],
-                                             P0.copy())
+            status[0], fth[0], fend[0], fbl[0] = closed_cycle(*head, lengths[0], scale[0], sg, out_idx, pos[0],
+                                                              P0.copy())
         else:
-            closed_batch_jit(*head, lengths, crank, c[0], c[1], P0, sg, cth, sth, out_idx, pos, status, fth)
-        fbl[:] = -1
-        its[:] = 0
+            closed_batch_jit(*head, lengths, scale, P0, sg, out_idx, pos, status, fth, fend, fbl)
     else:
-        if method == "block" and all_dyads:
-            head, batch_kernel, cycle_kernel = (*_dyad_tables(plan, blocks), plan.tip, fixed_idx, fixed_pos), \
-                dyad_batch_jit, dyad_cycle
-        else:
-            head, batch_kernel, cycle_kernel = (METHODS[method], *plan.arrays(blocks), plan.link_a, plan.link_b, known,
-                                                fixed_pos), cycle_batch_jit, run_cycle
-        tail = (float(c[0]), float(c[1]), P0, sg, cth, sth, float(tolerance), int(max_iterations), out_idx,
-                bool(velocities), bool(accelerations))
-        if N == 1:
-            status[0], fth[0], fbl[0], its[0] = cycle_kernel(*head, lengths[0], crank[0], *tail, pos[0], vel[0], acc[0])
-        else:
-            batch_kernel(*head, lengths, crank, *tail, pos, vel, acc, status, fth, fbl, its)
-    # report the failing block by its index in the full plan
-    fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
-    return pos, vel, acc, status, fth, fbl, its
+        _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, max_iterations, out_idx,
+               velocities, accelerations, pos, vel, acc, status, fth, fend, fbl, its)
+    if len(blocks):  # report the failing block by its index in the full plan
+        fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
+    return pos, vel, acc, status, fth, fend, fbl, its
 
 
-def _dyad_tables(plan: Plan, blocks) -> tuple:
-    """(dv, dpa, dpb, dla, dlb): placed vertex, parents and links of each dyad in ``blocks``, int64 (n,)."""
-    rows = []
-    for b in blocks:
-        v = plan.blocks[b].vertices[0]
-        la, lb = plan.blocks[b].links
-        rows.append((v, _other(plan, la, v), _other(plan, lb, v), la, lb))
-    return tuple(np.array(col, dtype=np.int64).reshape(-1) for col in zip(*rows)) if rows else \
-        tuple(np.zeros(0, dtype=np.int64) for _ in range(5))
+def _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, max_iterations, out_idx, velocities,
+           accelerations, pos, vel, acc, status, fth, fend, fbl, its):
+    """The Newton methods: the fast all-dyad kernel where it applies, else the generic one."""
+    N = lengths.shape[0]
+    cx, cy = drv.center
+    fixed_pos = np.array([mech.fixed[mech.vertices[i]] for i in plan.fixed], dtype=np.float64).reshape(-1, 2)
+    solved = sorted({plan.tip, *(v for b in blocks for v in plan.blocks[b].vertices)})
+    moving = np.arange(len(mech.vertices)) if method == "dense" else np.array(solved, dtype=np.int64)
+    drive_args = (plan.tip, drv.kind, drv.prm, drv.table, drv.t_end, drv.closed, cx, cy)
+    if method == "block" and all(plan.blocks[b].kind == DYAD for b in blocks):
+        head, batch_kernel, cycle_kernel = (*_dyad_tables(plan, blocks), *drive_args), dyad_batch_jit, dyad_cycle
+    else:
+        known = np.concatenate([[plan.tip], plan.fixed]).astype(np.int64)
+        head = (BLOCK if method == "block" else DENSE, *plan.arrays(blocks), plan.link_a, plan.link_b, known,
+                fixed_pos, *drive_args)
+        batch_kernel, cycle_kernel = generic_batch_jit, generic_cycle
+    tail = (P0, sg, moving, float(tolerance), int(max_iterations), out_idx, bool(velocities), bool(accelerations))
+    if N == 1:
+        status[0], fth[0], fend[0], fbl[0], its[0] = cycle_kernel(*head, lengths[0], scale[0], *tail, pos[0], vel[0],
+                                                                  acc[0])
+    else:
+        batch_kernel(*head, lengths, scale, *tail, pos, vel, acc, status, fth, fend, fbl, its)
 
 
-def simulate_batch(mech: Mechanism, lengths, crank, steps: int = 360, *, vertices=None, velocities: bool = True,
+def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, vertices=None, velocities: bool = True,
                    accelerations: bool = False, tolerance: float = DEFAULT_TOLERANCE, method: str = "block",
                    max_iterations: int = DEFAULT_MAX_ITERATIONS) -> Batch:
     """Solve N variants of ``mech`` in parallel; only what is asked for is computed.
 
-    lengths : (N, n_links) link lengths in ``mech.links`` order; crank : (N,) crank radii.
-    vertices : names whose paths are returned (default: the foot). Blocks that neither place a
-        requested vertex nor feed one are not solved (block method; "dense" solves everything).
-    Every variant starts its θ = 0 Newton solve from the nominal design's configuration, and must
+    lengths : (N, n_links) link lengths in ``mech.links`` order; crank : (N,) crank radii (None: the
+        nominal radius for every variant; must be None for a path-driven mechanism).
+    vertices : names whose paths are returned (default: the foot; "all" for every vertex). Blocks
+        that neither place a requested vertex nor feed one are not solved (block and closed
+        methods; "dense" solves everything).
+    Every variant starts its first Newton solve from the nominal design's configuration and must
     keep the nominal's branch in every block; one that differs is flagged "branch", not mixed in.
     Returns a :class:`Batch`; rows whose lengths are not all finite and > 0 get status "invalid".
     """
     _check_common(steps, tolerance, method, max_iterations)
     lengths = np.asarray(lengths, dtype=np.float64)
-    crank = np.asarray(crank, dtype=np.float64).reshape(-1)
     nl = len(mech.links)
     if lengths.ndim != 2 or lengths.shape[1] != nl:
         raise UserError(f"lengths: expected shape (N, {nl}) in mech.links order, got {lengths.shape}")
-    if crank.shape[0] != lengths.shape[0]:
-        raise UserError(f"crank: expected shape ({lengths.shape[0]},), got {crank.shape}")
+    if crank is None:
+        scale = np.full(lengths.shape[0], _scale(mech))
+    elif mech.crank is None:
+        raise UserError(f"{where(mech.source, 'crank')}: this mechanism is driven by a path; pass crank=None")
+    else:
+        scale = np.asarray(crank, dtype=np.float64).reshape(-1)
+    if scale.shape[0] != lengths.shape[0]:
+        raise UserError(f"crank: expected shape ({lengths.shape[0]},), got {scale.shape}")
     names = [mech.foot] if vertices is None else (list(mech.vertices) if vertices == "all" else [str(v) for v in vertices])
     out_idx = np.array([mech.vertex_index(v) for v in names], dtype=np.int64)
     plan = plan_for(mech)
     P0, fail = assemble(mech)
     if fail is not None:
-        raise UserError(f"{where(mech.source, 'guess')}: the nominal design cannot be assembled at θ = 0: {fail.message}")
+        raise UserError(f"{where(mech.source, 'guess')}: the nominal design cannot be assembled at the start: {fail.message}")
     signs = _signs(plan, P0)
     blocks = np.arange(plan.n_blocks) if method == "dense" else plan.needed_blocks(out_idx)
-    pos, vel, acc, status, fth, fbl, its = _run(mech, plan, lengths, crank, steps, out_idx, velocities, accelerations,
-                                                tolerance, method, max_iterations, P0, signs, blocks)
-    theta, _, _ = crank_table(steps)
+    pos, vel, acc, status, fth, fend, fbl, its = _run(mech, plan, lengths, scale, steps, out_idx, velocities,
+                                                      accelerations, tolerance, method, max_iterations, P0, signs,
+                                                      blocks)
     return Batch(
-        theta=theta,
+        theta=_drive_for(mech.crank or mech.path, steps).params,
         paths={v: pos[:, :, j] for j, v in enumerate(names)},
         velocities={v: vel[:, :, j] for j, v in enumerate(names)} if velocities else {},
         accelerations={v: acc[:, :, j] for j, v in enumerate(names)} if accelerations else {},
         status=status,
         fail_theta=fth,
+        fail_theta_end=fend,
         fail_block=fbl,
         iterations=its,
     )

@@ -8,9 +8,12 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ._model import Crank, Link, Mechanism, _check_length
+from ._model import Crank, Link, Mechanism, PathDriver, _check_length
 
-_TOP_KEYS = {"name", "description", "foot", "crank", "fixed", "guess", "links"}
+_TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links"}
+_DRIVER_KEYS = {"vertex", "path", "start", "end", "center", "radius", "start_angle", "end_angle", "points",
+                "duration", "timing"}
+_PATH_KEYS = {"line": {"start", "end"}, "arc": {"center", "radius", "start_angle", "end_angle"}, "points": {"points"}}
 _CRANK_KEYS = {"center", "radius", "tip"}
 _LINK_KEYS = {"a", "b", "length", "name"}
 
@@ -38,7 +41,9 @@ def load_mechanism(name_or_path) -> Mechanism:
 
 def _read(name_or_path) -> tuple[str, str]:
     s = str(name_or_path)
-    if s in builtin_mechanisms() and not Path(s).exists():
+    # a built-in name wins unless a *file* of that name exists (a folder called "jansen" in the
+    # working directory must not hide the built-in)
+    if s in builtin_mechanisms() and not Path(s).is_file():
         res = resources.files("explorer.mechanism") / "builtin" / f"{s}.toml"
         return res.read_text(encoding="utf-8"), f"builtin:{s}"
     path = Path(s)
@@ -85,24 +90,18 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     """Validate a parsed mechanism table (the TOML shape) and build a :class:`Mechanism`."""
     _table(source, "", data)
     _unknown_keys(source, "", data, _TOP_KEYS)
-    for k in ("name", "foot", "crank", "links"):
+    for k in ("name", "foot", "links"):
         if k not in data:
             raise UserError(f"{where(source, k)}: missing required key")
+    if ("crank" in data) == ("driver" in data):
+        raise UserError(f"{where(source, 'crank')}: give exactly one driver: a [crank] table or a [driver] path table")
     name = _string(source, "name", data["name"])
     description = data.get("description", "")
     if not isinstance(description, str):
         raise UserError(f"{where(source, 'description')}: expected a string, got {description!r}")
 
-    crank_t = _table(source, "crank", data["crank"])
-    _unknown_keys(source, "crank.", crank_t, _CRANK_KEYS)
-    for k in sorted(_CRANK_KEYS):
-        if k not in crank_t:
-            raise UserError(f"{where(source, 'crank.' + k)}: missing required key")
-    crank = Crank(
-        center=_point(source, "crank.center", crank_t["center"]),
-        radius=_check_length(source, "crank.radius", crank_t["radius"]),
-        tip=_string(source, "crank.tip", crank_t["tip"]),
-    )
+    crank, path = (_crank(source, data["crank"]), None) if "crank" in data else (None, _driver(source, data["driver"]))
+    tip = crank.tip if crank is not None else path.vertex
     fixed = {
         str(k): _point(source, f"fixed.{k}", v)
         for k, v in _table(source, "fixed", data.get("fixed", {})).items()
@@ -111,16 +110,16 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         str(k): _point(source, f"guess.{k}", v)
         for k, v in _table(source, "guess", data.get("guess", {})).items()
     }
-    if crank.tip in fixed:
-        raise UserError(f"{where(source, 'fixed.' + crank.tip)}: vertex {crank.tip!r} is the crank tip and cannot be fixed")
+    if tip in fixed:
+        raise UserError(f"{where(source, 'fixed.' + tip)}: vertex {tip!r} is the driven vertex and cannot be fixed")
     for v in guess:
-        if v in fixed or v == crank.tip:
-            raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is fixed or the crank tip and takes no guess")
+        if v in fixed or v == tip:
+            raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is fixed or driven and takes no guess")
 
     raw_links = data["links"]
     if not isinstance(raw_links, list) or not raw_links:
         raise UserError(f"{where(source, 'links')}: expected one or more [[links]] tables, got {raw_links!r}")
-    vertices = [crank.tip, *fixed, *guess]
+    vertices = [tip, *fixed, *guess]
     known = set(vertices)
     links: list[Link] = []
     seen_names: set[str] = set()
@@ -137,7 +136,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         for end, v in (("a", a), ("b", b)):
             if v not in known:
                 raise UserError(
-                    f"{where(source, f'{key}.{end}')}: vertex {v!r} is neither the crank tip, fixed, nor in "
+                    f"{where(source, f'{key}.{end}')}: vertex {v!r} is neither driven, fixed, nor in "
                     f"[guess] (a missing guess or an unknown vertex)"
                 )
         if a == b:
@@ -156,24 +155,80 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     foot = _string(source, "foot", data["foot"])
     if foot not in known:
         raise UserError(f"{where(source, 'foot')}: unknown vertex {foot!r} (known: {', '.join(vertices)})")
-    _check_degrees_of_freedom(source, crank, fixed, guess, links)
-    return Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source)
+    if foot in fixed:
+        raise UserError(f"{where(source, 'foot')}: vertex {foot!r} is fixed; the foot must be a moving vertex")
+    _check_degrees_of_freedom(source, tip, "crank.tip" if crank is not None else "driver.vertex", fixed, guess, links)
+    return Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path)
 
 
-def _check_degrees_of_freedom(source, crank, fixed, guess, links) -> None:
+def _crank(source: str, value) -> Crank:
+    crank_t = _table(source, "crank", value)
+    _unknown_keys(source, "crank.", crank_t, _CRANK_KEYS)
+    for k in sorted(_CRANK_KEYS):
+        if k not in crank_t:
+            raise UserError(f"{where(source, 'crank.' + k)}: missing required key")
+    return Crank(
+        center=_point(source, "crank.center", crank_t["center"]),
+        radius=_check_length(source, "crank.radius", crank_t["radius"]),
+        tip=_string(source, "crank.tip", crank_t["tip"]),
+    )
+
+
+def _driver(source: str, value) -> PathDriver:
+    """A [driver] table: one vertex on a line, an arc or a spline through points, with a timing law."""
+    t = _table(source, "driver", value)
+    _unknown_keys(source, "driver.", t, _DRIVER_KEYS)
+    for k in ("vertex", "path", "duration"):
+        if k not in t:
+            raise UserError(f"{where(source, 'driver.' + k)}: missing required key")
+    kind = t["path"]
+    if kind not in _PATH_KEYS:
+        raise UserError(f"{where(source, 'driver.path')}: expected one of {', '.join(_PATH_KEYS)}, got {kind!r}")
+    other = _DRIVER_KEYS - {"vertex", "path", "duration", "timing"} - _PATH_KEYS[kind]
+    for k in sorted(_PATH_KEYS[kind]):
+        if k not in t:
+            raise UserError(f"{where(source, 'driver.' + k)}: missing required key for path = {kind!r}")
+    for k in sorted(other & set(t)):
+        raise UserError(f"{where(source, 'driver.' + k)}: not used by path = {kind!r} (it takes {', '.join(sorted(_PATH_KEYS[kind]))})")
+    timing = t.get("timing", "linear")
+    if timing not in ("linear", "quintic"):
+        raise UserError(f"{where(source, 'driver.timing')}: expected 'linear' or 'quintic', got {timing!r}")
+    fields = dict(vertex=_string(source, "driver.vertex", t["vertex"]), kind=kind, timing=timing,
+                  duration=_check_length(source, "driver.duration", t["duration"]))
+    if kind == "line":
+        fields["points"] = (_point(source, "driver.start", t["start"]), _point(source, "driver.end", t["end"]))
+    elif kind == "arc":
+        fields["center"] = _point(source, "driver.center", t["center"])
+        fields["radius"] = _check_length(source, "driver.radius", t["radius"])
+        for k in ("start_angle", "end_angle"):
+            a = t[k]
+            if isinstance(a, bool) or not isinstance(a, (int, float)) or not math.isfinite(a):
+                raise UserError(f"{where(source, 'driver.' + k)}: expected a finite angle in degrees, got {a!r}")
+            fields[k] = math.radians(a)
+    else:
+        pts = t["points"]
+        if not isinstance(pts, list) or len(pts) < 2:
+            raise UserError(f"{where(source, 'driver.points')}: expected a list of two or more [x, y] points")
+        fields["points"] = tuple(_point(source, f"driver.points[{i}]", p) for i, p in enumerate(pts))
+    return PathDriver(**fields)
+
+
+def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links) -> None:
     """Count check: 2 unknowns per guessed vertex, one equation per link that moves something.
 
     With the crank tip's and fixed vertices' coordinate equations this is seed 000's square system,
     leaving exactly the one degree of freedom that the crank drives.
     """
-    grounded = {crank.tip, *fixed}
-    for l in links:
+    grounded = {tip, *fixed}
+    for i, l in enumerate(links):
         if l.a in grounded and l.b in grounded:
             raise UserError(
-                f"{where(source, 'links.' + l.name)}: link joins two driven or fixed vertices "
+                f"{where(source, f'links[{i}]')}: link {l.name!r} joins two driven or fixed vertices "
                 f"({l.a}, {l.b}); it would lock the crank or duplicate the ground"
             )
     touched = {v for l in links for v in (l.a, l.b)}
+    if tip not in touched:
+        raise UserError(f"{where(source, tip_key)}: vertex {tip!r} is on no link; the driver would move nothing")
     for v in guess:
         if v not in touched:
             raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is on no link")

@@ -35,6 +35,28 @@ class Crank:
     tip: str
 
 
+@dataclass(frozen=True)
+class PathDriver:
+    """The driver: vertex ``vertex`` follows a prescribed path over ``duration`` seconds.
+
+    kind "line": from ``points[0]`` to ``points[1]``; "arc": about ``center`` with ``radius`` from
+    ``start_angle`` to ``end_angle`` (radians, counter-clockwise positive); "points": a natural cubic
+    spline through ``points`` with uniform knots. ``timing`` "linear" moves at constant rate along
+    the path parameter; "quintic" is seed 004's rest-to-rest law (zero velocity and acceleration at
+    both ends). Velocities of a path-driven mechanism are per second.
+    """
+
+    vertex: str
+    kind: str
+    duration: float
+    timing: str = "linear"
+    points: tuple[tuple[float, float], ...] = ()
+    center: tuple[float, float] = (0.0, 0.0)
+    radius: float = 0.0
+    start_angle: float = 0.0
+    end_angle: float = 0.0
+
+
 def _frozen(d: Mapping[str, tuple[float, float]]) -> Mapping[str, tuple[float, float]]:
     return MappingProxyType({k: (float(v[0]), float(v[1])) for k, v in d.items()})
 
@@ -51,7 +73,8 @@ class Mechanism:
         ones, each group in file order. Position arrays index vertices in this order.
     links : tuple[Link, ...]
         Rigid links in file order; ``lengths`` arrays follow this order.
-    crank : Crank
+    crank : Crank or None
+        The crank, for crank-driven mechanisms (the usual case); None when ``path`` drives it.
     fixed : Mapping[str, (x, y)]
         Ground pivots.
     guess : Mapping[str, (x, y)]
@@ -60,17 +83,20 @@ class Mechanism:
         The vertex whose path is the gait.
     source : str
         Where the mechanism came from (a file path or ``builtin:NAME``), used in error messages.
+    path : PathDriver or None
+        A prescribed path driving one vertex, instead of a crank.
     """
 
     name: str
     description: str
     vertices: tuple[str, ...]
     links: tuple[Link, ...]
-    crank: Crank
+    crank: Crank | None
     fixed: Mapping[str, tuple[float, float]]
     guess: Mapping[str, tuple[float, float]]
     foot: str
     source: str = "<memory>"
+    path: PathDriver | None = None
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -100,6 +126,11 @@ class Mechanism:
         )
 
     @property
+    def driven(self) -> str:
+        """Name of the driven vertex (the crank tip, or the vertex on the prescribed path)."""
+        return self.crank.tip if self.crank is not None else self.path.vertex
+
+    @property
     def link_names(self) -> tuple[str, ...]:
         return tuple(l.name for l in self.links)
 
@@ -123,6 +154,8 @@ class Mechanism:
         links = tuple(replace(l, length=float(lengths[l.name])) if l.name in lengths else l for l in self.links)
         new_crank = self.crank
         if crank is not None:
+            if self.crank is None:
+                raise UserError(f"{where(self.source, 'crank')}: this mechanism is driven by a path, not a crank")
             _check_length(self.source, "crank.radius", crank)
             new_crank = replace(self.crank, radius=float(crank))
         return replace(self, links=links, crank=new_crank)

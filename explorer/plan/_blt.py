@@ -109,7 +109,7 @@ def make_plan(mech: Mechanism) -> Plan:
     while another is free to move) even though the equation count is right.
     """
     index = {v: i for i, v in enumerate(mech.vertices)}
-    tip = index[mech.crank.tip]
+    tip = index[mech.driven]
     grounded = {tip, *(index[v] for v in mech.fixed)}
     free = [i for i in range(len(mech.vertices)) if i not in grounded]
     link_a = np.array([index[l.a] for l in mech.links], dtype=np.int64)

@@ -1,0 +1,100 @@
+"""The batch kernels: one design, or N variants in parallel, through the sweep driver.
+
+Each entry point checks a variant's lengths, builds its step context (the fast all-dyad one or
+the generic one) and runs :func:`~._sweep.sweep`; the ``*_batch_jit`` kernels do it for every row
+of a lengths array with ``prange``.
+"""
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ._dyads import dyad_context
+from ._generic import generic_context
+from ._sweep import STATUS_INVALID, dyad_sweep, generic_sweep
+
+
+@njit(cache=True)
+def valid_lengths(L, scale):
+    """True if every link length and the driver scale (crank radius) are finite and > 0."""
+    ok = math.isfinite(scale) and scale > 0.0
+    for e in range(L.shape[0]):
+        ok = ok and math.isfinite(L[e]) and L[e] > 0.0
+    return ok
+
+
+@njit(cache=True)
+def dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, L, scale, P_init, signs, moving,
+               tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc):
+    """One design through :func:`_sweep.sweep` with the dyad step; returns sweep's 5-tuple."""
+    if not valid_lengths(L, scale):
+        out_pos[:, :, :] = np.nan
+        if want_vel:
+            out_vel[:, :, :] = np.nan
+        if want_acc:
+            out_acc[:, :, :] = np.nan
+        return STATUS_INVALID, 0.0, np.nan, -1, 0
+    ctx = dyad_context(dv, dpa, dpb, dla, dlb, L)
+    shortest = np.inf
+    for e in range(dla.shape[0]):
+        shortest = min(shortest, L[dla[e]], L[dlb[e]])
+    return dyad_sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs, moving,
+                 shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc)
+
+
+@njit(parallel=True, cache=True)
+def dyad_batch_jit(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, lengths, scale, P_init, signs,
+                   moving, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t,
+                   fail_end, fail_block, iters):
+    """:func:`dyad_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), in parallel.
+
+    Outputs in place: out_pos (N, S, n_out, 2); out_vel / out_acc the same when asked, else
+    (N, 0, n_out, 2); status, fail_t, fail_end, fail_block, iters (N,).
+    """
+    for i in prange(lengths.shape[0]):
+        st, tf, te, bl, it = dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, lengths[i],
+                                        scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
+                                        out_pos[i], out_vel[i], out_acc[i])
+        status[i] = st
+        fail_t[i] = tf
+        fail_end[i] = te
+        fail_block[i] = bl
+        iters[i] = it
+
+
+@njit(cache=True)
+def generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip, dkind, prm,
+                  tab, t_end, closed, cx, cy, L, scale, P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
+                  out_pos, out_vel, out_acc):
+    """One design through :func:`_sweep.sweep` with the generic step; returns sweep's 5-tuple."""
+    if not valid_lengths(L, scale):
+        out_pos[:, :, :] = np.nan
+        if want_vel:
+            out_vel[:, :, :] = np.nan
+        if want_acc:
+            out_acc[:, :, :] = np.nan
+        return STATUS_INVALID, 0.0, np.nan, -1, 0
+    ctx = generic_context(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, L)
+    shortest = np.inf
+    for e in range(L.shape[0]):
+        shortest = min(shortest, L[e])
+    return generic_sweep(ctx, tip, dkind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs, moving,
+                 shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc)
+
+
+@njit(parallel=True, cache=True)
+def generic_batch_jit(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip, dkind,
+                      prm, tab, t_end, closed, cx, cy, lengths, scale, P_init, signs, moving, tol, maxit, out_idx,
+                      want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t, fail_end, fail_block, iters):
+    """:func:`generic_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), in parallel."""
+    for i in prange(lengths.shape[0]):
+        st, tf, te, bl, it = generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known,
+                                           fixed_pos, tip, dkind, prm, tab, t_end, closed, cx, cy, lengths[i],
+                                           scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
+                                           out_pos[i], out_vel[i], out_acc[i])
+        status[i] = st
+        fail_t[i] = tf
+        fail_end[i] = te
+        fail_block[i] = bl
+        iters[i] = it
