@@ -1,0 +1,80 @@
+"""The ``explorer`` command line: one subcommand (verb) per module ``explorer/cli/_<verb>.py``.
+
+A verb module defines ``register(subparsers)``, which adds its subparser and sets ``func`` (a
+callable taking the parsed ``argparse.Namespace`` and returning an exit code or None)::
+
+    def register(sub):
+        p = sub.add_parser("rank", help="rank the variants of a results file")
+        p.add_argument("results")
+        p.set_defaults(func=run)
+
+Modules are discovered automatically (no edit here needed to add a verb). A
+:class:`~explorer.errors.UserError` raised by a verb is printed as one line on stderr
+(``explorer: error: ...``) and the exit code is 2; argparse usage errors also exit with 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+from ..errors import UserError
+
+#: Verbs listed first in ``explorer --help``, in this order; other discovered verbs follow A→Z.
+VERB_ORDER = ("run", "rank", "show", "metrics", "plot", "animate", "bench")
+
+
+def _verb_modules():
+    names = [m.name for m in pkgutil.iter_modules(__path__) if m.name.startswith("_") and not m.name.startswith("__")]
+    names.sort(key=lambda n: (VERB_ORDER.index(n[1:]) if n[1:] in VERB_ORDER else len(VERB_ORDER), n))
+    for name in names:
+        try:
+            mod = importlib.import_module(f"{__name__}.{name}")
+        except Exception as exc:  # a broken verb must not take the others down
+            yield name[1:], exc
+            continue
+        if hasattr(mod, "register"):
+            yield name[1:], mod
+
+
+def _broken(verb: str, exc: Exception):
+    def run(args):
+        raise UserError(f"explorer {verb}: unavailable ({type(exc).__name__}: {exc})")
+    return run
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser with every discovered verb registered."""
+    from .. import __version__
+    parser = argparse.ArgumentParser(
+        prog="explorer",
+        description="Explore the design space of planar linkages (Jansen's Strandbeest leg first).")
+    parser.add_argument("--version", action="version", version=f"explorer {__version__}")
+    sub = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
+    for verb, mod in _verb_modules():
+        if isinstance(mod, Exception):
+            p = sub.add_parser(verb, help=f"(unavailable: {type(mod).__name__})")
+            p.set_defaults(func=_broken(verb, mod))
+        else:
+            mod.register(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``explorer`` command; returns the exit code (0 ok, 2 user error)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        code = args.func(args)
+    except UserError as exc:
+        msg = " ".join(str(exc).split("\n")).strip()
+        print(f"explorer: error: {msg}", file=sys.stderr)
+        return getattr(exc, "exit_code", 2)
+    except KeyboardInterrupt as exc:
+        print(f"explorer: interrupted{': ' + str(exc) if str(exc) else ''}", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # e.g. `explorer rank ... | head`
+        return 0
+    return int(code or 0)

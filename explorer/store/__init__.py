@@ -1,0 +1,36 @@
+"""Results files (HDF5): written chunk by chunk by ``run_study``, read with ``open_results``.
+
+Layout (N variants, S = steps, readable with plain h5py)::
+
+    /                      attrs: format = "explorer-results", format_version = 1, explorer_version,
+                           created (ISO 8601 UTC), complete (bool), completed, study (the study file's
+                           text), study_source, study_resolved (JSON, every default filled in),
+                           study_fingerprint, mechanism (the mechanism's TOML text), mechanism_source,
+                           n_variants, steps
+    /theta                 (S,) float64, rad: θ_k = 2πk/S
+    /variants/lengths      (N, n_links) float64; attrs links (names, columns in order), link_ends,
+                           nominal (n_links,), units
+    /variants/crank        (N,) float64 crank radius; attr nominal
+    /variants              attr perturbed: names of the perturbed parameters
+    /status                (N,) int8; attrs codes / names (and mapping, JSON): 0 ok, 1 assembly,
+                           2 branch, 3 no-convergence, 4 invalid, -1 not-run (incomplete files)
+    /fail_theta            (N,) float64 rad, first failing crank angle; NaN when ok
+    /fail_block            (N,) int16 plan block that failed, -1 when ok; attr vertex: block → the
+                           first vertex it places (the "failing vertex")
+    /iterations            (N,) int64 total Newton iterations
+    /paths/<vertex>        (N, S, 2) float64 for every [scene] vertex
+    /velocities/<vertex>   (N, S, 2) dV/dθ, only if [scene] velocities = true
+    /accelerations/<vertex> (N, S, 2) d²V/dθ², only if [scene] accelerations = true
+    /metrics/<name>        (N,) float64 gait metrics, only those the study asked for
+    /chunks/done           (n_chunks,) bool; /chunks attr rows: chunk i is variants [i·rows, (i+1)·rows)
+
+Every (N, ...) dataset is chunked along N and compressed (lzf + shuffle for the (N, S, 2) series,
+chosen by measurement: see :mod:`explorer.store._write`).
+"""
+
+from ._read import Results, open_results
+from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN,
+                     ResultsWriter, chunk_rows, hdf5_rows)
+
+__all__ = ["DEFAULT_CHUNK_VARIANTS", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION", "STATUS_NOT_RUN", "Results",
+           "ResultsWriter", "chunk_rows", "hdf5_rows", "open_results"]

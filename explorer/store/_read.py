@@ -1,0 +1,260 @@
+"""Reading results files: :func:`open_results` → :class:`Results` (a thin layer over plain h5py)."""
+
+from __future__ import annotations
+
+import json
+import os
+import tomllib
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import h5py
+import numpy as np
+
+from ..errors import UserError
+from ..mechanism import Mechanism, mechanism_from_dict
+from ._write import FILE_STATUS_NAMES, FORMAT
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+def open_results(path) -> "Results":
+    """Open a results file written by ``explorer run`` / :func:`explorer.run_study` (read only).
+
+    ``path`` is a path or anything with ``__fspath__`` (such as the summary ``run_study`` returns).
+    Incomplete files (an interrupted run) open too: rows not yet run have status "not-run".
+    """
+    p = Path(os.fspath(path))
+    if not p.is_file():
+        raise UserError(f"{p}: no such results file")
+    try:
+        f = h5py.File(p, "r")
+    except OSError as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if "lock" in msg:
+            msg = "the file is being written by another process (unable to lock it)"
+        raise UserError(f"{p}: cannot open as an HDF5 results file: {msg}") from None
+    if f.attrs.get("format") != FORMAT:
+        f.close()
+        raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
+    if "shards" in f.attrs:  # a study stitched from shard files (explorer.run_study_dask): are they there?
+        from ._shards import check_sources
+        try:
+            check_sources(f, p)
+        except UserError:
+            f.close()
+            raise
+    return Results(f, p)
+
+
+class Results:
+    """An open results file.
+
+    theta : (steps,) crank angles, rad. study : the study as a nested dict, every default filled
+    in; study_text : the study file's text. mechanism : the nominal :class:`Mechanism`.
+    link_names, vertices (stored), n_variants N, steps, complete (False for an interrupted run),
+    attrs : the root attributes as a dict. ``file`` is the underlying ``h5py.File``.
+    Use as a context manager or call :meth:`close`.
+    """
+
+    def __init__(self, f: h5py.File, filename: Path):
+        self.file, self.filename = f, filename
+        self.attrs = dict(f.attrs)
+        self.theta = f["theta"][...]
+        self.study = json.loads(self.attrs["study_resolved"])
+        self.study_text = str(self.attrs["study"])
+        self.n_variants = int(self.attrs["n_variants"])
+        self.steps = int(self.attrs["steps"])
+        self.link_names = tuple(_text(s) for s in f["variants/lengths"].attrs["links"])
+        self.vertices = tuple(f["paths"].keys()) if "paths" in f else ()
+        self._mech = None
+
+    # -- metadata --------------------------------------------------------------------------------------
+    @property
+    def complete(self) -> bool:
+        return bool(self.file.attrs["complete"])
+
+    @property
+    def mechanism(self) -> Mechanism:
+        """The nominal mechanism, rebuilt from the copy of its TOML stored in the file."""
+        if self._mech is None:
+            data = tomllib.loads(str(self.attrs["mechanism"]))
+            self._mech = mechanism_from_dict(data, str(self.attrs.get("mechanism_source", self.filename)))
+        return self._mech
+
+    @property
+    def metric_names(self) -> tuple[str, ...]:
+        """Names of the datasets under ``/metrics`` (each (N,), one frame column)."""
+        g = self.file.get("metrics")
+        return tuple(k for k in g.keys() if g[k].shape == (self.n_variants,)) if g is not None else ()
+
+    @property
+    def band(self) -> float:
+        """Stance band of the stored metrics: the ``band`` attribute of ``/metrics`` (set by
+        ``explorer metrics``), else the study's ``[scene] band``, else the default 0.01."""
+        g = self.file.get("metrics")
+        if g is not None and "band" in g.attrs:
+            return float(g.attrs["band"])
+        try:
+            return float(self.study["scene"]["band"])
+        except (KeyError, TypeError, ValueError):
+            from ..gait import DEFAULT_BAND
+            return DEFAULT_BAND
+
+    @property
+    def nominal(self) -> dict[str, float]:
+        """The nominal design: {link name: length, ..., "crank": radius}, as stored in the file."""
+        nom = self.file["variants/lengths"].attrs["nominal"]
+        out = {name: float(v) for name, v in zip(self.link_names, nom)}
+        out["crank"] = float(self.file["variants/crank"].attrs["nominal"])
+        return out
+
+    @property
+    def perturbed(self) -> tuple[str, ...]:
+        """Names of the parameters the study perturbed (link names and possibly "crank")."""
+        return tuple(_text(s) for s in self.file["variants"].attrs.get("perturbed", ()))
+
+    def status_counts(self) -> dict[str, int]:
+        """{status name: number of variants}, every known status listed; the counts add up to N."""
+        codes = self.file["status"][...]
+        counts = {FILE_STATUS_NAMES[c]: 0 for c in sorted(FILE_STATUS_NAMES) if c >= 0}
+        for c, n in zip(*np.unique(codes, return_counts=True)):
+            counts[FILE_STATUS_NAMES.get(int(c), f"code {int(c)}")] = int(n)
+        return counts
+
+    # -- tables ----------------------------------------------------------------------------------------
+    def frame(self) -> "pd.DataFrame":
+        """One row per variant: ``variant``, one column per link length (by link name), ``crank``,
+        ``status`` (name; categorical), ``status_code``, ``fail_theta`` (rad, NaN when ok),
+        ``fail_vertex`` (None when ok), ``iterations``, then one column per ``/metrics/<name>``."""
+        import pandas as pd  # imported on use: it costs ~0.5 s at start-up
+        f = self.file
+        N = self.n_variants
+        cols: dict = {"variant": np.arange(N, dtype=np.int64)}
+        L = f["variants/lengths"][...]
+        for j, name in enumerate(self.link_names):
+            cols[name] = L[:, j]
+        cols["crank"] = f["variants/crank"][...]
+        codes = f["status"][...]
+        order = sorted(FILE_STATUS_NAMES, key=lambda c: (c < 0, c))
+        cols["status"] = pd.Categorical.from_codes(_category_codes(codes, order),
+                                                   categories=[FILE_STATUS_NAMES[c] for c in order])
+        cols["status_code"] = codes
+        cols["fail_theta"] = f["fail_theta"][...]
+        block = f["fail_block"][...]
+        names = np.array([None] + [_text(s) for s in f["fail_block"].attrs["vertex"]], dtype=object)
+        cols["fail_vertex"] = names[np.where(block >= 0, block + 1, 0)]
+        if "iterations" in f:
+            cols["iterations"] = f["iterations"][...]
+        for m in self.metric_names:
+            cols[m] = f["metrics"][m][...]
+        return pd.DataFrame(cols)
+
+    def rank(self, by="stride", top: int | None = 10, where: str | None = None, ascending=None, weights=None,
+             pareto=None, include_failed: bool = False) -> "pd.DataFrame":
+        """Ranked rows of :meth:`frame`, best first, with a ``rank`` column: :func:`explorer.gait.rank`
+        (one metric ``by``, a weighted ``score`` over normalised metrics with ``weights``, or the
+        Pareto front of ``pareto``; ``where`` is a pandas query such as "duty > 0.3 and flatness < 0.002";
+        failed variants are left out unless ``include_failed``).
+
+        A metric that is not stored raises UserError saying how to compute it
+        (``explorer metrics RESULTS`` or ``[scene] metrics = true``).
+        """
+        from ..gait import rank
+        self._check_metrics(_ranked_columns(by, weights, pareto))
+        return rank(self.frame(), by=by, top=top, where=where, ascending=ascending, weights=weights,
+                    pareto=pareto, include_failed=include_failed)
+
+    def _check_metrics(self, names) -> None:
+        """UserError if any of ``names`` is a gait metric that this file does not store."""
+        from ..gait import METRICS
+        stored = self.metric_names
+        missing = [n for n in names if n in METRICS and n not in stored]
+        if not missing:
+            return
+        if not stored:
+            raise UserError(f"{self.filename}: no gait metrics stored; compute them with "
+                            f"`explorer metrics {self.filename}` (no re-solving) or set [scene] metrics = true "
+                            f"in the study and run it again")
+        s = "s" if len(missing) > 1 else ""
+        raise UserError(f"{self.filename}: metric{s} {', '.join(missing)} not stored (stored: {', '.join(stored)}); "
+                        f"compute {'them' if s else 'it'} with `explorer metrics {self.filename} "
+                        f"--metrics {','.join(missing)}`")
+
+    # -- series ----------------------------------------------------------------------------------------
+    def _series(self, group: str, variant, vertex) -> np.ndarray:
+        vertex = self._vertex(vertex)
+        if group not in self.file:
+            raise UserError(f"{self.filename}: no {group} stored (the study's [scene] did not ask for them)")
+        g = self.file[group]
+        if vertex not in g:
+            raise UserError(f"{self.filename}: vertex {vertex!r} is not stored "
+                            f"(stored: {', '.join(g.keys())}; set [scene] vertices)")
+        if isinstance(variant, (int, np.integer)) and not -self.n_variants <= variant < self.n_variants:
+            raise UserError(f"{self.filename}: variant {variant} out of range (0 to {self.n_variants - 1})")
+        return g[vertex][variant]
+
+    def _vertex(self, vertex) -> str:
+        if vertex is not None:
+            return str(vertex)
+        foot = self.mechanism.foot
+        return foot if foot in self.vertices or not self.vertices else self.vertices[0]
+
+    def path(self, variant: int, vertex: str | None = None) -> np.ndarray:
+        """Positions of ``vertex`` (default: the foot) for one variant, shape (steps, 2), model units.
+
+        ``variant`` may also be a slice or a sorted index array, giving (n, steps, 2).
+        """
+        return self._series("paths", variant, vertex)
+
+    def velocity(self, variant: int, vertex: str | None = None) -> np.ndarray:
+        """dV/dθ of ``vertex`` for one variant, shape (steps, 2), model units per radian of crank."""
+        return self._series("velocities", variant, vertex)
+
+    def acceleration(self, variant: int, vertex: str | None = None) -> np.ndarray:
+        """d²V/dθ² of ``vertex`` for one variant, shape (steps, 2), model units per rad²."""
+        return self._series("accelerations", variant, vertex)
+
+    # -- lifetime --------------------------------------------------------------------------------------
+    def close(self) -> None:
+        if self.file.id.valid:
+            self.file.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "complete" if self.complete else "incomplete"
+        return f"<Results {self.filename} ({self.n_variants} variants × {self.steps} steps, {state})>"
+
+
+def _ranked_columns(by, weights, pareto) -> list[str]:
+    """The columns a rank() call ranks on (for the not-stored-metric check; rank validates the rest)."""
+    if pareto is not None:
+        if isinstance(pareto, str):
+            return [c.strip() for c in pareto.split(",") if c.strip()]
+        try:
+            return [str(c) for c in pareto]
+        except TypeError:
+            return []
+    if weights is not None:
+        try:
+            return [str(c) for c in weights]
+        except TypeError:
+            return []
+    return [str(by)]
+
+
+def _category_codes(codes: np.ndarray, order: list[int]) -> np.ndarray:
+    lut = np.full(256, -1, dtype=np.int64)
+    for i, c in enumerate(order):
+        lut[c & 0xFF] = i
+    return lut[codes.astype(np.int64) & 0xFF]
+
+
+def _text(s) -> str:
+    return s.decode() if isinstance(s, bytes) else str(s)

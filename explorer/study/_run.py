@@ -1,0 +1,309 @@
+"""Running a study: chunks of variants → ``simulate_batch`` → HDF5, with progress, resume and a summary."""
+
+from __future__ import annotations
+
+import queue
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError, where
+from ..kernels import STATUS_NAMES, assemble, simulate_batch
+from ..store._write import FILE_STATUS_NAMES, ResultsWriter
+from ._sample import study_sampler, study_variants
+from ._spec import Study, load_study
+
+
+@dataclass
+class RunSummary:
+    """What :func:`run_study` did. ``os.fspath(summary)`` is the results path, so the summary can be
+    passed wherever a path is expected (``explorer.open_results(run_study(...))``).
+
+    path : the results file. name : the study's name. n_variants : N. steps : crank samples.
+    ran : variants solved by this call (fewer than N after ``resume``; 0 if the file was complete).
+    counts : {status name: variants} over the whole file (they add up to N).
+    wall_s : seconds this call took. resumed : True if it finished an existing file.
+    already_complete : True if ``resume`` found the file complete and did nothing.
+    """
+
+    path: Path
+    name: str
+    n_variants: int
+    steps: int
+    ran: int
+    counts: dict = field(default_factory=dict)
+    wall_s: float = 0.0
+    resumed: bool = False
+    already_complete: bool = False
+
+    def __fspath__(self) -> str:
+        return str(self.path)
+
+    @property
+    def configurations_per_s(self) -> float:
+        """Crank configurations solved per second by this call (ran × steps / wall_s)."""
+        return self.ran * self.steps / self.wall_s if self.wall_s > 0 else float("nan")
+
+    @property
+    def failed(self) -> int:
+        return sum(n for k, n in self.counts.items() if k != "ok")
+
+    def text(self) -> str:
+        """The multi-line summary ``explorer run`` prints."""
+        if self.already_complete:
+            return f"{self.path}: already complete ({self.n_variants:,} variants); nothing to do"
+        ok = self.counts.get("ok", 0)
+        reasons = ", ".join(f"{k} {n:,}" for k, n in self.counts.items() if k != "ok" and n)
+        verb = "resumed" if self.resumed else "ran"
+        lines = [
+            f"{self.name}: {verb} {self.ran:,} of {self.n_variants:,} variants × {self.steps} steps → {self.path}",
+            f"  ok {ok:,}, failed {self.failed:,}" + (f" ({reasons})" if reasons else ""),
+            f"  wall {self.wall_s:.2f} s, {_rate(self.configurations_per_s)} configurations/s",
+        ]
+        return "\n".join(lines)
+
+    __str__ = text
+
+
+def _rate(x: float) -> str:
+    if not x == x:
+        return "n/a"
+    return f"{x / 1e6:.2f} M" if x >= 1e5 else f"{x:,.0f}"
+
+
+def _metric_plan(study: Study):
+    """(compute function or None, metric names or None for all, needs velocities)."""
+    if study.metrics is False:
+        return None, None, False
+    try:
+        from ..gait import VELOCITY_METRICS, compute_metrics
+    except ImportError:
+        return None, None, False
+    names = None if study.metrics is True else list(study.metrics)
+    need_vel = names is None or any(m in VELOCITY_METRICS for m in names)
+    return compute_metrics, names, need_vel
+
+
+def run_study(study=None, output=None, resume: bool = False, force: bool = False, progress: bool = True,
+              chunk_size: int | None = None) -> RunSummary:
+    """Run a study and stream every variant to one HDF5 results file.
+
+    study : path to a study ``.toml``, a built-in study name, a dict in the TOML shape, a
+        :class:`Study`, or None for the built-in default (``studies/default.toml``).
+    output : results path overriding ``[output] path`` (relative paths: against the working dir).
+    resume : finish an interrupted run of the same study (runs only the chunks not yet committed;
+        the result is identical to an uninterrupted run). If the file does not exist, start it.
+    force : overwrite an existing file. Without ``force`` or ``resume`` an existing file is an error.
+    progress : show a tqdm bar (configurations/s and ETA) on stderr when it is a terminal.
+    chunk_size : variants per chunk (default: chosen from the scene, see
+        :func:`explorer.store.chunk_rows`); a resumed run keeps the file's chunking.
+
+    Returns a :class:`RunSummary` (``os.fspath`` gives the results path). Raises
+    :class:`~explorer.errors.UserError` for a bad study, an existing file, or an unwritable path.
+    """
+    t0 = time.perf_counter()
+    study = load_study(study)
+    out = Path(output if output is not None else study.output)
+    if resume and force:
+        raise UserError("--resume and --force exclude each other: resume finishes a file, force starts it over")
+    if out.is_dir():
+        raise UserError(f"{out}: is a folder; the results path must be a file such as {out / (study.name + '.h5')}")
+    if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1):
+        raise UserError(f"chunk size: expected an integer ≥ 1 (variants per chunk), got {chunk_size!r}")
+    mech = study.mech
+    _, fail = assemble(mech)
+    if fail is not None:
+        raise UserError(f"{where(study.source, 'study.mechanism')}: the nominal design cannot be assembled at "
+                        f"θ = 0: {fail.message}")
+
+    compute_metrics, metric_names, metric_vel = _metric_plan(study)
+    if compute_metrics is not None:  # check the names and band now, before any file is touched
+        z = np.zeros((1, study.steps, 2))
+        try:
+            compute_metrics(z, z, np.ones(1, dtype=np.int8), metric_names, study.band, mechanism=mech,
+                            lengths=mech.lengths[None, :], crank=np.array([mech.crank.radius]))
+        except UserError as exc:
+            raise UserError(f"{where(study.source, 'scene.metrics')}: {exc}") from None
+
+    resumed = False
+    if out.exists():
+        if resume:
+            writer = ResultsWriter.resume(out, study)
+            resumed = True
+            if writer.complete:
+                counts = _counts(writer)
+                writer.close()
+                return RunSummary(out, study.name, study.n_variants, study.steps, 0, counts,
+                                  time.perf_counter() - t0, resumed=True, already_complete=True)
+        elif force:  # the new file replaces the old one only once it is created
+            writer = ResultsWriter.create(out, study, chunk_size)
+        else:
+            state = _state(out)
+            raise UserError(f"{out}: results file exists ({state}); pass --force to overwrite it"
+                            + (" or --resume to finish it" if state != "complete" else ""))
+    else:
+        writer = ResultsWriter.create(out, study, chunk_size)
+
+    sim_vertices = list(study.vertex_names)
+    if compute_metrics is not None and mech.foot not in sim_vertices:
+        sim_vertices.append(mech.foot)
+    sim_velocities = study.velocities or metric_vel
+
+    ran = 0
+    try:
+        pending = writer.pending()
+        sampler = study_sampler(study)
+        bar = _progress_bar(progress, writer, pending, study)
+        committer = _Committer(writer, bar, study.steps, threaded=_THREADED)
+        try:
+            for i in pending:
+                a, b = writer.chunk_range(i)
+                lengths, crank = study_variants(study, a, b, sampler)
+                batch = simulate_batch(mech, lengths, crank, study.steps, vertices=sim_vertices,
+                                       velocities=sim_velocities, accelerations=study.accelerations,
+                                       tolerance=study.tolerance, method=study.method)
+                metrics = None
+                if compute_metrics is not None:
+                    foot = mech.foot
+                    metrics = compute_metrics(batch.paths[foot], batch.velocities.get(foot), batch.status,
+                                              metric_names, study.band, mechanism=mech, lengths=lengths, crank=crank)
+                committer.put(i, lengths, crank, batch, metrics)
+                ran += b - a
+            committer.close()
+        except KeyboardInterrupt:
+            committer.abort()
+            done = int(writer.done.sum())
+            raise KeyboardInterrupt(f"{out}: interrupted with {done} of {writer.n_chunks} chunks committed; "
+                                    f"run again with --resume to finish it") from None
+        finally:
+            committer.abort()
+            if bar is not None:
+                bar.close()
+        writer.finish()
+        counts = _counts(writer)
+    finally:
+        writer.close()
+    return RunSummary(out, study.name, study.n_variants, study.steps, ran, counts, time.perf_counter() - t0,
+                      resumed=resumed)
+
+
+#: Commit chunks on a background thread while the next chunk is solved (h5py releases the GIL while
+#: it compresses and writes, so HDF5 work overlaps the kernels). Off: commit inline (for measurement).
+_THREADED = True
+
+
+class _Committer:
+    """Commits solved chunks in order, on a background thread (at most one chunk queued, so memory
+    stays at two chunks whatever N is) or inline. Errors of the thread are raised in the caller."""
+
+    def __init__(self, writer: ResultsWriter, bar, steps: int, threaded: bool = True):
+        self.writer, self.bar, self.steps = writer, bar, steps
+        self.error: BaseException | None = None
+        self.thread = None
+        if threaded:
+            self.queue = queue.Queue(maxsize=1)
+            self.thread = threading.Thread(target=self._loop, name="explorer-commit", daemon=True)
+            self.thread.start()
+
+    def _commit(self, item) -> None:
+        i, lengths, crank, batch, metrics = item
+        self.writer.write_chunk(i, lengths, crank, batch, metrics)
+        if self.bar is not None:
+            self.bar.update(len(crank) * self.steps)
+
+    def _loop(self) -> None:
+        while True:
+            item = self.queue.get()
+            if item is None or self.error is not None:
+                return
+            try:
+                self._commit(item)
+            except BaseException as exc:  # handed to the main thread
+                self.error = exc
+                return
+
+    def _check(self) -> None:
+        if self.error is not None:
+            raise self.error
+
+    def put(self, *item) -> None:
+        """Commit a chunk (queued when threaded); raises an earlier commit's error."""
+        self._check()
+        if self.thread is None:
+            self._commit(item)
+            return
+        while True:
+            try:
+                self.queue.put(item, timeout=0.1)
+                return
+            except queue.Full:
+                self._check()
+                if not self.thread.is_alive():
+                    raise RuntimeError("the commit thread stopped")
+
+    def close(self) -> None:
+        """Wait until every queued chunk is committed; raise the thread's error if any."""
+        if self.thread is not None:
+            self._stop()
+        self._check()
+
+    def _stop(self) -> None:
+        """Queue the end marker (unless the thread already died, leaving the queue full) and join."""
+        while self.thread.is_alive():
+            try:
+                self.queue.put(None, timeout=0.1)
+                break
+            except queue.Full:
+                continue
+        self.thread.join()
+        self.thread = None
+
+    def abort(self) -> None:
+        """Let a commit in progress finish, drop what is queued, stop the thread (idempotent)."""
+        if self.thread is None:
+            return
+        self.error = self.error or _Aborted()
+        try:
+            while True:
+                self.queue.get_nowait()
+        except queue.Empty:
+            pass
+        self._stop()
+
+
+class _Aborted(Exception):
+    pass
+
+
+def _counts(writer: ResultsWriter) -> dict:
+    codes = writer.f["status"][...]
+    counts = {name: 0 for code, name in sorted(STATUS_NAMES.items())}
+    for c, n in zip(*np.unique(codes, return_counts=True)):
+        counts[FILE_STATUS_NAMES.get(int(c), f"code {int(c)}")] = int(n)
+    return counts
+
+
+def _state(path: Path) -> str:
+    import h5py
+    try:
+        with h5py.File(path, "r") as f:
+            if f.attrs.get("format") is None:
+                return "not an explorer results file"
+            return "complete" if bool(f.attrs.get("complete")) else "incomplete"
+    except OSError:
+        return "unreadable or in use"
+
+
+def _progress_bar(progress: bool, writer: ResultsWriter, pending, study):
+    if not progress or not pending:
+        return None
+    if not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
+        return None
+    from tqdm import tqdm
+    total = sum(b - a for a, b in map(writer.chunk_range, pending)) * study.steps
+    return tqdm(total=total, unit="cfg", unit_scale=True, desc=study.name, file=sys.stderr, smoothing=0.1,
+                dynamic_ncols=True, leave=False)

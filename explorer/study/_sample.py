@@ -1,0 +1,159 @@
+"""Samplers: the variants of a study as relative multipliers of the nominal lengths.
+
+Variant 0 is always the nominal design (all multipliers 1). Variant i ≥ 1 is a row of k
+multipliers, one per perturbed parameter: the chosen links in ``mech.links`` order, then the crank
+radius if it is perturbed. A variant's lengths are ``nominal × multiplier``.
+
+- ``uniform``: 1 + spread·U(−1, 1), independently per parameter.
+- ``normal``: 1 + spread·Z, Z ~ N(0, 1) (spread is sigma). Draws are *not* clipped: a variant with a
+  non-positive length is kept and gets status "invalid" from the kernels, so every variant is
+  accounted for and the distribution is not distorted (at sigma = 0.02 this takes a 50-sigma draw).
+- ``lhs``: scipy.stats.qmc.LatinHypercube over the N − 1 non-nominal variants, mapped to ±spread.
+- ``sobol``: scrambled scipy.stats.qmc.Sobol points 0 … N − 2, mapped to ±spread. Its balance
+  properties hold when N − 1 is a power of two (e.g. ``variants = 4097``).
+- ``oat`` (one at a time): ``variants`` = L levels per parameter, evenly spaced in
+  [1 − spread, 1 + spread] (``numpy.linspace``); N = 1 + k·L. Variant 1 + j·L + l has parameter j at
+  level l and every other parameter nominal.
+- ``grid``: full factorial over the same L levels per parameter; N = 1 + L**k. Variant 1 + i takes
+  the levels ``numpy.unravel_index(i, (L,)*k)`` (C order, the last parameter varies fastest).
+
+Everything is reproducible from (seed, method, spread) and the perturbed parameters. The random
+methods draw in fixed blocks of :data:`BLOCK` variants, each from its own
+``SeedSequence(seed, spawn_key=(block,))``, so any range of variants can be generated on its own,
+in bounded memory, and the result does not depend on how a run is chunked. Only ``lhs`` draws all
+N − 1 points at once (a Latin hypercube is stratified over all of them): N·k floats.
+"""
+
+from __future__ import annotations
+
+import inspect
+import warnings
+
+import numpy as np
+
+from ..errors import UserError
+from ..mechanism import Mechanism
+from ._spec import PERTURB_METHODS, variant_count
+
+#: Rows per independently seeded block of the random samplers.
+BLOCK = 4096
+
+
+def _qmc_engine(name: str, d: int, seed: int):
+    """A scipy.stats.qmc engine (``Sobol`` or ``LatinHypercube``) seeded reproducibly (scipy ≥ 1.15
+    calls the argument ``rng``, older ones ``seed``). scipy.stats is imported here, on first use: it
+    takes seconds to import and only these two methods need it."""
+    from scipy.stats import qmc
+    cls = getattr(qmc, name)
+    params = inspect.signature(cls).parameters
+    key = "rng" if "rng" in params else "seed"
+    return cls(d=d, scramble=True, **{key: np.random.default_rng(seed)})
+
+
+class Sampler:
+    """Multipliers of one study design: ``rows(start, stop)`` → (stop − start, k) float64.
+
+    method : one of uniform, normal, lhs, sobol, oat, grid; variants : the study's ``variants``
+    (N for random methods, levels per parameter for oat and grid); k : number of perturbed
+    parameters; spread : relative (see the module docstring); seed : integer ≥ 0.
+    """
+
+    def __init__(self, method: str, variants: int, k: int, spread: float, seed: int = 0):
+        if method not in PERTURB_METHODS:
+            raise UserError(f"perturb.method: expected one of {', '.join(PERTURB_METHODS)}, got {method!r}")
+        if k < 1:
+            raise UserError(f"perturb: expected at least one perturbed parameter, got k = {k}")
+        self.method, self.variants, self.k, self.spread, self.seed = method, int(variants), int(k), float(spread), int(seed)
+        self.n_total = variant_count(method, self.variants, self.k)
+        self._lhs = None
+        if method in ("oat", "grid"):
+            self.levels = np.linspace(1.0 - self.spread, 1.0 + self.spread, self.variants)
+
+    def rows(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Multipliers of variants ``start … stop − 1``, shape (stop − start, k); variant 0 is all ones."""
+        stop = self.n_total if stop is None else min(int(stop), self.n_total)
+        start = max(0, int(start))
+        out = np.ones((max(stop - start, 0), self.k))
+        a = max(start, 1)  # variant 0 stays nominal; variant i ≥ 1 is design point i − 1
+        if stop > a:
+            out[a - start:] = self._points(a - 1, stop - 1)
+        return out
+
+    def _points(self, a: int, b: int) -> np.ndarray:
+        """Design points a … b − 1 (point p is variant p + 1)."""
+        m, s = self.method, self.spread
+        if m in ("uniform", "normal"):
+            pieces = []
+            for blk in range(a // BLOCK, (b - 1) // BLOCK + 1):
+                rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(self.seed, spawn_key=(blk,))))
+                draw = rng.uniform(-1.0, 1.0, (BLOCK, self.k)) if m == "uniform" else rng.standard_normal((BLOCK, self.k))
+                lo, hi = max(a - blk * BLOCK, 0), min(b - blk * BLOCK, BLOCK)
+                pieces.append(draw[lo:hi])
+            return 1.0 + s * np.concatenate(pieces)
+        if m == "sobol":
+            eng = _qmc_engine("Sobol", self.k, self.seed)
+            if a:
+                eng.fast_forward(a)
+            with warnings.catch_warnings():  # balance needs powers of two; documented, not nagged per chunk
+                warnings.simplefilter("ignore", UserWarning)
+                u = eng.random(b - a)
+            return 1.0 + s * (2.0 * u - 1.0)
+        if m == "lhs":
+            if self._lhs is None:
+                n = self.n_total - 1
+                self._lhs = _qmc_engine("LatinHypercube", self.k, self.seed).random(n) if n else np.empty((0, self.k))
+            return 1.0 + s * (2.0 * self._lhs[a:b] - 1.0)
+        p = np.arange(a, b)
+        out = np.ones((b - a, self.k))
+        L = self.variants
+        if m == "oat":
+            out[np.arange(b - a), p // L] = self.levels[p % L]
+            return out
+        idx = np.unravel_index(p, (L,) * self.k)  # grid
+        return np.stack([self.levels[i] for i in idx], axis=1) if b > a else out
+
+
+def apply_multipliers(mech: Mechanism, mult: np.ndarray, links=None, crank: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Lengths (n, n_links) in ``mech.links`` order and crank radii (n,) from multipliers (n, k).
+
+    ``links``: names of the perturbed links ("all" or None for every link); their columns come
+    first in ``mech.links`` order, then the crank's if ``crank``.
+    """
+    names = mech.link_names if links in (None, "all") else tuple(links)
+    cols = [i for i, n in enumerate(mech.link_names) if n in set(names)]
+    n = mult.shape[0]
+    if mult.shape[1] != len(cols) + int(crank):
+        raise UserError(f"multipliers: expected {len(cols) + int(crank)} columns, got {mult.shape[1]}")
+    lengths = np.broadcast_to(mech.lengths, (n, len(mech.links))).copy()
+    lengths[:, cols] *= mult[:, :len(cols)]
+    radius = np.full(n, float(mech.crank.radius))
+    if crank:
+        radius *= mult[:, -1]
+    return lengths, radius
+
+
+def sample_variants(mech: Mechanism, variants: int, method: str = "uniform", spread: float = 0.02, seed: int = 0,
+                    links="all", crank: bool = True, start: int = 0, stop: int | None = None):
+    """Variants ``start … stop − 1`` of a design study on ``mech``.
+
+    Returns (lengths (n, n_links) in ``mech.links`` order, crank radii (n,)), in model units; row 0
+    of the full range is the nominal design. ``variants`` is N for the random methods and levels per
+    parameter for ``oat`` and ``grid`` (see the module docstring for the total N).
+    """
+    names = mech.link_names if links == "all" else tuple(links)
+    for n in names:
+        mech.link_index(n)
+    k = len(names) + int(crank)
+    mult = Sampler(method, variants, k, spread, seed).rows(start, stop)
+    return apply_multipliers(mech, mult, names, crank)
+
+
+def study_sampler(study) -> Sampler:
+    """The :class:`Sampler` of a validated :class:`~explorer.study.Study`."""
+    return Sampler(study.perturb_method, study.variants, study.n_parameters, study.spread, study.seed)
+
+
+def study_variants(study, start: int = 0, stop: int | None = None, sampler: Sampler | None = None):
+    """(lengths, crank) of variants ``start … stop − 1`` of ``study`` (see :func:`sample_variants`)."""
+    sampler = sampler or study_sampler(study)
+    return apply_multipliers(study.mech, sampler.rows(start, stop), study.link_names, study.crank)

@@ -1,0 +1,409 @@
+"""Study files: parsing and validation of every key (the TOML shape is a public contract).
+
+A study file::
+
+    [study]
+    name = "jansen-2pct"          # required; letters, digits, '.', '_', '-'
+    mechanism = "jansen"          # required; built-in name or path to a mechanism .toml
+    variants = 10000              # random methods: number of variants N (variant 0 = nominal);
+                                  # oat / grid: levels per parameter (see below)
+    seed = 1                      # integer ≥ 0
+    steps = 360                   # crank samples per cycle (≥ 3)
+    tolerance = 1e-10             # Newton tolerance, in (0, 1)
+    method = "block"              # or "dense"
+
+    [perturb]
+    method = "uniform"            # uniform | normal | lhs | sobol | oat | grid
+    spread = 0.02                 # relative, in [0, 1): ±spread (uniform, lhs, sobol, oat, grid), sigma (normal)
+    links = "all"                 # or a list of link names such as ["1-3", "2-6"]
+    crank = true                  # perturb the crank radius too
+
+    [scene]
+    vertices = ["7"]              # vertices whose paths are stored ("all" allowed); default: the foot
+    velocities = true
+    accelerations = false
+    band = 0.01                   # stance band of the gait metrics, in (0, 1)
+    metrics = true                # true (all), false, or a list of metric names
+
+    [output]
+    path = "results/jansen-2pct.h5"   # default results/<name>.h5; relative to the working directory
+
+Only ``study.name`` and ``study.mechanism`` are required; every other key has the default shown
+(``variants`` 10000, ``seed`` 0, ``metrics`` false). Every key is checked: an unknown key, a wrong
+type or an out-of-range value raises :class:`~explorer.errors.UserError` with one line naming the
+file, the key and what is allowed.
+
+A relative ``mechanism`` path is looked up next to the study file first, then in the working
+directory.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from ..errors import UserError, where
+from ..mechanism import Mechanism, builtin_mechanisms, load_mechanism
+
+PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "oat", "grid")
+SOLVE_METHODS = ("block", "dense")
+#: Largest number of variants a study may ask for (all methods).
+MAX_VARIANTS = 1_000_000_000
+
+_SECTIONS = {
+    "study": ("name", "mechanism", "variants", "seed", "steps", "tolerance", "method"),
+    "perturb": ("method", "spread", "links", "crank"),
+    "scene": ("vertices", "velocities", "accelerations", "band", "metrics"),
+    "output": ("path",),
+}
+_NAME_RE = re.compile(r"^[A-Za-z0-9._-]+$")
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study. Field names follow the file: ``[section] key`` → ``section_key`` or ``key``.
+
+    name, mechanism : as written in ``[study]``; ``mechanism_path`` is the resolved file (None for
+        a built-in). variants, seed, steps, tolerance, method : ``[study]``.
+    perturb_method, spread, links, crank : ``[perturb]``; ``links`` is ``"all"`` or a tuple of names.
+    vertices : ``"all"`` or a tuple of vertex names; velocities, accelerations, band, metrics : ``[scene]``
+        (``metrics`` is a bool or a tuple of names).
+    output : the ``[output] path`` as written (relative paths resolve against the working directory
+        when the file is opened).
+    source : the file the study came from (``builtin:NAME`` or ``<dict>``); text : its TOML text.
+    """
+
+    name: str
+    mechanism: str
+    variants: int
+    seed: int
+    steps: int
+    tolerance: float
+    method: str
+    perturb_method: str
+    spread: float
+    links: object
+    crank: bool
+    vertices: object
+    velocities: bool
+    accelerations: bool
+    band: float
+    metrics: object
+    output: str
+    source: str
+    text: str
+    mechanism_path: str | None = None
+    _mech: Mechanism | None = field(default=None, repr=False, compare=False)
+
+    # -- derived -------------------------------------------------------------------------------
+    @property
+    def mech(self) -> Mechanism:
+        """The nominal :class:`~explorer.mechanism.Mechanism`."""
+        return self._mech
+
+    @property
+    def vertex_names(self) -> tuple[str, ...]:
+        """The stored vertices, resolved (``"all"`` → every vertex of the mechanism)."""
+        return tuple(self.mech.vertices) if self.vertices == "all" else tuple(self.vertices)
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        """The perturbed links, in ``mech.links`` order (``"all"`` resolved)."""
+        chosen = set(self.mech.link_names if self.links == "all" else self.links)
+        return tuple(n for n in self.mech.link_names if n in chosen)
+
+    @property
+    def n_parameters(self) -> int:
+        """Number of perturbed parameters k (links, plus one for the crank)."""
+        return len(self.link_names) + int(self.crank)
+
+    @property
+    def n_variants(self) -> int:
+        """Total number of variants N, variant 0 (the nominal) included."""
+        return variant_count(self.perturb_method, self.variants, self.n_parameters)
+
+    def as_dict(self) -> dict:
+        """The study as a TOML-shaped nested dict, every default filled in (lists for tuples)."""
+        def plain(v):
+            return list(v) if isinstance(v, tuple) else v
+        return {
+            "study": {"name": self.name, "mechanism": self.mechanism, "variants": self.variants, "seed": self.seed,
+                      "steps": self.steps, "tolerance": self.tolerance, "method": self.method},
+            "perturb": {"method": self.perturb_method, "spread": self.spread, "links": plain(self.links),
+                        "crank": self.crank},
+            "scene": {"vertices": plain(self.vertices), "velocities": self.velocities,
+                      "accelerations": self.accelerations, "band": self.band, "metrics": plain(self.metrics)},
+            "output": {"path": self.output},
+        }
+
+    def fingerprint(self) -> str:
+        """JSON of everything that decides the results (the output path excluded): equal fingerprints,
+        equal results. ``--resume`` uses it to refuse finishing a file with a different study."""
+        d = self.as_dict()
+        del d["output"]
+        return json.dumps(d, sort_keys=True)
+
+
+def variant_count(method: str, variants: int, k: int) -> int:
+    """Total number of variants N for ``variants`` as written and k perturbed parameters.
+
+    Random methods (uniform, normal, lhs, sobol): N = variants. ``oat``: N = 1 + k·variants (the
+    nominal, then each parameter alone at ``variants`` levels). ``grid``: N = 1 + variants**k (the
+    nominal, then the full factorial).
+    """
+    if method == "oat":
+        return 1 + k * variants
+    if method == "grid":
+        return 1 + variants ** k
+    return variants
+
+
+# -- reading -----------------------------------------------------------------------------------------
+def builtin_studies() -> tuple[str, ...]:
+    """Names of the studies shipped with explorer (``default``)."""
+    folder = resources.files("explorer.study") / "builtin"
+    return tuple(sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml")))
+
+
+def default_study_text() -> str:
+    """The TOML text of the built-in default study (the same file as ``studies/default.toml``)."""
+    return (resources.files("explorer.study") / "builtin" / "default.toml").read_text(encoding="utf-8")
+
+
+def load_study(study=None, *, source: str | None = None) -> Study:
+    """Load and validate a study.
+
+    ``study`` is a path to a study ``.toml``, a built-in study name (``"default"``), a parsed dict in
+    the TOML shape, an existing :class:`Study` (returned as is), or None for the built-in default.
+    Raises :class:`~explorer.errors.UserError` naming the file and key on any invalid input.
+    """
+    if isinstance(study, Study):
+        return study
+    base = None
+    if study is None:
+        study = "default"
+    if isinstance(study, dict):
+        data, src = study, source or "<dict>"
+        text = dumps_toml(study)
+    else:
+        s = str(study)
+        path = Path(s)
+        if path.is_file():
+            src = source or s
+            try:
+                text = path.read_text(encoding="utf-8")
+            except (OSError, UnicodeDecodeError) as exc:
+                raise UserError(f"{s}: cannot read: {exc}") from None
+            base = path.parent
+        elif s in builtin_studies():
+            src = source or f"builtin:{s}"
+            text = (resources.files("explorer.study") / "builtin" / f"{s}.toml").read_text(encoding="utf-8")
+        else:
+            raise UserError(f"{s}: no such study file or built-in study (built-ins: {', '.join(builtin_studies())})")
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise UserError(f"{src}: not valid TOML: {exc}") from None
+    return study_from_dict(data, src, text=text, base=base)
+
+
+def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = None, base: Path | None = None) -> Study:
+    """Validate a parsed study (the TOML shape) and build a :class:`Study`."""
+    if not isinstance(data, dict):
+        raise UserError(f"{source}: expected a table with [study], [perturb], [scene], [output], got {data!r}")
+    for sec, value in data.items():
+        if sec not in _SECTIONS:
+            raise UserError(f"{where(source, sec)}: unknown section (allowed: {', '.join(_SECTIONS)})")
+        if not isinstance(value, dict):
+            raise UserError(f"{where(source, sec)}: expected a table [{sec}], got {value!r}")
+        for key in value:
+            if key not in _SECTIONS[sec]:
+                raise UserError(f"{where(source, f'{sec}.{key}')}: unknown key (allowed in [{sec}]: "
+                                f"{', '.join(_SECTIONS[sec])})")
+    st, pe, sc, ou = (data.get(s, {}) for s in ("study", "perturb", "scene", "output"))
+    v = _Validator(source)
+
+    for k in ("name", "mechanism"):
+        if k not in st:
+            raise UserError(f"{where(source, 'study.' + k)}: missing required key")
+    name = v.string("study.name", st["name"])
+    if not _NAME_RE.match(name):
+        raise UserError(f"{where(source, 'study.name')}: expected letters, digits, '.', '_' or '-' only, got {name!r}")
+    mech_name = v.string("study.mechanism", st["mechanism"])
+    mech, mech_path = _mechanism(source, mech_name, base)
+
+    pmethod = v.choice("perturb.method", pe.get("method", "uniform"), PERTURB_METHODS)
+    if pmethod in ("oat", "grid"):
+        variants = v.integer("study.variants", st.get("variants", 11), 2, MAX_VARIANTS,
+                             f"levels per parameter for perturb.method = {pmethod!r}")
+    else:
+        variants = v.integer("study.variants", st.get("variants", 10000), 1, MAX_VARIANTS)
+    seed = v.integer("study.seed", st.get("seed", 0), 0, 2 ** 63 - 1)
+    steps = v.integer("study.steps", st.get("steps", 360), 3, 10_000_000)
+    tolerance = v.number("study.tolerance", st.get("tolerance", 1e-10), 0.0, 1.0, "a number in (0, 1)",
+                         lo_open=True, hi_open=True)
+    method = v.choice("study.method", st.get("method", "block"), SOLVE_METHODS)
+
+    spread = v.number("perturb.spread", pe.get("spread", 0.02), 0.0, 1.0, "a number in [0, 1)", hi_open=True)
+    links = v.names("perturb.links", pe.get("links", "all"), mech.link_names, "link")
+    crank = v.boolean("perturb.crank", pe.get("crank", True))
+    k = (len(mech.links) if links == "all" else len(links)) + int(crank)
+    if k == 0:
+        raise UserError(f"{where(source, 'perturb.links')}: nothing to perturb (give links or set crank = true)")
+    n_total = variant_count(pmethod, variants, k)
+    if n_total > MAX_VARIANTS:
+        raise UserError(f"{where(source, 'study.variants')}: {pmethod} with {variants} levels over {k} parameters "
+                        f"gives {n_total:,} variants; at most {MAX_VARIANTS:,} are allowed")
+
+    vertices = v.names("scene.vertices", sc.get("vertices", [mech.foot]), mech.vertices, "vertex")
+    velocities = v.boolean("scene.velocities", sc.get("velocities", True))
+    accelerations = v.boolean("scene.accelerations", sc.get("accelerations", False))
+    band = v.number("scene.band", sc.get("band", 0.01), 0.0, 1.0, "a number in (0, 1)", lo_open=True, hi_open=True)
+    metrics = _metrics(v, sc.get("metrics", False))
+
+    out = ou.get("path", f"results/{name}.h5")
+    out = v.string("output.path", out)
+
+    study = Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
+                  method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
+                  vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
+                  metrics=metrics, output=out, source=source, text=text if text is not None else dumps_toml(data),
+                  mechanism_path=mech_path, _mech=mech)
+    return study
+
+
+def _mechanism(source: str, name: str, base: Path | None) -> tuple[Mechanism, str | None]:
+    candidates = []
+    p = Path(name)
+    if base is not None and not p.is_absolute():
+        candidates.append(base / p)
+    candidates.append(p)
+    for c in candidates:
+        if c.is_file():
+            return load_mechanism(c), str(c)
+    if name in builtin_mechanisms():
+        return load_mechanism(name), None
+    raise UserError(f"{where(source, 'study.mechanism')}: no mechanism file or built-in called {name!r} "
+                    f"(built-ins: {', '.join(builtin_mechanisms())}, or a path to a .toml)")
+
+
+def _metrics(v: "_Validator", value):
+    if isinstance(value, bool):
+        return value
+    if not isinstance(value, list) or not value:
+        raise UserError(f"{where(v.source, 'scene.metrics')}: expected true, false or a non-empty list of metric "
+                        f"names, got {value!r}")
+    known = _known_metrics()
+    seen = []
+    for m in value:
+        if not isinstance(m, str) or not m:
+            raise UserError(f"{where(v.source, 'scene.metrics')}: expected metric names (strings), got {m!r}")
+        if known is not None and m not in known:
+            raise UserError(f"{where(v.source, 'scene.metrics')}: unknown metric {m!r} (allowed: {', '.join(known)})")
+        if m in seen:
+            raise UserError(f"{where(v.source, 'scene.metrics')}: metric {m!r} is listed twice")
+        seen.append(m)
+    return tuple(seen)
+
+
+def _known_metrics():
+    """Metric names published by ``explorer.gait`` as ``METRICS``, or None if it is not available."""
+    try:
+        from .. import gait
+    except ImportError:  # the gait module is optional here
+        return None
+    names = getattr(gait, "METRICS", None)
+    return tuple(names) if names else None
+
+
+class _Validator:
+    """Typed checks that raise one-line UserErrors naming ``source: key``."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, key: str, allowed: str, value) -> None:
+        raise UserError(f"{where(self.source, key)}: expected {allowed}, got {value!r}")
+
+    def string(self, key, value) -> str:
+        if not isinstance(value, str) or not value.strip():
+            self.fail(key, "a non-empty string", value)
+        return value
+
+    def boolean(self, key, value) -> bool:
+        if not isinstance(value, bool):
+            self.fail(key, "true or false", value)
+        return value
+
+    def integer(self, key, value, lo, hi, what: str = "") -> int:
+        allowed = f"an integer from {lo:,} to {hi:,}" + (f" ({what})" if what else "")
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            self.fail(key, allowed, value)
+        return int(value)
+
+    def number(self, key, value, lo, hi, allowed, lo_open=False, hi_open=False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.fail(key, allowed, value)
+        below = value <= lo if lo_open else value < lo
+        above = value >= hi if hi_open else value > hi
+        if below or above:
+            self.fail(key, allowed, value)
+        return float(value)
+
+    def choice(self, key, value, options) -> str:
+        if not isinstance(value, str) or value not in options:
+            self.fail(key, "one of " + ", ".join(repr(o) for o in options), value)
+        return value
+
+    def names(self, key, value, known, what):
+        """``"all"`` or a non-empty list of distinct names from ``known``; returns "all" or a tuple."""
+        if value == "all":
+            return "all"
+        if not isinstance(value, list) or not value:
+            self.fail(key, f'"all" or a non-empty list of {what} names', value)
+        seen = []
+        for n in value:
+            if not isinstance(n, str):
+                self.fail(key, f"{what} names as strings (known: {', '.join(known)})", n)
+            if n not in known:
+                raise UserError(f"{where(self.source, key)}: unknown {what} {n!r} (known: {', '.join(known)})")
+            if n in seen:
+                raise UserError(f"{where(self.source, key)}: {what} {n!r} is listed twice")
+            seen.append(n)
+        return tuple(seen)
+
+
+# -- writing -------------------------------------------------------------------------------------------
+def dumps_toml(data: dict) -> str:
+    """A TOML text for a study-shaped dict (tables of strings, numbers, booleans and lists of them)."""
+    lines = []
+    for sec, table in data.items():
+        if not isinstance(table, dict):
+            lines.append(f"{sec} = {_toml_value(table)}")
+            continue
+        lines.append(f"[{sec}]")
+        lines.extend(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items())
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _toml_key(k) -> str:
+    k = str(k)
+    return k if re.match(r"^[A-Za-z0-9_-]+$", k) else json.dumps(k)
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else ("inf" if v > 0 else "-inf"))
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    return json.dumps(str(v))

@@ -1,0 +1,220 @@
+"""Study files: the shipped studies load, and every validation error is one line naming file and key.
+
+Errors are checked both from ``load_study`` (UserError) and through ``explorer run`` (exit code 2,
+one line on stderr). Nothing here runs a simulation: validation happens before any solve.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+
+from explorer import UserError, load_study
+from explorer.cli import main
+from explorer.study import builtin_studies, default_study_text, dumps_toml, study_from_dict
+
+ROOT = Path(__file__).resolve().parent.parent
+STUDIES = ROOT / "studies"
+
+BASE = {
+    "study": {"name": "t", "mechanism": "jansen", "variants": 20, "seed": 3, "steps": 36, "tolerance": 1e-10,
+              "method": "block"},
+    "perturb": {"method": "uniform", "spread": 0.02, "links": "all", "crank": True},
+    "scene": {"vertices": ["7"], "velocities": True, "accelerations": False, "band": 0.01, "metrics": False},
+    "output": {"path": "results/t.h5"},
+}
+
+
+def with_value(key: str, value):
+    """BASE with ``section.key`` set to ``value`` (``...`` deletes it)."""
+    d = copy.deepcopy(BASE)
+    sec, k = key.split(".", 1)
+    if value is ...:
+        del d[sec][k]
+    else:
+        d[sec][k] = value
+    return d
+
+
+def write(tmp_path: Path, data: dict, name="study.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(dumps_toml(data), encoding="utf-8")
+    return p
+
+
+# -- the shipped studies -------------------------------------------------------------------------------
+def test_default_study_shipped_in_package_is_the_repo_copy():
+    assert "default" in builtin_studies()
+    assert default_study_text() == (STUDIES / "default.toml").read_text(encoding="utf-8")
+
+
+def test_default_study_contents():
+    s = load_study()  # no argument: the built-in default
+    assert s.source == "builtin:default"
+    assert (s.name, s.mechanism, s.variants, s.steps, s.tolerance, s.method) == \
+        ("jansen-2pct", "jansen", 10000, 360, 1e-10, "block")
+    assert (s.perturb_method, s.spread, s.links, s.crank) == ("uniform", 0.02, "all", True)
+    assert (s.vertices, s.velocities, s.accelerations) == (("7",), True, False)
+    assert s.output == "results/jansen-2pct.h5"
+    assert s.n_variants == 10000 and s.n_parameters == 11
+
+
+@pytest.mark.parametrize("path", sorted(STUDIES.glob("*.toml")), ids=lambda p: p.name)
+def test_example_studies_load(path):
+    s = load_study(path)
+    assert s.source == str(path) and s.n_variants >= 1
+    assert s.text == path.read_text(encoding="utf-8")
+
+
+def test_defaults_and_dict_input():
+    s = load_study({"study": {"name": "x", "mechanism": "fourbar"}})
+    assert s.source == "<dict>"
+    assert (s.variants, s.seed, s.steps, s.method, s.perturb_method, s.spread) == (10000, 0, 360, "block", "uniform", 0.02)
+    assert s.vertices == (s.mech.foot,) and s.metrics is False and s.band == 0.01
+    assert s.output == "results/x.h5"
+    # the dict's TOML text loads back to the same study
+    assert study_from_dict(__import__("tomllib").loads(s.text)).fingerprint() == s.fingerprint()
+
+
+def test_oat_and_grid_counts():
+    oat = load_study(with_value("perturb.method", "oat") | {})
+    assert oat.n_variants == 1 + 11 * 20
+    d = with_value("perturb.method", "grid")
+    d["perturb"]["links"] = ["1-3", "2-6"]
+    d["study"]["variants"] = 5
+    assert load_study(d).n_variants == 1 + 5 ** 3
+
+
+def test_relative_mechanism_path_is_next_to_the_study(tmp_path):
+    mech_dir = tmp_path / "mechs"
+    mech_dir.mkdir()
+    src = (ROOT / "explorer" / "mechanism" / "builtin" / "fourbar.toml").read_text()
+    (mech_dir / "mine.toml").write_text(src)
+    d = with_value("study.mechanism", "mechs/mine.toml")
+    d["scene"]["vertices"] = "all"
+    s = load_study(write(tmp_path, d))
+    assert Path(s.mechanism_path) == mech_dir / "mine.toml"
+
+
+# -- every validation error ----------------------------------------------------------------------------
+BAD = [
+    # (key, value, words the message must contain)
+    ("study.name", ..., "missing"),
+    ("study.name", 3, "string"),
+    ("study.name", "a b/c", "letters"),
+    ("study.mechanism", ..., "missing"),
+    ("study.mechanism", "nonesuch", "built-ins"),
+    ("study.mechanism", 1, "string"),
+    ("study.variants", 0, "integer"),
+    ("study.variants", 2.5, "integer"),
+    ("study.variants", "10", "integer"),
+    ("study.variants", True, "integer"),
+    ("study.seed", -1, "integer"),
+    ("study.seed", 1.0, "integer"),
+    ("study.steps", 2, "integer"),
+    ("study.steps", "360", "integer"),
+    ("study.tolerance", 0.0, "(0, 1)"),
+    ("study.tolerance", 1.5, "(0, 1)"),
+    ("study.tolerance", "tight", "(0, 1)"),
+    ("study.method", "newton", "'block', 'dense'"),
+    ("study.colour", "red", "unknown key"),
+    ("perturb.method", "random", "uniform"),
+    ("perturb.method", 1, "uniform"),
+    ("perturb.spread", -0.1, "[0, 1)"),
+    ("perturb.spread", 1.0, "[0, 1)"),
+    ("perturb.spread", "2%", "[0, 1)"),
+    ("perturb.spread", float("nan"), "[0, 1)"),
+    ("perturb.links", "some", "all"),
+    ("perturb.links", [], "all"),
+    ("perturb.links", ["1-3", "9-9"], "unknown link"),
+    ("perturb.links", ["1-3", "1-3"], "twice"),
+    ("perturb.links", [13], "names"),
+    ("perturb.crank", "yes", "true or false"),
+    ("perturb.seed", 1, "unknown key"),
+    ("scene.vertices", ["8"], "unknown vertex"),
+    ("scene.vertices", [7], "names"),
+    ("scene.vertices", "foot", "all"),
+    ("scene.vertices", ["7", "7"], "twice"),
+    ("scene.velocities", 1, "true or false"),
+    ("scene.accelerations", "no", "true or false"),
+    ("scene.band", 0.0, "(0, 1)"),
+    ("scene.band", 1.0, "(0, 1)"),
+    ("scene.band", "wide", "(0, 1)"),
+    ("scene.metrics", "stride", "true, false"),
+    ("scene.metrics", [], "true, false"),
+    ("scene.metrics", [1], "metric names"),
+    ("scene.metrics", ["stride", "stride"], "twice"),
+    ("scene.colour", "red", "unknown key"),
+    ("output.path", "", "string"),
+    ("output.path", 5, "string"),
+    ("output.format", "csv", "unknown key"),
+]
+
+
+@pytest.mark.parametrize("key,value,words", BAD, ids=[f"{k}={v!r}" for k, v, _ in BAD])
+def test_invalid_key_is_one_line_naming_file_and_key(tmp_path, capsys, key, value, words):
+    path = write(tmp_path, with_value(key, value))
+    with pytest.raises(UserError) as info:
+        load_study(path)
+    msg = str(info.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"{path}: {key}"), msg
+    assert words in msg, msg
+    # and through the CLI: exit code 2, one line on stderr, no traceback
+    code = main(["run", str(path), "-o", str(tmp_path / "out.h5"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert str(path) in err and key in err
+    assert not (tmp_path / "out.h5").exists()
+
+
+def test_unknown_metric_is_checked_against_the_gait_module(tmp_path):
+    gait = pytest.importorskip("explorer.gait")
+    if not getattr(gait, "METRICS", None):
+        pytest.skip("explorer.gait publishes no METRICS")
+    with pytest.raises(UserError, match=r"scene\.metrics: unknown metric 'speediness'"):
+        load_study(write(tmp_path, with_value("scene.metrics", ["stride", "speediness"])))
+
+
+@pytest.mark.parametrize("text,words", [
+    ("[study\nname = 1", "not valid TOML"),
+    ("[colour]\nx = 1\n", "colour: unknown section"),
+    ("study = 3\n", "study: expected a table"),
+], ids=["toml", "section", "table"])
+def test_malformed_files(tmp_path, text, words):
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    with pytest.raises(UserError) as info:
+        load_study(p)
+    assert str(info.value).startswith(str(p)) and words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_grid_too_large(tmp_path):
+    d = with_value("perturb.method", "grid")
+    d["study"]["variants"] = 100  # 100 ** 11 variants
+    with pytest.raises(UserError, match=r"study\.variants: grid with 100 levels over 11 parameters"):
+        load_study(write(tmp_path, d))
+
+
+def test_oat_needs_two_levels(tmp_path):
+    d = with_value("perturb.method", "oat")
+    d["study"]["variants"] = 1
+    with pytest.raises(UserError, match=r"study\.variants: expected an integer from 2 .*levels per parameter"):
+        load_study(write(tmp_path, d))
+
+
+def test_nothing_to_perturb_is_impossible_by_construction(tmp_path):
+    d = with_value("perturb.crank", False)
+    d["perturb"]["links"] = ["1-3"]
+    assert load_study(write(tmp_path, d)).n_parameters == 1
+
+
+def test_missing_study_file(tmp_path, capsys):
+    missing = tmp_path / "nope.toml"
+    with pytest.raises(UserError, match="no such study file"):
+        load_study(missing)
+    assert main(["run", str(missing)]) == 2
+    assert "nope.toml" in capsys.readouterr().err
