@@ -1,0 +1,235 @@
+"""``explorer rank RESULTS [--by M | --pareto M1,M2 | --weights M1=W1,M2=W2] [--top N] [--where EXPR]
+[--ascending|--descending] [--include-failed] [--format table|csv|json]``: rank the variants of a results file."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+FORMATS = ("table", "csv", "json")
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "rank", help="rank the variants of a results file by a gait metric, a weighted score or a Pareto front",
+        description="Rank the ok variants of a results file, best first. One metric (--by, in its natural "
+                    "direction: stride up, flatness down, ...), a weighted score over min-max normalised metrics "
+                    "(--weights), or the Pareto front of several metrics (--pareto). --where filters first with "
+                    "a pandas query over the columns of the results frame (metrics, link lengths, crank, "
+                    "status). The table is for reading; csv and json carry every column of the ranked frame "
+                    "(the same rows as Results.rank()) at full precision.",
+        epilog="examples: explorer rank results/jansen-2pct.h5 --by flatness --where \"duty > 0.3\"; "
+               "explorer rank R.h5 --pareto stride,flatness --top 0; "
+               "explorer rank R.h5 --weights stride=2,flatness=1 --format csv > best.csv")
+    p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
+    p.add_argument("--by", metavar="METRIC", default=None, help="metric to rank by (default: stride)")
+    p.add_argument("--top", metavar="N", default="10", help="rows to show (default: 10; 0 = all)")
+    p.add_argument("--where", metavar="EXPR", default=None,
+                   help="pandas query filter, e.g. \"duty > 0.3 and flatness < 0.002\"")
+    p.add_argument("--pareto", metavar="M1,M2,...", default=None,
+                   help="only the Pareto front (non-dominated variants) of these metrics, sorted by the first")
+    p.add_argument("--weights", metavar="M1=W1,...", default=None,
+                   help="rank by a weighted score in [0, 1] of min-max normalised metrics (1 = best)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--ascending", dest="ascending", action="store_const", const=True, default=None,
+                   help="with --by: smaller is better (overrides the metric's natural direction)")
+    g.add_argument("--descending", dest="ascending", action="store_const", const=False,
+                   help="with --by: larger is better")
+    p.add_argument("--include-failed", action="store_true",
+                   help="keep failed variants (their metrics are NaN and sort last)")
+    p.add_argument("--format", choices=FORMATS, default="table",
+                   help="table (default, aligned for reading), csv or json (every column, to stdout)")
+    p.add_argument("--columns", metavar="C1,C2,...", default=None,
+                   help="table only: the columns after rank, variant and the ranking metrics (default: the other "
+                        "metrics, then status); any frame column, e.g. crank or a link name")
+    p.set_defaults(func=run)
+
+
+# -- argument parsing ------------------------------------------------------------------------------------
+def parse_top(text) -> int | None:
+    from ..errors import UserError
+    try:
+        n = int(str(text).strip())
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise UserError(f"--top: expected a whole number >= 0 (0 = all), got {text!r}")
+    return None if n == 0 else n
+
+
+def parse_list(text, option: str) -> list[str]:
+    from ..errors import UserError
+    names = [s.strip() for s in str(text).split(",") if s.strip()]
+    if not names:
+        raise UserError(f"{option}: expected comma-separated names, got {text!r}")
+    return names
+
+
+def parse_weights(text) -> dict[str, float]:
+    from ..errors import UserError
+    out: dict[str, float] = {}
+    for item in parse_list(text, "--weights"):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        try:
+            w = float(value) if sep else math.nan
+        except ValueError:
+            w = math.nan
+        if not name or not math.isfinite(w):
+            raise UserError(f"--weights: expected METRIC=WEIGHT pairs such as stride=2,flatness=1, got {item!r}")
+        if name in out:
+            raise UserError(f"--weights: {name!r} is given twice")
+        out[name] = w
+    return out
+
+
+# -- formatting --------------------------------------------------------------------------------------------
+def format_floats(values, sig: int = 5) -> list[str]:
+    """Strings for one column of floats: a common number of decimals giving ``sig`` significant digits
+    to the largest magnitude (scientific notation for very small or large columns); NaN → "-"."""
+    finite = [abs(v) for v in values if v is not None and math.isfinite(v)]
+    big = max(finite) if finite else 0.0
+    if big and (big < 1e-4 or big >= 1e9):
+        return ["-" if v is None or not math.isfinite(v) else f"{v:.{sig - 1}e}" for v in values]
+    dec = 0 if big == 0 else min(8, max(0, sig - 1 - math.floor(math.log10(big))))
+    return ["-" if v is None or not math.isfinite(v) else f"{v:.{dec}f}" for v in values]
+
+
+def format_column(series) -> tuple[list[str], bool]:
+    """(cells, right-aligned) for one frame column."""
+    import pandas as pd
+    if pd.api.types.is_bool_dtype(series):
+        return [str(bool(v)).lower() for v in series], False
+    if pd.api.types.is_integer_dtype(series):
+        return [f"{int(v)}" for v in series], True
+    if pd.api.types.is_float_dtype(series):
+        return format_floats([float(v) for v in series]), True
+    return ["-" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v).replace(" ", "_")
+            for v in series.astype(object)], False
+
+
+def format_table(df, columns: list[str]) -> str:
+    """An aligned plain-text table of ``columns`` of ``df`` (two spaces between columns, no spaces in cells)."""
+    cols = []
+    for c in columns:
+        cells, right = format_column(df[c])
+        width = max([len(c)] + [len(s) for s in cells])
+        cols.append(([c] + cells, width, right))
+    lines = []
+    for i in range(len(df) + 1):
+        parts = [(cells[i].rjust(w) if right else cells[i].ljust(w)) for cells, w, right in cols]
+        lines.append("  ".join(parts).rstrip())
+    return "\n".join(lines)
+
+
+def better(direction: str) -> str:
+    """The words for a ranking direction ("max" or "min")."""
+    return "higher is better" if direction == "max" else "lower is better"
+
+
+def json_records(df) -> str:
+    """The rows of ``df`` as a JSON list of objects; NaN → null, exact float repr."""
+    import numpy as np
+    import pandas as pd
+    cols = list(df.columns)
+    data = []
+    arrays = []
+    for c in cols:
+        s = df[c]
+        if isinstance(s.dtype, pd.CategoricalDtype):
+            s = s.astype(object)
+        arrays.append(s.to_numpy(dtype=object))
+    for i in range(len(df)):
+        row = {}
+        for c, a in zip(cols, arrays):
+            v = a[i]
+            if isinstance(v, (np.integer,)):
+                v = int(v)
+            elif isinstance(v, (float, np.floating)):
+                v = None if not math.isfinite(float(v)) else float(v)
+            elif isinstance(v, np.bool_):
+                v = bool(v)
+            elif v is not None and not isinstance(v, (str, int, bool)):
+                v = str(v)
+            row[str(c)] = v
+        data.append(row)
+    return json.dumps(data, indent=1, allow_nan=False)
+
+
+# -- the verb ----------------------------------------------------------------------------------------------
+def run(args) -> int:
+    from ..errors import UserError
+    from ..gait import DIRECTIONS, METRICS
+    from ..store import open_results
+
+    top = parse_top(args.top)
+    pareto = parse_list(args.pareto, "--pareto") if args.pareto is not None else None
+    weights = parse_weights(args.weights) if args.weights is not None else None
+    if pareto is not None and weights is not None:
+        raise UserError("--pareto and --weights exclude each other: pick one way to rank")
+    mode = "pareto" if pareto is not None else "weights" if weights is not None else "by"
+    if mode != "by" and args.by is not None:
+        raise UserError(f"--by goes alone: with --{mode} the ranking metrics are the ones --{mode} names")
+    if mode != "by" and args.ascending is not None:
+        raise UserError(f"--ascending/--descending go with --by, not with --{mode} (which use each metric's "
+                        f"natural direction)")
+    by = args.by if args.by is not None else "stride"
+    extra = parse_list(args.columns, "--columns") if args.columns is not None else None
+
+    with open_results(args.results) as res:
+        full = res.rank(by=by, top=None, where=args.where, ascending=args.ascending, weights=weights,
+                        pareto=pareto, include_failed=args.include_failed)
+        counts = res.status_counts()
+        n, complete, name = res.n_variants, res.complete, res.filename
+    ranked = full if top is None else full.iloc[:top]
+
+    if args.format == "csv":
+        sys.stdout.write(ranked.to_csv(index=False))
+        return 0
+    if args.format == "json":
+        sys.stdout.write(json_records(ranked) + "\n")
+        return 0
+
+    # -- table -----------------------------------------------------------------------------------------
+    keys = pareto if mode == "pareto" else list(weights) if mode == "weights" else [by]
+
+    def direction(c):
+        if mode == "by" and args.ascending is not None:
+            return "min" if args.ascending else "max"
+        return DIRECTIONS.get(c, "min")
+
+    if mode == "by":
+        how = f"ranked by {by} ({better(direction(by))})"
+    elif mode == "pareto":
+        how = "Pareto front of " + ", ".join(f"{c} ({better(direction(c))})" for c in keys)
+    else:
+        how = ("weighted score (1 = best) of " +
+               ", ".join(f"{c} ×{weights[c]:g} ({better(direction(c))})" for c in keys))
+    ok = counts.get("ok", 0)
+    pool = f"{ok:,} ok of {n:,} variants" + ("" if complete else f" (incomplete file: {counts.get('not-run', 0):,} "
+                                                                    f"not run)")
+    if args.include_failed:
+        pool = f"all {n:,} variants ({ok:,} ok)"
+    matched = f"{len(full):,} " + ("on the front" if mode == "pareto" else "match" if args.where else "ranked")
+    if args.where:
+        matched += f" where {args.where}"
+    shown = f"showing {len(ranked):,}" if len(ranked) < len(full) else "showing all"
+    lines = [f"{name}: {how}", f"{pool}; {matched}; {shown}"]
+    if ranked.empty:
+        lines.append("(no variant to show)")
+        print("\n".join(lines))
+        return 0
+    lead = ["rank", "variant"] + (["score"] if mode == "weights" else []) + keys
+    if extra is None:
+        rest = [m for m in METRICS if m in ranked.columns and m not in lead] + ["status"]
+    else:
+        unknown = [c for c in extra if c not in ranked.columns]
+        if unknown:
+            known = ", ".join(map(str, ranked.columns))
+            raise UserError(f"--columns: unknown column {unknown[0]!r} (columns: {known})")
+        rest = [c for c in extra if c not in lead]
+    lines.append("")
+    lines.append(format_table(ranked, lead + rest))
+    print("\n".join(lines))
+    return 0

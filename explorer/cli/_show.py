@@ -1,0 +1,125 @@
+"""``explorer show RESULTS VARIANT``: one variant's lengths against the nominal, its metrics and ranks, its status."""
+
+from __future__ import annotations
+
+import math
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "show", help="one variant of a results file: lengths vs the nominal, metrics with their ranks, status",
+        description="Print one variant of a results file: each link length and the crank radius against the "
+                    "nominal design (absolute and %% change), each stored gait metric with its rank among the ok "
+                    "variants (1 = best in the metric's natural direction; ties share a rank), and its status "
+                    "(for a failed variant: the crank angle and vertex where it failed). Variant 0 is the nominal.")
+    p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
+    p.add_argument("variant", metavar="VARIANT", help="variant number, 0 to N-1 (0 = the nominal design)")
+    p.set_defaults(func=run)
+
+
+def parse_variant(text, n: int, filename) -> int:
+    from ..errors import UserError
+    try:
+        v = int(str(text).strip())
+    except ValueError:
+        raise UserError(f"{filename}: variant: expected a whole number from 0 to {n - 1}, got {text!r}") from None
+    if not 0 <= v < n:
+        raise UserError(f"{filename}: variant {v} out of range (0 to {n - 1}: {n:,} variants)")
+    return v
+
+
+def metric_rank(values, ok, v: int, direction: str) -> tuple[int, int] | None:
+    """(rank, pool): 1 + the number of ok variants with a strictly better finite value, and the number of
+    ok variants with a finite value; None if variant ``v`` is not among them."""
+    import numpy as np
+    pool = ok & np.isfinite(values)
+    if not pool[v]:
+        return None
+    x = values[pool]
+    better = (x > values[v]) if direction == "max" else (x < values[v])
+    return int(better.sum()) + 1, int(pool.sum())
+
+
+def _table(rows, right) -> list[str]:
+    widths = [max(len(r[j]) for r in rows) for j in range(len(rows[0]))]
+    out = []
+    for r in rows:
+        cells = [(c.rjust(w) if rj else c.ljust(w)) for c, w, rj in zip(r, widths, right)]
+        out.append("  ".join(cells).rstrip())
+    return out
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from ..gait import DIRECTIONS, METRICS, UNITS
+    from ..store import open_results
+
+    with open_results(args.results) as res:
+        name, n = res.filename, res.n_variants
+        v = parse_variant(args.variant, n, name)
+        df = res.frame()
+        nominal = res.nominal
+        perturbed = set(res.perturbed)
+        mech = res.mechanism
+        study = res.study.get("study", {})
+        band = res.band
+        metrics = list(res.metric_names)
+    row = df.iloc[v]
+    ok = (df["status_code"] == 0).to_numpy()
+
+    lines = [f"{name}: variant {v} of {n:,}" + (" (the nominal design)" if v == 0 else "")
+             + f"; study {study.get('name', '?')!r}, mechanism {mech.name!r}, {res.steps} steps"]
+    status = str(row["status"])
+    if status == "ok":
+        lines.append("status: ok")
+    elif status == "not-run":
+        lines.append("status: not-run (the run was interrupted before this variant; finish it with --resume)")
+    else:
+        th = float(row["fail_theta"])
+        at = f" at θ = {th:.4f} rad ({math.degrees(th):.2f}°)" if math.isfinite(th) else ""
+        vert = f", vertex {row['fail_vertex']}" if row["fail_vertex"] is not None else ""
+        lines.append(f"status: failed ({status}){at}{vert}")
+
+    # -- lengths -----------------------------------------------------------------------------------------
+    rows = [("parameter", "value", "nominal", "change", "change %")]
+    for p in list(res.link_names) + ["crank"]:
+        val, nom = float(row[p]), nominal[p]
+        d = val - nom
+        pct = f"{100.0 * d / nom:+.3f} %" if nom else "-"
+        label = p if p == "crank" else f"link {p}"
+        if p not in perturbed:
+            label += " (fixed)"
+        rows.append((label, f"{val:.4f}", f"{nom:.4f}", f"{d:+.4f}", pct))
+    lines.append("")
+    lines += _table(rows, (False, True, True, True, True))
+
+    # -- metrics -----------------------------------------------------------------------------------------
+    lines.append("")
+    if not metrics:
+        lines.append(f"no gait metrics stored; compute them with `explorer metrics {name}`")
+        print("\n".join(lines))
+        return 0
+    n_ok = int(ok.sum())
+    rows = [("metric", "value", "unit", f"rank among the {n_ok:,} ok variants (band {band:g})")]
+    order = [m for m in METRICS if m in metrics] + [m for m in metrics if m not in METRICS]
+    for m in order:
+        values = df[m].to_numpy(dtype=np.float64)
+        x = values[v]
+        direction = DIRECTIONS.get(m)
+        if status != "ok":
+            text, rank = "-", "- (variant failed)" if status != "not-run" else "- (not run)"
+        elif not math.isfinite(x):
+            text, rank = "nan", "- (undefined for this variant)"
+        else:
+            text = f"{x:.6g}"
+            r = metric_rank(values, ok, v, direction) if direction else None
+            if r is None:
+                rank = "-"
+            else:
+                how = "higher is better" if direction == "max" else "lower is better"
+                rank = f"rank {r[0]:,} of {r[1]:,} ({how})"
+        rows.append((m, text, UNITS.get(m, ""), rank))
+    lines += _table(rows, (False, True, False, False))
+    print("\n".join(lines))
+    return 0

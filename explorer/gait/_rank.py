@@ -1,0 +1,252 @@
+"""Ranking a results frame (one row per variant) by one metric, a weighted score, or a Pareto front.
+
+The frame has a ``variant`` column (optional), one column per metric, and a ``status`` column
+("ok" or a failure name; integer 0 also counts as ok; no column = every row ok). Each metric has a
+natural direction (:data:`DIRECTIONS`): "max" = larger is better, "min" = smaller is better.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from ..errors import UserError
+from ._metrics import DIRECTIONS, METRICS
+
+_RESERVED = ("variant", "status", "rank", "score")
+
+
+# -- helpers ------------------------------------------------------------------------------------------
+def _rankable(df: pd.DataFrame) -> list[str]:
+    """Numeric columns that can be ranked on (metrics first, in METRICS order)."""
+    numeric = [c for c in df.columns if c not in _RESERVED and pd.api.types.is_numeric_dtype(df[c])
+               and not pd.api.types.is_bool_dtype(df[c])]
+    return [m for m in METRICS if m in numeric] + [c for c in numeric if c not in METRICS]
+
+
+def _check_columns(df: pd.DataFrame, cols) -> list[str]:
+    known = _rankable(df)
+    out = []
+    for c in cols:
+        c = str(c)
+        if c not in known:
+            if c in METRICS:
+                raise UserError(f"metric {c!r} was not computed for these results "
+                                f"(known: {', '.join(known) or 'none'})")
+            raise UserError(f"unknown metric {c!r} (known: {', '.join(known) or 'none'})")
+        out.append(c)
+    return out
+
+
+def _direction(col: str, override) -> str:
+    """'max' or 'min' for ``col``: the override (bool ascending / "max" / "min") or the natural one."""
+    if override is not None:
+        if isinstance(override, str):
+            if override not in ("max", "min"):
+                raise UserError(f"direction of {col!r}: expected 'max' or 'min', got {override!r}")
+            return override
+        return "min" if bool(override) else "max"
+    if col in DIRECTIONS:
+        return DIRECTIONS[col]
+    raise UserError(f"{col!r} has no natural direction; say which is better with ascending= "
+                    f"(True: smaller is better)")
+
+
+def _directions(cols: list[str], ascending) -> dict[str, str]:
+    if ascending is None or isinstance(ascending, Mapping):
+        over = dict(ascending or {})
+        bad = [k for k in over if k not in cols]
+        if bad:
+            raise UserError(f"ascending: {bad[0]!r} is not one of the ranked metrics ({', '.join(cols)})")
+        return {c: _direction(c, over.get(c)) for c in cols}
+    raise UserError("ascending: with weights= or pareto= pass a dict metric -> True/False "
+                    "(True: smaller is better)")
+
+
+def _ok_mask(df: pd.DataFrame) -> np.ndarray:
+    if "status" not in df.columns:
+        return np.ones(len(df), dtype=bool)
+    st = df["status"]
+    if pd.api.types.is_numeric_dtype(st):
+        return (st == 0).to_numpy()
+    return (st.astype(str) == "ok").to_numpy()
+
+
+def _filter(df: pd.DataFrame, where, include_failed: bool) -> pd.DataFrame:
+    if not include_failed:
+        df = df[_ok_mask(df)]
+    if where is not None and str(where).strip():
+        expr = str(where)
+        try:
+            df = df.query(expr)
+        except Exception as exc:  # pandas raises SyntaxError, NameError, TypeError, KeyError, ValueError …
+            msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise UserError(f"where: cannot evaluate {expr!r}: {msg}") from None
+        if not isinstance(df, pd.DataFrame):
+            raise UserError(f"where: {expr!r} is not a filter (it must evaluate to true/false per row)")
+    return df
+
+
+def _check_top(top):
+    if top is None:
+        return None
+    if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 0:
+        raise UserError(f"top: expected a whole number >= 0 or None, got {top!r}")
+    return int(top)
+
+
+def _tiebreak(df: pd.DataFrame) -> np.ndarray:
+    """Secondary sort key: the variant number if there is one, else the row position."""
+    if "variant" in df.columns and pd.api.types.is_numeric_dtype(df["variant"]):
+        return df["variant"].to_numpy()
+    return np.arange(len(df))
+
+
+def _costs(df: pd.DataFrame, cols: list[str], directions: dict[str, str]) -> np.ndarray:
+    """(n, k) float array where smaller is better in every column."""
+    cost = np.empty((len(df), len(cols)), dtype=np.float64)
+    for j, c in enumerate(cols):
+        v = df[c].to_numpy(dtype=np.float64, na_value=np.nan)
+        cost[:, j] = -v if directions[c] == "max" else v
+    return cost
+
+
+def _finish(df: pd.DataFrame, order: np.ndarray, top) -> pd.DataFrame:
+    out = df.iloc[order]
+    if top is not None:
+        out = out.iloc[:top]
+    out = out.copy()
+    out.insert(0, "rank", np.arange(1, len(out) + 1, dtype=np.int64))
+    return out
+
+
+# -- public --------------------------------------------------------------------------------------------
+def pareto_front(df: pd.DataFrame, cols, directions=None) -> np.ndarray:
+    """Boolean mask (len(df),) of the rows no other row dominates on ``cols``.
+
+    cols : metric names (a list, or one comma-separated string).
+    directions : None (natural, :data:`DIRECTIONS`), a dict col -> "max"/"min" (columns it leaves
+    out keep their natural direction; extra keys are ignored, so DIRECTIONS itself can be passed),
+    or a sequence of "max"/"min" aligned with ``cols``. Row a dominates row b when a is at least as good in every
+    column and strictly better in one; equal rows do not dominate each other (both stay). Rows with
+    NaN in any of ``cols`` are never on the front and dominate nothing.
+    """
+    names = [c.strip() for c in cols.split(",") if c.strip()] if isinstance(cols, str) else list(cols)
+    cols = _check_columns(df, names)
+    if not cols:
+        raise UserError("pareto: name at least one metric")
+    if directions is None:
+        dirs = {c: _direction(c, None) for c in cols}
+    elif isinstance(directions, Mapping):
+        dirs = {c: _direction(c, directions.get(c)) for c in cols}
+    else:
+        directions = list(directions)
+        if len(directions) != len(cols):
+            raise UserError(f"pareto: {len(directions)} directions for {len(cols)} metrics")
+        dirs = {c: _direction(c, d) for c, d in zip(cols, directions)}
+    cost = _costs(df, cols, dirs)
+    mask = np.zeros(len(df), dtype=bool)
+    valid = np.flatnonzero(~np.isnan(cost).any(axis=1))
+    if valid.size == 0:
+        return mask
+    c = cost[valid]
+    # lexicographic order: a row can only be dominated by one before it, and the first is on the front
+    order = np.lexsort(c.T[::-1])
+    c = c[order]
+    idx = valid[order]
+    # the first remaining row in lexicographic order is never dominated by a remaining row: take it,
+    # drop every row it dominates (<= everywhere and < somewhere), repeat on what is left
+    front = []
+    while len(c):
+        p, c, idx_rest = c[0], c[1:], idx[1:]
+        front.append(idx[0])
+        dominated = (p <= c).all(axis=1) & (p < c).any(axis=1)
+        c, idx = c[~dominated], idx_rest[~dominated]
+    mask[np.array(front, dtype=np.int64)] = True
+    return mask
+
+
+def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None = None, ascending=None,
+         weights: Mapping[str, float] | None = None, pareto=None, include_failed: bool = False) -> pd.DataFrame:
+    """Rank the variants of a results frame; returns the chosen rows, best first, with a ``rank`` column.
+
+    Rows are first filtered: failed variants (status not "ok") are dropped unless
+    ``include_failed``; then ``where``, a pandas query string such as
+    "duty > 0.3 and flatness < 0.002", keeps the rows where it is true (a bad expression raises
+    UserError naming it). Then one of three modes, in this precedence:
+
+    * ``pareto=["stride", "flatness"]`` (or "stride,flatness"): only the Pareto front
+      (non-dominated rows) over those metrics, sorted by the first of them, best first (then the
+      others, then variant).
+      ``ascending`` may be a dict metric -> True/False (True: smaller is better) to override
+      natural directions.
+    * ``weights={"stride": 2, "flatness": 1}``: a ``score`` column in [0, 1], higher is better,
+      Σ w_m s_m / Σ w_m where s_m is metric m min-max normalised over the filtered rows and
+      flipped for "min" metrics so that 1 is the best row (a metric constant over those rows gives
+      s_m = 1 to all). Weights must be ≥ 0 with a positive sum. ``ascending`` as for pareto.
+    * otherwise ``by`` (a metric name): sorted in its natural direction, or smallest first if
+      ``ascending=True``, largest first if ``ascending=False``.
+
+    NaN values of the sort key (a failed variant kept with include_failed, an undefined metric)
+    come last. Ties keep variant order. ``top`` rows are returned (None: all). ``rank`` is the
+    1-based position, the first column; the frame's index is kept. Unknown metric names raise
+    UserError listing the ones the frame has.
+    """
+    if not isinstance(df, pd.DataFrame):
+        raise UserError(f"rank: expected a pandas DataFrame, got {type(df).__name__}")
+    top = _check_top(top)
+    if pareto is not None and weights is not None:
+        raise UserError("rank: pass either pareto= or weights=, not both")
+    if pareto is not None:
+        names = [c.strip() for c in pareto.split(",") if c.strip()] if isinstance(pareto, str) else list(pareto)
+        cols = _check_columns(df, names)
+        if not cols:
+            raise UserError("pareto: name at least one metric")
+        dirs = _directions(cols, ascending)
+        sub = _filter(df, where, include_failed)
+        front = sub[pareto_front(sub, cols, dirs)]
+        cost = _costs(front, cols, dirs)
+        keys = [_tiebreak(front)] + [cost[:, j] for j in range(len(cols) - 1, -1, -1)]
+        return _finish(front, np.lexsort(keys), top)
+    if weights is not None:
+        if not isinstance(weights, Mapping) or not weights:
+            raise UserError("weights: expected a non-empty dict metric -> weight")
+        cols = _check_columns(df, list(weights))
+        w = np.empty(len(cols))
+        for j, c in enumerate(cols):
+            try:
+                w[j] = float(weights[c])
+            except (TypeError, ValueError):
+                raise UserError(f"weights: {c!r}: expected a number, got {weights[c]!r}") from None
+        if not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
+            raise UserError(f"weights: expected finite weights >= 0 with a positive sum, got {dict(weights)!r}")
+        dirs = _directions(cols, ascending)
+        used = w > 0  # a zero weight neither counts nor turns a row's score NaN
+        cols, w = [c for c, u in zip(cols, used) if u], w[used]
+        sub = _filter(df, where, include_failed)
+        cost = _costs(sub, cols, dirs)  # smaller is better
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
+            lo = np.nanmin(cost, axis=0) if len(sub) else np.zeros(len(cols))
+            hi = np.nanmax(cost, axis=0) if len(sub) else np.zeros(len(cols))
+            span = hi - lo
+            s = np.where(span > 0, (hi - cost) / np.where(span > 0, span, 1.0), 1.0)
+            s[np.isnan(cost)] = np.nan
+        score = (s * w).sum(axis=1) / w.sum()
+        score[np.isnan(s).any(axis=1)] = np.nan
+        sub = sub.copy()
+        sub["score"] = score
+        key = np.where(np.isnan(score), np.inf, -score)
+        return _finish(sub, np.lexsort([_tiebreak(sub), key]), top)
+    # one metric
+    if isinstance(ascending, Mapping):
+        raise UserError("ascending: with by= pass True/False (or None for the natural direction)")
+    (col,) = _check_columns(df, [by])
+    d = _direction(col, ascending)
+    sub = _filter(df, where, include_failed)
+    cost = _costs(sub, [col], {col: d})[:, 0]
+    key = np.where(np.isnan(cost), np.inf, cost)
+    return _finish(sub, np.lexsort([_tiebreak(sub), np.isnan(cost), key]), top)

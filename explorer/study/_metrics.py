@@ -1,0 +1,252 @@
+"""Recomputing the gait metrics of an existing results file (another band, more metrics) without re-solving.
+
+``recompute_metrics(path, band=0.02)`` reads the stored foot path (and velocities) chunk by chunk,
+runs :func:`explorer.gait.compute_metrics` on each chunk and writes ``/metrics/<name>``. Memory is
+one chunk of foot paths whatever N is.
+
+Crash safety. The new metrics are written into a hidden group ``/metrics_partial`` (the metrics
+that are kept are copied there first, so it is a complete replacement); once every chunk is in, the
+file is flushed and the group is swapped in for ``/metrics`` (an unlink and a rename, two metadata
+operations, flushed at once). A run killed before the swap leaves ``/metrics`` as it was (the next
+run removes the stale ``/metrics_partial``); paths, velocities and every other dataset are never
+written. HDF5 does not reclaim the space of the replaced datasets (a few bytes per variant and
+metric); ``h5repack`` does.
+
+Band bookkeeping. Every metric dataset carries its ``band`` attribute and ``/metrics`` carries the
+band of the whole set (:attr:`explorer.store.Results.band`). Recomputing only some metrics with a
+new band also recomputes the stored stance-based metrics that were computed with another band, so
+one file never mixes bands.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+import tomllib
+from datetime import datetime, timezone
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ..errors import UserError
+from ..store._write import FORMAT, SCALAR_FILTERS, STATUS_NOT_RUN, _reason, hdf5_rows
+
+#: Metrics whose value depends on the stance band.
+BAND_METRICS: tuple[str, ...] = ("stride", "duty", "flatness", "stance_rms_line", "stance_speed", "speed_ripple")
+#: Name of the group the new metrics are written to before they replace ``/metrics``.
+PARTIAL = "metrics_partial"
+
+
+def _text(s) -> str:
+    return s.decode() if isinstance(s, bytes) else str(s)
+
+
+def _parse_names(names):
+    """None (the stored metrics, or all if none), "all" / True (every metric), or a list of names."""
+    if names is None or names is True:
+        return names
+    if isinstance(names, str):
+        if names.strip().lower() == "all":
+            return True
+        names = [n.strip() for n in names.split(",") if n.strip()]
+    try:
+        names = [str(n) for n in names]
+    except TypeError:
+        raise UserError(f"metrics: expected metric names or 'all', got {names!r}") from None
+    if not names:
+        raise UserError("metrics: name at least one metric (or 'all')")
+    return names
+
+
+def _study_band(f: h5py.File) -> float:
+    import json
+    from ..gait import DEFAULT_BAND
+    try:
+        return float(json.loads(f.attrs["study_resolved"])["scene"]["band"])
+    except (KeyError, TypeError, ValueError):
+        return DEFAULT_BAND
+
+
+def recompute_metrics(path, band: float | None = None, names=None, progress: bool = False) -> dict:
+    """Recompute the gait metrics of a complete results file from its stored foot path, no re-solving.
+
+    path : the results file (``explorer run`` output); it must be complete and not open for writing.
+    band : stance band in [0, 1]; None keeps the file's band (:attr:`Results.band`: the last
+        recomputation's, else the study's ``[scene] band``).
+    names : the metrics to compute: None = the ones stored (every metric if none is), "all"/True =
+        every metric (min_transmission_angle only for a mechanism with a crank-driven four-bar loop),
+        or a list / comma-separated string of names. Metrics stored but not named are kept as they
+        are, except stance-based ones stored with a different band, which are recomputed too.
+    progress : a tqdm bar on stderr when it is a terminal.
+
+    Returns a dict: ``path``, ``band``, ``metrics`` (names recomputed, as asked), ``also`` (stance
+    metrics recomputed to keep one band), ``kept`` (stored metrics left as they were),
+    ``n_variants``, ``ok`` (variants with status ok), ``wall_s``.
+
+    Raises UserError for a missing, foreign, incomplete or busy file, an unknown metric, a bad band,
+    or a file that lacks the foot path or velocities the metrics need (named in the message).
+    """
+    from ..gait import (DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, MECHANISM_METRICS, METRICS, UNITS,
+                        VELOCITY_METRICS, compute_metrics)
+    from ..gait._metrics import _check_band
+    from ..mechanism import mechanism_from_dict
+    from ..plan import fourbar_loops
+
+    t0 = time.perf_counter()
+    p = Path(os.fspath(path))
+    names = _parse_names(names)
+    if band is not None:
+        try:
+            band = _check_band(band)
+        except UserError as exc:
+            raise UserError(f"--{exc}") from None
+    if not p.is_file():
+        raise UserError(f"{p}: no such results file")
+    try:
+        f = h5py.File(p, "r+")
+    except (OSError, ValueError) as exc:
+        reason = _reason(exc)
+        if "lock" in reason or "in use" in reason:
+            reason = "the file is open in another process (close it, or wait for `explorer run` to finish)"
+        raise UserError(f"{p}: cannot open the results file for writing: {reason}") from None
+    try:
+        if f.attrs.get("format") != FORMAT:
+            raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
+        N = int(f.attrs["n_variants"])
+        if not bool(f.attrs.get("complete", False)):
+            src = _text(f.attrs.get("study_source", "STUDY"))
+            src = src[len("builtin:"):] if src.startswith("builtin:") else src
+            raise UserError(f"{p}: incomplete results file (an interrupted run); finish it first with "
+                            f"`explorer run {src} -o {p} --resume`")
+        mech = mechanism_from_dict(tomllib.loads(_text(f.attrs["mechanism"])),
+                                   _text(f.attrs.get("mechanism_source", p)))
+        stored_group = f.get("metrics")
+        stored = [k for k in stored_group.keys()] if stored_group is not None else []
+        file_band = (float(stored_group.attrs["band"]) if stored_group is not None and "band" in stored_group.attrs
+                     else _study_band(f))
+        band = file_band if band is None else band
+
+        # -- which metrics --------------------------------------------------------------------------
+        has_loop = bool(fourbar_loops(mech))
+        every = [m for m in METRICS if m not in MECHANISM_METRICS or has_loop]
+        if names is None:
+            chosen = [m for m in METRICS if m in stored] or every
+        elif names is True:
+            chosen = every
+        else:
+            unknown = [n for n in names if n not in METRICS]
+            if unknown:
+                raise UserError(f"--metrics: unknown metric {unknown[0]!r} (known: {', '.join(METRICS)}, or all)")
+            if "min_transmission_angle" in names and not has_loop:
+                raise UserError(f"--metrics: min_transmission_angle: mechanism {mech.name!r} has no crank-driven "
+                                f"four-bar loop")
+            chosen = [m for m in METRICS if m in names]
+
+        def stored_band(m):
+            return float(stored_group[m].attrs["band"]) if "band" in stored_group[m].attrs else file_band
+
+        also = [m for m in METRICS if m in stored and m not in chosen and m in BAND_METRICS
+                and stored_band(m) != band]
+        compute = [m for m in METRICS if m in chosen or m in also]
+        kept = [m for m in stored if m not in compute]
+
+        # -- what they need ----------------------------------------------------------------------------
+        foot = mech.foot
+        need_path = [m for m in compute if m in FOOT_METRICS]
+        need_vel = [m for m in compute if m in VELOCITY_METRICS]
+        missing, blocked = [], set()
+        if need_path and not ("paths" in f and foot in f["paths"]):
+            missing.append(f"/paths/{foot} (the foot path), needed for {', '.join(need_path)}")
+            blocked |= set(need_path)
+            fix = f"add vertex {foot!r} to [scene] vertices"
+        elif need_vel and not ("velocities" in f and foot in f["velocities"]):
+            missing.append(f"/velocities/{foot} (the foot velocities), needed for {', '.join(need_vel)}")
+            blocked |= set(need_vel)
+            fix = "set [scene] velocities = true"
+        if missing:
+            possible = [m for m in compute if m not in blocked]
+            forced = [m for m in also if m in blocked]
+            note = (f" ({', '.join(forced)} stored with band {file_band:g}: recomputed to keep one band)"
+                    if forced else "")
+            alt = f", or ask only for --metrics {','.join(possible)}" if possible and not forced else ""
+            raise UserError(f"{p}: lacks {missing[0]}{note}; re-run the study with {fix}{alt}")
+        if "min_transmission_angle" in compute:
+            links = tuple(_text(s) for s in f["variants/lengths"].attrs["links"])
+            if links != tuple(mech.link_names):
+                raise UserError(f"{p}: the stored link columns ({', '.join(links)}) do not match the mechanism's "
+                                f"links; cannot compute min_transmission_angle")
+
+        # -- compute into /metrics_partial, chunk by chunk ---------------------------------------------
+        if PARTIAL in f:
+            del f[PARTIAL]
+        rows = int(f["chunks"].attrs["rows"]) if "chunks" in f and "rows" in f["chunks"].attrs else \
+            max(hdf5_rows(int(f.attrs["steps"])), 1024)
+        rows = max(1, min(rows, N))
+        order = [m for m in METRICS if m in compute or m in kept] + [m for m in kept if m not in METRICS]
+        now = datetime.now(timezone.utc).isoformat(timespec="seconds")
+        bar = None
+        try:
+            g = f.create_group(PARTIAL, track_order=True)
+            for m in order:
+                if m in kept:
+                    f.copy(stored_group[m], g, name=m)
+                    continue
+                d = g.create_dataset(m, shape=(N,), dtype="f8", chunks=(rows,), fillvalue=np.nan, **SCALAR_FILTERS)
+                d.attrs["band"] = band
+                d.attrs["units"] = UNITS[m]
+                d.attrs["direction"] = DIRECTIONS[m]
+                d.attrs["description"] = DESCRIPTIONS[m]
+                d.attrs["computed"] = now
+            if progress and hasattr(sys.stderr, "isatty") and sys.stderr.isatty() and N > rows:
+                from tqdm import tqdm
+                bar = tqdm(total=N, unit="variant", unit_scale=True, desc="metrics", file=sys.stderr, leave=False)
+            dpath = f["paths"][foot] if need_path else None
+            dvel = f["velocities"][foot] if need_vel else None
+            dstatus, dlen, dcrank = f["status"], f["variants/lengths"], f["variants/crank"]
+            targets = [g[m] for m in compute]
+            ok = 0
+            S = int(f.attrs["steps"])
+            for a in range(0, N, rows):
+                b = min(a + rows, N)
+                status = dstatus[a:b]
+                if (status == STATUS_NOT_RUN).any():
+                    raise UserError(f"{p}: variants {a}..{b - 1} were never run although the file is marked "
+                                    f"complete; run the study again with --force")
+                ok += int((status == 0).sum())
+                paths = dpath[a:b] if dpath is not None else np.zeros((b - a, S, 2))
+                vel = dvel[a:b] if dvel is not None else None
+                out = compute_metrics(paths, vel, status, compute, band, mechanism=mech,
+                                      lengths=dlen[a:b], crank=dcrank[a:b])
+                for d, m in zip(targets, compute):
+                    d[a:b] = out[m]
+                if bar is not None:
+                    bar.update(b - a)
+            g.attrs["band"] = band
+            g.attrs["computed"] = now
+            g.attrs["description"] = ("gait metrics of the foot path (explorer.gait); band = stance band, a "
+                                      "fraction of the step height")
+            f.flush()
+            # the swap: the complete new group replaces the old one
+            if "metrics" in f:
+                del f["metrics"]
+            f.move(PARTIAL, "metrics")
+            f.flush()
+        except BaseException:
+            if f.id.valid and PARTIAL in f:
+                try:
+                    del f[PARTIAL]
+                    f.flush()
+                except Exception:  # leave it for the next run to remove
+                    pass
+            raise
+        finally:
+            if bar is not None:
+                bar.close()
+    except OSError as exc:
+        raise UserError(f"{p}: cannot update the metrics: {_reason(exc)}") from None
+    finally:
+        f.close()
+    return {"path": p, "band": band, "metrics": tuple(chosen), "also": tuple(also), "kept": tuple(kept),
+            "n_variants": N, "ok": ok, "wall_s": time.perf_counter() - t0}

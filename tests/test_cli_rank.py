@@ -1,0 +1,299 @@
+"""``explorer rank``, ``explorer show`` and ``explorer metrics``: output formats checked against the API and the
+frame, recomputation without re-solving, and every error path (exit 2, one line on stderr).
+
+Most calls go through ``explorer.cli.main`` in-process (a process start costs seconds of imports); one
+test runs the real command.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+from explorer import open_results, run_study
+from explorer.cli import main
+from explorer.gait import DIRECTIONS, METRICS
+
+STUDY = {
+    "study": {"name": "clirank", "mechanism": "jansen", "variants": 40, "seed": 11, "steps": 36},
+    "perturb": {"method": "uniform", "spread": 0.04, "links": "all", "crank": True},
+    "scene": {"vertices": ["7"], "velocities": True, "metrics": True},
+}
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    path = tmp_path_factory.mktemp("clirank") / "r.h5"
+    run_study(STUDY, output=path, progress=False, chunk_size=16)
+    with open_results(path) as res:
+        assert 10 <= res.status_counts()["ok"] < 40
+    return path
+
+
+@pytest.fixture
+def fresh(results, tmp_path):
+    p = tmp_path / "copy.h5"
+    shutil.copyfile(results, p)
+    return p
+
+
+def cli(capsys, *args):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def ok_cli(capsys, *args) -> str:
+    code, out, err = cli(capsys, *args)
+    assert code == 0 and err == "", err
+    return out
+
+
+def parse_table(out: str) -> tuple[list[str], pd.DataFrame]:
+    """(header lines, table) of `explorer rank` table output: text lines, a blank line, aligned columns."""
+    head, _, body = out.partition("\n\n")
+    lines = body.strip("\n").splitlines()
+    cols = lines[0].split()
+    rows = [ln.split() for ln in lines[1:]]
+    assert all(len(r) == len(cols) for r in rows), out
+    return head.splitlines(), pd.DataFrame(rows, columns=cols)
+
+
+# -- rank --------------------------------------------------------------------------------------------------
+def test_rank_table(results, capsys):
+    out = ok_cli(capsys, "rank", results)
+    head, table = parse_table(out)
+    with open_results(results) as res:
+        api = res.rank(by="stride", top=10)
+        n_ok = res.status_counts()["ok"]
+    assert head[0] == f"{results}: ranked by stride (higher is better)"
+    assert head[1].startswith(f"{n_ok} ok of 40 variants; {n_ok} ranked; showing 10")
+    assert list(table.columns[:3]) == ["rank", "variant", "stride"] and table.columns[-1] == "status"
+    assert set(table.columns) == {"rank", "variant", "status"} | set(METRICS)
+    assert list(table["rank"].astype(int)) == list(range(1, 11))
+    assert list(table["variant"].astype(int)) == list(api["variant"])
+    assert (table["status"] == "ok").all()
+    for m in METRICS:  # shown to 5 significant digits of the column's largest value
+        shown = table[m].astype(float).to_numpy()
+        big = np.nanmax(np.abs(api[m].to_numpy()))
+        atol = 0.5001 * 10 ** (math.floor(math.log10(big)) - 4)
+        np.testing.assert_allclose(shown, api[m].to_numpy(), rtol=0, atol=atol)
+    # the ranking metrics come first, in the order given
+    _, t = parse_table(ok_cli(capsys, "rank", results, "--pareto", "flatness,stride", "--top", "0"))
+    assert list(t.columns[:4]) == ["rank", "variant", "flatness", "stride"]
+    _, t = parse_table(ok_cli(capsys, "rank", results, "--weights", "duty=1,flatness=3", "--top", "4"))
+    assert list(t.columns[:5]) == ["rank", "variant", "score", "duty", "flatness"] and len(t) == 4
+    _, t = parse_table(ok_cli(capsys, "rank", results, "--by", "flatness", "--top", "3", "--columns", "crank,1-3"))
+    assert list(t.columns) == ["rank", "variant", "flatness", "crank", "1-3"]
+
+
+def test_rank_csv_round_trips_to_the_api_ranking(results, capsys):
+    cases = [(["--by", "flatness", "--top", "7"], dict(by="flatness", top=7)),
+             (["--by", "stride", "--ascending", "--where", "duty > 0.2"], dict(by="stride", ascending=True,
+                                                                                 where="duty > 0.2")),
+             (["--pareto", "stride,speed_ripple", "--top", "0"], dict(pareto="stride,speed_ripple", top=None)),
+             (["--weights", "stride=2,flatness=1"], dict(weights={"stride": 2.0, "flatness": 1.0})),
+             (["--by", "duty", "--include-failed", "--top", "0"], dict(by="duty", include_failed=True, top=None))]
+    with open_results(results) as res:
+        for argv, kw in cases:
+            api = res.rank(**kw)
+            got = pd.read_csv(io.StringIO(ok_cli(capsys, "rank", results, "--format", "csv", *argv)))
+            assert list(got.columns) == [str(c) for c in api.columns], argv
+            assert list(got["variant"]) == list(api["variant"]) and list(got["rank"]) == list(api["rank"]), argv
+            for c in list(METRICS) + list(res.link_names) + ["crank"] + (["score"] if "score" in api else []):
+                np.testing.assert_array_equal(got[c].to_numpy(dtype=float), api[c].to_numpy(dtype=float), err_msg=c)
+            assert list(got["status"]) == [str(s) for s in api["status"]]
+
+
+def test_rank_json(results, capsys):
+    data = json.loads(ok_cli(capsys, "rank", results, "--format", "json", "--by", "max_speed", "--top", "0",
+                             "--include-failed"))
+    with open_results(results) as res:
+        api = res.rank(by="max_speed", top=None, include_failed=True)
+    assert isinstance(data, list) and len(data) == 40
+    assert [r["variant"] for r in data] == list(api["variant"])
+    assert list(data[0]) == [str(c) for c in api.columns]
+    first, last = data[0], data[-1]
+    assert first["status"] == "ok" and first["max_speed"] == api["max_speed"].iloc[0]
+    assert first["fail_theta"] is None and first["fail_vertex"] is None
+    assert last["status"] != "ok" and last["max_speed"] is None and isinstance(last["fail_theta"], float)
+    assert data[0]["max_speed"] <= data[1]["max_speed"]  # lower is better
+    assert json.loads(ok_cli(capsys, "rank", results, "--format", "json", "--where", "stride > 1e9")) == []
+
+
+def test_rank_empty_table(results, capsys):
+    out = ok_cli(capsys, "rank", results, "--where", "stride > 1e9")
+    assert "0 match where stride > 1e9" in out and "(no variant to show)" in out
+
+
+# -- show --------------------------------------------------------------------------------------------------
+def test_show_ok_variant(results, capsys):
+    with open_results(results) as res:
+        df = res.frame()
+        nominal = res.nominal
+        links = res.link_names
+    ok = df["status_code"].to_numpy() == 0
+    v = int(np.flatnonzero(ok)[1])  # an ok variant other than the nominal
+    out = ok_cli(capsys, "show", results, v)
+    lines = out.splitlines()
+    assert lines[0].startswith(f"{results}: variant {v} of 40;") and lines[1] == "status: ok"
+    row = df.iloc[v]
+    for p in list(links) + ["crank"]:
+        label = p if p == "crank" else f"link {p}"
+        line = next(ln for ln in lines if ln.startswith(label + " "))
+        val, nom = row[p], nominal[p]
+        assert line.split() == label.split() + [f"{val:.4f}", f"{nom:.4f}", f"{val - nom:+.4f}",
+                                                f"{100 * (val - nom) / nom:+.3f}", "%"]
+    pool = int(ok.sum())
+    assert f"rank among the {pool} ok variants (band 0.01)" in out
+    for m in METRICS:
+        line = next(ln for ln in lines if ln.startswith(m + " "))
+        x = row[m]
+        vals = df.loc[ok, m].to_numpy()
+        better = (vals > x) if DIRECTIONS[m] == "max" else (vals < x)
+        r = int(better.sum()) + 1
+        how = "higher is better" if DIRECTIONS[m] == "max" else "lower is better"
+        assert line.split()[1] == f"{x:.6g}", line
+        assert line.endswith(f"rank {r} of {pool} ({how})"), line
+    # the best stride is rank 1
+    best = int(df.loc[ok].sort_values(["stride", "variant"], ascending=[False, True])["variant"].iloc[0])
+    assert "rank 1 of" in next(ln for ln in ok_cli(capsys, "show", results, best).splitlines()
+                               if ln.startswith("stride "))
+    assert "(the nominal design)" in ok_cli(capsys, "show", results, 0).splitlines()[0]
+
+
+def test_show_failed_variant(results, capsys):
+    with open_results(results) as res:
+        df = res.frame()
+    v = int(np.flatnonzero(df["status_code"].to_numpy() != 0)[0])
+    row = df.iloc[v]
+    out = ok_cli(capsys, "show", results, v)
+    th = row["fail_theta"]
+    assert out.splitlines()[1] == (f"status: failed ({row['status']}) at θ = {th:.4f} rad ({math.degrees(th):.2f}°), "
+                                   f"vertex {row['fail_vertex']}")
+    assert out.count("- (variant failed)") == len(METRICS)
+
+
+# -- metrics -----------------------------------------------------------------------------------------------
+def naive_duty(y, band):
+    S = len(y)
+    q = y <= y.min() + band * (y.max() - y.min())
+    if q.all():
+        return 1.0
+    best = 0
+    for s in range(S):
+        n = 0
+        while q[(s + n) % S] and n < S:
+            n += 1
+        best = max(best, n)
+    return best / S
+
+
+def test_metrics_band_recomputes_without_touching_paths(fresh, capsys):
+    with h5py.File(fresh, "r") as f:
+        before = {g: f[g]["7"][...].tobytes() for g in ("paths", "velocities")}
+    out = ok_cli(capsys, "metrics", fresh, "--band", "0.04")
+    assert out.startswith(f"{fresh}: computed {len(METRICS)} metrics (") and "with band 0.04" in out
+    assert "for 40 variants" in out
+    with h5py.File(fresh, "r") as f:
+        assert {g: f[g]["7"][...].tobytes() for g in ("paths", "velocities")} == before
+        assert f["metrics"].attrs["band"] == 0.04
+    with open_results(fresh) as res:
+        df = res.frame()
+        ok = np.flatnonzero(df["status_code"].to_numpy() == 0)
+        for v in ok:
+            path = res.path(int(v))
+            assert df["duty"].iloc[v] == naive_duty(path[:, 1], 0.04)
+            assert df["height"].iloc[v] == np.ptp(path[:, 1])
+    # rank and show pick up the new band and values
+    with open_results(fresh) as res:
+        api = res.rank(by="duty", top=3)
+    got = pd.read_csv(io.StringIO(ok_cli(capsys, "rank", fresh, "--by", "duty", "--top", "3", "--format", "csv")))
+    assert list(got["variant"]) == list(api["variant"])
+    assert "(band 0.04)" in ok_cli(capsys, "show", fresh, 0)
+    # a subset with another band: the other stance metrics follow, the rest are kept
+    out = ok_cli(capsys, "metrics", fresh, "--band", "0.02", "--metrics", "flatness")
+    assert "computed 1 metric (flatness)" in out and "also recomputed stride, duty," in out
+    assert "kept width, height, max_speed, min_transmission_angle as stored" in out
+    assert ok_cli(capsys, "metrics", fresh, "--metrics", "stride", "-q") == ""
+
+
+def test_metrics_then_rank_on_a_file_run_without_metrics(tmp_path, capsys):
+    bare = tmp_path / "bare.h5"
+    run_study({**STUDY, "scene": {"vertices": ["7"], "velocities": True, "metrics": False}}, output=bare,
+              progress=False)
+    code, out, err = cli(capsys, "rank", bare)
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert f"explorer metrics {bare}" in err and "[scene] metrics = true" in err
+    assert "no gait metrics stored" in ok_cli(capsys, "show", bare, 1)
+    ok_cli(capsys, "metrics", bare)
+    _, t = parse_table(ok_cli(capsys, "rank", bare, "--top", "3"))
+    assert len(t) == 3
+
+
+# -- errors ------------------------------------------------------------------------------------------------
+@pytest.fixture
+def incomplete(results, tmp_path):
+    p = tmp_path / "inc.h5"
+    shutil.copyfile(results, p)
+    with h5py.File(p, "r+") as f:
+        f.attrs["complete"] = False
+    return p
+
+
+ERRORS = [
+    (["rank", "{r}", "--by", "bogus"], "unknown metric 'bogus'"),
+    (["rank", "{r}", "--where", "stride >"], "where: cannot evaluate"),
+    (["rank", "{r}", "--top", "-1"], "--top: expected a whole number"),
+    (["rank", "{r}", "--top", "ten"], "--top: expected a whole number"),
+    (["rank", "{r}", "--pareto", "stride", "--weights", "stride=1"], "exclude each other"),
+    (["rank", "{r}", "--pareto", "stride,flatness", "--by", "duty"], "--by goes alone"),
+    (["rank", "{r}", "--weights", "stride=1", "--ascending"], "go with --by"),
+    (["rank", "{r}", "--weights", "stride=x"], "--weights: expected METRIC=WEIGHT"),
+    (["rank", "{r}", "--weights", "stride=-1"], "weights: expected finite weights >= 0"),
+    (["rank", "{r}", "--pareto", ","], "--pareto: expected comma-separated names"),
+    (["rank", "{r}", "--columns", "nope"], "--columns: unknown column 'nope'"),
+    (["rank", "{missing}"], "no such results file"),
+    (["rank", "{junk}"], "cannot open as an HDF5 results file"),
+    (["show", "{r}", "40"], "variant 40 out of range (0 to 39"),
+    (["show", "{r}", "-1"], "variant -1 out of range"),
+    (["show", "{r}", "two"], "variant: expected a whole number from 0 to 39, got 'two'"),
+    (["show", "{missing}", "0"], "no such results file"),
+    (["metrics", "{inc}", "--band", "0.02"], "incomplete results file (an interrupted run); finish it first with"),
+    (["metrics", "{r}", "--band", "1.5"], "--band: expected a number in [0, 1]"),
+    (["metrics", "{r}", "--band", "wide"], "--band: expected a number in [0, 1]"),
+    (["metrics", "{r}", "--metrics", "stride,nope"], "unknown metric 'nope'"),
+    (["metrics", "{missing}"], "no such results file"),
+    (["metrics", "{junk}"], "cannot open the results file for writing"),
+]
+
+
+@pytest.mark.parametrize("argv, message", ERRORS, ids=[" ".join(a[:1] + a[2:]) for a, _ in ERRORS])
+def test_errors_exit_2_with_one_line(argv, message, results, incomplete, tmp_path, capsys):
+    junk = tmp_path / "junk.h5"
+    junk.write_text("not an HDF5 file")
+    names = {"r": results, "inc": incomplete, "missing": tmp_path / "missing.h5", "junk": junk}
+    before = incomplete.read_bytes()
+    code, out, err = cli(capsys, *[a.format(**names) for a in argv])
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith("explorer: error: ") and "Traceback" not in err, err
+    assert message in err, err
+    assert incomplete.read_bytes() == before
+
+
+def test_real_process(results):
+    r = subprocess.run([sys.executable, "-m", "explorer.cli", "rank", str(results), "--by", "flatness", "--top", "2"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and r.stderr == "" and "ranked by flatness (lower is better)" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "explorer.cli", "show", str(results), "99"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and r.stdout == "" and r.stderr.count("\n") == 1 and "out of range" in r.stderr
