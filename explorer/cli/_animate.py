@@ -1,0 +1,61 @@
+"""``explorer animate [RESULTS --variant ID | --mechanism NAME] -o leg.mp4|leg.gif [--cycles K] [--legs N]``."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "animate", help="animate a design (a variant of a results file, or a mechanism) to MP4 or GIF",
+        description="Animate a linkage over a few crank turns: links, joints, crank and ground pivots over the "
+                    "foot path of one cycle, with the foot's velocity arrow tangent to it. MP4 (H.264, yuv420p) "
+                    "uses the ffmpeg of the imageio-ffmpeg package; GIF uses Pillow. A design that is not ok is "
+                    "drawn up to its failure angle, with the failure in the title.")
+    p.add_argument("results", nargs="?", default=None, metavar="RESULTS",
+                   help="results file (.h5); animates --variant (default 0, the nominal)")
+    p.add_argument("--variant", type=int, default=None, metavar="ID", help="variant of RESULTS to animate")
+    p.add_argument("--mechanism", default=None, metavar="NAME",
+                   help="animate this mechanism's nominal design instead (built-in name or .toml file)")
+    p.add_argument("-o", "--output", metavar="PATH", default=None,
+                   help="output .mp4 or .gif (default: <name>.mp4 in the working directory)")
+    p.add_argument("--cycles", type=float, default=2, metavar="K", help="crank turns to show (default: 2)")
+    p.add_argument("--legs", type=int, default=1, metavar="N",
+                   help="draw a walker of N legs, crank phases spread evenly, odd legs mirrored (default: 1)")
+    p.add_argument("--frames", type=int, default=None, metavar="F",
+                   help="total frames (default: 60 per crank turn)")
+    p.add_argument("--fps", type=float, default=30, help="frames per second of the movie (default: 30)")
+    p.add_argument("--dpi", type=float, default=100, help="pixels per inch of the frames (default: 100)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..errors import UserError
+    from ..mechanism import load_mechanism
+    from ..store import open_results
+    from ..view import MOVIE_FORMATS, animate
+    from ..view._plots import check_output
+
+    if (args.results is None) == (args.mechanism is None):
+        raise UserError("animate: give a RESULTS file (with --variant) or --mechanism NAME, not both and not neither")
+    if args.variant is not None and args.results is None:
+        raise UserError("animate: --variant goes with a RESULTS file")
+    if not (args.dpi > 0):
+        raise UserError(f"--dpi: expected a number > 0, got {args.dpi!r}")
+    if args.results is not None:
+        stem = Path(args.results).stem + (f"-v{args.variant}" if args.variant is not None else "")
+    else:
+        stem = Path(args.mechanism).stem
+    out = args.output if args.output is not None else f"{stem}.mp4"
+    check_output(out, MOVIE_FORMATS)  # a bad path fails before any work
+    kw = dict(cycles=args.cycles, frames=args.frames, legs=args.legs, fps=args.fps, dpi=args.dpi)
+    if args.results is not None:
+        with open_results(args.results) as res:
+            movie = animate(res, out, variant=0 if args.variant is None else args.variant, **kw)
+    else:
+        movie = animate(load_mechanism(args.mechanism), out, **kw)
+    note = f"; not ok: {movie.failure} (drawn up to it)" if movie.failure else ""
+    print(f"wrote {os.fspath(movie.path)}: {movie.frames} frames at {movie.fps:g} fps "
+          f"({movie.frames / movie.fps:.1f} s of video) in {movie.seconds:.1f} s{note}")
+    return 0

@@ -1,0 +1,85 @@
+"""``explorer plot RESULTS (--top N --by METRIC | --scatter M1,M2 | --velocity VARIANT | --sensitivity) -o PATH``."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+MODES = ("top", "scatter", "velocity", "sensitivity")
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "plot", help="plot a results file: best foot paths, two metrics with the Pareto front, foot velocity, "
+                     "or one-at-a-time sensitivity",
+        description="Draw one picture of a results file and write it as PNG, SVG or PDF (by the extension of "
+                    "-o). Exactly one of --top/--by, --scatter, --velocity, --sensitivity. Lengths are in the "
+                    "model units of the link lengths; rates are per radian of crank.")
+    p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--top", type=int, metavar="N", default=None,
+                   help="foot paths of the N best variants by --by over the nominal, stance highlighted")
+    g.add_argument("--scatter", metavar="M1,M2", default=None,
+                   help="every ok variant in two metrics (x,y) with the Pareto front and the nominal marked")
+    g.add_argument("--velocity", type=int, metavar="VARIANT", default=None,
+                   help="dx/dθ and dy/dθ of the foot of one variant (0 = nominal): analytic solid, central "
+                        "finite differences dashed on top")
+    g.add_argument("--sensitivity", action="store_true",
+                   help="one-at-a-time (oat) study: %% change of each metric per +1 %% of each link")
+    p.add_argument("--by", metavar="METRIC", default=None, help="metric to rank by for --top (default: stride)")
+    p.add_argument("--where", metavar="EXPR", default=None,
+                   help="pandas query filter for --top and --scatter, e.g. \"duty > 0.3 and flatness < 0.002\"")
+    p.add_argument("-o", "--output", metavar="PATH", default=None,
+                   help="output .png, .svg or .pdf (default: RESULTS-<mode>.png in the working directory)")
+    p.add_argument("--dpi", type=float, default=150, help="resolution of PNG output (default: 150)")
+    p.set_defaults(func=run)
+
+
+def _mode(args) -> str:
+    from ..errors import UserError
+    if args.scatter is not None:
+        mode = "scatter"
+    elif args.velocity is not None:
+        mode = "velocity"
+    elif args.sensitivity:
+        mode = "sensitivity"
+    elif args.top is not None or args.by is not None:
+        mode = "top"
+    else:
+        raise UserError("plot: say what to plot: --top N --by METRIC, --scatter M1,M2, --velocity VARIANT "
+                        "or --sensitivity")
+    if args.by is not None and mode != "top":
+        raise UserError(f"plot: --by goes with --top, not with --{mode}")
+    if args.where is not None and mode not in ("top", "scatter"):
+        raise UserError(f"plot: --where goes with --top or --scatter, not with --{mode}")
+    return mode
+
+
+def run(args) -> int:
+    from ..errors import UserError
+    from ..store import open_results
+    from ..view import FIGURE_FORMATS, plot_scatter, plot_sensitivity, plot_top, plot_velocity, save_figure
+    from ..view._plots import check_output
+
+    mode = _mode(args)
+    out = args.output
+    if out is None:
+        out = f"{Path(args.results).stem}-{mode}.png"
+    check_output(out, FIGURE_FORMATS)  # a bad path fails before any work
+    if not (args.dpi > 0):
+        raise UserError(f"--dpi: expected a number > 0, got {args.dpi!r}")
+    with open_results(args.results) as res:
+        if mode == "top":
+            fig = plot_top(res, by=args.by or "stride", top=5 if args.top is None else args.top, where=args.where)
+        elif mode == "scatter":
+            names = [s.strip() for s in args.scatter.split(",") if s.strip()]
+            if len(names) != 2:
+                raise UserError(f"--scatter: expected two metrics as M1,M2, got {args.scatter!r}")
+            fig = plot_scatter(res, names[0], names[1], where=args.where)
+        elif mode == "velocity":
+            fig = plot_velocity(res, args.velocity)
+        else:
+            fig = plot_sensitivity(res)
+        path = save_figure(fig, out, dpi=args.dpi)
+    print(f"wrote {os.fspath(path)}")
+    return 0

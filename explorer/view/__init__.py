@@ -1,0 +1,26 @@
+"""Pictures of linkages and studies: static plots (matplotlib Figures) and animations (MP4 / GIF).
+
+Everything renders headless with matplotlib's Agg canvas; MP4 uses the ffmpeg binary of the
+``imageio-ffmpeg`` wheel, so no system ffmpeg (and no display) is needed.
+
+Plots (each returns a :class:`matplotlib.figure.Figure`; save with :func:`save_figure` or
+``fig.savefig``):
+
+* ``plot_top(results, by="stride", top=5)`` — the best variants' foot paths over the nominal.
+* ``plot_scatter(results, "stride", "flatness")`` — two metrics, Pareto front, nominal marked.
+* ``plot_velocity(cycle_or_mechanism_or_results, variant=None)`` — dx/dθ, dy/dθ: analytic solid,
+  central finite differences dashed on top.
+* ``plot_sensitivity(results)`` — a one-at-a-time study: change of each metric per link.
+
+Animation: ``animate(mechanism_or_cycle_or_results, "leg.mp4", cycles=2, frames=120, legs=1)``.
+"""
+
+from ._animate import DEFAULT_FPS, FRAMES_PER_CYCLE, MOVIE_FORMATS, LinkageAnimation, Movie, animate, ffmpeg_exe
+from ._draw import FOOT_PATH_COLOR, LegArtists, draw_ground, draw_path, mirror_positions, mirror_velocity
+from ._plots import (FIGURE_FORMATS, central_differences, new_figure, oat_sensitivity, plot_scatter,
+                     plot_sensitivity, plot_top, plot_velocity, save_figure, stance_indices, variant_mechanism)
+
+__all__ = ["DEFAULT_FPS", "FIGURE_FORMATS", "FOOT_PATH_COLOR", "FRAMES_PER_CYCLE", "MOVIE_FORMATS", "LegArtists",
+           "LinkageAnimation", "Movie", "animate", "central_differences", "draw_ground", "draw_path", "ffmpeg_exe",
+           "mirror_positions", "mirror_velocity", "new_figure", "oat_sensitivity", "plot_scatter", "plot_sensitivity",
+           "plot_top", "plot_velocity", "save_figure", "stance_indices", "variant_mechanism"]

@@ -1,0 +1,166 @@
+"""Drawing a linkage on a matplotlib axes with artists that are created once and then updated.
+
+:class:`LegArtists` owns the moving parts of one leg (links, crank, joints, foot, velocity arrow);
+``update(P, v)`` moves them with ``set_data`` / ``set_offsets`` only, so an animation never clears or
+re-creates anything (seed 003 found that redrawing everything per frame is what makes it slow).
+:func:`draw_ground` and :func:`draw_path` add the static parts once.
+
+Positions are (n_vertices, 2) arrays in the mechanism's vertex order, model units. A leg can be drawn
+mirrored about the vertical line through its crank centre (the hind legs of seed 001's four-legged
+render): see :func:`mirror_positions` / :func:`mirror_velocity`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from matplotlib.axes import Axes
+
+from ..mechanism import Mechanism
+
+#: Colours of the parts (matplotlib colour specs); tests look for FOOT_PATH_COLOR in rendered pixels.
+LINK_COLOR = "#2b3a55"
+CRANK_COLOR = "#d62728"
+JOINT_FACE = "#ffffff"
+FOOT_COLOR = "#9467bd"
+ARROW_COLOR = "#2ca02c"
+FOOT_PATH_COLOR = "#ff7f0e"
+GROUND_COLOR = "#000000"
+STANCE_COLOR = "#8c564b"
+
+
+def mirror_positions(P: np.ndarray, cx: float) -> np.ndarray:
+    """Positions reflected about the vertical line x = cx (any shape (..., 2))."""
+    Q = np.array(P, dtype=np.float64, copy=True)
+    Q[..., 0] = 2.0 * cx - Q[..., 0]
+    return Q
+
+
+def mirror_velocity(V: np.ndarray) -> np.ndarray:
+    """World dP/dβ of a mirrored leg from its own dP/dα, where the leg is solved at α = π − β.
+
+    Reflection maps (vx, vy) → (−vx, vy) and dα/dβ = −1, so the result is (vx, −vy).
+    """
+    W = np.array(V, dtype=np.float64, copy=True)
+    W[..., 1] = -W[..., 1]
+    return W
+
+
+class LegArtists:
+    """The moving artists of one leg on ``ax``: create once, then :meth:`update` per frame.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    mech : Mechanism (its links, crank tip, crank centre and foot are drawn)
+    arrow_scale : float
+        Data units of arrow length per (model unit / radian) of foot speed; 0 hides the arrow.
+    alpha : float
+        Opacity of the whole leg (legs behind others are drawn fainter).
+    zorder : float
+        Base z-order; the parts stack above it.
+    max_arrow : float or None
+        Longest arrow drawn (data units); longer ones are shortened to it, direction kept.
+    """
+
+    def __init__(self, ax: Axes, mech: Mechanism, *, arrow_scale: float = 1.0, alpha: float = 1.0,
+                 zorder: float = 3.0, link_color: str = LINK_COLOR, linewidth: float = 2.4, label: str | None = None,
+                 max_arrow: float | None = None):
+        self.ax = ax
+        self.max_arrow = max_arrow
+        self.mech = mech
+        self.arrow_scale = float(arrow_scale)
+        self._a = np.array([mech.vertex_index(l.a) for l in mech.links], dtype=np.int64)
+        self._b = np.array([mech.vertex_index(l.b) for l in mech.links], dtype=np.int64)
+        self._tip = mech.vertex_index(mech.crank.tip)
+        self._foot = mech.vertex_index(mech.foot)
+        self._center = np.array(mech.crank.center, dtype=np.float64)
+        nl = len(mech.links)
+        # one polyline with NaN breaks draws every link in a single artist
+        self._seg = np.full((3 * nl, 2), np.nan)
+        self._crank = np.empty((2, 2))
+        (self.links,) = ax.plot([], [], "-", color=link_color, lw=linewidth, alpha=alpha, solid_capstyle="round",
+                                zorder=zorder, label=label)
+        (self.crank,) = ax.plot([], [], "-", color=CRANK_COLOR, lw=linewidth * 1.8, alpha=alpha,
+                                solid_capstyle="round", zorder=zorder + 0.1)
+        (self.joints,) = ax.plot([], [], "o", ms=5.5, mfc=JOINT_FACE, mec=link_color, mew=1.4, alpha=alpha,
+                                 zorder=zorder + 0.2)
+        (self.foot,) = ax.plot([], [], "o", ms=8, color=FOOT_COLOR, alpha=alpha, zorder=zorder + 0.3)
+        self.arrow = ax.quiver([0.0], [0.0], [0.0], [0.0], angles="xy", scale_units="xy", scale=1.0,
+                               color=ARROW_COLOR, alpha=alpha, width=0.007, headwidth=3.5, headlength=4.5,
+                               headaxislength=4.0, zorder=zorder + 0.4)
+        self.arrow.set_visible(self.arrow_scale > 0)
+        self._visible = True
+
+    @property
+    def artists(self) -> list:
+        return [self.links, self.crank, self.joints, self.foot, self.arrow]
+
+    def set_visible(self, visible: bool) -> None:
+        if visible != self._visible:
+            for a in self.artists:
+                a.set_visible(visible)
+            self.arrow.set_visible(visible and self.arrow_scale > 0)
+            self._visible = visible
+
+    def update(self, P: np.ndarray, v: np.ndarray | None = None) -> None:
+        """Move the leg to positions ``P`` (n_vertices, 2); ``v`` is the foot's dF/dθ (2,) or None.
+
+        A configuration with a non-finite position (past a failure) hides the leg.
+        """
+        if not np.isfinite(P).all():
+            self.set_visible(False)
+            return
+        self.set_visible(True)
+        seg = self._seg
+        seg[0::3] = P[self._a]
+        seg[1::3] = P[self._b]
+        self.links.set_data(seg[:, 0], seg[:, 1])
+        self._crank[0] = self._center
+        self._crank[1] = P[self._tip]
+        self.crank.set_data(self._crank[:, 0], self._crank[:, 1])
+        self.joints.set_data(P[:, 0], P[:, 1])
+        f = P[self._foot]
+        self.foot.set_data([f[0]], [f[1]])
+        if self.arrow_scale > 0:
+            if v is None or not np.isfinite(v).all():
+                self.arrow.set_visible(False)
+            else:
+                self.arrow.set_visible(True)
+                u = v * self.arrow_scale
+                n = math.hypot(u[0], u[1])
+                if self.max_arrow is not None and n > self.max_arrow:
+                    u = u * (self.max_arrow / n)
+                self.arrow.set_offsets(f[None, :])
+                self.arrow.set_UVC(u[0], u[1])
+
+
+def draw_ground(ax: Axes, mech: Mechanism, *, mirrored: bool = False, crank_circle: bool = True,
+                zorder: float = 2.0, label: str | None = "ground pivots") -> list:
+    """Static parts: the ground pivots (triangles), the crank centre and the crank circle."""
+    cx, cy = mech.crank.center
+    fixed = np.array(list(mech.fixed.values()), dtype=np.float64).reshape(-1, 2)
+    if mirrored:
+        fixed = mirror_positions(fixed, cx)
+    out = []
+    pts = np.vstack([fixed, [[cx, cy]]])
+    (p,) = ax.plot(pts[:, 0], pts[:, 1], "^", ms=10, color=GROUND_COLOR, zorder=zorder, label=label)
+    out.append(p)
+    if crank_circle:
+        t = np.linspace(0.0, 2.0 * np.pi, 97)
+        r = mech.crank.radius
+        (c,) = ax.plot(cx + r * np.cos(t), cy + r * np.sin(t), ":", color=CRANK_COLOR, lw=1.0, alpha=0.6,
+                       zorder=zorder)
+        out.append(c)
+    return out
+
+
+def draw_path(ax: Axes, path: np.ndarray, *, closed: bool = True, color: str = FOOT_PATH_COLOR, lw: float = 2.0,
+              zorder: float = 1.5, label: str | None = None, **kw):
+    """The foot path (S, 2) as one line, closed back to its start when ``closed`` (a full ok cycle)."""
+    path = np.asarray(path, dtype=np.float64)
+    if closed and len(path):
+        path = np.vstack([path, path[:1]])
+    (line,) = ax.plot(path[:, 0], path[:, 1], "-", color=color, lw=lw, zorder=zorder, label=label, **kw)
+    return line

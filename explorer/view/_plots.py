@@ -1,0 +1,564 @@
+"""Static plots of a study's results, each returned as a matplotlib Figure (Agg, no display needed).
+
+* :func:`plot_top` — foot paths of the N best variants by a metric over the nominal path.
+* :func:`plot_scatter` — every ok variant in two metrics, the Pareto front and the nominal.
+* :func:`plot_velocity` — dx/dθ and dy/dθ of the foot: analytic (solid) against central finite
+  differences of the positions (dashed, on top): the check of seed 000.
+* :func:`plot_sensitivity` — a one-at-a-time (oat) study: change of each metric per link.
+* :func:`save_figure` — write a figure as PNG, SVG or PDF, chosen by the extension.
+
+Figures are built on :class:`matplotlib.figure.Figure` with an Agg canvas, never through pyplot, so
+nothing depends on a display or on global figure state. Lengths are in the model units of the link
+lengths; rates are per radian of crank.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+
+from ..errors import UserError
+from ..gait import DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, pareto_front, rank
+from ..kernels import Cycle, simulate
+from ..mechanism import Mechanism
+from ._draw import STANCE_COLOR
+
+#: Figure formats save_figure writes, by extension.
+FIGURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
+
+_UNIT_TEXT = {"length": "model units", "length/rad": "model units/rad"}
+
+
+# -- figures and files ---------------------------------------------------------------------------------
+def new_figure(figsize=(7.0, 5.0), dpi: float = 100, **kw) -> Figure:
+    """A Figure with an Agg canvas attached (draws and saves headless)."""
+    fig = Figure(figsize=figsize, dpi=dpi, layout="constrained", **kw)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def check_output(path, formats) -> Path:
+    """``path`` as a Path if its extension is one of ``formats`` and its folder is writable, else UserError."""
+    p = Path(os.fspath(path))
+    ext = p.suffix.lower()
+    if ext not in formats:
+        raise UserError(f"{p}: unknown output extension {p.suffix or '(none)'!r} "
+                        f"(expected one of {', '.join(sorted(formats))})")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise UserError(f"{p}: cannot write: folder {parent} does not exist")
+    if p.is_dir():
+        raise UserError(f"{p}: cannot write: it is a folder")
+    if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise UserError(f"{p}: cannot write: permission denied")
+    return p
+
+
+def save_figure(fig: Figure, path, dpi: float | None = None) -> Path:
+    """Save ``fig`` to ``path``: PNG, SVG or PDF by its extension (UserError on a bad extension or path)."""
+    p = check_output(path, FIGURE_FORMATS)
+    try:
+        fig.savefig(p, format=FIGURE_FORMATS[p.suffix.lower()], dpi=dpi if dpi is not None else "figure")
+    except OSError as exc:
+        raise UserError(f"{p}: cannot write: {exc.strerror or exc}") from None
+    return p
+
+
+# -- results helpers -----------------------------------------------------------------------------------
+def is_results(obj) -> bool:
+    """True for a results object (``explorer.open_results``): it has ``frame()`` and ``path()``."""
+    return callable(getattr(obj, "frame", None)) and callable(getattr(obj, "path", None))
+
+
+def results_band(results) -> float:
+    """The stance band of the results' study (``[scene] band``), or the default 0.01."""
+    for get in (lambda r: r.study["scene"]["band"], lambda r: r.band):
+        try:
+            b = float(get(results))
+        except (AttributeError, KeyError, TypeError, ValueError):
+            continue
+        if 0.0 <= b <= 1.0:
+            return b
+    return DEFAULT_BAND
+
+
+def _n_variants(results, df: pd.DataFrame | None = None) -> int:
+    n = getattr(results, "n_variants", None)
+    if n is None:
+        n = len(df if df is not None else results.frame())
+    return int(n)
+
+
+def check_variant(results, variant) -> int:
+    """``variant`` as an int in 0 … N−1 (UserError otherwise)."""
+    n = _n_variants(results)
+    try:
+        v = int(variant)
+        if isinstance(variant, bool) or v != variant:
+            raise ValueError
+    except (TypeError, ValueError):
+        raise UserError(f"variant: expected a whole number, got {variant!r}") from None
+    if not 0 <= v < n:
+        raise UserError(f"variant {v} out of range (this results file has variants 0 to {n - 1})")
+    return v
+
+
+def variant_row(results, variant: int) -> pd.Series:
+    df = results.frame()
+    if "variant" in df.columns:
+        rows = df[df["variant"] == variant]
+        if len(rows):
+            return rows.iloc[0]
+    return df.iloc[variant]
+
+
+def variant_mechanism(results, variant) -> Mechanism:
+    """The mechanism of one variant of a results file: the nominal with that variant's lengths and crank.
+
+    Its guess is the nominal's configuration at θ = 0, so it assembles on the nominal's branch, as
+    the study's batch solve did.
+    """
+    from ..kernels import assemble  # local: only needed here
+
+    v = check_variant(results, variant)
+    nominal = results.mechanism
+    row = variant_row(results, v)
+    lengths = {name: float(row[name]) for name in nominal.link_names if name in row.index}
+    crank = float(row["crank"]) if "crank" in row.index else None
+    if not all(math.isfinite(x) and x > 0 for x in lengths.values()) or (crank is not None and not crank > 0):
+        raise UserError(f"variant {v}: its lengths are not all finite and > 0 (status {row.get('status', '?')})")
+    mech = nominal.with_lengths(lengths, crank=crank)
+    P0, fail = assemble(nominal)
+    if fail is None:
+        from dataclasses import replace
+        skip = set(nominal.fixed) | {nominal.crank.tip}
+        guess = {name: tuple(P0[i]) for i, name in enumerate(nominal.vertices) if name not in skip}
+        mech = replace(mech, guess=guess)
+    return mech
+
+
+def _unit(metric: str) -> str:
+    u = UNITS.get(metric)
+    return _UNIT_TEXT.get(u, u) if u else ""
+
+
+def metric_label(metric: str) -> str:
+    """Axis label of a metric: name, unit and which way is better."""
+    u = _unit(metric)
+    d = DIRECTIONS.get(metric)
+    better = {"max": "higher is better", "min": "lower is better"}.get(d)
+    inner = "; ".join(x for x in (u, better) if x)
+    return f"{metric} ({inner})" if inner else metric
+
+
+def _check_metric(df: pd.DataFrame, metric: str) -> str:
+    metric = str(metric)
+    known = [m for m in METRICS if m in df.columns]
+    if metric not in df.columns or metric in ("variant", "status"):
+        if metric in METRICS:
+            raise UserError(f"metric {metric!r} was not computed for these results "
+                            f"(known: {', '.join(known) or 'none; run the study with [scene] metrics = true'})")
+        raise UserError(f"unknown metric {metric!r} (known: {', '.join(known) or 'none'})")
+    return metric
+
+
+def _query(df: pd.DataFrame, where: str) -> pd.DataFrame:
+    try:
+        out = df.query(str(where))
+    except Exception as exc:  # pandas raises many kinds for a bad expression
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise UserError(f"where: cannot evaluate {where!r}: {msg}") from None
+    if not isinstance(out, pd.DataFrame):
+        raise UserError(f"where: {where!r} is not a filter (it must evaluate to true/false per row)")
+    return out
+
+
+def _ok(df: pd.DataFrame) -> np.ndarray:
+    if "status" not in df.columns:
+        return np.ones(len(df), dtype=bool)
+    st = df["status"]
+    if pd.api.types.is_numeric_dtype(st):
+        return (st == 0).to_numpy()
+    return (st.astype(str) == "ok").to_numpy()
+
+
+# -- stance ----------------------------------------------------------------------------------------------
+def stance_indices(path: np.ndarray, band: float = DEFAULT_BAND) -> np.ndarray:
+    """Sample indices of the stance of a foot path (S, 2), in cyclic order.
+
+    The stance is the longest cyclic run with y ≤ y_min + band · height (the gait metrics' definition;
+    ties to the smallest start). Non-finite samples never qualify; an empty array if none is finite.
+    """
+    y = np.asarray(path, dtype=np.float64)[:, 1]
+    S = y.shape[0]
+    fin = np.isfinite(y)
+    if not fin.any():
+        return np.zeros(0, dtype=np.int64)
+    lo, hi = y[fin].min(), y[fin].max()
+    q = fin & (y <= lo + band * (hi - lo))
+    if q.all():
+        return np.arange(S)
+    k0 = int(np.argmin(q))  # a sample outside: no run crosses the rotated start
+    r = np.roll(q, -k0)
+    d = np.diff(np.concatenate([[0], r.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    lengths = ends - starts
+    best = lengths.max()
+    cand = [(int((s + k0) % S), int(s)) for s, n in zip(starts, lengths) if n == best]
+    _, s = min(cand)
+    return (np.arange(s, s + best) + k0) % S
+
+
+def _segments_of(indices: np.ndarray, S: int) -> list[tuple[int, int]]:
+    """Contiguous (start, stop) index ranges of a cyclic run (two if it wraps past S−1)."""
+    if len(indices) == 0:
+        return []
+    s, n = int(indices[0]), len(indices)
+    if s + n <= S:
+        return [(s, s + n)]
+    return [(s, S), (0, s + n - S)]
+
+
+# -- plot_top -------------------------------------------------------------------------------------------
+def plot_top(results, by: str = "stride", top: int = 5, *, where: str | None = None, vertex: str | None = None,
+             band: float | None = None, figsize=(9.0, 6.0), dpi: float = 100) -> Figure:
+    """Foot paths of the ``top`` best variants by metric ``by`` over the nominal (variant 0) path.
+
+    Equal axes; each variant labelled with its rank and metric value; its stance (longest run within
+    ``band`` · height of its lowest point; default: the study's ``[scene] band``) drawn thick.
+    ``where`` is a pandas query filter as in :func:`explorer.gait.rank`.
+    """
+    df = results.frame()
+    by = _check_metric(df, by)
+    if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
+        raise UserError(f"top: expected a whole number >= 1, got {top!r}")
+    band = results_band(results) if band is None else float(band)
+    ranked = rank(df, by=by, top=int(top), where=where)
+    n_ok = int(_ok(df).sum())
+    if ranked.empty:
+        raise UserError(f"no ok variant to rank by {by!r} ({n_ok} ok of {len(df)}"
+                        + (f", filter {where!r}" if where else "") + ")")
+    mech = results.mechanism
+    vname = vertex if vertex is not None else mech.foot
+    fig = new_figure(figsize, dpi)
+    ax = fig.add_subplot()
+    # the nominal, underneath
+    nom = np.asarray(results.path(0, vertex), dtype=np.float64)
+    nom_val = df.loc[df["variant"] == 0, by].iloc[0] if "variant" in df.columns else df[by].iloc[0]
+    nom_text = f"{nom_val:.4g}" if pd.notna(nom_val) else "n/a"
+    ax.plot(*_closed(nom).T, "-", color="0.55", lw=3.0, zorder=1, label=f"nominal (variant 0): {by} = {nom_text}")
+    si = stance_indices(nom, band)
+    for a, b in _segments_of(si, len(nom)):
+        ax.plot(nom[a:b, 0], nom[a:b, 1], "-", color="0.55", lw=7.0, alpha=0.45, solid_capstyle="butt", zorder=1)
+    cmap = _cmap(len(ranked))
+    for i, (_, row) in enumerate(ranked.iterrows()):
+        v = int(row["variant"]) if "variant" in row.index else int(row.name)
+        p = np.asarray(results.path(v, vertex), dtype=np.float64)
+        c = cmap[i]
+        ax.plot(*_closed(p).T, "-", color=c, lw=1.4, zorder=3 + i * 0.01,
+                label=f"#{int(row['rank'])}  variant {v}: {by} = {row[by]:.4g}")
+        for a, b in _segments_of(stance_indices(p, band), len(p)):
+            ax.plot(p[a:b, 0], p[a:b, 1], "-", color=c, lw=4.5, alpha=0.55, solid_capstyle="butt",
+                    zorder=2 + i * 0.01)
+    handles, labels = ax.get_legend_handles_labels()
+    handles.append(Line2D([], [], color="0.3", lw=5, alpha=0.5))
+    labels.append(f"stance (y ≤ y_min + {band:g}·height)")
+    ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", frameon=False)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (model units)")
+    ax.set_ylabel("y (model units)")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    d = DIRECTIONS.get(by)
+    better = {"max": "highest", "min": "lowest"}.get(d, "best")
+    filt = f", where {where}" if where else ""
+    ax.set_title(f"{mech.name}: foot path of vertex {vname}, top {len(ranked)} of {n_ok} ok variants "
+                 f"by {by} ({better} first{filt})", fontsize="medium")
+    return fig
+
+
+def _closed(p: np.ndarray) -> np.ndarray:
+    return np.vstack([p, p[:1]]) if np.isfinite(p).all() else p
+
+
+def _cmap(n: int) -> list:
+    from matplotlib import colormaps
+    if n <= 10:
+        return list(colormaps["tab10"].colors)[:n]
+    return [colormaps["viridis"](x) for x in np.linspace(0.0, 0.9, n)]
+
+
+# -- plot_scatter ---------------------------------------------------------------------------------------
+def plot_scatter(results, x: str, y: str, *, where: str | None = None, directions=None, figsize=(7.5, 5.5),
+                 dpi: float = 100) -> Figure:
+    """Every ok variant as a point in metrics ``x`` and ``y``, the Pareto front over both, the nominal marked.
+
+    ``directions`` overrides the natural directions of the front (dict metric -> "max"/"min").
+    """
+    df = results.frame()
+    x, y = _check_metric(df, x), _check_metric(df, y)
+    if x == y:
+        raise UserError(f"scatter: name two different metrics, got {x!r} twice")
+    ok = df[_ok(df)]
+    if where:
+        ok = _query(ok, where)
+    ok = ok[np.isfinite(ok[x].to_numpy(dtype=float)) & np.isfinite(ok[y].to_numpy(dtype=float))]
+    mech = results.mechanism
+    fig = new_figure(figsize, dpi)
+    ax = fig.add_subplot()
+    ax.scatter(ok[x], ok[y], s=7, color="tab:blue", alpha=0.45, lw=0, rasterized=len(ok) > 2000,
+               label=f"ok variants ({len(ok)})", zorder=2)
+    front = ok[pareto_front(ok, [x, y], directions)] if len(ok) else ok
+    if len(front):
+        f = front.sort_values([x, y])
+        ax.plot(f[x], f[y], "-o", color="tab:orange", ms=5, lw=1.6, zorder=3,
+                label=f"Pareto front ({len(front)})")
+    nominal = df[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
+    if len(nominal) and np.isfinite(float(nominal[x].iloc[0])) and np.isfinite(float(nominal[y].iloc[0])):
+        ax.plot(nominal[x], nominal[y], "*", color="tab:red", ms=16, mec="black", mew=0.8, zorder=4,
+                label="nominal (variant 0)")
+    ax.set_xlabel(metric_label(x))
+    ax.set_ylabel(metric_label(y))
+    ax.grid(True, lw=0.4, alpha=0.5)
+    ax.legend(loc="best", fontsize="small")
+    n = len(df)
+    filt = f", where {where}" if where else ""
+    ax.set_title(f"{mech.name}: {y} against {x}, {len(ok)} ok of {n} variants{filt}", fontsize="medium")
+    return fig
+
+
+# -- plot_velocity --------------------------------------------------------------------------------------
+def central_differences(theta: np.ndarray, path: np.ndarray, cyclic: bool = True) -> np.ndarray:
+    """dP/dθ by central differences (P[k+1] − P[k−1]) / (θ[k+1] − θ[k−1]) on a uniform cyclic grid.
+
+    ``cyclic``: the grid covers one full turn (wraps from S−1 to 0); otherwise the two ends are NaN.
+    """
+    P = np.asarray(path, dtype=np.float64)
+    theta = np.asarray(theta, dtype=np.float64)
+    S = P.shape[0]
+    if S < 3:
+        return np.full_like(P, np.nan)
+    h = 2.0 * np.pi / S if cyclic else float(theta[1] - theta[0])
+    D = (np.roll(P, -1, axis=0) - np.roll(P, 1, axis=0)) / (2.0 * h)
+    if not cyclic:
+        D[0] = D[-1] = np.nan
+    return D
+
+
+def _velocity_source(source, variant, vertex, steps):
+    """(theta, path, velocity, mechanism, title-bit, failure text or None) for plot_velocity."""
+    if isinstance(source, Mechanism):
+        source = simulate(source, steps, velocities=True)
+    if isinstance(source, Cycle):
+        cyc = source
+        mech = cyc.mechanism
+        if cyc.velocities is None:
+            cyc = simulate(mech, len(cyc.theta), velocities=True)
+        v = vertex if vertex is not None else mech.foot
+        fail = cyc.failure.message if cyc.failure is not None else None
+        return cyc.theta, cyc.path(v), cyc.velocity(v), mech, f"{mech.name}, vertex {v}", fail, v
+    if is_results(source):
+        res = source
+        var = check_variant(res, 0 if variant is None else variant)
+        mech = res.mechanism
+        theta = np.asarray(res.theta, dtype=np.float64)
+        path = np.asarray(res.path(var, vertex), dtype=np.float64)
+        v = vertex if vertex is not None else (mech.foot if mech.foot in getattr(res, "vertices", (mech.foot,))
+                                               else res.vertices[0])
+        try:
+            vel = np.asarray(res.velocity(var, vertex), dtype=np.float64)
+        except UserError:  # velocities not stored: solve this variant again
+            cyc = simulate(variant_mechanism(res, var), len(theta), velocities=True)
+            vel = cyc.velocity(v)
+        row = variant_row(res, var)
+        fail = None
+        st = str(row.get("status", "ok"))
+        if st != "ok":
+            ft = row.get("fail_theta", float("nan"))
+            at = f" at θ = {math.degrees(float(ft)):.2f}°" if pd.notna(ft) else ""
+            fail = f"status {st}{at}"
+        return theta, path, vel, mech, f"{mech.name} variant {var}, vertex {v}", fail, v
+    raise UserError(f"plot_velocity: expected a Mechanism, a Cycle or results, got {type(source).__name__}")
+
+
+def plot_velocity(source, variant: int | None = None, *, vertex: str | None = None, steps: int = 360,
+                  band: float | None = None, figsize=(8.0, 6.5), dpi: float = 100) -> Figure:
+    """dx/dθ and dy/dθ of the foot (or ``vertex``) over one crank cycle.
+
+    ``source`` is a Cycle (with or without velocities), a Mechanism (simulated at ``steps``), or
+    results (then ``variant``, default 0 = the nominal). Analytic dV/dθ (the Jacobian solve) is the
+    solid line; central finite differences of the positions, dashed, are drawn on top. The stance is
+    shaded. Units: model units per radian of crank.
+    """
+    theta, path, vel, mech, what, fail, vname = _velocity_source(source, variant, vertex, steps)
+    if band is None:
+        band = results_band(source) if is_results(source) else DEFAULT_BAND
+    finite = np.isfinite(path).all(axis=1)
+    if not finite.any():
+        raise UserError(f"{what}: nothing to plot: {fail or 'no finite positions'}")
+    cyclic = bool(finite.all())
+    fd = central_differences(theta, path, cyclic=cyclic)
+    deg = np.degrees(theta)
+    fig = new_figure(figsize, dpi)
+    axes = fig.subplots(2, 1, sharex=True)
+    stance = stance_indices(path, band) if cyclic else np.zeros(0, dtype=np.int64)
+    S = len(theta)
+    step = 360.0 / S
+    for j, (ax, name) in enumerate(zip(axes, ("x", "y"))):
+        for a, b in _segments_of(stance, S):
+            ax.axvspan(deg[a], deg[b - 1] + step if b < S else 360.0, color=STANCE_COLOR, alpha=0.12, lw=0,
+                       label="stance" if a == stance[0] else None)
+        ax.plot(deg, vel[:, j], "-", color="tab:blue", lw=2.6, zorder=2, label="analytic (Jacobian)")
+        ax.plot(deg, fd[:, j], "--", color="tab:orange", lw=1.6, zorder=3,
+                label=f"central finite differences (Δθ = {step:.3g}°)")
+        if not cyclic:
+            k = int(np.argmin(finite))
+            ax.axvline(deg[k], color="tab:red", lw=1.2, ls=":", label="failure")
+        err = np.nanmax(np.abs(vel[:, j] - fd[:, j])) if np.isfinite(vel[:, j] - fd[:, j]).any() else float("nan")
+        scale = np.nanmax(np.abs(vel[:, j])) if np.isfinite(vel[:, j]).any() else float("nan")
+        ax.set_title(f"d{name}/dθ: max |analytic − finite difference| = {err:.2e} "
+                     f"(peak |d{name}/dθ| = {scale:.3g})", fontsize="small")
+        clipped = _robust_ylim(ax, vel[:, j], fd[:, j])
+        ax.set_ylabel(f"d{name}/dθ (model units/rad)" + ("\n(clipped)" if clipped else ""))
+        ax.grid(True, lw=0.4, alpha=0.5)
+        ax.axhline(0.0, color="0.3", lw=0.6)
+    axes[0].legend(loc="best", fontsize="small")
+    axes[1].set_xlabel("crank angle θ (deg)")
+    axes[1].set_xlim(0.0, 360.0)
+    axes[1].set_xticks(np.arange(0, 361, 60))
+    title = f"Foot velocity dF/dθ of {what}: analytic vs finite differences"
+    if fail:
+        title += f"\nnot ok: {fail}"
+    fig.suptitle(title, fontsize="medium")
+    return fig
+
+
+def _robust_ylim(ax, *series) -> bool:
+    """Limit the y-range when a few samples dwarf the rest (a rate blowing up next to a failure).
+
+    Returns True if the range was clipped."""
+    v = np.concatenate([np.asarray(s, dtype=np.float64) for s in series])
+    v = v[np.isfinite(v)]
+    if v.size < 10:
+        return False
+    lo, hi = np.percentile(v, [2.0, 98.0])
+    span = max(hi - lo, 1e-12)
+    if v.min() >= lo - 2.0 * span and v.max() <= hi + 2.0 * span:
+        return False
+    ax.set_ylim(lo - 0.5 * span, hi + 0.5 * span)
+    return True
+
+
+# -- plot_sensitivity -----------------------------------------------------------------------------------
+def oat_sensitivity(results, metrics=None, relative: bool = True) -> pd.DataFrame:
+    """Sensitivity table (parameters × metrics) of a one-at-a-time study.
+
+    Each ok variant that differs from the nominal (variant 0) in exactly one parameter (a link length
+    or the crank radius) is a sample of that parameter; the slope of the metric change against the
+    parameter change is fitted by least squares through the nominal. ``relative``: elasticity, % change
+    of the metric per +1 % of the parameter; otherwise the metric change per model unit of the
+    parameter. NaN where a parameter has no ok sample or the nominal metric is 0 or undefined.
+    """
+    df = results.frame()
+    mech = results.mechanism
+    params = [n for n in mech.link_names if n in df.columns] + (["crank"] if "crank" in df.columns else [])
+    if metrics is None:
+        metrics = [m for m in METRICS if m in df.columns]
+    else:
+        metrics = [_check_metric(df, m) for m in ([metrics] if isinstance(metrics, str) else metrics)]
+    if not metrics:
+        raise UserError("sensitivity: these results hold no metrics (run the study with [scene] metrics = true)")
+    nom = df[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
+    if not len(nom):
+        raise UserError("sensitivity: the results have no nominal variant 0")
+    nom = nom.iloc[0]
+    P = df[params].to_numpy(dtype=np.float64)
+    P0 = nom[params].to_numpy(dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dP = (P - P0) / P0 if relative else P - P0
+        changed = np.abs(P - P0) > 1e-12 * np.maximum(np.abs(P0), 1.0)
+    one = changed.sum(axis=1) == 1
+    ok = _ok(df)
+    sel = one & ok
+    if not one.any():
+        raise UserError("sensitivity: not a one-at-a-time study: no variant differs from the nominal in exactly "
+                        "one parameter (run a study with [perturb] method = \"oat\")")
+    if changed.sum(axis=1).max() > 1 and one.sum() < 0.5 * (len(df) - 1):
+        method = None
+        try:
+            method = results.study["perturb"]["method"]
+        except (AttributeError, KeyError, TypeError):
+            pass
+        raise UserError("sensitivity: not a one-at-a-time study: most variants change several parameters"
+                        + (f" (perturb method {method!r}; use \"oat\")" if method else ""))
+    which = np.argmax(changed, axis=1)
+    out = pd.DataFrame(np.nan, index=params, columns=metrics)
+    counts = pd.Series(0, index=params)
+    for m in metrics:
+        mv = df[m].to_numpy(dtype=np.float64)
+        m0 = float(nom[m])
+        for j, p in enumerate(params):
+            rows = sel & (which == j) & np.isfinite(mv)
+            counts[p] = max(counts[p], int(rows.sum()))
+            if not rows.any() or not math.isfinite(m0):
+                continue
+            r = dP[rows, j]
+            dm = mv[rows] - m0
+            if relative:
+                if m0 == 0.0:
+                    continue
+                dm = dm / abs(m0)
+            s = float(np.dot(r, dm) / np.dot(r, r))
+            out.loc[p, m] = s
+    out.attrs["samples"] = counts.to_dict()
+    out.attrs["relative"] = relative
+    return out
+
+
+def plot_sensitivity(results, metrics=None, *, relative: bool = True, figsize=None, dpi: float = 100) -> Figure:
+    """Heat map of a one-at-a-time (oat) study: the change of each metric per link (and the crank).
+
+    ``relative`` (default): elasticity, % change of the metric per +1 % of the parameter, from a
+    least-squares slope through the nominal (see :func:`oat_sensitivity`); otherwise metric units
+    per model unit of length. Cells are annotated; grey = no ok sample or undefined.
+    """
+    table = oat_sensitivity(results, metrics, relative)
+    mech = results.mechanism
+    nrow, ncol = table.shape
+    if figsize is None:
+        figsize = (max(6.5, 1.0 * ncol + 3.0), max(4.5, 0.42 * nrow + 2.2))
+    fig = new_figure(figsize, dpi)
+    ax = fig.add_subplot()
+    data = table.to_numpy(dtype=np.float64)
+    vmax = np.nanmax(np.abs(data)) if np.isfinite(data).any() else 1.0
+    vmax = vmax if vmax > 0 else 1.0
+    from matplotlib import colormaps
+    cmap = colormaps["RdBu_r"].with_extremes(bad="0.85")
+    im = ax.imshow(np.ma.masked_invalid(data), cmap=cmap, vmin=-vmax, vmax=vmax, aspect="auto")
+    for i in range(nrow):
+        for j in range(ncol):
+            v = data[i, j]
+            txt = "—" if not math.isfinite(v) else f"{v:.2g}"
+            ax.text(j, i, txt, ha="center", va="center", fontsize=7,
+                    color="white" if math.isfinite(v) and abs(v) > 0.6 * vmax else "black")
+    ax.set_xticks(range(ncol), [f"{m}" for m in table.columns], rotation=35, ha="right")
+    ax.set_yticks(range(nrow), [f"{p} (n={table.attrs['samples'].get(p, 0)})" for p in table.index])
+    ax.set_xlabel("metric")
+    ax.set_ylabel("parameter (link, or crank radius)")
+    unit = "% change of metric per +1 % of parameter" if relative else "metric units per model unit of length"
+    cb = fig.colorbar(im, ax=ax, shrink=0.9)
+    cb.set_label(unit)
+    spread = ""
+    try:
+        spread = f", ±{100 * float(results.study['perturb']['spread']):g} %"
+    except (AttributeError, KeyError, TypeError, ValueError):
+        pass
+    ax.set_title(f"{mech.name}: one-at-a-time sensitivity{spread} ({'elasticity' if relative else 'slope'})",
+                 fontsize="medium")
+    return fig
