@@ -7,10 +7,10 @@ definitions are in :mod:`explorer.gait._metrics`.
 """
 
 from ._metrics import (DEFAULT_BAND, DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, MECHANISM_METRICS, METRICS,
-                       PATH_METRICS, UNITS, VELOCITY_METRICS, compute_metrics,
-                       min_transmission_angle)
-from ._rank import pareto_front, rank
+                       PATH_METRICS, UNITS, VELOCITY_METRICS, compute_metrics, min_transmission_angle,
+                       stance_indices)
+from ._rank import ok_mask, pareto_front, rank, select
 
 __all__ = ["DEFAULT_BAND", "DESCRIPTIONS", "DIRECTIONS", "FOOT_METRICS", "MECHANISM_METRICS", "METRICS",
            "PATH_METRICS", "UNITS", "VELOCITY_METRICS", "compute_metrics",
-           "min_transmission_angle", "pareto_front", "rank"]
+           "min_transmission_angle", "ok_mask", "pareto_front", "rank", "select", "stance_indices"]

@@ -145,6 +145,21 @@ def _stance(y, thr):
     return best_start, best_len
 
 
+def stance_indices(path, band: float = DEFAULT_BAND) -> np.ndarray:
+    """Sample indices of the stance of one foot path (S, 2), in cyclic order: the longest cyclic run
+    with y ≤ y_min + band · height, ties to the smallest start (the metrics' own definition).
+
+    Non-finite samples (a failed variant) never qualify; an empty array if none is finite.
+    """
+    y = np.asarray(path, dtype=np.float64)[:, 1]
+    fin = np.isfinite(y)
+    if not fin.any():
+        return np.zeros(0, dtype=np.int64)
+    lo, hi = y[fin].min(), y[fin].max()
+    start, n = _stance(np.where(fin, y, np.inf), lo + band * (hi - lo))
+    return (start + np.arange(n)) % y.shape[0]
+
+
 @njit(parallel=True, cache=True)
 def _foot_metrics_kernel(paths, vel, status, band, want_path, want_stance, want_vel, out):
     """Fill out[m, i] for the FOOT_METRICS of every ok variant i (out comes in NaN-filled)."""

@@ -66,7 +66,8 @@ def _directions(cols: list[str], ascending) -> dict[str, str]:
                     "(True: smaller is better)")
 
 
-def _ok_mask(df: pd.DataFrame) -> np.ndarray:
+def ok_mask(df: pd.DataFrame) -> np.ndarray:
+    """Boolean mask of the rows whose ``status`` is ok (name "ok" or code 0); all rows if there is no status."""
     if "status" not in df.columns:
         return np.ones(len(df), dtype=bool)
     st = df["status"]
@@ -75,9 +76,11 @@ def _ok_mask(df: pd.DataFrame) -> np.ndarray:
     return (st.astype(str) == "ok").to_numpy()
 
 
-def _filter(df: pd.DataFrame, where, include_failed: bool) -> pd.DataFrame:
+def select(df: pd.DataFrame, where=None, include_failed: bool = False) -> pd.DataFrame:
+    """The rows that are ok (unless ``include_failed``) and satisfy the pandas query ``where``
+    (e.g. "duty > 0.3 and flatness < 0.002"); a bad expression is a UserError naming it."""
     if not include_failed:
-        df = df[_ok_mask(df)]
+        df = df[ok_mask(df)]
     if where is not None and str(where).strip():
         expr = str(where)
         try:
@@ -206,7 +209,7 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
         if not cols:
             raise UserError("pareto: name at least one metric")
         dirs = _directions(cols, ascending)
-        sub = _filter(df, where, include_failed)
+        sub = select(df, where, include_failed)
         front = sub[pareto_front(sub, cols, dirs)]
         cost = _costs(front, cols, dirs)
         keys = [_tiebreak(front)] + [cost[:, j] for j in range(len(cols) - 1, -1, -1)]
@@ -226,7 +229,7 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
         dirs = _directions(cols, ascending)
         used = w > 0  # a zero weight neither counts nor turns a row's score NaN
         cols, w = [c for c, u in zip(cols, used) if u], w[used]
-        sub = _filter(df, where, include_failed)
+        sub = select(df, where, include_failed)
         cost = _costs(sub, cols, dirs)  # smaller is better
         with np.errstate(all="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
@@ -246,7 +249,7 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
         raise UserError("ascending: with by= pass True/False (or None for the natural direction)")
     (col,) = _check_columns(df, [by])
     d = _direction(col, ascending)
-    sub = _filter(df, where, include_failed)
+    sub = select(df, where, include_failed)
     cost = _costs(sub, [col], {col: d})[:, 0]
     key = np.where(np.isnan(cost), np.inf, cost)
     return _finish(sub, np.lexsort([_tiebreak(sub), np.isnan(cost), key]), top)

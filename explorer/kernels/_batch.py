@@ -25,16 +25,22 @@ def valid_lengths(L, scale):
 
 
 @njit(cache=True)
+def _invalid(out_pos, out_vel, out_acc, want_vel, want_acc):
+    """NaN outputs and the sweep's 5-tuple for a design with a non-finite or non-positive length."""
+    out_pos[:, :, :] = np.nan
+    if want_vel:
+        out_vel[:, :, :] = np.nan
+    if want_acc:
+        out_acc[:, :, :] = np.nan
+    return STATUS_INVALID, 0.0, np.nan, -1, 0
+
+
+@njit(cache=True)
 def dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, L, scale, P_init, signs, moving,
                tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc):
     """One design through :func:`_sweep.sweep` with the dyad step; returns sweep's 5-tuple."""
     if not valid_lengths(L, scale):
-        out_pos[:, :, :] = np.nan
-        if want_vel:
-            out_vel[:, :, :] = np.nan
-        if want_acc:
-            out_acc[:, :, :] = np.nan
-        return STATUS_INVALID, 0.0, np.nan, -1, 0
+        return _invalid(out_pos, out_vel, out_acc, want_vel, want_acc)
     ctx = dyad_context(dv, dpa, dpb, dla, dlb, L)
     shortest = np.inf
     for e in range(dla.shape[0]):
@@ -69,12 +75,7 @@ def generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_
                   out_pos, out_vel, out_acc):
     """One design through :func:`_sweep.sweep` with the generic step; returns sweep's 5-tuple."""
     if not valid_lengths(L, scale):
-        out_pos[:, :, :] = np.nan
-        if want_vel:
-            out_vel[:, :, :] = np.nan
-        if want_acc:
-            out_acc[:, :, :] = np.nan
-        return STATUS_INVALID, 0.0, np.nan, -1, 0
+        return _invalid(out_pos, out_vel, out_acc, want_vel, want_acc)
     ctx = generic_context(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, L)
     shortest = np.inf
     for e in range(L.shape[0]):

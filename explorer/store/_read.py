@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..mechanism import Mechanism, mechanism_from_dict
+from ..plan import fourbar_loops, grashof_batch
 from ._write import FILE_STATUS_NAMES, FORMAT
 
 if TYPE_CHECKING:
@@ -126,8 +127,11 @@ class Results:
     # -- tables ----------------------------------------------------------------------------------------
     def frame(self) -> "pd.DataFrame":
         """One row per variant: ``variant``, one column per link length (by link name), ``crank``,
-        ``status`` (name; categorical), ``status_code``, ``fail_theta`` (rad, NaN when ok),
-        ``fail_vertex`` (None when ok), ``iterations``, then one column per ``/metrics/<name>``."""
+        ``status`` (name; categorical), ``status_code``, ``fail_theta`` and ``fail_theta_end`` (rad,
+        the unreachable crank range of a failed variant; NaN when ok), ``fail_vertex`` (None when ok),
+        ``iterations``, ``grashof`` and ``grashof_margin`` (class and margin of the limiting
+        crank-driven four-bar loop, for mechanisms that have one), then one column per
+        ``/metrics/<name>``."""
         import pandas as pd  # imported on use: it costs ~0.5 s at start-up
         f = self.file
         N = self.n_variants
@@ -142,11 +146,15 @@ class Results:
                                                    categories=[FILE_STATUS_NAMES[c] for c in order])
         cols["status_code"] = codes
         cols["fail_theta"] = f["fail_theta"][...]
+        if "fail_theta_end" in f:
+            cols["fail_theta_end"] = f["fail_theta_end"][...]
         block = f["fail_block"][...]
         names = np.array([None] + [_text(s) for s in f["fail_block"].attrs["vertex"]], dtype=object)
         cols["fail_vertex"] = names[np.where(block >= 0, block + 1, 0)]
         if "iterations" in f:
             cols["iterations"] = f["iterations"][...]
+        if fourbar_loops(self.mechanism):
+            cols["grashof"], cols["grashof_margin"] = grashof_batch(self.mechanism, L, cols["crank"])
         for m in self.metric_names:
             cols[m] = f["metrics"][m][...]
         return pd.DataFrame(cols)

@@ -123,6 +123,8 @@ class ResultsWriter:
         self._scalars = [(f["variants/lengths"], "lengths"), (f["variants/crank"], "crank"), (f["status"], "status"),
                          (f["fail_theta"], "fail_theta"), (f["fail_block"], "fail_block"),
                          (f["iterations"], "iterations")]
+        if "fail_theta_end" in f:
+            self._scalars.append((f["fail_theta_end"], "fail_theta_end"))
         self._series = [(f[g][v], g, v) for g in ("paths", "velocities", "accelerations") if g in f for v in f[g]]
         self._done = f["chunks/done"]
 
@@ -194,6 +196,11 @@ class ResultsWriter:
                                  **SCALAR_FILTERS)
             d.attrs["units"] = "rad"
             d.attrs["description"] = "crank angle of the first failure; NaN when ok"
+            d = f.create_dataset("fail_theta_end", shape=(N,), dtype="f8", chunks=(rows,), fillvalue=np.nan,
+                                 **SCALAR_FILTERS)
+            d.attrs["units"] = "rad"
+            d.attrs["description"] = ("first failing crank angle going backward from 2π: the design cannot turn "
+                                      "through [fail_theta, fail_theta_end]; NaN when ok")
             d = f.create_dataset("fail_block", shape=(N,), dtype="i2", chunks=(rows,), fillvalue=-1, **SCALAR_FILTERS)
             d.attrs["description"] = "plan block that failed, -1 when ok; attr 'vertex' maps block -> vertex name"
             d.attrs["vertex"] = _strings(mech.vertices[b.vertices[0]] for b in plan.blocks)
@@ -274,7 +281,8 @@ class ResultsWriter:
             raise ValueError(f"chunk {i}: expected {b - a} variants, got {len(crank)}")
         f = self.f
         values = {"lengths": lengths, "crank": crank, "status": batch.status, "fail_theta": batch.fail_theta,
-                  "fail_block": batch.fail_block, "iterations": batch.iterations}
+                  "fail_theta_end": batch.fail_theta_end, "fail_block": batch.fail_block,
+                  "iterations": batch.iterations}
         for d, key in self._scalars:
             d[a:b] = values[key]
         for d, group, v in self._series:

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..errors import UserError
-from ..gait import DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, pareto_front, rank
+from ..gait import DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_front, rank, select, stance_indices
 from ..kernels import Cycle, simulate
 from ..mechanism import Mechanism
 from ._draw import STANCE_COLOR
@@ -169,53 +169,6 @@ def _check_metric(df: pd.DataFrame, metric: str) -> str:
     return metric
 
 
-def _query(df: pd.DataFrame, where: str) -> pd.DataFrame:
-    try:
-        out = df.query(str(where))
-    except Exception as exc:  # pandas raises many kinds for a bad expression
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise UserError(f"where: cannot evaluate {where!r}: {msg}") from None
-    if not isinstance(out, pd.DataFrame):
-        raise UserError(f"where: {where!r} is not a filter (it must evaluate to true/false per row)")
-    return out
-
-
-def _ok(df: pd.DataFrame) -> np.ndarray:
-    if "status" not in df.columns:
-        return np.ones(len(df), dtype=bool)
-    st = df["status"]
-    if pd.api.types.is_numeric_dtype(st):
-        return (st == 0).to_numpy()
-    return (st.astype(str) == "ok").to_numpy()
-
-
-# -- stance ----------------------------------------------------------------------------------------------
-def stance_indices(path: np.ndarray, band: float = DEFAULT_BAND) -> np.ndarray:
-    """Sample indices of the stance of a foot path (S, 2), in cyclic order.
-
-    The stance is the longest cyclic run with y ≤ y_min + band · height (the gait metrics' definition;
-    ties to the smallest start). Non-finite samples never qualify; an empty array if none is finite.
-    """
-    y = np.asarray(path, dtype=np.float64)[:, 1]
-    S = y.shape[0]
-    fin = np.isfinite(y)
-    if not fin.any():
-        return np.zeros(0, dtype=np.int64)
-    lo, hi = y[fin].min(), y[fin].max()
-    q = fin & (y <= lo + band * (hi - lo))
-    if q.all():
-        return np.arange(S)
-    k0 = int(np.argmin(q))  # a sample outside: no run crosses the rotated start
-    r = np.roll(q, -k0)
-    d = np.diff(np.concatenate([[0], r.astype(np.int8), [0]]))
-    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
-    lengths = ends - starts
-    best = lengths.max()
-    cand = [(int((s + k0) % S), int(s)) for s, n in zip(starts, lengths) if n == best]
-    _, s = min(cand)
-    return (np.arange(s, s + best) + k0) % S
-
-
 def _segments_of(indices: np.ndarray, S: int) -> list[tuple[int, int]]:
     """Contiguous (start, stop) index ranges of a cyclic run (two if it wraps past S−1)."""
     if len(indices) == 0:
@@ -241,7 +194,7 @@ def plot_top(results, by: str = "stride", top: int = 5, *, where: str | None = N
         raise UserError(f"top: expected a whole number >= 1, got {top!r}")
     band = results_band(results) if band is None else float(band)
     ranked = rank(df, by=by, top=int(top), where=where)
-    n_ok = int(_ok(df).sum())
+    n_ok = int(ok_mask(df).sum())
     if ranked.empty:
         raise UserError(f"no ok variant to rank by {by!r} ({n_ok} ok of {len(df)}"
                         + (f", filter {where!r}" if where else "") + ")")
@@ -305,9 +258,9 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     x, y = _check_metric(df, x), _check_metric(df, y)
     if x == y:
         raise UserError(f"scatter: name two different metrics, got {x!r} twice")
-    ok = df[_ok(df)]
+    ok = df[ok_mask(df)]
     if where:
-        ok = _query(ok, where)
+        ok = select(ok, where, include_failed=True)
     ok = ok[np.isfinite(ok[x].to_numpy(dtype=float)) & np.isfinite(ok[y].to_numpy(dtype=float))]
     mech = results.mechanism
     fig = new_figure(figsize, dpi)
@@ -484,7 +437,7 @@ def oat_sensitivity(results, metrics=None, relative: bool = True) -> pd.DataFram
         dP = (P - P0) / P0 if relative else P - P0
         changed = np.abs(P - P0) > 1e-12 * np.maximum(np.abs(P0), 1.0)
     one = changed.sum(axis=1) == 1
-    ok = _ok(df)
+    ok = ok_mask(df)
     sel = one & ok
     if not one.any():
         raise UserError("sensitivity: not a one-at-a-time study: no variant differs from the nominal in exactly "
