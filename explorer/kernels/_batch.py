@@ -5,7 +5,6 @@ the generic one) and runs :func:`~._sweep.sweep`; the ``*_batch_jit`` kernels do
 of a lengths array with ``prange``.
 """
 
-import math
 
 import numpy as np
 from numba import njit, prange
@@ -14,13 +13,19 @@ from ._dyads import dyad_context
 from ._generic import generic_context
 from ._sweep import STATUS_INVALID, dyad_sweep, generic_sweep
 
+# Lengths outside this range are "invalid": their squares (the residuals are in squared lengths)
+# would underflow to 0 or overflow to inf (NaN compares false, so NaN is invalid as well).
+MIN_LENGTH = 1e-150
+MAX_LENGTH = 1e150
+
 
 @njit(cache=True)
 def valid_lengths(L, scale):
-    """True if every link length and the driver scale (crank radius) are finite and > 0."""
-    ok = math.isfinite(scale) and scale > 0.0
+    """True if every link length and the driver scale (crank radius) lie in [MIN_LENGTH, MAX_LENGTH]:
+    finite, positive, and with squares that neither underflow nor overflow in double precision."""
+    ok = MIN_LENGTH <= scale <= MAX_LENGTH
     for e in range(L.shape[0]):
-        ok = ok and math.isfinite(L[e]) and L[e] > 0.0
+        ok = ok and MIN_LENGTH <= L[e] <= MAX_LENGTH
     return ok
 
 

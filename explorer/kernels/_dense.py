@@ -66,6 +66,9 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, kno
     for v in range(nv):
         for ax in range(2):
             P1[v, ax] = P0[v, ax] + h * V0[v, ax] + c * (V0[v, ax] - Vp[v, ax])
+    for k in range(known.shape[0]):  # the known rows exactly: their equations then hold throughout
+        P1[known[k], 0] = known_pos[k, 0]
+        P1[known[k], 1] = known_pos[k, 1]
     it = 0
     while True:
         if _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, True) <= tol:

@@ -33,7 +33,7 @@ DEFAULT_MAX_ITERATIONS = 50
 _KIND_TEXT = {
     "assembly": "cannot assemble",
     "branch": "left its branch (toggle crossed or mirrored assembly)",
-    "no-convergence": "Newton did not converge",
+    "no-convergence": "could not be solved (Newton did not converge, or a step could not be resolved)",
     "invalid": "has a non-finite or non-positive length",
 }
 
@@ -391,7 +391,8 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ve
         methods; "dense" solves everything).
     Every variant starts its first Newton solve from the nominal design's configuration and must
     keep the nominal's branch in every block; one that differs is flagged "branch", not mixed in.
-    Returns a :class:`Batch`; rows whose lengths are not all finite and > 0 get status "invalid".
+    Returns a :class:`Batch`; rows with a length (or crank) that is not finite and within
+    [1e-150, 1e150] (where squared lengths stay representable) get status "invalid".
     """
     _check_common(steps, tolerance, method, max_iterations)
     lengths = np.asarray(lengths, dtype=np.float64)

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._blocks import INFEASIBLE, SIGN
+from ._blocks import INFEASIBLE, SIGN, SUSPECT
 from ._drive import drive
 import types
 
@@ -38,6 +38,11 @@ STATUS_NOCONV = 3
 STATUS_INVALID = 4
 
 REFINE_LEVELS = 16
+# Steps accepted at the smallest size (with the gap and move checks off) allowed between two samples.
+# Passing a fold tangentially takes a few thousand (the Hermite margin spans ~1e-3 of the parameter);
+# past an eighth of the interval the design sits on a toggle over a stretch, and the sweep ends
+# ("no-convergence") rather than crawl on at Δ / 2**REFINE_LEVELS.
+MAX_FORCED = 2 ** (REFINE_LEVELS - 3)
 
 
 @njit(cache=True)
@@ -97,6 +102,7 @@ def _advance(ctx, signs, t0, t1, tab1, tip, kind, prm, cx, cy, scale, P0, V0, Vp
     hs = span
     t = t0
     iters = 0
+    forced = 0
     while True:
         last = abs(hs) >= abs(t1 - t) - 0.5 * dmin
         h = t1 - t if last else hs
@@ -109,6 +115,10 @@ def _advance(ctx, signs, t0, t1, tab1, tip, kind, prm, cx, cy, scale, P0, V0, Vp
         code, blk, it = step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, strict)
         iters += it
         if code == 0:
+            if not strict:
+                forced += 1
+                if forced > MAX_FORCED:  # sitting on a toggle for a stretch: no trustworthy continuation
+                    return False, t + h, blk, SUSPECT, iters, hp
             _accept(moving, P0, V0, Vp, A0, P1, V1, A1, want_acc)
             hp = h
             t += h

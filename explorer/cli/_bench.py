@@ -1,0 +1,104 @@
+"""``explorer bench accuracy [--variants N] [--spread F] [--seed S] [--tolerances ...] [--steps ...] [-o DIR]``."""
+
+from __future__ import annotations
+
+import sys
+
+
+def _floats(text: str) -> tuple[float, ...]:
+    from ..errors import UserError
+    try:
+        out = tuple(float(x) for x in text.replace(" ", ",").split(",") if x)
+    except ValueError:
+        raise UserError(f"expected comma-separated numbers, got {text!r}") from None
+    if not out:
+        raise UserError(f"expected at least one number, got {text!r}")
+    return out
+
+
+def _ints(text: str) -> tuple[int, ...]:
+    from ..errors import UserError
+    vals = _floats(text)
+    if any(v != int(v) for v in vals):
+        raise UserError(f"expected comma-separated integers, got {text!r}")
+    return tuple(int(v) for v in vals)
+
+
+def register(sub) -> None:
+    p = sub.add_parser("bench", help="benchmarks a user can run: what accuracy costs in time",
+                       description="Benchmarks of explorer's solvers, run on this machine.")
+    verbs = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
+    a = verbs.add_parser(
+        "accuracy", help="accuracy vs time: Newton tolerance x crank steps x method (+ the seeds' formulations)",
+        description="Over the variants that assemble (default: 1,000 Jansen variants at ±2 %%), sweep Newton "
+                    "tolerance, crank steps per cycle and method (block Newton, dense Newton, exact closed form), "
+                    "plus the seeds' formulations as extra rows (seed 001: 8 link angles, full 8x8 Newton and the "
+                    "'sequential' 4 x 2x2 solve; seed 003: Gauss-Seidel instead of Gaussian elimination in the "
+                    "Newton step). Per cell: wall time (best of a few runs, kernels warmed), mean Newton "
+                    "iterations, max foot-position error against the closed form at the same angles, and the error "
+                    "of stride, flatness and stance_speed against a 14,400-step closed-form reference. Prints a "
+                    "table and writes DIR/accuracy.csv and DIR/accuracy.png (log-log error vs time).")
+    a.add_argument("--mechanism", default="jansen", metavar="NAME|FILE",
+                   help="built-in mechanism name or .toml file; its plan must be all dyads (default: jansen)")
+    a.add_argument("--variants", type=int, default=1000, metavar="N",
+                   help="variants drawn; those that assemble all round are kept (default: 1000)")
+    a.add_argument("--spread", type=float, default=0.02, metavar="F",
+                   help="each link and the crank scaled by uniform(1-F, 1+F) (default: 0.02)")
+    a.add_argument("--seed", type=int, default=1, help="numpy default_rng seed of the draw (default: 1)")
+    a.add_argument("--tolerances", type=_floats, default=None, metavar="T1,T2,...",
+                   help="Newton tolerances (default: every decade 1e-2 ... 1e-12)")
+    a.add_argument("--steps", type=_ints, default=None, metavar="S1,S2,...",
+                   help="crank steps per cycle (default: 36,90,360,1440)")
+    a.add_argument("--methods", default="block,dense,closed", metavar="M1,M2",
+                   help="kernel methods to sweep (default: block,dense,closed)")
+    a.add_argument("--dense-variants", type=int, default=100, metavar="N",
+                   help="dense Newton runs on the first N variants only (it is ~10x slower; default: 100)")
+    a.add_argument("--seed-rows", default="all", metavar="NAMES",
+                   help="seed formulations to add: all, none, or a comma list of seed001-full-GE, "
+                        "seed001-sequential, seed003-GS(JtJ), seed003-GS(J) (default: all)")
+    a.add_argument("--seed-variants", type=int, default=50, metavar="N",
+                   help="the seed rows run on the first N variants only (default: 50)")
+    a.add_argument("--seed-steps", type=_ints, default=(360,), metavar="S1,...",
+                   help="crank steps for the seed rows (default: 360)")
+    a.add_argument("--reference-steps", type=int, default=14_400, metavar="S",
+                   help="steps of the closed-form reference for the gait metrics (default: 14400)")
+    a.add_argument("--repeat", type=int, default=3, metavar="R", help="timing runs per cell, best kept (default: 3)")
+    a.add_argument("-o", "--output", default="bench-accuracy", metavar="DIR",
+                   help="directory for accuracy.csv and accuracy.png (default: ./bench-accuracy)")
+    a.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
+    a.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..errors import UserError
+    from ..bench import DEFAULT_STEPS, DEFAULT_TOLERANCES, accuracy_sweep, format_table, plot, write_csv
+    from ..bench import _seeds
+
+    if args.bench != "accuracy":  # pragma: no cover - argparse only offers 'accuracy'
+        raise UserError(f"unknown benchmark {args.bench!r}")
+    methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
+    if args.seed_rows == "all":
+        solvers = tuple(_seeds.SOLVERS)
+    elif args.seed_rows == "none":
+        solvers = ()
+    else:
+        solvers = tuple(s.strip() for s in args.seed_rows.split(",") if s.strip())
+        unknown = [s for s in solvers if s not in _seeds.SOLVERS]
+        if unknown:
+            raise UserError(f"--seed-rows: unknown {', '.join(unknown)} (known: all, none, "
+                            f"{', '.join(_seeds.SOLVERS)})")
+    for name, value in (("--dense-variants", args.dense_variants), ("--seed-variants", args.seed_variants),
+                        ("--repeat", args.repeat), ("--reference-steps", args.reference_steps)):
+        if value < 1:
+            raise UserError(f"{name}: expected a positive integer, got {value}")
+    progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    report = accuracy_sweep(args.mechanism, variants=args.variants, spread=args.spread, seed=args.seed,
+                            tolerances=args.tolerances or DEFAULT_TOLERANCES, steps=args.steps or DEFAULT_STEPS,
+                            methods=methods, dense_variants=args.dense_variants, seed_solvers=solvers,
+                            seed_variants=args.seed_variants, seed_steps=args.seed_steps,
+                            reference_steps=args.reference_steps, repeat=args.repeat, progress=progress)
+    print(format_table(report))
+    csv_path = write_csv(report, f"{args.output}/accuracy.csv")
+    png_path = plot(report, f"{args.output}/accuracy.png")
+    print(f"wrote {csv_path} and {png_path}")
+    return 0

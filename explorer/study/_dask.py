@@ -1,0 +1,409 @@
+"""Running a study on a Dask cluster: one task per shard, one HDF5 file per shard, stitched at the end.
+
+``run_study_dask(client, study, output=...)`` is :func:`~explorer.study.run_study` for a
+``dask.distributed.Client`` (a ``LocalCluster`` on a laptop, a scheduler started by hand or by
+dask-jobqueue on HPC): the study is cut into shards (contiguous variant ranges, see
+:func:`explorer.store._shards.plan_shards`), each task solves its shard with the same Numba kernels
+in chunks and writes its own shard file (temporary name, then rename), and the client stitches the
+shards into one study file of h5py virtual datasets (see :mod:`explorer.store._shards`). The
+result reads exactly like a single-process run, bit for bit.
+
+Requirements: the results folder must be on a filesystem every worker can write and the client can
+read (a laptop's disk for a LocalCluster; a shared filesystem on a cluster), and explorer (same
+version) must be installed on the workers. Dask is an optional extra: ``pip install "explorer[dask]"``.
+
+Numba: the kernels cache compiled code on disk, and processes that write the cache at the same time
+can crash (numba issue 4807). Before the first task the client compiles (or loads) every kernel the
+study needs, then each host's first worker does so one host at a time, then the other workers in
+parallel (they only read the cache by then). Each task runs its kernels on one Numba thread: run
+one single-threaded worker per core (``dask worker ADDRESS --nworkers N --nthreads 1``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import time
+import tomllib
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError, where
+from ..kernels import STATUS_NAMES, assemble, simulate_batch
+from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch,
+                             write_shard)
+from ..store._write import FILE_STATUS_NAMES, FORMAT, _mechanism_text
+from ._run import RunSummary, _metric_plan, _state
+from ._sample import study_variants
+from ._spec import Study, load_study
+
+INSTALL_HINT = 'pip install "explorer[dask]"'
+
+
+def _require_dask():
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise UserError(f"--dask needs Dask, which is not installed: {INSTALL_HINT}") from None
+    return distributed
+
+
+# -- the work of one task ---------------------------------------------------------------------------
+class _Recipe:
+    """A picklable description of a validated study (a Study holds a Mechanism, which does not
+    pickle): its fields and the mechanism's TOML text, rebuilt once per worker process."""
+
+    def __init__(self, study: Study):
+        from dataclasses import fields
+        self.fields = tuple((f.name, getattr(study, f.name)) for f in fields(study) if f.name != "_mech")
+        self.mechanism_text = _mechanism_text(study)
+        self.mechanism_source = study.mech.source
+        self.key = (study.fingerprint(), self.mechanism_text)
+
+    def __hash__(self):
+        return hash(self.key)
+
+    def __eq__(self, other):
+        return isinstance(other, _Recipe) and self.key == other.key and self.fields == other.fields
+
+    def study(self) -> Study:
+        return _rebuild(self)
+
+
+@lru_cache(maxsize=4)
+def _rebuild(recipe: _Recipe) -> Study:
+    from ..mechanism import mechanism_from_dict
+    mech = mechanism_from_dict(tomllib.loads(recipe.mechanism_text), recipe.mechanism_source)
+    return Study(**dict(recipe.fields), _mech=mech)
+
+
+def _solver(study: Study):
+    """solve(a, b) → (lengths, crank, batch, metrics) for variants [a, b): what run_study does per chunk."""
+    from ._sample import study_sampler
+    mech = study.mech
+    compute_metrics, metric_names, metric_vel = _metric_plan(study)
+    vertices = list(study.vertex_names)
+    if compute_metrics is not None and mech.foot not in vertices:
+        vertices.append(mech.foot)
+    velocities = study.velocities or metric_vel
+    sampler = study_sampler(study)
+
+    def solve(a: int, b: int):
+        lengths, crank = study_variants(study, a, b, sampler)
+        batch = simulate_batch(mech, lengths, crank, study.steps, vertices=vertices, velocities=velocities,
+                               accelerations=study.accelerations, tolerance=study.tolerance, method=study.method)
+        metrics = None
+        if compute_metrics is not None:
+            foot = mech.foot
+            metrics = compute_metrics(batch.paths[foot], batch.velocities.get(foot), batch.status, metric_names,
+                                      study.band, mechanism=mech, lengths=lengths, crank=crank)
+        return lengths, crank, batch, metrics
+
+    return solve
+
+
+def _one_thread() -> None:
+    """A task runs on one Numba thread: Dask already runs one task per worker thread (per core)."""
+    try:
+        import numba
+        numba.set_num_threads(1)
+    except (ImportError, ValueError):
+        pass
+
+
+def _warm(recipe: _Recipe) -> float:
+    """Compile or load every kernel the study uses (two variants); returns the seconds it took."""
+    t0 = time.perf_counter()
+    _one_thread()
+    study = recipe.study()
+    _solver(study)(0, min(2, study.n_variants))
+    return time.perf_counter() - t0
+
+
+def _shard_task(recipe: _Recipe, folder: str, plan: ShardPlan, i: int) -> dict:
+    """Solve and write shard ``i`` (a Dask task). Returns what the client reports."""
+    t0 = time.perf_counter()
+    _one_thread()
+    study = recipe.study()
+    wrote = write_shard(folder, plan, i, study, _solver(study))
+    a, b = plan.range(i)
+    return {"shard": i, "ran": (b - a) if wrote else 0, "wall_s": time.perf_counter() - t0}
+
+
+# -- the client side --------------------------------------------------------------------------------
+def run_study_dask(client, study=None, output=None, resume: bool = False, force: bool = False,
+                   shard_size: int | None = None, progress: bool = True, chunk_size: int | None = None,
+                   retries: int = 2) -> RunSummary:
+    """Run a study on a Dask cluster into one results file (stitched from one HDF5 file per shard).
+
+    client : a ``dask.distributed.Client`` (``Client("tcp://host:8786")``, ``Client(LocalCluster(...))``).
+    study, output, resume, force, progress : as :func:`~explorer.study.run_study`. The shard files
+        go to a folder beside the results file (``results/name.h5`` → ``results/name.shards/``),
+        which must be writable by every worker (a shared filesystem on a real cluster).
+    resume : finish an interrupted run: shards already complete are skipped (a shard file under its
+        final name is complete), the rest are run, then the study file is stitched.
+    shard_size : variants per shard (one task and one file each; default: about 4 shards per
+        worker, at least 2^19 ≈ 524,000 crank configurations each, at most 1,000 shards). A resumed run
+        keeps the layout it started with. chunk_size : variants per solve call inside a shard
+        (default as ``run_study``).
+    retries : times Dask retries a shard task that raised (a task on a worker that died is
+        rescheduled by the scheduler anyway, up to its ``allowed-failures``).
+
+    Returns a :class:`RunSummary` (``os.fspath`` gives the results path); the results file opens
+    with :func:`~explorer.store.open_results` like any other. Raises
+    :class:`~explorer.errors.UserError` for a bad study, an existing file, or a failed shard.
+    """
+    distributed = _require_dask()
+    t0 = time.perf_counter()
+    if not isinstance(client, distributed.Client):
+        raise UserError(f"run_study_dask: expected a dask.distributed.Client as the first argument, "
+                        f"got {type(client).__name__}")
+    study = load_study(study)
+    out = Path(output if output is not None else study.output)
+    if resume and force:
+        raise UserError("--resume and --force exclude each other: resume finishes a file, force starts it over")
+    if out.is_dir():
+        raise UserError(f"{out}: is a folder; the results path must be a file such as {out / (study.name + '.h5')}")
+    for name, v in (("shard size", shard_size), ("chunk size", chunk_size)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
+            raise UserError(f"{name}: expected an integer ≥ 1 (variants), got {v!r}")
+    _validate(study)
+    folder = shards_folder(out)
+
+    # -- what is there already
+    resumed = False
+    if out.exists():
+        kind = _existing(out, study)
+        if resume:
+            if kind == "complete":  # sharded or not: the results are there
+                from ..store import open_results
+                with open_results(out) as r:
+                    counts = _counts(r.file["status"][...])
+                return RunSummary(out, study.name, study.n_variants, study.steps, 0, counts,
+                                  time.perf_counter() - t0, resumed=True, already_complete=True)
+            raise UserError(f"{out}: {kind}; pass --force to overwrite it")
+        if not force:
+            raise UserError(f"{out}: results file exists ({_state(out)}); pass --force to overwrite it"
+                            + (" or --resume to finish it" if _state(out) != "complete" else ""))
+    old = ShardPlan.read(folder) if folder.is_dir() else None
+    if force:
+        if out.exists() and _is_sharded(out):
+            out.unlink()  # its shards are about to go: leave no study file pointing at nothing
+        clean_folder(folder, everything=True)
+        old = None
+    elif old is not None and not resume:
+        raise UserError(f"{folder}: holds the shards of an unfinished run; pass --resume to finish it or "
+                        f"--force to start over")
+    elif old is not None and old.fingerprint != study.fingerprint():
+        raise UserError(f"{folder}: holds shards of a different study; pass --force to start over")
+
+    workers = _worker_threads(client)
+    if old is not None:
+        plan, resumed = old, True  # a resumed run keeps its layout
+        clean_folder(folder)  # leftovers of killed tasks
+    else:
+        plan = plan_shards(study, workers, shard_size, chunk_size)
+        try:
+            plan.write(folder)
+        except OSError as exc:
+            raise UserError(f"{folder}: cannot create the shards folder: {exc}") from None
+    done = completed_shards(folder, plan)
+    pending = [i for i, ok in enumerate(done) if not ok]
+
+    # -- fan out
+    ran = 0
+    if pending:
+        recipe = _Recipe(study)
+        _warm_everywhere(client, recipe)
+        bar = _progress_bar(progress, sum(_size(plan, i) for i in pending) * study.steps, study.name)
+        folder_abs = str(folder.resolve())
+        futures = [client.submit(_shard_task, recipe, folder_abs, plan, i, key=f"explorer-shard-{i}-{_token()}",
+                                 pure=False, retries=retries) for i in pending]
+        try:
+            for fut in distributed.as_completed(futures):
+                try:
+                    res = fut.result()
+                except Exception as exc:  # a shard failed for good: keep what is done, report
+                    client.cancel(futures)
+                    n_done = sum(completed_shards(folder, plan))
+                    msg = " ".join(str(exc).split()) or type(exc).__name__
+                    raise UserError(f"{out}: a shard failed ({type(exc).__name__}: {msg[:300]}); {n_done} of "
+                                    f"{plan.n_shards} shards are complete in {folder}; run again with --resume "
+                                    f"to finish the others") from None
+                ran += res["ran"]
+                if bar is not None:
+                    bar.update(_size(plan, res["shard"]) * study.steps)
+        except KeyboardInterrupt:
+            client.cancel(futures)
+            n_done = sum(completed_shards(folder, plan))
+            raise KeyboardInterrupt(f"{out}: interrupted with {n_done} of {plan.n_shards} shards complete; "
+                                    f"run again with --resume to finish it") from None
+        finally:
+            if bar is not None:
+                bar.close()
+
+    # -- stitch
+    missing = [i for i, ok in enumerate(completed_shards(folder, plan)) if not ok]
+    if missing:
+        raise UserError(f"{folder}: the workers reported shard {missing[0]} done but this machine cannot see "
+                        f"its file; the results folder must be on a filesystem shared by the client and "
+                        f"every worker")
+    try:
+        stitch(out, folder, plan)
+    except OSError as exc:
+        raise UserError(f"{out}: cannot write the results file: {exc}") from None
+    clean_folder(folder)  # temporary files of attempts that died (their shards were redone)
+    from ..store import open_results
+    with open_results(out) as r:
+        counts = _counts(r.file["status"][...])
+    return RunSummary(out, study.name, study.n_variants, study.steps, ran, counts, time.perf_counter() - t0,
+                      resumed=resumed)
+
+
+def _size(plan: ShardPlan, i: int) -> int:
+    a, b = plan.range(i)
+    return b - a
+
+
+def _token() -> str:
+    import uuid
+    return uuid.uuid4().hex[:12]
+
+
+def _validate(study: Study) -> None:
+    """The checks run_study makes before touching a file."""
+    mech = study.mech
+    _, fail = assemble(mech)
+    if fail is not None:
+        raise UserError(f"{where(study.source, 'study.mechanism')}: the nominal design cannot be assembled at "
+                        f"θ = 0: {fail.message}")
+    compute_metrics, metric_names, _ = _metric_plan(study)
+    if compute_metrics is not None:
+        z = np.zeros((1, study.steps, 2))
+        try:
+            compute_metrics(z, z, np.ones(1, dtype=np.int8), metric_names, study.band, mechanism=mech,
+                            lengths=mech.lengths[None, :], crank=np.array([mech.crank.radius]))
+        except UserError as exc:
+            raise UserError(f"{where(study.source, 'scene.metrics')}: {exc}") from None
+
+
+def _existing(out: Path, study: Study) -> str:
+    """State of an existing results file, for a resume: ``complete`` or why it cannot be resumed."""
+    import h5py
+    try:
+        with h5py.File(out, "r") as f:
+            if f.attrs.get("format") != FORMAT:
+                return "not an explorer results file"
+            if f.attrs.get("study_fingerprint") != study.fingerprint():
+                return "written by a different study"
+            if bool(f.attrs.get("complete")):
+                return "complete"
+            if "shards" not in f.attrs:
+                return "an unfinished single-process run (finish it with explorer run --resume, without --dask)"
+            return "incomplete"
+    except OSError:
+        return "unreadable or in use"
+
+
+def _is_sharded(out: Path) -> bool:
+    import h5py
+    try:
+        with h5py.File(out, "r") as f:
+            return "shards" in f.attrs
+    except OSError:
+        return False
+
+
+def _counts(codes: np.ndarray) -> dict:
+    counts = {name: 0 for code, name in sorted(STATUS_NAMES.items())}
+    for c, n in zip(*np.unique(codes, return_counts=True)):
+        counts[FILE_STATUS_NAMES.get(int(c), f"code {int(c)}")] = int(n)
+    return counts
+
+
+def _worker_threads(client) -> int:
+    try:
+        info = client.scheduler_info()
+        return max(1, sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values()))
+    except Exception:
+        return 1
+
+
+def _warm_everywhere(client, recipe: _Recipe) -> None:
+    """Compile or load the study's kernels here, then on each host's first worker (one host at a
+    time), then on the other workers together: no two processes ever write the Numba cache at once."""
+    _warm(recipe)
+    workers = client.scheduler_info().get("workers", {})
+    by_host: dict[str, list[str]] = {}
+    for addr, w in workers.items():
+        by_host.setdefault(str(w.get("host", addr)), []).append(addr)
+    firsts = [ws[0] for ws in by_host.values()]
+    rest = [a for ws in by_host.values() for a in ws[1:]]
+    def on(addrs):  # a task pinned to each worker (a task thread, not the worker's event loop)
+        return [client.submit(_warm, recipe, workers=[a], allow_other_workers=False, pure=False,
+                              key=f"explorer-warm-{_token()}") for a in addrs]
+
+    try:
+        for addr in firsts:
+            client.gather(on([addr]))
+        if rest:
+            client.gather(on(rest))
+    except Exception as exc:
+        # a worker that cannot even load the kernels: say so now rather than through every task
+        msg = " ".join(str(exc).split())[:300]
+        raise UserError(f"a Dask worker could not load explorer's kernels ({type(exc).__name__}: {msg}); "
+                        f"is explorer installed on the workers?") from None
+
+
+def _progress_bar(progress: bool, total: int, name: str):
+    if not progress or not total or not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, unit="cfg", unit_scale=True, desc=name, file=sys.stderr, smoothing=0.1,
+                dynamic_ncols=True, leave=False)
+
+
+# -- clusters for the CLI -----------------------------------------------------------------------------
+@contextlib.contextmanager
+def dask_client(spec: str):
+    """A Client for ``--dask SPEC``: ``local:N`` (a LocalCluster of N single-threaded worker
+    processes; ``local`` alone: one per core), a scheduler file (``*.json``, as written by
+    ``dask scheduler --scheduler-file`` or dask-jobqueue), or a scheduler address
+    (``tcp://host:8786``). The cluster it starts is closed on exit; a remote one is left running."""
+    _require_dask()
+    import logging
+
+    from distributed import Client, LocalCluster
+    spec = str(spec).strip()
+    if spec == "local" or spec.startswith("local:"):
+        n_text = spec[6:] if spec.startswith("local:") else str(os.cpu_count() or 1)
+        try:
+            n = int(n_text)
+            if n < 1:
+                raise ValueError
+        except ValueError:
+            raise UserError(f"--dask {spec}: expected local:N with N ≥ 1 worker processes") from None
+        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                          silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+            yield client
+        return
+    try:
+        if spec.endswith(".json"):
+            if not Path(spec).is_file():
+                raise UserError(f"--dask {spec}: no such scheduler file")
+            client = Client(scheduler_file=spec, timeout="20s")
+        else:
+            client = Client(spec, timeout="20s")
+    except UserError:
+        raise
+    except (OSError, TimeoutError, ValueError) as exc:
+        msg = " ".join(str(exc).split())[:200]
+        raise UserError(f"--dask {spec}: cannot connect to a Dask scheduler ({msg}); give its address "
+                        f"(tcp://host:8786), a scheduler file (.json), or local:N") from None
+    try:
+        yield client
+    finally:
+        client.close()
