@@ -54,7 +54,7 @@ def dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, c
                  shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, nogil=True)
 def dyad_batch_jit(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, lengths, scale, P_init, signs,
                    moving, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t,
                    fail_end, fail_block, iters):
@@ -89,7 +89,7 @@ def generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_
                  shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc)
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, nogil=True)
 def generic_batch_jit(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip, dkind,
                       prm, tab, t_end, closed, cx, cy, lengths, scale, P_init, signs, moving, tol, maxit, out_idx,
                       want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t, fail_end, fail_block, iters):

@@ -115,7 +115,7 @@ def closed_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, params, t_end, clo
     return status, fail_t, fail_end, fail_block
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, nogil=True)
 def closed_batch_jit(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, params, t_end, closed, cx, cy, lengths, scale, P_init,
                      signs, out_idx, out_pos, status, fail_t, fail_end, fail_block):
     """:func:`closed_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), in parallel."""

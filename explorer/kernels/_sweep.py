@@ -160,7 +160,7 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
     dmin = dt / 2.0 ** REFINE_LEVELS
 
     _place(P1, V1, A1, tip, cx, cy, scale, tab[0])
-    code, blk, iters = step(ctx, signs, P0, V0, Vp, P1, V1, A1, 0.0, 0.0, tol, maxit, want_acc, False)
+    code, blk, iters = first_step(ctx, signs, P0, V0, Vp, P1, V1, A1, 0.0, 0.0, tol, maxit, want_acc, False)
     reached = 0  # samples 0 .. reached-1 are solved going forward
     back = S  # samples back .. S-1 are solved going backward (crank cycles that fail)
     if code != 0:
@@ -178,15 +178,10 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
         hp = 0.0
         n_steps = S if closed else S - 1
         for k in range(n_steps):
-            t1 = (k + 1) * dt
-            if k + 1 < S:
-                ok, tf, blk, code, it, hp = _advance(ctx, signs, k * dt, t1, tab[k + 1], tip, kind, prm, cx,
-                                                     cy, scale, P0, V0, Vp, A0, P1, V1, A1, moving, hp, dmin, tol,
-                                                     maxit, want_acc, d)
-            else:
-                ok, tf, blk, code, it, hp = _advance(ctx, signs, k * dt, t1, tab[0], tip, kind, prm, cx, cy,
-                                                     scale, P0, V0, Vp, A0, P1, V1, A1, moving, hp, dmin, tol, maxit,
-                                                     want_acc, d)
+            # the last step of a crank cycle returns to θ = 2π, whose driver values are sample 0's
+            ok, tf, blk, code, it, hp = _advance(ctx, signs, k * dt, (k + 1) * dt, tab[(k + 1) % S], tip, kind, prm,
+                                                 cx, cy, scale, P0, V0, Vp, A0, P1, V1, A1, moving, hp, dmin, tol,
+                                                 maxit, want_acc, d)
             iters += it
             if not ok:
                 status = status_of(code)
@@ -235,8 +230,12 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
 
 
 def _specialise(step_fn, name: str):
-    """Jit a copy of :func:`sweep` (and its :func:`_advance`) whose global ``step`` is ``step_fn``."""
-    env = dict(globals(), step=step_fn)
+    """Jit a copy of :func:`sweep` (and its :func:`_advance`) whose global ``step`` is ``step_fn``.
+
+    The step is inlined into the stepping loop, where it runs millions of times; the one solve at
+    the first sample calls a plain (not inlined) copy, ``first_step``, which keeps compile time down.
+    """
+    env = dict(globals(), step=step_fn, first_step=njit(cache=True)(step_fn.py_func))
     for fn, opts in ((_advance, {"inline": "always"}), (sweep, {})):
         copy = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
         copy.__qualname__ = f"{fn.__name__}_{name}"

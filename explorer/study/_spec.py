@@ -59,8 +59,10 @@ _SECTIONS = {
     "study": ("name", "mechanism", "variants", "seed", "steps", "tolerance", "method"),
     "perturb": ("method", "spread", "links", "crank"),
     "scene": ("vertices", "velocities", "accelerations", "band", "metrics"),
-    "output": ("path",),
+    "output": ("path", "compression"),
 }
+#: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
+COMPRESSIONS = ("lzf", "gzip", "none")
 _NAME_RE = re.compile(r"^[A-Za-z0-9._-]+$")
 
 
@@ -97,6 +99,7 @@ class Study:
     output: str
     source: str
     text: str
+    compression: str = "lzf"
     mechanism_path: str | None = None
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
 
@@ -138,7 +141,7 @@ class Study:
                         "crank": self.crank},
             "scene": {"vertices": plain(self.vertices), "velocities": self.velocities,
                       "accelerations": self.accelerations, "band": self.band, "metrics": plain(self.metrics)},
-            "output": {"path": self.output},
+            "output": {"path": self.output, "compression": self.compression},
         }
 
     def fingerprint(self) -> str:
@@ -268,12 +271,13 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
 
     out = ou.get("path", f"results/{name}.h5")
     out = v.string("output.path", out)
+    compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
 
     study = Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
                   method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
                   vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
                   metrics=metrics, output=out, source=source, text=text if text is not None else dumps_toml(data),
-                  mechanism_path=mech_path, _mech=mech)
+                  mechanism_path=mech_path, _mech=mech, compression=compression)
     return study
 
 
