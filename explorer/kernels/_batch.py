@@ -64,14 +64,10 @@ def dyad_batch_jit(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, c
     (N, 0, n_out, 2); status, fail_t, fail_end, fail_block, iters (N,).
     """
     for i in prange(lengths.shape[0]):
-        st, tf, te, bl, it = dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, lengths[i],
+        res = dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, lengths[i],
                                         scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
                                         out_pos[i], out_vel[i], out_acc[i])
-        status[i] = st
-        fail_t[i] = tf
-        fail_end[i] = te
-        fail_block[i] = bl
-        iters[i] = it
+        status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res
 
 
 @njit(cache=True)
@@ -95,12 +91,8 @@ def generic_batch_jit(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, l
                       want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t, fail_end, fail_block, iters):
     """:func:`generic_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), in parallel."""
     for i in prange(lengths.shape[0]):
-        st, tf, te, bl, it = generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known,
+        res = generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known,
                                            fixed_pos, tip, dkind, prm, tab, t_end, closed, cx, cy, lengths[i],
                                            scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
                                            out_pos[i], out_vel[i], out_acc[i])
-        status[i] = st
-        fail_t[i] = tf
-        fail_end[i] = te
-        fail_block[i] = bl
-        iters[i] = it
+        status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res

@@ -36,7 +36,7 @@ from ..kernels import STATUS_NAMES, assemble, simulate_batch
 from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch,
                              write_shard)
 from ..store._write import FILE_STATUS_NAMES, FORMAT, _mechanism_text
-from ._run import RunSummary, _metric_plan, _state
+from ._run import RunSummary, _metric_plan, _state, results_path
 from ._sample import study_variants
 from ._spec import Study, load_study
 
@@ -162,14 +162,7 @@ def run_study_dask(client, study=None, output=None, resume: bool = False, force:
         raise UserError(f"run_study_dask: expected a dask.distributed.Client as the first argument, "
                         f"got {type(client).__name__}")
     study = load_study(study)
-    out = Path(output if output is not None else study.output)
-    if resume and force:
-        raise UserError("--resume and --force exclude each other: resume finishes a file, force starts it over")
-    if out.is_dir():
-        raise UserError(f"{out}: is a folder; the results path must be a file such as {out / (study.name + '.h5')}")
-    for name, v in (("shard size", shard_size), ("chunk size", chunk_size)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
-            raise UserError(f"{name}: expected an integer ≥ 1 (variants), got {v!r}")
+    out = results_path(study, output, resume, force, shard_size=shard_size, chunk_size=chunk_size)
     _validate(study)
     folder = shards_folder(out)
 

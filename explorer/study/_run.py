@@ -107,13 +107,7 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
     """
     t0 = time.perf_counter()
     study = load_study(study)
-    out = Path(output if output is not None else study.output)
-    if resume and force:
-        raise UserError("--resume and --force exclude each other: resume finishes a file, force starts it over")
-    if out.is_dir():
-        raise UserError(f"{out}: is a folder; the results path must be a file such as {out / (study.name + '.h5')}")
-    if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1):
-        raise UserError(f"chunk size: expected an integer ≥ 1 (variants per chunk), got {chunk_size!r}")
+    out = results_path(study, output, resume, force, chunk_size=chunk_size)
     mech = study.mech
     _, fail = assemble(mech)
     if fail is not None:
@@ -189,6 +183,21 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
         writer.close()
     return RunSummary(out, study.name, study.n_variants, study.steps, ran, counts, time.perf_counter() - t0,
                       resumed=resumed)
+
+
+def results_path(study, output, resume: bool, force: bool, **sizes) -> Path:
+    """The results file of a run (``output``, else the study's ``[output] path``) after the checks every
+    runner shares: --resume and --force exclude each other, the path is not a folder, and each of
+    ``sizes`` (e.g. chunk_size=…) is None or a whole number of variants ≥ 1."""
+    out = Path(output if output is not None else study.output)
+    if resume and force:
+        raise UserError("--resume and --force exclude each other: resume finishes a file, force starts it over")
+    if out.is_dir():
+        raise UserError(f"{out}: is a folder; the results path must be a file such as {out / (study.name + '.h5')}")
+    for name, v in sizes.items():
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
+            raise UserError(f"{name.replace('_', ' ')}: expected an integer ≥ 1 (variants), got {v!r}")
+    return out
 
 
 #: Commit chunks on a background thread while the next chunk is solved (h5py releases the GIL while
