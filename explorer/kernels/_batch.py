@@ -9,6 +9,7 @@ of a lengths array with ``prange``.
 import numpy as np
 from numba import njit, prange
 
+from ._drive import CRANK
 from ._dyads import dyad_context
 from ._generic import generic_context
 from ._sweep import STATUS_INVALID, dyad_sweep, generic_sweep
@@ -41,12 +42,12 @@ def _invalid(out_pos, out_vel, out_acc, want_vel, want_acc):
 
 
 @njit(cache=True)
-def dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, L, scale, P_init, signs, moving,
-               tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc):
+def dyad_cycle(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, L, scale, P_init, signs,
+               moving, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc):
     """One design through :func:`_sweep.sweep` with the dyad step; returns sweep's 5-tuple."""
     if not valid_lengths(L, scale):
         return _invalid(out_pos, out_vel, out_acc, want_vel, want_acc)
-    ctx = dyad_context(dv, dpa, dpb, dla, dlb, L)
+    ctx = dyad_context(dv, dpa, dpb, dla, dlb, L, dlp, tip, kind == CRANK, cx, cy, scale, P_init)
     shortest = np.inf
     for e in range(dla.shape[0]):
         shortest = min(shortest, L[dla[e]], L[dlb[e]])
@@ -55,8 +56,8 @@ def dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, c
 
 
 @njit(parallel=True, cache=True, nogil=True)
-def dyad_batch_jit(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, lengths, scale, P_init, signs,
-                   moving, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t,
+def dyad_batch_jit(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, lengths, scale, P_init,
+                   signs, moving, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t,
                    fail_end, fail_block, iters):
     """:func:`dyad_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), in parallel.
 
@@ -64,7 +65,7 @@ def dyad_batch_jit(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, c
     (N, 0, n_out, 2); status, fail_t, fail_end, fail_block, iters (N,).
     """
     for i in prange(lengths.shape[0]):
-        res = dyad_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, t_end, closed, cx, cy, lengths[i],
+        res = dyad_cycle(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, lengths[i],
                                         scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
                                         out_pos[i], out_vel[i], out_acc[i])
         status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res

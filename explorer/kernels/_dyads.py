@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._blocks import INFEASIBLE, MAX_MOVE, NOCONV, OK, SIGN, SUSPECT, gap_suspect
+from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, SIGN, SUSPECT, gap_suspect
 
 
 # Below this |sin| of the angle at the placed vertex a dyad is at a fold (its parents' distance at
@@ -20,15 +20,19 @@ FOLD_SIN = 1e-2
 
 
 @njit(cache=True)
-def dyad_context(dv, dpa, dpb, dla, dlb, L):
-    """Per-variant table of the dyad step, shape (n_dyads, 8): vertex, parent a, parent b (as floats),
-    da², db², (da+db)², (da−db)², and the largest move allowed per step, squared.
+def dyad_context(dv, dpa, dpb, dla, dlb, L, dlp, tip, crank, cx, cy, scale, P_init):
+    """Per-variant table of the dyad step, shape (n_dyads, 9): vertex, parent a, parent b (as floats),
+    da², db², (da+db)², (da−db)², the largest move allowed per step squared, and 1.0 where the
+    between-sample gap check is needed (0.0 where the parents' distance provably stays inside the
+    assembly range: ``dlp`` ≥ 0 is a link joining the parents, so their distance is constant; −2 marks
+    parents that are the crank tip (radius ``scale`` about (cx, cy)) and a fixed vertex, whose distance
+    range is known in closed form; −1: neither).
 
-    One array rather than a tuple of eight: unpacking a tuple of arrays in the hot loop costs
-    atomic reference counting on every step.
+    One array rather than a tuple: unpacking a tuple of arrays in the hot loop costs atomic
+    reference counting on every step.
     """
     nd = dv.shape[0]
-    ctx = np.empty((nd, 8))
+    ctx = np.empty((nd, 9))
     for k in range(nd):
         d1 = L[dla[k]]
         d2 = L[dlb[k]]
@@ -40,6 +44,19 @@ def dyad_context(dv, dpa, dpb, dla, dlb, L):
         ctx[k, 5] = (d1 + d2) * (d1 + d2)
         ctx[k, 6] = (d1 - d2) * (d1 - d2)
         ctx[k, 7] = (MAX_MOVE * min(d1, d2)) ** 2
+        lo = ctx[k, 6] * (1.0 + GAP_MARGIN)
+        hi = ctx[k, 5] * (1.0 - GAP_MARGIN)
+        qmin = -1.0
+        qmax = -1.0
+        if dlp[k] >= 0:
+            qmin = L[dlp[k]] * L[dlp[k]]
+            qmax = qmin
+        elif dlp[k] == -2 and crank:
+            other = dpb[k] if dpa[k] == tip else dpa[k]
+            D = math.hypot(P_init[other, 0] - cx, P_init[other, 1] - cy)
+            qmin = (D - scale) * (D - scale)
+            qmax = (D + scale) * (D + scale)
+        ctx[k, 8] = 0.0 if (qmin >= 0.0 and lo < qmin and qmax < hi) else 1.0
     return ctx
 
 
@@ -70,7 +87,7 @@ def dyad_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
         q1 = gx * gx + gy * gy
         if q1 > hi2 or q1 < lo2:
             return INFEASIBLE, k, iters
-        if checks:
+        if checks and ctx[k, 8] != 0.0:
             # may the parents' distance leave the assembly range between the two samples?
             ux = P0[b, 0] - P0[a, 0]
             uy = P0[b, 1] - P0[a, 1]

@@ -66,7 +66,8 @@ def generic_context(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, lin
             dpb[k] = b
             dla[k] = la
             dlb[k] = lb
-    dctx = dyad_context(dv, dpa, dpb, dla, dlb, L)
+    dctx = dyad_context(dv, dpa, dpb, dla, dlb, L, np.full(nb, -1, dtype=np.int64), -1, False, 0.0, 0.0, 1.0,
+                        np.zeros((1, 2)))
     nk = known.shape[0]
     kpos = np.zeros((nk, 2))
     for i in range(1, nk):

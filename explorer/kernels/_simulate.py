@@ -318,6 +318,23 @@ def _dyad_tables(plan: Plan, blocks) -> tuple:
     return tuple(np.array(c, dtype=np.int64) for c in cols)
 
 
+def _parent_links(mech: Mechanism, plan: Plan, blocks) -> np.ndarray:
+    """Per dyad in ``blocks``: the link joining its two parents (their distance is then constant), −2 if
+    the parents are the crank tip and a fixed vertex (a distance range known in closed form), else −1."""
+    out = []
+    for b in blocks:
+        v = plan.blocks[b].vertices[0]
+        pa, pb = (_other(plan, e, v) for e in plan.blocks[b].links)
+        join = [e for e in range(len(plan.link_a)) if {int(plan.link_a[e]), int(plan.link_b[e])} == {pa, pb}]
+        if join:
+            out.append(join[0])
+        elif mech.crank is not None and plan.tip in (pa, pb) and ({pa, pb} - {plan.tip}) <= set(plan.fixed.tolist()):
+            out.append(-2)
+        else:
+            out.append(-1)
+    return np.array(out, dtype=np.int64)
+
+
 def _run(mech, plan, lengths, scale, steps, out_idx, velocities, accelerations, tolerance, method, max_iterations,
          P0, signs, blocks):
     """Allocate the outputs and call the kernel for ``method`` on the plan restricted to ``blocks``."""
@@ -365,7 +382,8 @@ def _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, m
     moving = np.arange(len(mech.vertices)) if method == "dense" else np.array(solved, dtype=np.int64)
     drive_args = (plan.tip, drv.kind, drv.prm, drv.table, drv.t_end, drv.closed, cx, cy)
     if method == "block" and all(plan.blocks[b].kind == DYAD for b in blocks):
-        head, batch_kernel, cycle_kernel = (*_dyad_tables(plan, blocks), *drive_args), dyad_batch_jit, dyad_cycle
+        head = (*_dyad_tables(plan, blocks), _parent_links(mech, plan, blocks), *drive_args)
+        batch_kernel, cycle_kernel = dyad_batch_jit, dyad_cycle
     else:
         known = np.concatenate([[plan.tip], plan.fixed]).astype(np.int64)
         head = (BLOCK if method == "block" else DENSE, *plan.arrays(blocks), plan.link_a, plan.link_b, known,
