@@ -9,7 +9,7 @@ move checks. Only compiled when a study needs it.
 import numpy as np
 from numba import njit
 
-from ._blocks import INFEASIBLE, MAX_MOVE, NOCONV, OK, SIGN, SUSPECT, dyad_sign, gap_suspect, general_sign, solve_general
+from ._blocks import INFEASIBLE, NOCONV, OK, SIGN, SUSPECT, dyad_sign, gap_suspect, general_sign, solve_general
 from ._dense import solve_dense
 from ._dyads import FOLD_SIN, dyad_context, dyad_step
 

@@ -18,8 +18,6 @@ other side; samples in between stay NaN (seed 004 leaves unreachable angles empt
 (time from 0 to T) simply ends at its first failure.
 """
 
-import math
-
 import numpy as np
 from numba import njit
 
@@ -38,6 +36,9 @@ STATUS_NOCONV = 3
 STATUS_INVALID = 4
 
 REFINE_LEVELS = 16
+
+# The step functions the templates below call; _specialise binds both in each jitted copy.
+step = first_step = None
 # Steps accepted at the smallest size (with the gap and move checks off) allowed between two samples.
 # Passing a fold tangentially takes a few thousand (the Hermite margin spans ~1e-3 of the parameter);
 # past an eighth of the interval the design sits on a toggle over a stretch, and the sweep ends

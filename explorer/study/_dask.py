@@ -31,12 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import UserError, where
-from ..kernels import STATUS_NAMES, assemble, simulate_batch
+from ..errors import UserError
+from ..kernels import STATUS_NAMES, simulate_batch
 from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch,
                              write_shard)
 from ..store._write import FILE_STATUS_NAMES, FORMAT, _mechanism_text
-from ._run import RunSummary, _metric_plan, _state, results_path
+from ._run import RunSummary, _metric_plan, _state, results_path, validate_study
 from ._sample import study_variants
 from ._spec import Study, load_study
 
@@ -163,7 +163,7 @@ def run_study_dask(client, study=None, output=None, resume: bool = False, force:
                         f"got {type(client).__name__}")
     study = load_study(study)
     out = results_path(study, output, resume, force, shard_size=shard_size, chunk_size=chunk_size)
-    _validate(study)
+    validate_study(study)
     folder = shards_folder(out)
 
     # -- what is there already
@@ -264,23 +264,6 @@ def _size(plan: ShardPlan, i: int) -> int:
 def _token() -> str:
     import uuid
     return uuid.uuid4().hex[:12]
-
-
-def _validate(study: Study) -> None:
-    """The checks run_study makes before touching a file."""
-    mech = study.mech
-    _, fail = assemble(mech)
-    if fail is not None:
-        raise UserError(f"{where(study.source, 'study.mechanism')}: the nominal design cannot be assembled at "
-                        f"θ = 0: {fail.message}")
-    compute_metrics, metric_names, _ = _metric_plan(study)
-    if compute_metrics is not None:
-        z = np.zeros((1, study.steps, 2))
-        try:
-            compute_metrics(z, z, np.ones(1, dtype=np.int8), metric_names, study.band, mechanism=mech,
-                            lengths=mech.lengths[None, :], crank=np.array([mech.crank.radius]))
-        except UserError as exc:
-            raise UserError(f"{where(study.source, 'scene.metrics')}: {exc}") from None
 
 
 def _existing(out: Path, study: Study) -> str:

@@ -108,20 +108,9 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
     t0 = time.perf_counter()
     study = load_study(study)
     out = results_path(study, output, resume, force, chunk_size=chunk_size)
+    validate_study(study)
     mech = study.mech
-    _, fail = assemble(mech)
-    if fail is not None:
-        raise UserError(f"{where(study.source, 'study.mechanism')}: the nominal design cannot be assembled at "
-                        f"θ = 0: {fail.message}")
-
     compute_metrics, metric_names, metric_vel = _metric_plan(study)
-    if compute_metrics is not None:  # check the names and band now, before any file is touched
-        z = np.zeros((1, study.steps, 2))
-        try:
-            compute_metrics(z, z, np.ones(1, dtype=np.int8), metric_names, study.band, mechanism=mech,
-                            lengths=mech.lengths[None, :], crank=np.array([mech.crank.radius]))
-        except UserError as exc:
-            raise UserError(f"{where(study.source, 'scene.metrics')}: {exc}") from None
 
     resumed = False
     if out.exists():
@@ -183,6 +172,24 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
         writer.close()
     return RunSummary(out, study.name, study.n_variants, study.steps, ran, counts, time.perf_counter() - t0,
                       resumed=resumed)
+
+
+def validate_study(study: Study) -> None:
+    """The checks every runner makes before touching a file: the nominal design assembles at the
+    first sample, and the metrics and band the scene asks for are valid (UserError otherwise)."""
+    mech = study.mech
+    _, fail = assemble(mech)
+    if fail is not None:
+        raise UserError(f"{where(study.source, 'study.mechanism')}: the nominal design cannot be assembled at "
+                        f"θ = 0: {fail.message}")
+    compute_metrics, metric_names, _ = _metric_plan(study)
+    if compute_metrics is not None:
+        z = np.zeros((1, study.steps, 2))
+        try:
+            compute_metrics(z, z, np.ones(1, dtype=np.int8), metric_names, study.band, mechanism=mech,
+                            lengths=mech.lengths[None, :], crank=np.array([mech.crank.radius]))
+        except UserError as exc:
+            raise UserError(f"{where(study.source, 'scene.metrics')}: {exc}") from None
 
 
 def results_path(study, output, resume: bool, force: bool, **sizes) -> Path:
