@@ -48,9 +48,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ..errors import UserError
+from ..kernels import parallel_rows
 from ..plan import fourbar_loops
 
 #: Every metric, in storage/display order.
@@ -160,12 +161,13 @@ def stance_indices(path, band: float = DEFAULT_BAND) -> np.ndarray:
     return (start + np.arange(n)) % y.shape[0]
 
 
-@njit(parallel=True, cache=True)
-def _foot_metrics_kernel(paths, vel, status, band, want_path, want_stance, want_vel, out):
-    """Fill out[m, i] for the FOOT_METRICS of every ok variant i (out comes in NaN-filled)."""
+@njit(cache=True, nogil=True)
+def _foot_metrics_kernel(band, want_path, want_stance, want_vel, paths, vel, status, out):
+    """Fill out[i, m] for the FOOT_METRICS of every ok variant i (out comes in NaN-filled); the
+    per-row arrays come last, for :func:`explorer.kernels.parallel_rows`."""
     N = paths.shape[0]
     S = paths.shape[1]
-    for i in prange(N):
+    for i in range(N):
         if status[i] != 0:
             continue
         # whole-cycle extremes
@@ -190,8 +192,8 @@ def _foot_metrics_kernel(paths, vel, status, band, want_path, want_stance, want_
                 ymax = y
         path_ok = finite
         if path_ok and want_path:
-            out[0, i] = xmax - xmin
-            out[1, i] = ymax - ymin
+            out[i, 0] = xmax - xmin
+            out[i, 1] = ymax - ymin
         start = 0
         n = 0
         if path_ok and want_stance:
@@ -224,10 +226,10 @@ def _foot_metrics_kernel(paths, vel, status, band, want_path, want_stance, want_
                 sxy += dx * dy
                 syy += dy * dy
             stride = sxmax - sxmin
-            out[2, i] = stride
-            out[3, i] = n / S
+            out[i, 2] = stride
+            out[i, 3] = n / S
             if stride > 0.0:
-                out[4, i] = math.sqrt(syy / n) / stride
+                out[i, 4] = math.sqrt(syy / n) / stride
             if sxx > 0.0:
                 b = sxy / sxx
                 sse = 0.0
@@ -235,7 +237,7 @@ def _foot_metrics_kernel(paths, vel, status, band, want_path, want_stance, want_
                     k = (start + j) % S
                     e = (paths[i, k, 1] - my) - b * (paths[i, k, 0] - mx)
                     sse += e * e
-                out[5, i] = math.sqrt(sse / n / (1.0 + b * b))
+                out[i, 5] = math.sqrt(sse / n / (1.0 + b * b))
         if want_vel and path_ok:
             vmax = -np.inf
             vok = True
@@ -247,7 +249,7 @@ def _foot_metrics_kernel(paths, vel, status, band, want_path, want_stance, want_
                 if s > vmax:
                     vmax = s
             if vok:
-                out[8, i] = vmax
+                out[i, 8] = vmax
                 if want_stance:
                     ss = 0.0
                     for j in range(n):
@@ -259,9 +261,9 @@ def _foot_metrics_kernel(paths, vel, status, band, want_path, want_stance, want_
                         k = (start + j) % S
                         d = math.hypot(vel[i, k, 0], vel[i, k, 1]) - ms
                         var += d * d
-                    out[6, i] = ms
+                    out[i, 6] = ms
                     if ms > 0.0:
-                        out[7, i] = math.sqrt(var / n) / ms
+                        out[i, 7] = math.sqrt(var / n) / ms
 
 
 # -- public ------------------------------------------------------------------------------------------
@@ -349,14 +351,14 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
             raise UserError(f"velocities: expected shape {paths.shape} like paths, got {vel.shape}")
         vel = np.ascontiguousarray(vel)
     else:
-        vel = np.zeros((1, 1, 2))
-    out = np.full((_N_FOOT, N), np.nan)
+        vel = np.zeros((N, 0, 2))
+    out = np.full((N, _N_FOOT), np.nan)
     want_stance = any(m in chosen for m in ("stride", "duty", "flatness", "stance_rms_line",
                                              "stance_speed", "speed_ripple"))
     want_path = "width" in chosen or "height" in chosen
     if N and any(m in FOOT_METRICS for m in chosen):
-        _foot_metrics_kernel(np.ascontiguousarray(paths), vel, status, band, want_path, want_stance,
-                             bool(need_vel), out)
+        parallel_rows(_foot_metrics_kernel, (band, want_path, want_stance, bool(need_vel)),
+                      (np.ascontiguousarray(paths), vel, status, out))
     result = {}
     for m in chosen:
         if m == "min_transmission_angle":
@@ -369,7 +371,7 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
                 continue
             result[m] = min_transmission_angle(mechanism, lengths, crank, status=status, n=N)
         else:
-            result[m] = out[_INDEX[m]].copy()
+            result[m] = out[:, _INDEX[m]].copy()
     return result
 
 

@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from ..errors import UserError
 from ._metrics import DIRECTIONS, METRICS
+
+if TYPE_CHECKING:  # pandas is imported where it is used: it costs ~0.4 s, and `explorer run` never needs it
+    import pandas as pd
 
 _RESERVED = ("variant", "status", "rank", "score")
 
@@ -22,6 +25,8 @@ _RESERVED = ("variant", "status", "rank", "score")
 # -- helpers ------------------------------------------------------------------------------------------
 def _rankable(df: pd.DataFrame) -> list[str]:
     """Numeric columns that can be ranked on (metrics first, in METRICS order)."""
+    import pandas as pd
+
     numeric = [c for c in df.columns if c not in _RESERVED and pd.api.types.is_numeric_dtype(df[c])
                and not pd.api.types.is_bool_dtype(df[c])]
     return [m for m in METRICS if m in numeric] + [c for c in numeric if c not in METRICS]
@@ -68,6 +73,8 @@ def _directions(cols: list[str], ascending) -> dict[str, str]:
 
 def ok_mask(df: pd.DataFrame) -> np.ndarray:
     """Boolean mask of the rows whose ``status`` is ok (name "ok" or code 0); all rows if there is no status."""
+    import pandas as pd
+
     if "status" not in df.columns:
         return np.ones(len(df), dtype=bool)
     st = df["status"]
@@ -79,6 +86,8 @@ def ok_mask(df: pd.DataFrame) -> np.ndarray:
 def select(df: pd.DataFrame, where=None, include_failed: bool = False) -> pd.DataFrame:
     """The rows that are ok (unless ``include_failed``) and satisfy the pandas query ``where``
     (e.g. "duty > 0.3 and flatness < 0.002"); a bad expression is a UserError naming it."""
+    import pandas as pd
+
     if not include_failed:
         df = df[ok_mask(df)]
     if where is not None and str(where).strip():
@@ -103,6 +112,8 @@ def _check_top(top):
 
 def _tiebreak(df: pd.DataFrame) -> np.ndarray:
     """Secondary sort key: the variant number if there is one, else the row position."""
+    import pandas as pd
+
     if "variant" in df.columns and pd.api.types.is_numeric_dtype(df["variant"]):
         return df["variant"].to_numpy()
     return np.arange(len(df))
@@ -198,6 +209,8 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
     1-based position, the first column; the frame's index is kept. Unknown metric names raise
     UserError listing the ones the frame has.
     """
+    import pandas as pd
+
     if not isinstance(df, pd.DataFrame):
         raise UserError(f"rank: expected a pandas DataFrame, got {type(df).__name__}")
     top = _check_top(top)

@@ -2,12 +2,13 @@
 
 Each entry point checks a variant's lengths, builds its step context (the fast all-dyad one or
 the generic one) and runs :func:`~._sweep.sweep`; the ``*_batch_jit`` kernels do it for every row
-of a lengths array with ``prange``.
+they are handed, serially and without the GIL: :func:`~._rows.parallel_rows` runs them in parallel
+over blocks of rows.
 """
 
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ._drive import CRANK
 from ._dyads import dyad_context
@@ -32,12 +33,13 @@ def valid_lengths(L, scale):
 
 @njit(cache=True)
 def _invalid(out_pos, out_vel, out_acc, want_vel, want_acc):
-    """NaN outputs and the sweep's 5-tuple for a design with a non-finite or non-positive length."""
-    out_pos[:, :, :] = np.nan
-    if want_vel:
-        out_vel[:, :, :] = np.nan
-    if want_acc:
-        out_acc[:, :, :] = np.nan
+    """NaN outputs and the sweep's 5-tuple for a design with a non-finite or non-positive length.
+    (Flat loops: a slice assignment compiles for about a second more.)"""
+    for out, wanted in ((out_pos, True), (out_vel, want_vel), (out_acc, want_acc)):
+        if wanted:
+            flat = out.reshape(-1)
+            for i in range(flat.shape[0]):
+                flat[i] = np.nan
     return STATUS_INVALID, 0.0, np.nan, -1, 0
 
 
@@ -55,19 +57,20 @@ def dyad_cycle(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, 
                  shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc)
 
 
-@njit(parallel=True, cache=True, nogil=True)
-def dyad_batch_jit(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, lengths, scale, P_init,
-                   signs, moving, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t,
+@njit(cache=True, nogil=True)
+def dyad_batch_jit(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, P_init, signs, moving, tol,
+                   maxit, out_idx, want_vel, want_acc, lengths, scale, out_pos, out_vel, out_acc, status, fail_t,
                    fail_end, fail_block, iters):
-    """:func:`dyad_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), in parallel.
+    """:func:`dyad_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), serially.
 
     Outputs in place: out_pos (N, S, n_out, 2); out_vel / out_acc the same when asked, else
-    (N, 0, n_out, 2); status, fail_t, fail_end, fail_block, iters (N,).
+    (N, 0, n_out, 2); status, fail_t, fail_end, fail_block, iters (N,). The per-row arguments come
+    last (from ``lengths`` on), for :func:`~._rows.parallel_rows`.
     """
-    for i in prange(lengths.shape[0]):
+    for i in range(lengths.shape[0]):
         res = dyad_cycle(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, lengths[i],
-                                        scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
-                                        out_pos[i], out_vel[i], out_acc[i])
+                         scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
+                         out_pos[i], out_vel[i], out_acc[i])
         status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res
 
 
@@ -86,14 +89,14 @@ def generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_
                  shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc)
 
 
-@njit(parallel=True, cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def generic_batch_jit(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip, dkind,
-                      prm, tab, t_end, closed, cx, cy, lengths, scale, P_init, signs, moving, tol, maxit, out_idx,
-                      want_vel, want_acc, out_pos, out_vel, out_acc, status, fail_t, fail_end, fail_block, iters):
-    """:func:`generic_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), in parallel."""
-    for i in prange(lengths.shape[0]):
-        res = generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known,
-                                           fixed_pos, tip, dkind, prm, tab, t_end, closed, cx, cy, lengths[i],
-                                           scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
-                                           out_pos[i], out_vel[i], out_acc[i])
+                      prm, tab, t_end, closed, cx, cy, P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
+                      lengths, scale, out_pos, out_vel, out_acc, status, fail_t, fail_end, fail_block, iters):
+    """:func:`generic_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), serially; the
+    outputs and the order of arguments are those of :func:`dyad_batch_jit`."""
+    for i in range(lengths.shape[0]):
+        res = generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip,
+                            dkind, prm, tab, t_end, closed, cx, cy, lengths[i], scale[i], P_init, signs, moving, tol,
+                            maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
         status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res

@@ -15,6 +15,7 @@ from ._blocks import solve_general
 from ._closed import closed_batch_jit, closed_cycle
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
 from ._batch import dyad_batch_jit, dyad_cycle, generic_batch_jit, generic_cycle
+from ._rows import parallel_rows
 from ._generic import BLOCK, DENSE, block_signs
 from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
 
@@ -302,6 +303,13 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
 
 
 def _signs(plan: Plan, P: np.ndarray) -> np.ndarray:
+    """Branch sign (+1.0 / −1.0, 0.0 if singular) of every block at positions P (n_vertices, 2)."""
+    if all(b.kind == DYAD for b in plan.blocks):
+        # the orientation of each placed vertex (``_blocks.dyad_sign``), without compiling the general
+        # blocks' determinant for plans that have none
+        t = _dyad_tables(plan, range(plan.n_blocks))
+        v, a, b = (P[i] for i in t[:3])
+        return np.sign((b[:, 0] - a[:, 0]) * (v[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (v[:, 0] - a[:, 0]))
     n = 2 * plan.n_vertices
     return block_signs(P, *plan.arrays(), plan.link_a, plan.link_b, np.full(plan.n_vertices, -1, dtype=np.int64),
                        np.empty((n, n)), np.empty(n))
@@ -394,7 +402,7 @@ def _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, m
         status[0], fth[0], fend[0], fbl[0], its[0] = cycle_kernel(*head, lengths[0], scale[0], *tail, pos[0], vel[0],
                                                                   acc[0])
     else:
-        batch_kernel(*head, lengths, scale, *tail, pos, vel, acc, status, fth, fend, fbl, its)
+        parallel_rows(batch_kernel, (*head, *tail), (lengths, scale, pos, vel, acc, status, fth, fend, fbl, its))
 
 
 def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, vertices=None, velocities: bool = True,

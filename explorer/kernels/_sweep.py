@@ -18,13 +18,13 @@ other side; samples in between stay NaN (seed 004 leaves unreachable angles empt
 (time from 0 to T) simply ends at its first failure.
 """
 
+import types
+
 import numpy as np
 from numba import njit
 
 from ._blocks import INFEASIBLE, SIGN, SUSPECT
 from ._drive import drive
-import types
-
 from ._dyads import dyad_step
 from ._generic import generic_step
 
@@ -37,8 +37,8 @@ STATUS_INVALID = 4
 
 REFINE_LEVELS = 16
 
-# The step functions the templates below call; _specialise binds both in each jitted copy.
-step = first_step = None
+# The step function the templates below call; _specialise binds it in each jitted copy.
+step = None
 # Steps accepted at the smallest size (with the gap and move checks off) allowed between two samples.
 # Passing a fold tangentially takes a few thousand (the Hermite margin spans ~1e-3 of the parameter);
 # past an eighth of the interval the design sits on a toggle over a stretch, and the sweep ends
@@ -92,44 +92,13 @@ def _store(k, out_idx, P0, V0, A0, want_vel, want_acc, out_pos, out_vel, out_acc
                 out_acc[k, j, ax] = A0[v, ax]
 
 
-def _advance(ctx, signs, t0, t1, tab1, tip, kind, prm, cx, cy, scale, P0, V0, Vp, A0, P1, V1, A1, moving, hp,
-             dmin, tol, maxit, want_acc, d):
-    """Carry the state from parameter t0 to t1 (either direction), halving where trouble is reported.
-
-    ``tab1`` holds the driver values at t1 (6,). Returns (ok, failing parameter, block, code,
-    iterations, last step taken).
-    """
-    span = t1 - t0
-    hs = span
-    t = t0
-    iters = 0
-    forced = 0
-    while True:
-        last = abs(hs) >= abs(t1 - t) - 0.5 * dmin
-        h = t1 - t if last else hs
-        if last:
-            _place(P1, V1, A1, tip, cx, cy, scale, tab1)
-        else:
-            drive(kind, prm, t + h, d)
-            _place(P1, V1, A1, tip, cx, cy, scale, d)
-        strict = abs(h) > 1.5 * dmin
-        code, blk, it = step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, strict)
-        iters += it
-        if code == 0:
-            if not strict:
-                forced += 1
-                if forced > MAX_FORCED:  # sitting on a toggle for a stretch: no trustworthy continuation
-                    return False, t + h, blk, SUSPECT, iters, hp
-            _accept(moving, P0, V0, Vp, A0, P1, V1, A1, want_acc)
-            hp = h
-            t += h
-            if last:
-                return True, t, -1, 0, iters, hp
-            hs = 2.0 * hs if abs(2.0 * hs) <= abs(span) else span
-        elif strict:
-            hs = 0.5 * h
-        else:
-            return False, t + h, blk, code, iters, hp
+@njit(cache=True)
+def _copy(dst, src):
+    """dst[:, :] = src for (n, 2) arrays, as a loop (a slice assignment compiles a shape-mismatch error
+    message, seconds of compile time for nothing)."""
+    for v in range(src.shape[0]):
+        dst[v, 0] = src[v, 0]
+        dst[v, 1] = src[v, 1]
 
 
 def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs, moving, shortest, tol, maxit,
@@ -142,6 +111,10 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
     out_pos[k, j] = position of vertex out_idx[j] at sample k, likewise out_vel (d/dparameter) and
     out_acc when asked; NaN where not reached. Returns (status, failure parameter or NaN, end of the
     unreachable range or NaN, failing block or −1, total Newton iterations).
+
+    One loop makes every move, so the step is inlined (and compiled) once: phase 0 solves sample 0
+    (a zero step from P_init, checks off), phase 1 steps forward, and phase 2, after a crank cycle
+    fails, steps backward from θ = 0 to the other end of the reachable range.
     """
     S = tab.shape[0]
     nv = P_init.shape[0]
@@ -152,73 +125,126 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
     Vp = np.zeros((nv, 2))
     A0 = np.zeros((nv, 2))
     A1 = np.zeros((nv, 2))
+    P_first = np.empty((nv, 2))
+    V_first = np.empty((nv, 2))
+    A_first = np.empty((nv, 2))
     d = np.empty(6)
     status = STATUS_OK
     fail_t = np.nan
     fail_end = np.nan
     fail_block = -1
+    iters = 0
     dt = t_end / S if closed else t_end / (S - 1)
     dmin = dt / 2.0 ** REFINE_LEVELS
-
-    _place(P1, V1, A1, tip, cx, cy, scale, tab[0])
-    code, blk, iters = first_step(ctx, signs, P0, V0, Vp, P1, V1, A1, 0.0, 0.0, tol, maxit, want_acc, False)
+    n_steps = S if closed else S - 1
     reached = 0  # samples 0 .. reached-1 are solved going forward
     back = S  # samples back .. S-1 are solved going backward (crank cycles that fail)
-    if code != 0:
-        status = status_of(code)
-        fail_t = 0.0
-        fail_block = blk
-    else:
-        _accept(moving, P0, V0, Vp, A0, P1, V1, A1, want_acc)
-        Vp[:, :] = V0
-        _store(0, out_idx, P0, V0, A0, want_vel, want_acc, out_pos, out_vel, out_acc)
-        reached = 1
-        P_first = P0.copy()
-        V_first = V0.copy()
-        A_first = A0.copy()
-        hp = 0.0
-        n_steps = S if closed else S - 1
-        for k in range(n_steps):
+    hp = 0.0  # the last step taken (the predictor's curvature term needs it)
+    phase = 0
+    k = 0
+    while True:  # one move per pass, from parameter t0 to t1 (either direction)
+        if phase == 0:
+            t0 = 0.0
+            t1 = 0.0
+            row = 0
+        elif phase == 1:
+            if k >= n_steps:
+                break
             # the last step of a crank cycle returns to θ = 2π, whose driver values are sample 0's
-            ok, tf, blk, code, it, hp = _advance(ctx, signs, k * dt, (k + 1) * dt, tab[(k + 1) % S], tip, kind, prm,
-                                                 cx, cy, scale, P0, V0, Vp, A0, P1, V1, A1, moving, hp, dmin, tol,
-                                                 maxit, want_acc, d)
+            t0 = k * dt
+            t1 = (k + 1) * dt
+            row = (k + 1) % S
+        else:
+            # the forward failure lies in (t[reached-1], t[reached]]: sweep back into that interval
+            if k < reached - 1:
+                break
+            t0 = (k + 1) * dt
+            t1 = k * dt
+            row = k
+        # the move: tried whole, halved where the step reports trouble, doubled again after success
+        span = t1 - t0
+        hs = span
+        t = t0
+        forced = 0
+        while True:
+            last = abs(hs) >= abs(t1 - t) - 0.5 * dmin
+            h = t1 - t if last else hs
+            if not last:
+                drive(kind, prm, t + h, d)
+            _place(P1, V1, A1, tip, cx, cy, scale, tab[row] if last else d)
+            strict = abs(h) > 1.5 * dmin
+            code, blk, it = step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, strict)
             iters += it
+            if code == 0:
+                if not strict:
+                    forced += 1
+                    if forced > MAX_FORCED:  # sitting on a toggle for a stretch: no trustworthy continuation
+                        code = SUSPECT
+                        break
+                _accept(moving, P0, V0, Vp, A0, P1, V1, A1, want_acc)
+                hp = h
+                t += h
+                if last:
+                    break
+                hs = 2.0 * hs if abs(2.0 * hs) <= abs(span) else span
+            elif strict:
+                hs = 0.5 * h
+            else:
+                break
+        ok = code == 0
+        tf = t + h  # where a failed move failed (t is the last parameter reached)
+        sample = -1  # the sample this move reached, if it is to be stored
+        if phase == 0:
+            if not ok:
+                status = status_of(code)
+                fail_t = 0.0
+                fail_block = blk
+                break
+            _copy(Vp, V0)
+            _copy(P_first, P0)
+            _copy(V_first, V0)
+            _copy(A_first, A0)
+            sample = 0
+            reached = 1
+            phase = 1
+        elif phase == 1:
             if not ok:
                 status = status_of(code)
                 fail_t = tf
                 fail_block = blk
-                break
-            if k + 1 < S:
-                _store(k + 1, out_idx, P0, V0, A0, want_vel, want_acc, out_pos, out_vel, out_acc)
-                reached = k + 2
-        if status == STATUS_OK and closed:
-            gap = 0.0
-            for v in range(nv):
-                gap = max(gap, abs(P0[v, 0] - P_first[v, 0]) + abs(P0[v, 1] - P_first[v, 1]))
-            if gap > max(1e-4, 10.0 * tol) * shortest:
-                status = STATUS_BRANCH
-                fail_t = t_end
-        elif status != STATUS_OK and closed:
-            # the other end of the reachable range: sweep clockwise from θ = 0
-            P0[:, :] = P_first
-            V0[:, :] = V_first
-            Vp[:, :] = V_first
-            A0[:, :] = A_first
-            hp = 0.0
-            # the forward failure lies in (t[reached-1], t[reached]]: sweep back into that interval
-            fail_end = fail_t
-            for j in range(S - 1, reached - 2, -1):
-                ok, tf, blk, code, it, hp = _advance(ctx, signs, (j + 1) * dt, j * dt, tab[j], tip, kind, prm, cx, cy,
-                                                     scale, P0, V0, Vp, A0, P1, V1, A1, moving, hp, dmin, tol, maxit,
-                                                     want_acc, d)
-                iters += it
-                if not ok:
-                    fail_end = tf
+                if not closed:
                     break
-                if j >= reached:
-                    _store(j, out_idx, P0, V0, A0, want_vel, want_acc, out_pos, out_vel, out_acc)
-                    back = j
+                # the other end of the reachable range: sweep clockwise from θ = 0
+                _copy(P0, P_first)
+                _copy(V0, V_first)
+                _copy(Vp, V_first)
+                _copy(A0, A_first)
+                hp = 0.0
+                fail_end = fail_t
+                phase = 2
+                k = S - 1
+                continue
+            if k + 1 < S:
+                sample = k + 1
+                reached = k + 2
+            k += 1
+        else:
+            if not ok:
+                fail_end = tf
+                break
+            if k >= reached:
+                sample = k
+                back = k
+            k -= 1
+        if sample >= 0:
+            _store(sample, out_idx, P0, V0, A0, want_vel, want_acc, out_pos, out_vel, out_acc)
+    if status == STATUS_OK and closed:
+        gap = 0.0
+        for v in range(nv):
+            gap = max(gap, abs(P0[v, 0] - P_first[v, 0]) + abs(P0[v, 1] - P_first[v, 1]))
+        if gap > max(1e-4, 10.0 * tol) * shortest:
+            status = STATUS_BRANCH
+            fail_t = t_end
     for k in range(reached, back):
         for j in range(out_idx.shape[0]):
             for ax in range(2):
@@ -231,18 +257,14 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
 
 
 def _specialise(step_fn, name: str):
-    """Jit a copy of :func:`sweep` (and its :func:`_advance`) whose global ``step`` is ``step_fn``.
-
-    The step is inlined into the stepping loop, where it runs millions of times; the one solve at
-    the first sample calls a plain (not inlined) copy, ``first_step``, which keeps compile time down.
-    """
-    env = dict(globals(), step=step_fn, first_step=njit(cache=True)(step_fn.py_func))
-    for fn, opts in ((_advance, {"inline": "always"}), (sweep, {})):
-        copy = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
-        copy.__qualname__ = f"{fn.__name__}_{name}"
-        copy.__doc__ = fn.__doc__
-        env[fn.__name__] = njit(cache=True, **opts)(copy)
-    return env["sweep"]
+    """Jit a copy of :func:`sweep` whose global ``step`` is ``step_fn``, inlined at the sweep's one call
+    site, where it runs millions of times. (Inlining through an intermediate inlined function, as an
+    earlier version did, made Numba copy the step's IR twice: seconds of compile time.)"""
+    env = dict(globals(), step=step_fn)
+    copy = types.FunctionType(sweep.__code__, env, sweep.__name__, sweep.__defaults__, sweep.__closure__)
+    copy.__qualname__ = f"sweep_{name}"
+    copy.__doc__ = sweep.__doc__
+    return njit(cache=True)(copy)
 
 
 #: :func:`sweep` with the fast all-dyad step; its context comes from ``_dyads.dyad_context``.
