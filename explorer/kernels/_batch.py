@@ -1,9 +1,10 @@
 """The batch kernels: one design, or N variants in parallel, through the sweep driver.
 
-Each entry point checks a variant's lengths, builds its step context (the fast all-dyad one or
-the generic one) and runs :func:`~._sweep.sweep`; the ``*_batch_jit`` kernels do it for every row
-they are handed, serially and without the GIL: :func:`~._rows.parallel_rows` runs them in parallel
-over blocks of rows.
+For every row they are handed, the ``*_batch_jit`` kernels check the variant's lengths, build its
+step context (the fast all-dyad one or the generic one) and run :func:`~._sweep.sweep`, serially and
+without the GIL: :func:`~._rows.parallel_rows` runs them in parallel over blocks of rows. (The
+per-variant part is written into each loop rather than called: a separately compiled function
+layer re-optimises the whole sweep once more, about 2 s on a cold cache.)
 """
 
 
@@ -43,60 +44,47 @@ def _invalid(out_pos, out_vel, out_acc, want_vel, want_acc):
     return STATUS_INVALID, 0.0, np.nan, -1, 0
 
 
-@njit(cache=True)
-def dyad_cycle(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, L, scale, P_init, signs,
-               moving, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc):
-    """One design through :func:`_sweep.sweep` with the dyad step; returns sweep's 5-tuple."""
-    if not valid_lengths(L, scale):
-        return _invalid(out_pos, out_vel, out_acc, want_vel, want_acc)
-    ctx = dyad_context(dv, dpa, dpb, dla, dlb, L, dlp, tip, kind == CRANK, cx, cy, scale, P_init)
-    shortest = np.inf
-    for e in range(dla.shape[0]):
-        shortest = min(shortest, L[dla[e]], L[dlb[e]])
-    return dyad_sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs, moving,
-                 shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc)
-
-
 @njit(cache=True, nogil=True)
 def dyad_batch_jit(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, P_init, signs, moving, tol,
                    maxit, out_idx, want_vel, want_acc, lengths, scale, out_pos, out_vel, out_acc, status, fail_t,
                    fail_end, fail_block, iters):
-    """:func:`dyad_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), serially.
+    """Every row of ``lengths`` (N, n_links) / ``scale`` (N,) through :func:`_sweep.sweep` with the dyad
+    step, serially.
 
     Outputs in place: out_pos (N, S, n_out, 2); out_vel / out_acc the same when asked, else
     (N, 0, n_out, 2); status, fail_t, fail_end, fail_block, iters (N,). The per-row arguments come
     last (from ``lengths`` on), for :func:`~._rows.parallel_rows`.
     """
     for i in range(lengths.shape[0]):
-        res = dyad_cycle(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, lengths[i],
-                         scale[i], P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
-                         out_pos[i], out_vel[i], out_acc[i])
+        L = lengths[i]
+        if not valid_lengths(L, scale[i]):
+            res = _invalid(out_pos[i], out_vel[i], out_acc[i], want_vel, want_acc)
+        else:
+            ctx = dyad_context(dv, dpa, dpb, dla, dlb, L, dlp, tip, kind == CRANK, cx, cy, scale[i], P_init)
+            shortest = np.inf
+            for e in range(dla.shape[0]):
+                shortest = min(shortest, L[dla[e]], L[dlb[e]])
+            res = dyad_sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale[i], P_init, signs, moving,
+                             shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
         status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res
-
-
-@njit(cache=True)
-def generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip, dkind, prm,
-                  tab, t_end, closed, cx, cy, L, scale, P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
-                  out_pos, out_vel, out_acc):
-    """One design through :func:`_sweep.sweep` with the generic step; returns sweep's 5-tuple."""
-    if not valid_lengths(L, scale):
-        return _invalid(out_pos, out_vel, out_acc, want_vel, want_acc)
-    ctx = generic_context(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, L)
-    shortest = np.inf
-    for e in range(L.shape[0]):
-        shortest = min(shortest, L[e])
-    return generic_sweep(ctx, tip, dkind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs, moving,
-                 shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos, out_vel, out_acc)
 
 
 @njit(cache=True, nogil=True)
 def generic_batch_jit(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip, dkind,
                       prm, tab, t_end, closed, cx, cy, P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
                       lengths, scale, out_pos, out_vel, out_acc, status, fail_t, fail_end, fail_block, iters):
-    """:func:`generic_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), serially; the
-    outputs and the order of arguments are those of :func:`dyad_batch_jit`."""
+    """Every row through :func:`_sweep.sweep` with the generic step, serially; the outputs and the
+    order of arguments are those of :func:`dyad_batch_jit`."""
     for i in range(lengths.shape[0]):
-        res = generic_cycle(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip,
-                            dkind, prm, tab, t_end, closed, cx, cy, lengths[i], scale[i], P_init, signs, moving, tol,
-                            maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
+        L = lengths[i]
+        if not valid_lengths(L, scale[i]):
+            res = _invalid(out_pos[i], out_vel[i], out_acc[i], want_vel, want_acc)
+        else:
+            ctx = generic_context(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos,
+                                  L)
+            shortest = np.inf
+            for e in range(L.shape[0]):
+                shortest = min(shortest, L[e])
+            res = generic_sweep(ctx, tip, dkind, prm, tab, t_end, closed, cx, cy, scale[i], P_init, signs, moving,
+                                shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
         status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res

@@ -10,7 +10,7 @@ and, for a crank, the other end of the unreachable range is found from 2π going
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ._batch import valid_lengths
 from ._drive import drive
@@ -65,6 +65,15 @@ def _limit(dv, dpa, dpb, dla, dlb, tip, kind, prm, cx, cy, scale, L, signs, P, g
 
 
 @njit(cache=True)
+def _nan_rows(out_pos, lo, hi):
+    """out_pos[lo:hi] = NaN, as loops (a slice assignment compiles for about a second more)."""
+    for k in range(lo, hi):
+        for i in range(out_pos.shape[1]):
+            out_pos[k, i, 0] = np.nan
+            out_pos[k, i, 1] = np.nan
+
+
+@njit(cache=True, inline="always")
 def closed_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, params, t_end, closed, cx, cy, L, scale, signs,
                  out_idx, out_pos, P):
     """Positions at every sample of one design into out_pos (S, n_out, 2); P (n_vertices, 2) holds the
@@ -72,7 +81,7 @@ def closed_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, params, t_end, clo
     NaN, end of the unreachable range or NaN, failing dyad or −1), like the sweep."""
     S = tab.shape[0]
     if not valid_lengths(L, scale):
-        out_pos[:, :, :] = np.nan
+        _nan_rows(out_pos, 0, S)
         return STATUS_INVALID, 0.0, np.nan, -1
     dmin = (t_end / S if closed else t_end / (S - 1)) / 2.0 ** REFINE_LEVELS
     status = STATUS_OK
@@ -111,15 +120,16 @@ def closed_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, params, t_end, clo
                 out_pos[k, i, 1] = P[out_idx[i], 1]
         fail_end, _ = _limit(dv, dpa, dpb, dla, dlb, tip, kind, prm, cx, cy, scale, L, signs, P, upper, params[bad],
                              dmin)
-    out_pos[reached:back, :, :] = np.nan
+    _nan_rows(out_pos, reached, back)
     return status, fail_t, fail_end, fail_block
 
 
-@njit(parallel=True, cache=True, nogil=True)
-def closed_batch_jit(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, params, t_end, closed, cx, cy, lengths, scale, P_init,
-                     signs, out_idx, out_pos, status, fail_t, fail_end, fail_block):
-    """:func:`closed_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), in parallel."""
-    for i in prange(lengths.shape[0]):
+@njit(cache=True, nogil=True)
+def closed_batch_jit(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, params, t_end, closed, cx, cy, P_init, signs, out_idx,
+                     lengths, scale, out_pos, status, fail_t, fail_end, fail_block):
+    """:func:`closed_cycle` for every row of ``lengths`` (N, n_links) / ``scale`` (N,), serially; the
+    per-row arguments come last (from ``lengths`` on), for :func:`~._rows.parallel_rows`."""
+    for i in range(lengths.shape[0]):
         P = P_init.copy()
         st, tf, te, bl = closed_cycle(dv, dpa, dpb, dla, dlb, tip, kind, prm, tab, params, t_end, closed, cx, cy,
                                       lengths[i], scale[i], signs, out_idx, out_pos[i], P)

@@ -12,9 +12,9 @@ from ..errors import UserError, where
 from ..mechanism import Mechanism
 from ..plan import DYAD, Plan, make_plan
 from ._blocks import solve_general
-from ._closed import closed_batch_jit, closed_cycle
+from ._closed import closed_batch_jit
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
-from ._batch import dyad_batch_jit, dyad_cycle, generic_batch_jit, generic_cycle
+from ._batch import dyad_batch_jit, generic_batch_jit
 from ._rows import parallel_rows
 from ._generic import BLOCK, DENSE, block_signs
 from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
@@ -361,17 +361,13 @@ def _run(mech, plan, lengths, scale, steps, out_idx, velocities, accelerations, 
     scale = np.ascontiguousarray(scale, dtype=np.float64)
     out_idx = np.asarray(out_idx, dtype=np.int64)
     sg = np.ascontiguousarray(signs[blocks])
-    # One design runs the serial kernel: a parallel region on a busy machine waits for every thread.
+    # parallel_rows runs one design on this thread: there is nothing to share out.
     if method == "closed":
         if velocities or accelerations or not all(plan.blocks[b].kind == DYAD for b in blocks):
             raise UserError("method 'closed': the closed form gives positions only, and only for all-dyad plans")
         head = (*_dyad_tables(plan, blocks), plan.tip, drv.kind, drv.prm, drv.table, drv.params, drv.t_end,
                 drv.closed, *drv.center)
-        if N == 1:
-            status[0], fth[0], fend[0], fbl[0] = closed_cycle(*head, lengths[0], scale[0], sg, out_idx, pos[0],
-                                                              P0.copy())
-        else:
-            closed_batch_jit(*head, lengths, scale, P0, sg, out_idx, pos, status, fth, fend, fbl)
+        parallel_rows(closed_batch_jit, (*head, P0, sg, out_idx), (lengths, scale, pos, status, fth, fend, fbl))
     else:
         _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, max_iterations, out_idx,
                velocities, accelerations, pos, vel, acc, status, fth, fend, fbl, its)
@@ -383,7 +379,6 @@ def _run(mech, plan, lengths, scale, steps, out_idx, velocities, accelerations, 
 def _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, max_iterations, out_idx, velocities,
            accelerations, pos, vel, acc, status, fth, fend, fbl, its):
     """The Newton methods: the fast all-dyad kernel where it applies, else the generic one."""
-    N = lengths.shape[0]
     cx, cy = drv.center
     fixed_pos = np.array([mech.fixed[mech.vertices[i]] for i in plan.fixed], dtype=np.float64).reshape(-1, 2)
     solved = sorted({plan.tip, *(v for b in blocks for v in plan.blocks[b].vertices)})
@@ -391,18 +386,14 @@ def _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, m
     drive_args = (plan.tip, drv.kind, drv.prm, drv.table, drv.t_end, drv.closed, cx, cy)
     if method == "block" and all(plan.blocks[b].kind == DYAD for b in blocks):
         head = (*_dyad_tables(plan, blocks), _parent_links(mech, plan, blocks), *drive_args)
-        batch_kernel, cycle_kernel = dyad_batch_jit, dyad_cycle
+        batch_kernel = dyad_batch_jit
     else:
         known = np.concatenate([[plan.tip], plan.fixed]).astype(np.int64)
         head = (BLOCK if method == "block" else DENSE, *plan.arrays(blocks), plan.link_a, plan.link_b, known,
                 fixed_pos, *drive_args)
-        batch_kernel, cycle_kernel = generic_batch_jit, generic_cycle
+        batch_kernel = generic_batch_jit
     tail = (P0, sg, moving, float(tolerance), int(max_iterations), out_idx, bool(velocities), bool(accelerations))
-    if N == 1:
-        status[0], fth[0], fend[0], fbl[0], its[0] = cycle_kernel(*head, lengths[0], scale[0], *tail, pos[0], vel[0],
-                                                                  acc[0])
-    else:
-        parallel_rows(batch_kernel, (*head, *tail), (lengths, scale, pos, vel, acc, status, fth, fend, fbl, its))
+    parallel_rows(batch_kernel, (*head, *tail), (lengths, scale, pos, vel, acc, status, fth, fend, fbl, its))
 
 
 def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, vertices=None, velocities: bool = True,
