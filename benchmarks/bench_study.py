@@ -1,13 +1,17 @@
 """The default study end to end (sampling, kernels, metrics, HDF5), as ratios against baselines
 measured in the same run.
 
-    python benchmarks/bench_study.py [--repeat 3] [--chunks] [--compression] [--memory] [--command]
+    python benchmarks/bench_study.py [--repeat 3] [--chunks] [--compression] [--memory] [--command] [--cold]
 
 Rows (configurations = variants × crank steps; the default study is 10,000 × 360 = 3.6 M):
   - ``run_study`` on the default study, end to end into a fresh HDF5 file (warm numba cache);
   - the kernels alone on the same variants: foot positions only (the baseline), + velocities, the
     closed form (the speed limit, all-dyad plans only), and dense Newton on a subset;
-  - with ``--command``: the ``explorer run`` command itself (process start-up and imports included);
+  - with ``--command``: the ``explorer run`` command itself (process start-up and imports included),
+    against the floor of any Numba program: a new process that imports numba and calls one cached
+    function;
+  - with ``--cold``: ``explorer run`` on an empty Numba cache (``NUMBA_CACHE_DIR`` set to a new
+    folder), which compiles every kernel the run needs, once (not best-of);
   - with ``--chunks``: end-to-end time per chunk size (how the default chunk size was chosen);
   - with ``--compression``: size and write/read speed of the stored paths per HDF5 filter;
   - with ``--memory``: peak traced memory of run_study at N and 4N (flat in N).
@@ -58,6 +62,8 @@ def main(argv=None) -> None:
     ap.add_argument("--compression", action="store_true", help="compare HDF5 filters on real paths")
     ap.add_argument("--memory", action="store_true", help="peak memory at N and 4N")
     ap.add_argument("--command", action="store_true", help="time the `explorer run` command too")
+    ap.add_argument("--cold", action="store_true",
+                    help="time `explorer run` on an empty Numba cache (compiling every kernel it needs)")
     a = ap.parse_args(argv)
 
     study = load_study(a.study)
@@ -103,17 +109,8 @@ def main(argv=None) -> None:
     print(_row("block Newton, positions", t_block_sub, nd * S, None))
     print(_row("dense Newton, positions", t_dense, nd * S, t_block_sub, "of block"))
 
-    if a.command:
-        cmd = [sys.executable, "-m", "explorer.cli", "run", *( [a.study] if a.study else []), "--force", "--quiet",
-               "-o", str(out)]
-        subprocess.run(cmd, check=True)  # warm-up
-        times = []
-        for _ in range(a.repeat):
-            t = time.perf_counter()
-            subprocess.run(cmd, check=True)
-            times.append(time.perf_counter() - t)
-        print(f"\n`explorer run --force -o ...` (new process, imports and cache loads included)")
-        print(_row("explorer run command", min(times), configs, t_pos, "of baseline"))
+    if a.command or a.cold:
+        _command(a, out, configs, t_pos)
 
     if a.chunks:
         print("\nchunk size (variants per chunk; HDF5 commit per chunk)")
@@ -138,6 +135,50 @@ def main(argv=None) -> None:
             tracemalloc.stop()
             print(f"  N = {n:>9,}: peak {peak / 2**20:8.1f} MiB")
     out.unlink(missing_ok=True)
+
+
+_FLOOR = """
+import numba
+
+@numba.njit(cache=True)
+def one(x):
+    return x + 1.0
+
+one(1.0)
+"""
+
+
+def _timed(cmd, repeat: int, env=None) -> float:
+    """Best wall time of ``repeat`` runs of ``cmd`` (after one warm-up run), s."""
+    subprocess.run(cmd, check=True, env=env)
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        subprocess.run(cmd, check=True, env=env)
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def _command(a, out: Path, configs: int, t_pos: float) -> None:
+    run = [sys.executable, "-m", "explorer.cli", "run", *([a.study] if a.study else []), "--force", "--quiet",
+           "-o", str(out)]
+    print("\n`explorer run --force -o ...` in a new process (start-up, imports and cache loads included)")
+    with tempfile.TemporaryDirectory(prefix="bench-floor-") as d:
+        floor = Path(d) / "floor.py"
+        floor.write_text(_FLOOR)
+        t_floor = _timed([sys.executable, str(floor)], a.repeat)
+    print(f"  {'floor: python + numba + one cached call':<46s} {t_floor:8.3f} s")
+    if a.command:
+        t_run = _timed(run, a.repeat)
+        print(_row("explorer run command, warm cache", t_run, configs, t_pos, "of baseline"))
+        print(f"  {'':46s} {'':10s} {'':17s} {t_run - t_floor:6.2f} s above the floor")
+    if a.cold:
+        with tempfile.TemporaryDirectory(prefix="bench-cold-") as d:
+            env = {**os.environ, "NUMBA_CACHE_DIR": d}
+            t = time.perf_counter()
+            subprocess.run(run, check=True, env=env)
+            t_cold = time.perf_counter() - t
+        print(_row("explorer run command, empty numba cache", t_cold, configs, t_pos, "of baseline"))
 
 
 def _compression(mech, L, c, S, study, tmp: Path, n: int = 4096) -> None:

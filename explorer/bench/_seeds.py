@@ -38,9 +38,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from ..kernels import simulate
+from ..kernels import parallel_rows, simulate
 from ..kernels._blocks import lu_solve
 
 FULL_GE = 0
@@ -354,11 +354,12 @@ def seed_cycle(mode, l, radius, cx, cy, px, py, x0, c_sign, cth, sth, tol, maxit
     return STATUS_OK, np.nan, total
 
 
-@njit(parallel=True, cache=True)
-def seed_batch(mode, lengths, radius, cx, cy, px, py, x0, c_sign, cth, sth, tol, maxit, sweeps, want_vel, vidx,
+@njit(cache=True, nogil=True)
+def seed_batch(mode, cx, cy, px, py, x0, c_sign, cth, sth, tol, maxit, sweeps, want_vel, vidx, lengths, radius,
                out_pos, out_vel, status, fail_theta, iters):
-    """:func:`seed_cycle` for every row of ``lengths`` (N, 10) in LINK_ORDER, in parallel."""
-    for i in prange(lengths.shape[0]):
+    """:func:`seed_cycle` for every row of ``lengths`` (N, 10) in LINK_ORDER, serially; the per-row
+    arguments come last (from ``lengths`` on), for :func:`explorer.kernels.parallel_rows`."""
+    for i in range(lengths.shape[0]):
         st, th, it = seed_cycle(mode, lengths[i], radius[i], cx, cy, px, py, x0, c_sign, cth, sth, tol, maxit,
                                 sweeps, want_vel, vidx, out_pos[i], out_vel[i])
         status[i] = st
@@ -393,7 +394,7 @@ def solve_seed(solver, mech, lengths, crank, steps, *, tolerance=1e-10, max_iter
     fth = np.empty(N)
     its = np.empty(N, dtype=np.int64)
     cx, cy = mech.crank.center
-    seed_batch(SOLVERS[solver], lengths, crank, float(cx), float(cy), float(pivot[0]), float(pivot[1]), x0, c_sign,
-               np.cos(theta), np.sin(theta), float(tolerance), int(max_iterations), int(gs_sweeps), bool(velocities),
-               vidx, pos, vel, status, fth, its)
+    parallel_rows(seed_batch, (SOLVERS[solver], float(cx), float(cy), float(pivot[0]), float(pivot[1]), x0, c_sign,
+                               np.cos(theta), np.sin(theta), float(tolerance), int(max_iterations), int(gs_sweeps),
+                               bool(velocities), vidx), (lengths, crank, pos, vel, status, fth, its))
     return pos, (vel if velocities else None), status, fth, its
