@@ -194,12 +194,23 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
         ok = code == 0
         tf = t + h  # where a failed move failed (t is the last parameter reached)
         sample = -1  # the sample this move reached, if it is to be stored
-        if phase == 0:
-            if not ok:
-                status = status_of(code)
-                fail_t = 0.0
-                fail_block = blk
+        if not ok and phase < 2:
+            status = status_of(code)
+            fail_t = tf  # 0 when sample 0 itself fails
+            fail_block = blk
+            if phase == 0 or not closed:
                 break
+            # the other end of the reachable range: sweep clockwise from θ = 0
+            _copy(P0, P_first)
+            _copy(V0, V_first)
+            _copy(Vp, V_first)
+            _copy(A0, A_first)
+            hp = 0.0
+            fail_end = fail_t
+            phase = 2
+            k = S - 1
+            continue
+        if phase == 0:
             _copy(Vp, V0)
             _copy(P_first, P0)
             _copy(V_first, V0)
@@ -208,22 +219,6 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
             reached = 1
             phase = 1
         elif phase == 1:
-            if not ok:
-                status = status_of(code)
-                fail_t = tf
-                fail_block = blk
-                if not closed:
-                    break
-                # the other end of the reachable range: sweep clockwise from θ = 0
-                _copy(P0, P_first)
-                _copy(V0, V_first)
-                _copy(Vp, V_first)
-                _copy(A0, A_first)
-                hp = 0.0
-                fail_end = fail_t
-                phase = 2
-                k = S - 1
-                continue
             if k + 1 < S:
                 sample = k + 1
                 reached = k + 2
