@@ -6,6 +6,8 @@ hole in a study. References: a plain numpy expression, and the same study on one
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 import pytest
@@ -53,3 +55,25 @@ def test_study_is_the_same_on_one_thread(jansen):
     np.testing.assert_array_equal(many.velocities["7"], one.velocities["7"])
     np.testing.assert_array_equal(many.fail_theta, one.fail_theta)
     np.testing.assert_array_equal(many.iterations, one.iterations)
+
+
+@njit(cache=True, nogil=True)
+def _fail_first(work, x, count):
+    """Raise on the study's first row; every other row does ``work`` flops and is counted."""
+    for i in range(x.shape[0]):
+        if x[i] == 0.0:
+            raise ValueError("row 0")
+        acc = 0.0
+        for k in range(work):
+            acc += math.sin(k * x[i])
+        count[i] = 1 if acc == acc else 2
+
+
+def test_error_stops_the_blocks_not_yet_started():
+    """An error (or Ctrl-C) in one block surfaces at once; blocks not started are dropped, not run."""
+    n = 256
+    x = np.arange(n, dtype=np.float64)  # row 0 raises, in the first block
+    count = np.zeros(n, dtype=np.int64)
+    with pytest.raises(ValueError, match="row 0"):
+        parallel_rows(_fail_first, (200_000,), (x, count), threads=2)
+    assert count.sum() < n - 1  # far from every other row: most blocks were never started

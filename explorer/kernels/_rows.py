@@ -33,6 +33,10 @@ def parallel_rows(kernel, shared: tuple, rows: tuple, threads: int | None = None
     def block(lo: int) -> None:
         kernel(*shared, *(a[lo:lo + size] for a in rows))
 
-    with ThreadPoolExecutor(max_workers=min(threads, -(-n // size))) as pool:
-        for done in pool.map(block, range(0, n, size)):
+    pool = ThreadPoolExecutor(max_workers=min(threads, -(-n // size)))
+    try:
+        for _ in pool.map(block, range(0, n, size)):
             pass
+    finally:
+        # on Ctrl-C or an error, blocks not yet started are dropped (running ones cannot be stopped)
+        pool.shutdown(wait=True, cancel_futures=True)
