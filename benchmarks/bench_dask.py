@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _timing import best
 
 
 def _study(args):
@@ -76,16 +77,8 @@ def scaling(args, study, tmp: Path) -> None:
     print(f"{study.name}: {study.n_variants:,} variants × {study.steps} steps = {configs / 1e6:.2f} M configurations, "
           f"{os.cpu_count()} CPUs")
 
-    def best(fn):
-        times = []
-        for _ in range(args.repeat):
-            t = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - t)
-        return min(times)
-
     run_study(study, output=tmp / "warm.h5", force=True, progress=False)
-    t = best(lambda: run_study(study, output=tmp / "single.h5", force=True, progress=False))
+    t = best(lambda: run_study(study, output=tmp / "single.h5", force=True, progress=False), args.repeat, warm_up=False)
     print(f"  {'run_study, one process (all cores)':<44s} {t:7.2f} s {configs / t / 1e6:6.2f} M cfg/s")
     before = ceiling(args.workers)
     base = None
@@ -103,7 +96,7 @@ def scaling(args, study, tmp: Path) -> None:
                 from explorer.store._shards import ShardPlan, shards_folder
                 shards.append(ShardPlan.read(shards_folder(tmp / f"dask{w}.h5")))
                 return s
-            t = best(once)
+            t = best(once, args.repeat, warm_up=False)
         finally:
             client.close()
             cluster.close()

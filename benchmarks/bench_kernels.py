@@ -10,21 +10,11 @@ best of --repeat runs after a warm-up run that compiles (or loads the cached) ke
 """
 
 import argparse
-import time
 
 import numpy as np
 
 import explorer
-
-
-def _best(fn, repeat):
-    fn()  # warm-up: compile or load from cache
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return min(times)
+from _timing import best
 
 
 def main(argv=None):
@@ -47,16 +37,16 @@ def main(argv=None):
         return lambda: explorer.simulate_batch(mech, lengths[:n_rows], crank[:n_rows], a.steps, **kw)
 
     rows = []
-    closed = _best(batch(velocities=False, method="closed"), a.repeat)
+    closed = best(batch(velocities=False, method="closed"), a.repeat)
     rows.append(("closed form, foot positions", closed, configs))
-    block = _best(batch(velocities=False), a.repeat)
+    block = best(batch(velocities=False), a.repeat)
     rows.append(("block Newton, foot positions", block, configs))
-    rows.append(("block Newton, foot + velocities", _best(batch(velocities=True), a.repeat), configs))
-    rows.append(("block Newton, foot + vel + acc", _best(batch(velocities=True, accelerations=True), a.repeat),
+    rows.append(("block Newton, foot + velocities", best(batch(velocities=True), a.repeat), configs))
+    rows.append(("block Newton, foot + vel + acc", best(batch(velocities=True, accelerations=True), a.repeat),
                  configs))
-    rows.append(("block Newton, all vertices + vel", _best(batch(vertices="all", velocities=True), a.repeat), configs))
+    rows.append(("block Newton, all vertices + vel", best(batch(vertices="all", velocities=True), a.repeat), configs))
     nd = min(a.dense_variants, n)
-    rows.append((f"dense Newton ({nd} variants), foot + vel", _best(batch(nd, method="dense"), a.repeat), nd * a.steps))
+    rows.append((f"dense Newton ({nd} variants), foot + vel", best(batch(nd, method="dense"), a.repeat), nd * a.steps))
 
     print(f"{n} ±2 % Jansen variants x {a.steps} steps, {explorer.__version__}; best of {a.repeat}")
     print(f"{'method':44s} {'M configs/s':>12s} {'time vs closed':>15s} {'vs block pos':>13s}")
@@ -64,8 +54,8 @@ def main(argv=None):
     for name, t, c in rows:
         per = t / c
         print(f"{name:44s} {1e-6 / per:12.2f} {per / per_closed:15.2f} {per / per_block:13.2f}")
-    one = _best(lambda: explorer.simulate(mech, a.steps, velocities=True), a.repeat)
-    one_dense = _best(lambda: explorer.simulate(mech, a.steps, velocities=True, method="dense"), a.repeat)
+    one = best(lambda: explorer.simulate(mech, a.steps, velocities=True), a.repeat)
+    one_dense = best(lambda: explorer.simulate(mech, a.steps, velocities=True, method="dense"), a.repeat)
     print(f"one {a.steps}-step cycle with velocities: block {one * 1e3:.3f} ms, dense {one_dense * 1e3:.3f} ms "
           f"(dense/block = {one_dense / one:.1f})")
     status = explorer.simulate_batch(mech, lengths, crank, a.steps, velocities=False).status

@@ -35,16 +35,7 @@ import numpy as np
 
 import explorer
 from explorer.study import load_study, study_variants
-
-
-def _best(fn, repeat: int) -> float:
-    fn()  # warm-up: compile or load the cached kernels
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return min(times)
+from _timing import best
 
 
 def _row(label: str, seconds: float, configs: int, base: float | None, base_label: str = "") -> str:
@@ -81,20 +72,20 @@ def main(argv=None) -> None:
     print(f"{study.name}: {N:,} variants × {S} steps = {configs / 1e6:.2f} M configurations, "
           f"scene {list(study.vertex_names)} velocities={study.velocities}, metrics={study.metrics}; "
           f"{os.cpu_count()} CPUs, numba threads {_numba_threads()}")
-    t_pos = _best(lambda: explorer.simulate_batch(mech, L, c, S, velocities=False, method=study.method, **kw), a.repeat)
-    t_vel = _best(lambda: explorer.simulate_batch(mech, L, c, S, velocities=True, method=study.method, **kw), a.repeat)
+    t_pos = best(lambda: explorer.simulate_batch(mech, L, c, S, velocities=False, method=study.method, **kw), a.repeat)
+    t_vel = best(lambda: explorer.simulate_batch(mech, L, c, S, velocities=True, method=study.method, **kw), a.repeat)
     t_closed = None
     try:
-        t_closed = _best(lambda: explorer.simulate_batch(mech, L, c, S, velocities=False, method="closed", **kw),
+        t_closed = best(lambda: explorer.simulate_batch(mech, L, c, S, velocities=False, method="closed", **kw),
                          a.repeat)
     except Exception as exc:  # closed form: all-dyad plans only
         print(f"  (closed form unavailable: {exc})")
     nd = min(a.dense_variants, N)
-    t_dense = _best(lambda: explorer.simulate_batch(mech, L[:nd], c[:nd], S, velocities=False, method="dense", **kw),
+    t_dense = best(lambda: explorer.simulate_batch(mech, L[:nd], c[:nd], S, velocities=False, method="dense", **kw),
                     a.repeat)
-    t_block_sub = _best(lambda: explorer.simulate_batch(mech, L[:nd], c[:nd], S, velocities=False, method="block",
+    t_block_sub = best(lambda: explorer.simulate_batch(mech, L[:nd], c[:nd], S, velocities=False, method="block",
                                                         **kw), a.repeat)
-    t_e2e = _best(e2e(), a.repeat)
+    t_e2e = best(e2e(), a.repeat)
     size = out.stat().st_size
 
     print(f"\nbaseline: {study.method} kernels, positions only, whole study in one call")
@@ -118,7 +109,7 @@ def main(argv=None) -> None:
         for chunk in (256, 512, 1024, 2048, 4096, 8192):
             if chunk > N:
                 break
-            t = _best(e2e(chunk), a.repeat)
+            t = best(e2e(chunk), a.repeat)
             base = base or t
             print(_row(f"chunk {chunk}", t, configs, base, "of chunk 256"))
 
@@ -148,15 +139,9 @@ one(1.0)
 """
 
 
-def _timed(cmd, repeat: int, env=None) -> float:
-    """Best wall time of ``repeat`` runs of ``cmd`` (after one warm-up run), s."""
-    subprocess.run(cmd, check=True, env=env)
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        subprocess.run(cmd, check=True, env=env)
-        times.append(time.perf_counter() - t)
-    return min(times)
+def _timed(cmd, repeat: int) -> float:
+    """Best wall time of ``repeat`` runs of the command ``cmd`` (after one warm-up run), s."""
+    return best(lambda: subprocess.run(cmd, check=True), repeat)
 
 
 def _command(a, out: Path, configs: int, t_pos: float) -> None:

@@ -30,16 +30,7 @@ import warnings
 import numpy as np
 
 import explorer
-
-
-def _best(fn, repeat):
-    fn()  # warm-up
-    best = np.inf
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return best
+from _timing import best
 
 
 class Seed000System:
@@ -174,7 +165,7 @@ def main(argv=None):
     def kernel(method, n):
         def run():
             return explorer.simulate_batch(mech, L[:n], r[:n], S, method=method, velocities=False, tolerance=tol)
-        t = _best(run, a.repeat)
+        t = best(run, a.repeat)
         b = run()
         ok = b.status == 0
         err = np.max(np.abs(b.paths[mech.foot][ok] - ref[:n][ok][:, :, foot]))
@@ -190,7 +181,7 @@ def main(argv=None):
 
     def run_numpy():
         res["out"] = numpy_batch_newton(system, L[:nn], r[:nn], S, P0, tol)
-    t = _best(run_numpy, max(1, a.repeat - 1))
+    t = best(run_numpy, max(1, a.repeat - 1))
     pos, it, conv = res["out"]
     rows.append(("numpy batch Newton (np.linalg.solve)", t, nn, it,
                  float(np.max(np.abs(pos[:, :, foot] - ref[:nn, :, foot]))), 0 if conv else nn))

@@ -328,7 +328,7 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
     paths = np.asarray(paths, dtype=np.float64)
     if paths.ndim != 3 or paths.shape[2] != 2 or paths.shape[1] < 2:
         raise UserError(f"paths: expected shape (N, S, 2) with S >= 2, got {paths.shape}")
-    N, S = paths.shape[0], paths.shape[1]
+    N = paths.shape[0]
     if status is None:
         status = np.zeros(N, dtype=np.int64)
     else:
