@@ -23,9 +23,9 @@ LIMIT_ATOL = 1e-6
 
 
 def builtin_mode(sigma: int, point_side: int = +1):
-    """The built-in four-bar with its B guess on the side of assembly mode σ (σ = −1: the file's own
-    guess, coupler above the ground line; σ = +1: mirrored) and the coupler point P on ``point_side``
-    of A→B (+1: the file's rigid coupler triangle; −1: its mirror image)."""
+    """The built-in four-bar with its B guess on the side of assembly mode σ (σ = +1: the file's own
+    guess, coupler below the ground line; σ = −1: mirrored) and the coupler point P on ``point_side``
+    of A→B (−1: the file's rigid coupler triangle, hanging below like a leg; +1: its mirror image)."""
     d = nm.builtin_dict("fourbar")
     ref = nm.fourbar_closed_form(np.zeros(1), 10.0, 30.0, 25.0, (30.0, 0.0), sigma, (25.0, 20.0, point_side))
     # keep the file's rough guesses, only moved to the other side where asked
@@ -50,11 +50,15 @@ def test_builtin_fourbar_numbers(fourbar):
     assert dict(fourbar.fixed) == {"B0": (30.0, 0.0)}
     assert {l.name: (l.a, l.b, l.length) for l in fourbar.links} == {
         "coupler": ("A", "B", 30.0), "rocker": ("B0", "B", 25.0), "A-P": ("A", "P", 25.0), "B-P": ("B", "P", 20.0)}
-    # the file's guess is assembly mode σ = −1 of seed 004's formula (B above the ground line)
+    # the file's guess is assembly mode σ = +1 of seed 004's formula (B below the ground line)
     # (the guess is rough: it only has to be nearer to that mode's joint than to the other's)
     dist = {sigma: np.hypot(*(nm.fourbar_closed_form(np.zeros(1), 10.0, 30.0, 25.0, (30.0, 0.0), sigma)["B"][0]
                               - fourbar.guess["B"])) for sigma in (-1, +1)}
-    assert dist[-1] < 5.0 < 40.0 < dist[+1]
+    assert dist[+1] < 5.0 < 40.0 < dist[-1]
+    # and its coupler point hangs below the coupler, below the crank axle, like a leg's foot
+    c = simulate(fourbar, 72, tolerance=1e-12)
+    check_against_closed_form(c, 10.0, 30.0, 25.0, (30.0, 0.0), +1, (25.0, 20.0, -1))
+    assert c.path("P")[:, 1].max() < 0.0
 
 
 VARIANTS = [
@@ -80,13 +84,13 @@ def test_builtin_and_variants_match_freudenstein(sigma, point_side, variant, met
 
 def test_file_guess_is_one_mode_and_mirror_the_other(fourbar):
     """The two modes are different motions (not the same one relabelled): B mirrored at θ = 0 only."""
-    up = simulate(fourbar, 72, tolerance=1e-12)
-    down = simulate(builtin_mode(+1), 72, tolerance=1e-12)
+    down = simulate(fourbar, 72, tolerance=1e-12)
+    up = simulate(builtin_mode(-1, +1), 72, tolerance=1e-12)
     assert up.ok and down.ok
     np.testing.assert_allclose(down.path("B")[0] * [1, -1], up.path("B")[0], atol=1e-12)
     assert np.abs(up.path("B") - down.path("B")).max() > 10.0
-    # the file's mode keeps B above the line A0-B0 at θ = 0 and is the same as σ = −1 everywhere
-    check_against_closed_form(up, 10.0, 30.0, 25.0, (30.0, 0.0), -1, (25.0, 20.0, +1))
+    # the file's mode keeps B below the line A0-B0 at θ = 0 and is the same as σ = +1 everywhere
+    check_against_closed_form(down, 10.0, 30.0, 25.0, (30.0, 0.0), +1, (25.0, 20.0, -1))
 
 
 # -- other four-bars, written as mechanism tables -----------------------------------------------------------
@@ -200,7 +204,7 @@ def test_non_grashof_batch_reports_the_same_range(fourbar):
     """simulate_batch on the built-in topology: Grashof rows ok and equal to the closed form,
     triple-rocker rows fail with kind assembly and the analytic reachable range.
 
-    (The crank tips stay left of the rocker pivot at θ = 0, so every row's mode σ = −1 is the
+    (The crank tips stay left of the rocker pivot at θ = 0, so every row's mode σ = +1 is the
     nominal's branch; a variant whose crank tip starts beyond B0 is the other orientation of the
     triangle A-B0-B, which the batch flags "branch" by contract.)
     """
@@ -214,7 +218,7 @@ def test_non_grashof_batch_reports_the_same_range(fourbar):
     assert expect_ok == [True, False, True, False]
     assert list(b.status) == [0 if ok else 1 for ok in expect_ok]
     for i, (r, ok) in enumerate(zip(rows, expect_ok)):
-        ref = nm.fourbar_closed_form(b.theta, *r, (30.0, 0.0), -1)["B"]
+        ref = nm.fourbar_closed_form(b.theta, *r, (30.0, 0.0), +1)["B"]
         reach = np.isfinite(ref[:, 0])
         np.testing.assert_allclose(b.paths["B"][i][reach], ref[reach], rtol=0, atol=1e-9)
         assert np.isnan(b.paths["B"][i][~reach]).all()

@@ -177,7 +177,7 @@ def test_random_batch_crank_rockers_ok_triple_rockers_assembly(fourbar):
     while len(rows) < 40:
         crank, coupler, rocker = rng.uniform(4.0, 28.0), rng.uniform(10.0, 45.0), rng.uniform(10.0, 45.0)
         lim = 0.02 * max(crank, coupler, rocker, 30.0)
-        d0 = 30.0 - crank  # |A − B0| at θ = 0: the crank tip stays left of B0, so every row is mode σ = −1
+        d0 = 30.0 - crank  # |A − B0| at θ = 0: the crank tip stays left of B0, so every row is mode σ = +1
         if abs(nm.grashof_margin(crank, coupler, rocker, 30.0)) > lim and abs(coupler - rocker) + lim < d0 < coupler + rocker - lim:
             rows.append((crank, coupler, rocker))
     rows = np.array(rows)
@@ -191,7 +191,7 @@ def test_random_batch_crank_rockers_ok_triple_rockers_assembly(fourbar):
     assert list(kinds == "triple-rocker") == [nm.grashof_brute(*r, 30.0) == "triple-rocker" for r in rows]
     assert list(b.status) == [0 if t else 1 for t in turns]
     for i, r in enumerate(rows):
-        ref = nm.fourbar_closed_form(b.theta, *r, (30.0, 0.0), -1)["B"]
+        ref = nm.fourbar_closed_form(b.theta, *r, (30.0, 0.0), +1)["B"]  # the built-in's mode
         reach = np.isfinite(ref[:, 0])
         np.testing.assert_allclose(b.paths["B"][i][reach], ref[reach], rtol=0, atol=1e-8)
         assert np.isnan(b.paths["B"][i][~reach]).all()
