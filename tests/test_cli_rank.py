@@ -21,7 +21,7 @@ import pytest
 
 from explorer import open_results, run_study
 from explorer.cli import main
-from explorer.gait import DIRECTIONS, METRICS
+from explorer.gait import WALKER_METRICS, DIRECTIONS, METRICS
 
 STUDY = {
     "study": {"name": "clirank", "mechanism": "jansen", "variants": 40, "seed": 11, "steps": 36},
@@ -70,23 +70,33 @@ def parse_table(out: str) -> tuple[list[str], pd.DataFrame]:
 
 # -- rank --------------------------------------------------------------------------------------------------
 def test_rank_table(results, capsys):
-    out = ok_cli(capsys, "rank", results)
+    out = ok_cli(capsys, "rank", results, "--by", "stride", "--include-screened")
     head, table = parse_table(out)
     with open_results(results) as res:
-        api = res.rank(by="stride", top=10)
+        api = res.rank(by="stride", top=10, include_screened=True)
         n_ok = res.status_counts()["ok"]
+        removed = res.screen_summary()["removed"]
     assert head[0] == f"{results}: ranked by stride (higher is better)"
     assert head[1].startswith(f"{n_ok} ok of 40 variants; {n_ok} ranked; showing 10")
-    assert list(table.columns[:3]) == ["rank", "variant", "stride"] and table.columns[-1] == "status"
-    assert set(table.columns) == {"rank", "variant", "status"} | set(METRICS)
+    assert head[2].startswith(f"buildability screen: not applied (--include-screened); it would remove {removed}")
+    assert list(table.columns[:3]) == ["rank", "variant", "stride"] and table.columns[-1] == "screen"
+    assert set(table.columns) == {"rank", "variant", "stride", "screen"} | set(WALKER_METRICS)
     assert list(table["rank"].astype(int)) == list(range(1, 11))
     assert list(table["variant"].astype(int)) == list(api["variant"])
-    assert (table["status"] == "ok").all()
-    for m in METRICS:  # shown to 5 significant digits of the column's largest value
+    for m in WALKER_METRICS:  # shown to 5 significant digits of the column's largest value
         shown = table[m].astype(float).to_numpy()
         big = np.nanmax(np.abs(api[m].to_numpy()))
         atol = 0.5001 * 10 ** (math.floor(math.log10(big)) - 4)
         np.testing.assert_allclose(shown, api[m].to_numpy(), rtol=0, atol=atol)
+    # the default: the walker score over the buildable variants, the screen's count in the header
+    head, table = parse_table(ok_cli(capsys, "rank", results))
+    with open_results(results) as res:
+        api = res.rank(top=10)
+    assert head[0].startswith(f"{results}: the walker score (1 = best")
+    assert head[1].startswith(f"{n_ok} ok of 40 variants; {n_ok - removed} ranked")
+    assert head[2].startswith(f"buildability screen removed {removed} ok variants")
+    assert list(table.columns[:3]) == ["rank", "variant", "score"] and table.columns[-1] == "status"
+    assert list(table["variant"].astype(int)) == list(api["variant"])
     # the ranking metrics come first, in the order given
     _, t = parse_table(ok_cli(capsys, "rank", results, "--pareto", "flatness,stride", "--top", "0"))
     assert list(t.columns[:4]) == ["rank", "variant", "flatness", "stride"]
@@ -116,9 +126,9 @@ def test_rank_csv_round_trips_to_the_api_ranking(results, capsys):
 
 def test_rank_json(results, capsys):
     data = json.loads(ok_cli(capsys, "rank", results, "--format", "json", "--by", "max_speed", "--top", "0",
-                             "--include-failed"))
+                             "--include-failed", "--include-screened"))
     with open_results(results) as res:
-        api = res.rank(by="max_speed", top=None, include_failed=True)
+        api = res.rank(by="max_speed", top=None, include_failed=True, include_screened=True)
     assert isinstance(data, list) and len(data) == 40
     assert [r["variant"] for r in data] == list(api["variant"])
     assert list(data[0]) == [str(c) for c in api.columns]
@@ -223,7 +233,8 @@ def test_metrics_band_recomputes_without_touching_paths(fresh, capsys):
     # a subset with another band: the other stance metrics follow, the rest are kept
     out = ok_cli(capsys, "metrics", fresh, "--band", "0.02", "--metrics", "flatness")
     assert "computed 1 metric (flatness)" in out and "also recomputed stride, duty," in out
-    assert "kept width, height, max_speed, min_transmission_angle as stored" in out
+    assert ("kept travel, bob, body_speed_ripple, peak_torque, torque_ripple, clearance, slip, contact_fraction, "
+            "width, height, max_speed, min_transmission_angle, foot_headroom, self_crossings as stored") in out
     assert ok_cli(capsys, "metrics", fresh, "--metrics", "stride", "-q") == ""
 
 

@@ -236,7 +236,9 @@ def test_batch_failed_variants_get_nan():
     vel[4, 5, 1] = np.inf             # broken velocity: only the speed metrics are NaN
     status = np.array([0, 0, 1, 0, 0], dtype=np.int8)
     out = compute_metrics(paths, vel, status)
-    assert list(out) == list(FOOT_METRICS)
+    # without a mechanism: the single-leg metrics and the path's self-crossings (tested in test_screen)
+    assert list(out) == list(FOOT_METRICS) + ["self_crossings"]
+    del out["self_crossings"]
     for k, v in out.items():
         assert v.shape == (5,) and v.dtype == np.float64
         assert not math.isnan(v[0]) and not math.isnan(v[1])
@@ -264,12 +266,14 @@ def test_names_selection_and_errors():
         compute_metrics(P, None, names=["stride", "speed_ripple"])
     with pytest.raises(UserError, match="velocities"):
         compute_metrics(P, None)  # all metrics need velocities too
-    with pytest.raises(UserError, match=r"unknown metric 'stridee'.*known: width, height, stride"):
+    with pytest.raises(UserError, match=r"unknown metric 'stridee'.*known: travel, bob, .*width, height, stride"):
         compute_metrics(P, V, names=["stridee"])
     with pytest.raises(UserError, match="mechanism"):
         compute_metrics(P, V, names=["min_transmission_angle"])
-    # without a mechanism, "all" means the foot metrics
-    assert list(compute_metrics(P, V, names=True)) == list(FOOT_METRICS)
+    # without a mechanism, "all" means the foot metrics (and the crossings of the foot path)
+    assert list(compute_metrics(P, V, names=True)) == list(FOOT_METRICS) + ["self_crossings"]
+    with pytest.raises(UserError, match="travel: needs a crank-driven mechanism"):
+        compute_metrics(P, V, names=["travel"])
     with pytest.raises(UserError, match="paths"):
         compute_metrics(p, v)
     with pytest.raises(UserError, match="velocities"):

@@ -47,7 +47,7 @@ def test_failed_and_nan(frame):
     r = rank(frame, by="flatness", top=None, include_failed=True)
     assert r["variant"].iloc[-1] == 2
     f = frame.assign(status=[0, 0, 1, 0, 0, 0, 0])         # integer codes work too
-    assert 2 not in set(rank(f, top=None)["variant"])
+    assert 2 not in set(rank(f, by="stride", top=None)["variant"])
     assert len(rank(frame.drop(columns="status"), by="L_1_3", ascending=True, top=None)) == 7
 
 
@@ -55,10 +55,13 @@ def test_where(frame):
     r = rank(frame, by="stride", where="duty > 0.3 and flatness < 0.002")
     assert list(r["variant"]) == [5, 6, 0]
     assert list(rank(frame, by="flatness", where="variant in [1, 4]")["variant"]) == [4, 1]
-    assert len(rank(frame, where="stride > 1000")) == 0
+    assert len(rank(frame, by="stride", where="stride > 1000")) == 0
+    # the default ranking is the walker score, which a frame without walker metrics cannot give
+    with pytest.raises(UserError, match="default ranking needs the walker metrics travel, bob"):
+        rank(frame)
     for bad in ("duty >", "nonsense > 3", "duty >> 'a'"):
         with pytest.raises(UserError, match="where: cannot evaluate") as e:
-            rank(frame, where=bad)
+            rank(frame, by="stride", where=bad)
         assert repr(bad) in str(e.value)
 
 

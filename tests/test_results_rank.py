@@ -49,8 +49,13 @@ def fresh(results_path, tmp_path):
     return p
 
 
+def buildable(df):
+    """The rows rank keeps by default: ok, and passing the buildability screen (tested in test_screen)."""
+    return df[(df["status"].astype(str) == "ok") & df["buildable"]]
+
+
 def pandas_sort(df, col, ascending):
-    ok = df[df["status"].astype(str) == "ok"]
+    ok = buildable(df)
     return ok.sort_values([col, "variant"], ascending=[ascending, True], na_position="last")
 
 
@@ -77,13 +82,15 @@ def test_rank_where_and_failed(results_path):
     with open_results(results_path) as res:
         df = res.frame()
         got = res.rank(by="flatness", top=None, where="duty > 0.3 and stride > 40")
-        ok = df[(df["status"].astype(str) == "ok") & (df["duty"] > 0.3) & (df["stride"] > 40)]
+        ok = buildable(df)
+        ok = ok[(ok["duty"] > 0.3) & (ok["stride"] > 40)]
         want = ok.sort_values(["flatness", "variant"])
         assert len(want) >= 1 and list(got["variant"]) == list(want["variant"])
         # failed variants are out unless asked for; then they come last (NaN metrics)
         n_ok = res.status_counts()["ok"]
-        assert len(res.rank(top=None)) == n_ok
-        allr = res.rank(top=None, include_failed=True)
+        assert len(res.rank(top=None)) == len(buildable(df)) < n_ok
+        assert len(res.rank(top=None, include_screened=True)) == n_ok
+        allr = res.rank(by="stride", top=None, include_failed=True, include_screened=True)
         assert len(allr) == res.n_variants
         assert (allr["status"].astype(str).iloc[:n_ok] == "ok").all()
         assert allr["stride"].iloc[n_ok:].isna().all()
@@ -94,7 +101,7 @@ def test_rank_where_and_failed(results_path):
 def test_rank_weights_and_pareto(results_path):
     with open_results(results_path) as res:
         df = res.frame()
-        ok = df[df["status"].astype(str) == "ok"]
+        ok = buildable(df)
         # weighted score by hand: min-max normalise, flip the "min" metric, weighted mean
         s = (ok["stride"] - ok["stride"].min()) / (ok["stride"].max() - ok["stride"].min())
         f = (ok["flatness"].max() - ok["flatness"]) / (ok["flatness"].max() - ok["flatness"].min())
@@ -217,7 +224,7 @@ def test_recompute_subset_keeps_one_band(fresh):
     out = recompute_metrics(fresh, band=0.03, names="stride")
     assert out["metrics"] == ("stride",)
     assert set(out["also"]) == set(STANCE) - {"stride"}
-    assert set(out["kept"]) == {"width", "height", "max_speed", "min_transmission_angle"}
+    assert set(out["kept"]) == set(METRICS) - set(STANCE)  # the walker's, the screen's, width, height, max_speed
     with open_results(fresh) as res:
         assert res.metric_names == tuple(METRICS)  # order kept
         assert {m: float(res.file["metrics"][m].attrs["band"]) for m in STANCE} == dict.fromkeys(STANCE, 0.03)
@@ -252,8 +259,9 @@ def test_recompute_refusals(fresh, tmp_path):
     # no velocities stored: speed metrics cannot be computed, path metrics can
     novel = tmp_path / "novel.h5"
     run_study(study(velocities=False, metrics=["stride", "duty"]), output=novel, progress=False)
-    with pytest.raises(UserError, match=r"lacks /velocities/7 \(the foot velocities\), needed for stance_speed, "
-                                        r"speed_ripple, max_speed.*velocities = true.*--metrics width,height"):
+    with pytest.raises(UserError, match=r"lacks /velocities/7 \(the foot velocities\), needed for travel, "
+                                        r"body_speed_ripple, .*stance_speed, speed_ripple, max_speed.*"
+                                        r"\[scene\] velocities = true.*--metrics bob,clearance,contact_fraction,width"):
         recompute_metrics(novel, names="all")
     assert recompute_metrics(novel, names="stride,flatness", band=0.02)["metrics"] == ("stride", "flatness")
     # the foot path not stored

@@ -18,7 +18,8 @@ def register(sub) -> None:
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--top", type=int, metavar="N", default=None,
-                   help="foot paths of the N best variants by --by over the nominal, stance highlighted")
+                   help="foot paths of the N best buildable variants over the nominal, ranked as `explorer rank` "
+                        "ranks them (default: the walker score; or --by / --weights)")
     g.add_argument("--scatter", metavar="M1,M2", default=None,
                    help="every ok variant in two metrics (x,y) with the Pareto front and the nominal marked")
     g.add_argument("--velocity", type=int, metavar="VARIANT", default=None,
@@ -26,7 +27,14 @@ def register(sub) -> None:
                         "finite differences dashed on top")
     g.add_argument("--sensitivity", action="store_true",
                    help="one-at-a-time (oat) study: %% change of each metric per +1 %% of each link")
-    p.add_argument("--by", metavar="METRIC", default=None, help="metric to rank by for --top (default: stride)")
+    p.add_argument("--by", metavar="METRIC", default=None,
+                   help="metric to rank by for --top (default: the score of travel, bob, body_speed_ripple and "
+                        "peak_torque, as `explorer rank`)")
+    p.add_argument("--weights", metavar="M1=W1,...", default=None,
+                   help="with --top: rank by a weighted score of these metrics instead")
+    p.add_argument("--include-screened", action="store_true",
+                   help="with --top: also rank variants the buildability screen removes (toggle, foot above the "
+                        "frame, crossing path)")
     p.add_argument("--where", metavar="EXPR", default=None,
                    help="pandas query filter for --top and --scatter, e.g. \"duty > 0.3 and flatness < 0.002\"")
     p.add_argument("-o", "--output", metavar="PATH", default=None,
@@ -43,13 +51,17 @@ def _mode(args) -> str:
         mode = "velocity"
     elif args.sensitivity:
         mode = "sensitivity"
-    elif args.top is not None or args.by is not None:
+    elif args.top is not None or args.by is not None or args.weights is not None:
         mode = "top"
     else:
-        raise UserError("plot: say what to plot: --top N --by METRIC, --scatter M1,M2, --velocity VARIANT "
+        raise UserError("plot: say what to plot: --top N [--by METRIC], --scatter M1,M2, --velocity VARIANT "
                         "or --sensitivity")
-    if args.by is not None and mode != "top":
-        raise UserError(f"plot: --by goes with --top, not with --{mode}")
+    for opt, given in (("--by", args.by is not None), ("--weights", args.weights is not None),
+                       ("--include-screened", args.include_screened)):
+        if given and mode != "top":
+            raise UserError(f"plot: {opt} goes with --top, not with --{mode}")
+    if args.by is not None and args.weights is not None:
+        raise UserError("plot: --by and --weights exclude each other: pick one way to rank")
     if args.where is not None and mode not in ("top", "scatter"):
         raise UserError(f"plot: --where goes with --top or --scatter, not with --{mode}")
     return mode
@@ -70,7 +82,10 @@ def run(args) -> int:
         raise UserError(f"--dpi: expected a number > 0, got {args.dpi!r}")
     with open_results(args.results) as res:
         if mode == "top":
-            fig = plot_top(res, by=args.by or "stride", top=5 if args.top is None else args.top, where=args.where)
+            from ._rank import parse_weights
+            weights = parse_weights(args.weights) if args.weights is not None else None
+            fig = plot_top(res, by=args.by, top=5 if args.top is None else args.top, where=args.where,
+                           weights=weights, include_screened=args.include_screened)
         elif mode == "scatter":
             names = [s.strip() for s in args.scatter.split(",") if s.strip()]
             if len(names) != 2:

@@ -13,20 +13,27 @@ FORMATS = ("table", "csv", "json")
 def register(sub) -> None:
     p = sub.add_parser(
         "rank", help="rank the variants of a results file by a gait metric, a weighted score or a Pareto front",
-        description="Rank the ok variants of a results file, best first. One metric (--by, in its natural "
-                    "direction: stride up, flatness down, ...), a weighted score over min-max normalised metrics "
-                    "(--weights), or the Pareto front of several metrics (--pareto). --where filters first with "
-                    "a pandas query over the columns of the results frame (metrics, link lengths, crank, "
-                    "status). The table is for reading; csv and json carry every column of the ranked frame "
-                    "(the same rows as Results.rank()) at full precision.",
-        epilog="examples: explorer rank results/jansen-2pct.h5 --by flatness --where \"duty > 0.3\"; "
-               "explorer rank R.h5 --pareto stride,flatness --top 0; "
-               "explorer rank R.h5 --weights stride=2,flatness=1 --format csv > best.csv")
+        description="Rank the ok, buildable variants of a results file, best first. By default a score in [0, 1] "
+                    "weighting equally the walker's travel per crank turn (up), bob, body speed ripple and peak "
+                    "crank torque (down), each min-max normalised over the ranked variants. Or one metric (--by, "
+                    "in its natural direction), a weighted score of your own (--weights), or the Pareto front of "
+                    "several metrics (--pareto). Variants the buildability screen removes (toggle: min "
+                    "transmission angle under 5°; a foot that rises to the crank axle or a ground pivot; a foot "
+                    "path that crosses itself; thresholds in the study's [screen]) are left out and counted; "
+                    "--include-screened keeps them. --where filters first with a pandas query over the columns "
+                    "of the results frame (metrics, link lengths, crank, status). The table is for reading; csv "
+                    "and json carry every column of the ranked frame (the same rows as Results.rank()) at full "
+                    "precision.",
+        epilog="examples: explorer rank results/jansen-2pct.h5; "
+               "explorer rank R.h5 --by travel --where \"bob < 0.2\"; "
+               "explorer rank R.h5 --pareto travel,bob --top 0; "
+               "explorer rank R.h5 --weights travel=2,bob=1 --format csv > best.csv")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
-    p.add_argument("--by", metavar="METRIC", default=None, help="metric to rank by (default: stride)")
+    p.add_argument("--by", metavar="METRIC", default=None,
+                   help="metric to rank by (default: the walker score of travel, bob, body_speed_ripple, peak_torque)")
     p.add_argument("--top", metavar="N", default="10", help="rows to show (default: 10; 0 = all)")
     p.add_argument("--where", metavar="EXPR", default=None,
-                   help="pandas query filter, e.g. \"duty > 0.3 and flatness < 0.002\"")
+                   help="pandas query filter, e.g. \"bob < 0.2 and slip < 0.01\"")
     p.add_argument("--pareto", metavar="M1,M2,...", default=None,
                    help="only the Pareto front (non-dominated variants) of these metrics, sorted by the first")
     p.add_argument("--weights", metavar="M1=W1,...", default=None,
@@ -38,6 +45,8 @@ def register(sub) -> None:
                    help="with --by: larger is better")
     p.add_argument("--include-failed", action="store_true",
                    help="keep failed variants (their metrics are NaN and sort last)")
+    p.add_argument("--include-screened", action="store_true",
+                   help="keep the ok variants the buildability screen removes (the screen column says why)")
     p.add_argument("--format", choices=FORMATS, default="table",
                    help="table (default, aligned for reading), csv or json (every column, to stdout)")
     p.add_argument("--columns", metavar="C1,C2,...", default=None,
@@ -157,10 +166,31 @@ def json_records(df) -> str:
     return json.dumps(data, indent=1, allow_nan=False)
 
 
+def short_screen(reason) -> str:
+    """"pass", or the names of the failed checks ("toggle,foot-whip"), for a table cell."""
+    reason = str(reason)
+    if reason == "pass":
+        return reason
+    return ",".join(part.split(":")[0].split(" (")[0].replace(" ", "-") for part in reason.split("; "))
+
+
+def screen_line(summary: dict, included: bool) -> str:
+    """One line on what the buildability screen removed (or would have, with --include-screened)."""
+    if not summary["applied"]:
+        return ("buildability screen: not applied (this file stores none of min_transmission_angle, foot_headroom, "
+                "self_crossings; recompute them with `explorer metrics RESULTS --metrics all`)")
+    parts = ", ".join(f"{k} {v:,}" for k, v in summary["checks"].items() if v)
+    why = f" ({parts})" if parts else ""
+    if included:
+        return f"buildability screen: not applied (--include-screened); it would remove {summary['removed']:,}{why}"
+    return (f"buildability screen removed {summary['removed']:,} ok variants{why}; "
+            f"--include-screened keeps them")
+
+
 # -- the verb ----------------------------------------------------------------------------------------------
 def run(args) -> int:
     from ..errors import UserError
-    from ..gait import DIRECTIONS, METRICS
+    from ..gait import DEFAULT_WEIGHTS, DIRECTIONS, WALKER_METRICS
     from ..store import open_results
 
     top = parse_top(args.top)
@@ -174,13 +204,18 @@ def run(args) -> int:
     if mode != "by" and args.ascending is not None:
         raise UserError(f"--ascending/--descending go with --by, not with --{mode} (which use each metric's "
                         f"natural direction)")
-    by = args.by if args.by is not None else "stride"
+    by = args.by
+    if mode == "by" and by is None:
+        if args.ascending is not None:
+            raise UserError("--ascending/--descending go with --by METRIC, not with the default score")
+        mode, weights = "default", dict(DEFAULT_WEIGHTS)
     extra = parse_list(args.columns, "--columns") if args.columns is not None else None
 
     with open_results(args.results) as res:
         full = res.rank(by=by, top=None, where=args.where, ascending=args.ascending, weights=weights,
-                        pareto=pareto, include_failed=args.include_failed)
+                        pareto=pareto, include_failed=args.include_failed, include_screened=args.include_screened)
         counts = res.status_counts()
+        screened = res.screen_summary()
         n, complete, name = res.n_variants, res.complete, res.filename
     ranked = full if top is None else full.iloc[:top]
 
@@ -192,7 +227,7 @@ def run(args) -> int:
         return 0
 
     # -- table -----------------------------------------------------------------------------------------
-    keys = pareto if mode == "pareto" else list(weights) if mode == "weights" else [by]
+    keys = pareto if mode == "pareto" else list(weights) if mode in ("weights", "default") else [by]
 
     def direction(c):
         if mode == "by" and args.ascending is not None:
@@ -203,6 +238,9 @@ def run(args) -> int:
         how = f"ranked by {by} ({better(direction(by))})"
     elif mode == "pareto":
         how = "Pareto front of " + ", ".join(f"{c} ({better(direction(c))})" for c in keys)
+    elif mode == "default":
+        how = ("the walker score (1 = best; equal weights; --by METRIC ranks by one metric) of " +
+               ", ".join(f"{c} ({better(direction(c))})" for c in keys))
     else:
         how = ("weighted score (1 = best) of " +
                ", ".join(f"{c} ×{weights[c]:g} ({better(direction(c))})" for c in keys))
@@ -216,19 +254,23 @@ def run(args) -> int:
         matched += f" where {args.where}"
     shown = f"showing {len(ranked):,}" if len(ranked) < len(full) else "showing all"
     lines = [f"{name}: {how}", f"{pool}; {matched}; {shown}"]
+    lines.append(screen_line(screened, args.include_screened))
     if ranked.empty:
         lines.append("(no variant to show)")
         print("\n".join(lines))
         return 0
-    lead = ["rank", "variant"] + (["score"] if mode == "weights" else []) + keys
+    lead = ["rank", "variant"] + (["score"] if mode in ("weights", "default") else []) + keys
     if extra is None:
-        rest = [m for m in METRICS if m in ranked.columns and m not in lead] + ["status"]
+        rest = [m for m in WALKER_METRICS if m in ranked.columns and m not in lead]
+        rest += ["screen"] if args.include_screened and "screen" in ranked.columns else ["status"]
     else:
         unknown = [c for c in extra if c not in ranked.columns]
         if unknown:
             known = ", ".join(map(str, ranked.columns))
             raise UserError(f"--columns: unknown column {unknown[0]!r} (columns: {known})")
         rest = [c for c in extra if c not in lead]
+    if "screen" in lead + rest:  # the check names only: `explorer show` gives the whole reason
+        ranked = ranked.assign(screen=[short_screen(r) for r in ranked["screen"]])
     lines.append("")
     lines.append(format_table(ranked, lead + rest))
     print("\n".join(lines))

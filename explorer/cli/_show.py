@@ -9,9 +9,10 @@ def register(sub) -> None:
     p = sub.add_parser(
         "show", help="one variant of a results file: lengths vs the nominal, metrics with their ranks, status",
         description="Print one variant of a results file: each link length and the crank radius against the "
-                    "nominal design (absolute and %% change), each stored gait metric with its rank among the ok "
-                    "variants (1 = best in the metric's natural direction; ties share a rank), and its status "
-                    "(for a failed variant: the crank angle and vertex where it failed). Variant 0 is the nominal.")
+                    "nominal design (absolute and %% change), each stored metric with its rank among the ok "
+                    "variants (1 = best in the metric's natural direction; ties share a rank), its status "
+                    "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
+                    "buildability screen (and if not, why). Variant 0 is the nominal.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     p.add_argument("variant", metavar="VARIANT", help="variant number, 0 to N-1 (0 = the nominal design)")
     p.set_defaults(func=run)
@@ -95,6 +96,10 @@ def run(args) -> int:
     lines += _table(rows, (False, True, True, True, True))
 
     # -- metrics -----------------------------------------------------------------------------------------
+    if "screen" in row.index and status == "ok":
+        lines.append("buildability screen: " + ("pass" if row["screen"] == "pass" else
+                                                 f"screened out ({row['screen']}); `explorer rank` leaves it out "
+                                                 f"unless --include-screened"))
     lines.append("")
     if not metrics:
         lines.append(f"no gait metrics stored; compute them with `explorer metrics {name}`")

@@ -1,16 +1,21 @@
-"""Gait analysis: metrics of every variant's foot path (Numba, in batch) and ranking in pandas.
+"""Gait analysis: metrics of every variant's foot path (Numba, in batch), the buildability screen, and
+ranking in pandas.
 
-``compute_metrics(paths, velocities, status, names, band)`` returns one (N,) array per metric;
+``compute_metrics(paths, velocities, status, names, band, mechanism=..., walker=...)`` returns one (N,)
+array per metric; :data:`TABLE` is the one table of metrics (name, unit, direction, definition);
 ``rank(df, by=..., where=..., weights=..., pareto=...)`` ranks a results frame with one row per
-variant; ``pareto_front(df, cols, directions)`` is the non-dominated mask. The exact metric
-definitions are in :mod:`explorer.gait._metrics`.
+variant; ``pareto_front(df, cols, directions)`` is the non-dominated mask. The exact definitions are
+in :mod:`explorer.gait._walker` (the walker scene) and :mod:`explorer.gait._metrics` (single leg).
 """
 
-from ._metrics import (DEFAULT_BAND, DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, MECHANISM_METRICS, METRICS,
-                       PATH_METRICS, UNITS, VELOCITY_METRICS, compute_metrics, min_transmission_angle,
-                       stance_indices)
-from ._rank import ok_mask, pareto_front, rank, select
+from ._metrics import DEFAULT_BAND, available_metrics, compute_metrics, foot_headroom, min_transmission_angle, stance_indices
+from ._rank import ok_mask, pareto_front, rank, screened_mask, select
+from ._screen import CHECKS, SCREEN_KEYS, Screen, screen_columns, screen_counts, screen_from_dict
+from ._table import (DEFAULT_WEIGHTS, BAND_METRICS, BY_NAME, DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, LEG_METRICS, MECHANISM_METRICS,
+                     METRICS, PATH_METRICS, SCREEN_METRICS, TABLE, UNITS, VELOCITY_METRICS, WALKER_METRICS, Metric)
+from ._walker import leg_samples
 
-__all__ = ["DEFAULT_BAND", "DESCRIPTIONS", "DIRECTIONS", "FOOT_METRICS", "MECHANISM_METRICS", "METRICS",
-           "PATH_METRICS", "UNITS", "VELOCITY_METRICS", "compute_metrics",
-           "min_transmission_angle", "ok_mask", "pareto_front", "rank", "select", "stance_indices"]
+__all__ = ["DEFAULT_WEIGHTS", "CHECKS", "SCREEN_KEYS", "Screen", "screen_columns", "screen_counts", "screen_from_dict", "BAND_METRICS", "BY_NAME", "DEFAULT_BAND", "DESCRIPTIONS", "DIRECTIONS", "FOOT_METRICS", "LEG_METRICS",
+           "MECHANISM_METRICS", "METRICS", "Metric", "PATH_METRICS", "SCREEN_METRICS", "TABLE", "UNITS",
+           "VELOCITY_METRICS", "WALKER_METRICS", "available_metrics", "compute_metrics", "foot_headroom", "leg_samples",
+           "min_transmission_angle", "ok_mask", "screened_mask", "pareto_front", "rank", "select", "stance_indices"]

@@ -39,8 +39,16 @@ min_transmission_angle
                 in closed form: min(μ(d = |g − r|), 180° − μ(d = g + r)). The metric is the least
                 of these over all such loops, in degrees (continuous in θ, not sampled).
 
+foot_headroom   min(y of the crank centre, y of every ground pivot) − max(y over the cycle): how far
+                the foot's highest point stays below the frame (negative: it rises above it).
+self_crossings  number of proper crossings between non-adjacent segments of the closed polyline
+                through the samples (0 for a simple loop, 1 for a figure eight).
+
 A variant whose path holds a non-finite value gets NaN for every foot metric; one whose
 velocities hold a non-finite value gets NaN for the three speed metrics.
+
+The walker metrics (``travel``, ``bob``, …) are defined in :mod:`explorer.gait._walker`; every
+metric's unit and direction is in the one table, :mod:`explorer.gait._table`.
 """
 
 from __future__ import annotations
@@ -53,60 +61,11 @@ from numba import njit
 from ..errors import UserError
 from ..kernels import parallel_rows
 from ..plan import fourbar_loops
+from ._walker import walker_metrics
 
-#: Every metric, in storage/display order.
-METRICS: tuple[str, ...] = ("width", "height", "stride", "duty", "flatness", "stance_rms_line",
-                            "stance_speed", "speed_ripple", "max_speed", "min_transmission_angle")
-#: Metrics computed from the foot path alone.
-PATH_METRICS: tuple[str, ...] = ("width", "height", "stride", "duty", "flatness", "stance_rms_line")
-#: Metrics that also need the foot velocities dF/dθ.
-VELOCITY_METRICS: tuple[str, ...] = ("stance_speed", "speed_ripple", "max_speed")
-#: Metrics that need the mechanism and each variant's lengths (not the foot path).
-MECHANISM_METRICS: tuple[str, ...] = ("min_transmission_angle",)
-#: The metrics of the foot (path and velocity), computed by the Numba kernel.
-FOOT_METRICS: tuple[str, ...] = PATH_METRICS + VELOCITY_METRICS
-
-#: Natural ranking direction of each metric: "max" = larger is better, "min" = smaller is better.
-DIRECTIONS: dict[str, str] = {
-    "width": "max",            # a larger sweep of the foot (reach); overridable, size measure only
-    "height": "max",           # step height: more ground clearance on the return swing
-    "stride": "max",           # more ground covered per crank turn
-    "duty": "max",             # longer ground contact: fewer legs needed to carry the body
-    "flatness": "min",         # a flatter stance does not bob the body up and down
-    "stance_rms_line": "min",  # a straighter stance
-    "stance_speed": "max",     # faster walking per radian of crank
-    "speed_ripple": "min",     # a steadier foot speed on the ground
-    "max_speed": "min",        # a gentler return swing (lower peak foot speed, lower inertial loads)
-    "min_transmission_angle": "max",  # further from toggle: better force transmission
-}
-
-#: Unit of each metric ("length" = the model units of the link lengths).
-UNITS: dict[str, str] = {
-    "width": "length",
-    "height": "length",
-    "stride": "length",
-    "duty": "fraction of cycle",
-    "flatness": "1 (length/length)",
-    "stance_rms_line": "length",
-    "stance_speed": "length/rad",
-    "speed_ripple": "1",
-    "max_speed": "length/rad",
-    "min_transmission_angle": "deg",
-}
-
-#: One-line help text per metric.
-DESCRIPTIONS: dict[str, str] = {
-    "width": "x-range of the whole foot path",
-    "height": "y-range of the whole foot path (step height)",
-    "stride": "x-span of the stance: ground covered while the foot is down",
-    "duty": "fraction of the cycle in stance",
-    "flatness": "std of y over the stance / stride (lower is flatter)",
-    "stance_rms_line": "RMS perpendicular distance of the stance points from their least-squares line y = a + b x",
-    "stance_speed": "mean foot speed |dF/dθ| over the stance, per radian of crank",
-    "speed_ripple": "std / mean of the foot speed over the stance",
-    "max_speed": "largest foot speed |dF/dθ| over the cycle, per radian of crank",
-    "min_transmission_angle": "smallest transmission angle (deviation from toggle) of the crank-driven four-bar loops",
-}
+from ._table import (BY_NAME, CRANK_METRICS, DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, LEG_METRICS,  # noqa: F401
+                     MECHANISM_METRICS, METRICS, PATH_METRICS, SCREEN_METRICS, UNITS, VELOCITY_METRICS,
+                     WALKER_METRICS)
 
 DEFAULT_BAND = 0.01
 
@@ -266,11 +225,137 @@ def _foot_metrics_kernel(band, want_path, want_stance, want_vel, paths, vel, sta
                         out[i, 7] = math.sqrt(var / n) / ms
 
 
+@njit(cache=True, nogil=True)
+def _crossings_kernel(paths, status, out):
+    """out[i] = proper crossings of the closed polyline through paths[i] (ok, finite rows only; out
+    comes NaN-filled). Segments are bucketed by their smallest x (S buckets over the path's x-range,
+    a linear-time counting sort) and each is tested only against segments from buckets up to the one
+    holding its largest x, so a foot path costs about O(S), not O(S²)."""
+    N = paths.shape[0]
+    S = paths.shape[1]
+    xlo = np.empty(S)
+    xhi = np.empty(S)
+    blo = np.empty(S, dtype=np.int64)
+    start = np.empty(S + 1, dtype=np.int64)
+    order = np.empty(S, dtype=np.int64)
+    for i in range(N):
+        if status[i] != 0:
+            continue
+        finite = True
+        for k in range(S):
+            if not (math.isfinite(paths[i, k, 0]) and math.isfinite(paths[i, k, 1])):
+                finite = False
+                break
+        if not finite:
+            continue
+        xmin = np.inf
+        xmax = -np.inf
+        for k in range(S):
+            x0 = paths[i, k, 0]
+            x1 = paths[i, (k + 1) % S, 0]
+            xlo[k] = min(x0, x1)
+            xhi[k] = max(x0, x1)
+            if xlo[k] < xmin:
+                xmin = xlo[k]
+            if xhi[k] > xmax:
+                xmax = xhi[k]
+        scale = (S - 1) / (xmax - xmin) if xmax > xmin else 0.0
+        for b in range(S + 1):
+            start[b] = 0
+        for k in range(S):
+            blo[k] = int((xlo[k] - xmin) * scale)
+            start[blo[k] + 1] += 1
+        for b in range(S):
+            start[b + 1] += start[b]
+        for k in range(S):  # counting sort by bucket (start[b] is consumed as a cursor, then restored)
+            order[start[blo[k]]] = k
+            start[blo[k]] += 1
+        for b in range(S - 1, 0, -1):
+            start[b] = start[b - 1]
+        start[0] = 0
+        count = 0
+        for p in range(S):
+            s = order[p]
+            bhi = int((xhi[s] - xmin) * scale)
+            ax = paths[i, s, 0]
+            ay = paths[i, s, 1]
+            bx = paths[i, (s + 1) % S, 0]
+            by = paths[i, (s + 1) % S, 1]
+            for q in range(p + 1, S):
+                t = order[q]
+                if blo[t] > bhi:
+                    break
+                if xlo[t] > xhi[s] or xlo[s] > xhi[t]:
+                    continue
+                gap = abs(s - t)
+                if gap <= 1 or gap == S - 1:  # neighbours share an end point
+                    continue
+                cx = paths[i, t, 0]
+                cy = paths[i, t, 1]
+                dx = paths[i, (t + 1) % S, 0]
+                dy = paths[i, (t + 1) % S, 1]
+                if max(ay, by) < min(cy, dy) or max(cy, dy) < min(ay, by):
+                    continue
+                d1 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+                d2 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
+                d3 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
+                d4 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
+                if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+                    count += 1
+        out[i] = count
+
+
+def foot_headroom(mech, paths, status=None) -> np.ndarray:
+    """(N,) min(y of the crank centre and every ground pivot) − max over the cycle of the foot's y.
+
+    paths (N, S, 2). NaN for non-ok variants, non-finite paths, or a mechanism with neither a crank
+    nor a ground pivot."""
+    paths = np.asarray(paths, dtype=np.float64)
+    heights = [y for _, y in mech.fixed.values()]
+    if mech.crank is not None:
+        heights.append(mech.crank.center[1])
+    N = paths.shape[0]
+    if not heights:
+        return np.full(N, np.nan)
+    with np.errstate(invalid="ignore"):
+        top = paths[:, :, 1].max(axis=1) if paths.shape[1] else np.full(N, np.nan)
+    out = min(heights) - top
+    out[~np.isfinite(paths).all(axis=(1, 2))] = np.nan
+    if status is not None:
+        out[np.asarray(status) != 0] = np.nan
+    return out
+
+
 # -- public ------------------------------------------------------------------------------------------
-def _resolve_names(names, have_mechanism: bool) -> list[str]:
-    """The requested metric names in METRICS order (validated)."""
+def _available(mechanism, walker, crank) -> dict[str, str | None]:
+    """{metric: None if it can be computed here, else why not}."""
+    has_crank = mechanism is not None and mechanism.crank is not None
+    out = {}
+    for m in METRICS:
+        why = None
+        needs = BY_NAME[m].needs
+        if "mechanism" in needs and mechanism is None:
+            why = "needs the mechanism (mechanism=, lengths=, crank=)"
+        elif m == "min_transmission_angle" and not fourbar_loops(mechanism):
+            why = f"mechanism {mechanism.name!r} has no crank-driven four-bar loop"
+        elif m in CRANK_METRICS and mechanism is not None and not has_crank:
+            why = f"mechanism {mechanism.name!r} is driven along a path, not by a crank; a walker needs a crank"
+        elif m in CRANK_METRICS and mechanism is None and (walker is None or crank is None):
+            why = "needs a crank-driven mechanism (mechanism=) or walker= and crank="
+        out[m] = why
+    return out
+
+
+def available_metrics(mechanism=None) -> dict[str, str | None]:
+    """{metric: None if :func:`compute_metrics` can compute it for ``mechanism`` (given its foot path
+    and velocities), else the one-line reason why not}, in METRICS order."""
+    return _available(mechanism, None, None)
+
+
+def _resolve_names(names, available: dict[str, str | None]) -> list[str]:
+    """The requested metric names in METRICS order (validated); True/None: every available one."""
     if names is None or names is True:
-        return [m for m in METRICS if m not in MECHANISM_METRICS or have_mechanism]
+        return [m for m in METRICS if available[m] is None]
     if names is False:
         return []
     if isinstance(names, str):
@@ -282,6 +367,9 @@ def _resolve_names(names, have_mechanism: bool) -> list[str]:
     unknown = [n for n in names if n not in METRICS]
     if unknown:
         raise UserError(f"metrics: unknown metric {unknown[0]!r} (known: {', '.join(METRICS)})")
+    for n in names:
+        if available[n] is not None:
+            raise UserError(f"metrics: {n}: {available[n]}")
     chosen = set(names)
     return [m for m in METRICS if m in chosen]
 
@@ -296,30 +384,37 @@ def _check_band(band) -> float:
 
 
 def compute_metrics(paths, velocities=None, status=None, names=None, band: float = DEFAULT_BAND, *,
-                    mechanism=None, lengths=None, crank=None) -> dict[str, np.ndarray]:
-    """Gait metrics of N foot paths (see the module docstring for the exact definitions).
+                    mechanism=None, lengths=None, crank=None, walker=None) -> dict[str, np.ndarray]:
+    """Metrics of N foot paths: the walker scene, the single-leg band metrics and the screen's inputs
+    (definitions: :mod:`explorer.gait._walker` and this module's docstring; units and directions:
+    :data:`explorer.gait.TABLE`).
 
     Parameters
     ----------
     paths : array (N, S, 2)
         Foot positions (x, y) at θ_k = 2πk/S, model units. S ≥ 2.
     velocities : array (N, S, 2) or None
-        dF/dθ, model units per radian of crank. Needed only for stance_speed, speed_ripple and
-        max_speed.
+        dF/dθ, model units per radian of crank. Needed for the metrics whose ``needs`` hold
+        "velocity" (travel, body_speed_ripple, the torques, slip, the stance speeds, max_speed).
     status : array (N,) of int, or None
         0 = ok (None: all ok). Variants with any other code get NaN for every metric.
     names : iterable of metric names, a single name, None or True
-        The metrics to compute. None/True: every foot metric (width … max_speed; velocities are
-        then required) plus min_transmission_angle when ``mechanism`` is given and has a
-        crank-driven four-bar loop. Unknown names raise UserError listing the known ones.
+        The metrics to compute. None/True: every metric that can be computed from what is given
+        (velocities are then required): the walker metrics and foot_headroom need the mechanism (a
+        crank-driven one for the walker), min_transmission_angle a crank-driven four-bar loop.
+        Unknown or impossible names raise UserError saying why.
     band : float in [0, 1]
-        Stance band as a fraction of the path height (default 0.01).
+        Stance band of the single-leg metrics, a fraction of the path height (default 0.01).
     mechanism : Mechanism, optional
-        Needed only for min_transmission_angle.
+        Needed for the walker (its crank and default ``[walker]``), min_transmission_angle and
+        foot_headroom.
     lengths : array (N, n_links), optional
         Link lengths of each variant in ``mechanism.links`` order (default: the nominal's).
     crank : array (N,), optional
         Crank radius of each variant (default: the nominal's).
+    walker : :class:`explorer.mechanism.Walker`, optional
+        The walker scene (default: the mechanism's ``[walker]`` table, else ``Walker()``: four legs
+        evenly spaced).
 
     Returns
     -------
@@ -339,12 +434,11 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
             raise UserError(f"status: expected integer codes (0 = ok), got dtype {status.dtype}")
         status = status.astype(np.int64, copy=False)
     band = _check_band(band)
-    explicit = not (names is None or names is True)
-    chosen = _resolve_names(names, mechanism is not None)
+    chosen = _resolve_names(names, _available(mechanism, walker, crank))
     need_vel = [m for m in chosen if m in VELOCITY_METRICS]
     if need_vel and velocities is None:
         raise UserError(f"metrics: {', '.join(need_vel)} need the foot velocities dF/dθ; pass velocities= "
-                        f"or ask only for {', '.join(PATH_METRICS)}")
+                        f"or ask only for metrics of the path alone")
     if velocities is not None and need_vel:
         vel = np.asarray(velocities, dtype=np.float64)
         if vel.shape != paths.shape:
@@ -352,27 +446,56 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
         vel = np.ascontiguousarray(vel)
     else:
         vel = np.zeros((N, 0, 2))
-    out = np.full((N, _N_FOOT), np.nan)
-    want_stance = any(m in chosen for m in ("stride", "duty", "flatness", "stance_rms_line",
-                                             "stance_speed", "speed_ripple"))
-    want_path = "width" in chosen or "height" in chosen
-    if N and any(m in FOOT_METRICS for m in chosen):
-        parallel_rows(_foot_metrics_kernel, (band, want_path, want_stance, bool(need_vel)),
-                      (np.ascontiguousarray(paths), vel, status, out))
+    cpaths = np.ascontiguousarray(paths)
     result = {}
-    for m in chosen:
-        if m == "min_transmission_angle":
-            if mechanism is None:
-                raise UserError("metrics: min_transmission_angle needs the mechanism (mechanism=, lengths=, crank=)")
-            if not fourbar_loops(mechanism):
-                if explicit:
-                    raise UserError(f"metrics: min_transmission_angle: mechanism {mechanism.name!r} has no "
-                                    "crank-driven four-bar loop")
-                continue
-            result[m] = min_transmission_angle(mechanism, lengths, crank, status=status, n=N)
+    # -- single-leg band metrics ----------------------------------------------------------------------
+    if any(m in FOOT_METRICS for m in chosen):
+        out = np.full((N, _N_FOOT), np.nan)
+        want_stance = any(m in chosen for m in ("stride", "duty", "flatness", "stance_rms_line",
+                                                 "stance_speed", "speed_ripple"))
+        want_path = "width" in chosen or "height" in chosen
+        want_vel = any(m in chosen for m in ("stance_speed", "speed_ripple", "max_speed"))
+        if N:
+            parallel_rows(_foot_metrics_kernel, (band, want_path, want_stance, want_vel), (cpaths, vel, status, out))
+        for m in FOOT_METRICS:
+            result[m] = out[:, _INDEX[m]]
+    # -- the walker -------------------------------------------------------------------------------------
+    if any(m in WALKER_METRICS for m in chosen):
+        if walker is None:
+            from ..mechanism import Walker
+            walker = mechanism.walker if mechanism is not None and mechanism.walker is not None else Walker()
+        r = _per_variant(crank, N, mechanism.crank.radius if mechanism is not None else None, "crank")
+        if velocities is None:  # only bob, clearance and contact_fraction were asked for
+            wvel = np.zeros_like(cpaths)
         else:
-            result[m] = out[:, _INDEX[m]].copy()
-    return result
+            wvel = np.ascontiguousarray(np.asarray(velocities, dtype=np.float64))
+            if wvel.shape != cpaths.shape:
+                raise UserError(f"velocities: expected shape {paths.shape} like paths, got {wvel.shape}")
+        out = walker_metrics(cpaths, wvel, status, r, walker)
+        for j, m in enumerate(WALKER_METRICS):
+            result[m] = out[:, j]
+    # -- the screen's inputs ----------------------------------------------------------------------------
+    if "self_crossings" in chosen:
+        out = np.full(N, np.nan)
+        if N:
+            parallel_rows(_crossings_kernel, (), (cpaths, status, out))
+        result["self_crossings"] = out
+    if "foot_headroom" in chosen:
+        result["foot_headroom"] = foot_headroom(mechanism, cpaths, status)
+    if "min_transmission_angle" in chosen:
+        result["min_transmission_angle"] = min_transmission_angle(mechanism, lengths, crank, status=status, n=N)
+    return {m: np.array(result[m], dtype=np.float64) for m in chosen}
+
+
+def _per_variant(values, N: int, default, name: str) -> np.ndarray:
+    if values is None:
+        if default is None:
+            raise UserError(f"{name}: expected ({N},) values")
+        return np.full(N, float(default))
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    if v.shape != (N,):
+        raise UserError(f"{name}: expected shape ({N},), got {v.shape}")
+    return v
 
 
 # -- transmission angle ------------------------------------------------------------------------------

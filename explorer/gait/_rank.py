@@ -14,12 +14,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import UserError
-from ._metrics import DIRECTIONS, METRICS
+from ._table import DEFAULT_WEIGHTS, DIRECTIONS, METRICS
 
 if TYPE_CHECKING:  # pandas is imported where it is used: it costs ~0.4 s, and `explorer run` never needs it
     import pandas as pd
 
-_RESERVED = ("variant", "status", "rank", "score")
+_RESERVED = ("variant", "status", "rank", "score", "buildable", "screen")
 
 
 # -- helpers ------------------------------------------------------------------------------------------
@@ -83,13 +83,24 @@ def ok_mask(df: pd.DataFrame) -> np.ndarray:
     return (st.astype(str) == "ok").to_numpy()
 
 
-def select(df: pd.DataFrame, where=None, include_failed: bool = False) -> pd.DataFrame:
-    """The rows that are ok (unless ``include_failed``) and satisfy the pandas query ``where``
-    (e.g. "duty > 0.3 and flatness < 0.002"); a bad expression is a UserError naming it."""
+def screened_mask(df: pd.DataFrame) -> np.ndarray:
+    """Boolean mask of the ok rows the buildability screen removes (the frame's ``buildable`` column;
+    none if the frame has no such column)."""
+    if "buildable" not in df.columns:
+        return np.zeros(len(df), dtype=bool)
+    return ok_mask(df) & ~df["buildable"].to_numpy(dtype=bool)
+
+
+def select(df: pd.DataFrame, where=None, include_failed: bool = False, include_screened: bool = False) -> pd.DataFrame:
+    """The rows that are ok (unless ``include_failed``), pass the buildability screen (unless
+    ``include_screened``; only frames with a ``buildable`` column are screened) and satisfy the
+    pandas query ``where`` (e.g. "bob < 0.5 and slip < 0.05"); a bad expression is a UserError naming it."""
     import pandas as pd
 
-    if not include_failed:
-        df = df[ok_mask(df)]
+    keep = np.ones(len(df), dtype=bool) if include_failed else ok_mask(df).copy()
+    if not include_screened:
+        keep &= ~screened_mask(df)
+    df = df[keep]
     if where is not None and str(where).strip():
         expr = str(where)
         try:
@@ -183,12 +194,14 @@ def pareto_front(df: pd.DataFrame, cols, directions=None) -> np.ndarray:
     return mask
 
 
-def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None = None, ascending=None,
-         weights: Mapping[str, float] | None = None, pareto=None, include_failed: bool = False) -> pd.DataFrame:
+def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = None, ascending=None,
+         weights: Mapping[str, float] | None = None, pareto=None, include_failed: bool = False,
+         include_screened: bool = False) -> pd.DataFrame:
     """Rank the variants of a results frame; returns the chosen rows, best first, with a ``rank`` column.
 
     Rows are first filtered: failed variants (status not "ok") are dropped unless
-    ``include_failed``; then ``where``, a pandas query string such as
+    ``include_failed``, ok variants the buildability screen removes (``buildable`` false) unless
+    ``include_screened``; then ``where``, a pandas query string such as
     "duty > 0.3 and flatness < 0.002", keeps the rows where it is true (a bad expression raises
     UserError naming it). Then one of three modes, in this precedence:
 
@@ -201,8 +214,10 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
       Σ w_m s_m / Σ w_m where s_m is metric m min-max normalised over the filtered rows and
       flipped for "min" metrics so that 1 is the best row (a metric constant over those rows gives
       s_m = 1 to all). Weights must be ≥ 0 with a positive sum. ``ascending`` as for pareto.
-    * otherwise ``by`` (a metric name): sorted in its natural direction, or smallest first if
+    * ``by`` (a metric name): sorted in its natural direction, or smallest first if
       ``ascending=True``, largest first if ``ascending=False``.
+    * none of them: the default ranking, the weighted score of :data:`DEFAULT_WEIGHTS` (travel,
+      bob, body_speed_ripple and peak_torque, equal weights).
 
     NaN values of the sort key (a failed variant kept with include_failed, an undefined metric)
     come last. Ties keep variant order. ``top`` rows are returned (None: all). ``rank`` is the
@@ -214,6 +229,12 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
     if not isinstance(df, pd.DataFrame):
         raise UserError(f"rank: expected a pandas DataFrame, got {type(df).__name__}")
     top = _check_top(top)
+    if by is None and weights is None and pareto is None:
+        missing = [m for m in DEFAULT_WEIGHTS if m not in df.columns]
+        if missing:
+            raise UserError(f"the default ranking needs the walker metrics {', '.join(missing)}, which these results "
+                            f"do not have; rank by=METRIC (for example by='stride') or compute them")
+        weights = dict(DEFAULT_WEIGHTS)
     if pareto is not None and weights is not None:
         raise UserError("rank: pass either pareto= or weights=, not both")
     if pareto is not None:
@@ -222,7 +243,7 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
         if not cols:
             raise UserError("pareto: name at least one metric")
         dirs = _directions(cols, ascending)
-        sub = select(df, where, include_failed)
+        sub = select(df, where, include_failed, include_screened)
         front = sub[pareto_front(sub, cols, dirs)]
         cost = _costs(front, cols, dirs)
         keys = [_tiebreak(front)] + [cost[:, j] for j in range(len(cols) - 1, -1, -1)]
@@ -242,7 +263,7 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
         dirs = _directions(cols, ascending)
         used = w > 0  # a zero weight neither counts nor turns a row's score NaN
         cols, w = [c for c, u in zip(cols, used) if u], w[used]
-        sub = select(df, where, include_failed)
+        sub = select(df, where, include_failed, include_screened)
         cost = _costs(sub, cols, dirs)  # smaller is better
         with np.errstate(all="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
@@ -262,7 +283,7 @@ def rank(df: pd.DataFrame, by="stride", top: int | None = 10, where: str | None 
         raise UserError("ascending: with by= pass True/False (or None for the natural direction)")
     (col,) = _check_columns(df, [by])
     d = _direction(col, ascending)
-    sub = select(df, where, include_failed)
+    sub = select(df, where, include_failed, include_screened)
     cost = _costs(sub, [col], {col: d})[:, 0]
     key = np.where(np.isnan(cost), np.inf, cost)
     return _finish(sub, np.lexsort([_tiebreak(sub), np.isnan(cost), key]), top)

@@ -1,6 +1,7 @@
 """Mechanisms as data: the linkage graph, its TOML files, and the built-ins."""
 
-from ._load import builtin_mechanisms, load_mechanism, mechanism_from_dict
-from ._model import Crank, Link, Mechanism, PathDriver
+from ._load import WALKER_KEYS, builtin_mechanisms, load_mechanism, mechanism_from_dict, walker_from_dict
+from ._model import Crank, Link, Mechanism, PathDriver, Walker
 
-__all__ = ["Crank", "Link", "Mechanism", "PathDriver", "builtin_mechanisms", "load_mechanism", "mechanism_from_dict"]
+__all__ = ["WALKER_KEYS", "Crank", "Link", "Mechanism", "PathDriver", "Walker", "builtin_mechanisms", "load_mechanism",
+           "mechanism_from_dict", "walker_from_dict"]

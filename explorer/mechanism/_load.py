@@ -8,9 +8,13 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ._model import Crank, Link, Mechanism, PathDriver, _check_length
+from ._model import Crank, Link, Mechanism, PathDriver, Walker, _check_length
 
-_TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links"}
+_TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker"}
+#: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
+WALKER_KEYS = ("legs", "phases", "mirrored", "drag", "contact")
+#: Most legs a walker may have.
+MAX_LEGS = 64
 _DRIVER_KEYS = {"vertex", "path", "start", "end", "center", "radius", "start_angle", "end_angle", "points",
                 "duration", "timing"}
 _PATH_KEYS = {"line": {"start", "end"}, "arc": {"center", "radius", "start_angle", "end_angle"}, "points": {"points"}}
@@ -158,7 +162,56 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     if foot in fixed:
         raise UserError(f"{where(source, 'foot')}: vertex {foot!r} is fixed; the foot must be a moving vertex")
     _check_degrees_of_freedom(source, tip, "crank.tip" if crank is not None else "driver.vertex", fixed, guess, links)
-    return Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path)
+    walker = None
+    if "walker" in data:
+        if crank is None:
+            raise UserError(f"{where(source, 'walker')}: a walker needs a crank; this mechanism is driven by a path")
+        walker = walker_from_dict(data["walker"], source, "walker")
+    return Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
+                     walker)
+
+
+def walker_from_dict(table, source: str, key: str = "walker", base: Walker | None = None) -> Walker:
+    """Validate a ``[walker]`` table (keys :data:`WALKER_KEYS`; phases in degrees) into a :class:`Walker`.
+
+    Keys it leaves out come from ``base`` (default: :class:`Walker`'s defaults); giving ``legs``
+    without ``phases`` or ``mirrored`` resets those to evenly spaced, none mirrored.
+    One-line UserError naming ``source``, the key and the value on anything invalid.
+    """
+    t = _table(source, key, table)
+    _unknown_keys(source, key + ".", t, set(WALKER_KEYS))
+    base = base if base is not None else Walker()
+
+    def fail(k, allowed, value):
+        raise UserError(f"{where(source, f'{key}.{k}')}: expected {allowed}, got {value!r}")
+
+    legs = t.get("legs", base.legs)
+    if isinstance(legs, bool) or not isinstance(legs, int) or not 1 <= legs <= MAX_LEGS:
+        fail("legs", f"a whole number of legs from 1 to {MAX_LEGS}", legs)
+    keep = "legs" not in t or legs == base.legs
+    phases = base.phases if keep else ()
+    if "phases" in t:
+        p = t["phases"]
+        if (not isinstance(p, list) or len(p) != legs
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in p)):
+            fail("phases", f"a list of {legs} finite crank phase offsets in degrees, one per leg", p)
+        phases = tuple(math.radians(x) for x in p)
+    mirrored = base.mirrored if keep else ()
+    if "mirrored" in t:
+        m = t["mirrored"]
+        if isinstance(m, bool):
+            mirrored = tuple(m and j % 2 == 1 for j in range(legs))
+        elif isinstance(m, list) and len(m) == legs and all(isinstance(x, bool) for x in m):
+            mirrored = tuple(m)
+        else:
+            fail("mirrored", f"true (odd legs mirrored), false, or a list of {legs} true/false, one per leg", m)
+    drag = t.get("drag", base.drag)
+    if isinstance(drag, bool) or not isinstance(drag, (int, float)) or not (math.isfinite(drag) and drag >= 0):
+        fail("drag", "a drag force as a fraction of the weight, a finite number >= 0", drag)
+    contact = t.get("contact", base.contact)
+    if isinstance(contact, bool) or not isinstance(contact, (int, float)) or not (0 < contact <= 10):
+        fail("contact", "a contact tolerance as a fraction of the crank radius, a number in (0, 10]", contact)
+    return Walker(legs, phases, mirrored, float(drag), float(contact))
 
 
 def _crank(source: str, value) -> Crank:

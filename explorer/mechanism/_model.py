@@ -57,6 +57,45 @@ class PathDriver:
     end_angle: float = 0.0
 
 
+@dataclass(frozen=True)
+class Walker:
+    """The walker scene of a crank-driven leg: the leg replicated on one crankshaft.
+
+    legs : number of legs L ≥ 1.
+    phases : (L,) crank phase offset φ_j of each leg, radians; leg j's foot is the leg's foot at
+        crank angle θ + φ_j. Default: evenly spaced, φ_j = 2πj/L.
+    mirrored : (L,) bools; a mirrored leg is the mirror image of the leg about the vertical through
+        the crank centre, driven backwards (its foot at θ is the mirror image of the foot at
+        π − (θ + φ_j)), as ``explorer animate --legs`` draws the odd legs. Default: none.
+    drag : horizontal drag D on the body as a fraction of its weight W (≥ 0), for the torque metrics.
+    contact : a foot within ``contact`` × crank radius of the ground counts as touching it (for slip,
+        contact fraction and clearance; > 0).
+    """
+
+    legs: int = 4
+    phases: tuple[float, ...] = ()
+    mirrored: tuple[bool, ...] = ()
+    drag: float = 0.0
+    contact: float = 0.01
+
+    def __post_init__(self):
+        L = int(self.legs)
+        object.__setattr__(self, "legs", L)
+        if not self.phases:
+            object.__setattr__(self, "phases", tuple(2.0 * math.pi * j / L for j in range(L)))
+        if not self.mirrored:
+            object.__setattr__(self, "mirrored", (False,) * L)
+        object.__setattr__(self, "phases", tuple(float(p) for p in self.phases))
+        object.__setattr__(self, "mirrored", tuple(bool(m) for m in self.mirrored))
+        if len(self.phases) != L or len(self.mirrored) != L:
+            raise ValueError(f"walker: {L} legs need {L} phases and {L} mirrored flags")
+
+    def as_dict(self) -> dict:
+        """The TOML shape: phases in degrees."""
+        return {"legs": self.legs, "phases": [round(math.degrees(p), 12) for p in self.phases],
+                "mirrored": list(self.mirrored), "drag": self.drag, "contact": self.contact}
+
+
 def _frozen(d: Mapping[str, tuple[float, float]]) -> Mapping[str, tuple[float, float]]:
     return MappingProxyType({k: (float(v[0]), float(v[1])) for k, v in d.items()})
 
@@ -85,6 +124,9 @@ class Mechanism:
         Where the mechanism came from (a file path or ``builtin:NAME``), used in error messages.
     path : PathDriver or None
         A prescribed path driving one vertex, instead of a crank.
+    walker : Walker or None
+        The file's ``[walker]`` table: the default walker scene of this leg (None: the generic
+        default, :class:`Walker`).
     """
 
     name: str
@@ -97,6 +139,7 @@ class Mechanism:
     foot: str
     source: str = "<memory>"
     path: PathDriver | None = None
+    walker: Walker | None = None
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):

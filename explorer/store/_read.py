@@ -131,7 +131,9 @@ class Results:
         the unreachable crank range of a failed variant; NaN when ok), ``fail_vertex`` (None when ok),
         ``iterations``, ``grashof`` and ``grashof_margin`` (class and margin of the limiting
         crank-driven four-bar loop, for mechanisms that have one), then one column per
-        ``/metrics/<name>``."""
+        ``/metrics/<name>``, then ``buildable`` (bool: ok and passing the buildability screen,
+        :mod:`explorer.gait._screen`) and ``screen`` ("pass" or why not) when the file stores a
+        metric the screen reads."""
         import pandas as pd  # imported on use: it costs ~0.5 s at start-up
         f = self.file
         N = self.n_variants
@@ -157,14 +159,36 @@ class Results:
             cols["grashof"], cols["grashof_margin"] = grashof_batch(self.mechanism, L, cols["crank"])
         for m in self.metric_names:
             cols[m] = f["metrics"][m][...]
-        return pd.DataFrame(cols)
+        df = pd.DataFrame(cols)
+        from ..gait import screen_columns
+        screened = screen_columns(df, self.screen)
+        if screened is not None:
+            df["buildable"], df["screen"] = screened[0], screened[1]
+        return df
 
-    def rank(self, by="stride", top: int | None = 10, where: str | None = None, ascending=None, weights=None,
-             pareto=None, include_failed: bool = False) -> "pd.DataFrame":
+    def screen_summary(self, df=None) -> dict:
+        """What the buildability screen removes from the ok variants: {"removed": n, "checks": {check:
+        n}, "applied": [check names]} (:func:`explorer.gait.screen_counts`); ``df`` : a frame() to reuse."""
+        from ..gait import screen_counts
+        return screen_counts(self.frame() if df is None else df, self.screen)
+
+    @property
+    def screen(self):
+        """The buildability screen's thresholds (:class:`explorer.gait.Screen`): the study's
+        ``[screen]`` table, else the defaults."""
+        from ..gait import Screen
+        try:
+            return Screen(**self.study.get("screen", {}))
+        except TypeError:
+            return Screen()
+
+    def rank(self, by=None, top: int | None = 10, where: str | None = None, ascending=None, weights=None,
+             pareto=None, include_failed: bool = False, include_screened: bool = False) -> "pd.DataFrame":
         """Ranked rows of :meth:`frame`, best first, with a ``rank`` column: :func:`explorer.gait.rank`
-        (one metric ``by``, a weighted ``score`` over normalised metrics with ``weights``, or the
-        Pareto front of ``pareto``; ``where`` is a pandas query such as "duty > 0.3 and flatness < 0.002";
-        failed variants are left out unless ``include_failed``).
+        (by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS`; one metric ``by``, a weighted ``score`` over normalised metrics with ``weights``, or the
+        Pareto front of ``pareto``; ``where`` is a pandas query such as "bob < 0.5 and slip < 0.05";
+        failed variants are left out unless ``include_failed``, variants the buildability screen
+        removes unless ``include_screened``; the frame's ``screen`` column says why).
 
         A metric that is not stored raises UserError saying how to compute it
         (``explorer metrics RESULTS`` or ``[scene] metrics = true``).
@@ -172,7 +196,7 @@ class Results:
         from ..gait import rank
         self._check_metrics(_ranked_columns(by, weights, pareto))
         return rank(self.frame(), by=by, top=top, where=where, ascending=ascending, weights=weights,
-                    pareto=pareto, include_failed=include_failed)
+                    pareto=pareto, include_failed=include_failed, include_screened=include_screened)
 
     def _check_metrics(self, names) -> None:
         """UserError if any of ``names`` is a gait metric that this file does not store."""
@@ -254,6 +278,9 @@ def _ranked_columns(by, weights, pareto) -> list[str]:
             return [str(c) for c in weights]
         except TypeError:
             return []
+    if by is None:
+        from ..gait import DEFAULT_WEIGHTS
+        return list(DEFAULT_WEIGHTS)
     return [str(by)]
 
 

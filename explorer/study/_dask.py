@@ -32,12 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..kernels import STATUS_NAMES, simulate_batch
+from ..kernels import STATUS_NAMES
 from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch,
                              write_shard)
 from ..store._write import FILE_STATUS_NAMES, FORMAT, _mechanism_text
-from ._run import RunSummary, _metric_plan, _state, results_path, validate_study
-from ._sample import study_variants
+from ._chunk import chunk_solver
+from ._run import RunSummary, _state, results_path, validate_study
 from ._spec import Study, load_study
 
 INSTALL_HINT = 'pip install "explorer[dask]"'
@@ -81,28 +81,8 @@ def _rebuild(recipe: _Recipe) -> Study:
 
 
 def _solver(study: Study):
-    """solve(a, b) → (lengths, crank, batch, metrics) for variants [a, b): what run_study does per chunk."""
-    from ._sample import study_sampler
-    mech = study.mech
-    compute_metrics, metric_names, metric_vel = _metric_plan(study)
-    vertices = list(study.vertex_names)
-    if compute_metrics is not None and mech.foot not in vertices:
-        vertices.append(mech.foot)
-    velocities = study.velocities or metric_vel
-    sampler = study_sampler(study)
-
-    def solve(a: int, b: int):
-        lengths, crank = study_variants(study, a, b, sampler)
-        batch = simulate_batch(mech, lengths, crank, study.steps, vertices=vertices, velocities=velocities,
-                               accelerations=study.accelerations, tolerance=study.tolerance, method=study.method)
-        metrics = None
-        if compute_metrics is not None:
-            foot = mech.foot
-            metrics = compute_metrics(batch.paths[foot], batch.velocities.get(foot), batch.status, metric_names,
-                                      study.band, mechanism=mech, lengths=lengths, crank=crank)
-        return lengths, crank, batch, metrics
-
-    return solve
+    """solve(a, b) → (lengths, crank, batch, metrics) for variants [a, b): the one chunk runner."""
+    return chunk_solver(study)
 
 
 def _one_thread() -> None:

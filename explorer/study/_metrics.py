@@ -20,6 +20,7 @@ one file never mixes bands.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -33,8 +34,6 @@ import numpy as np
 from ..errors import UserError
 from ..store._write import FORMAT, SCALAR_FILTERS, STATUS_NOT_RUN, _reason, hdf5_rows
 
-#: Metrics whose value depends on the stance band.
-BAND_METRICS: tuple[str, ...] = ("stride", "duty", "flatness", "stance_rms_line", "stance_speed", "speed_ripple")
 #: Name of the group the new metrics are written to before they replace ``/metrics``.
 PARTIAL = "metrics_partial"
 
@@ -88,20 +87,17 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
     Raises UserError for a missing, foreign, incomplete or busy file, an unknown metric, a bad band,
     or a file that lacks the foot path or velocities the metrics need (named in the message).
     """
-    from ..gait import (DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, MECHANISM_METRICS, METRICS, UNITS,
-                        VELOCITY_METRICS, compute_metrics)
-    from ..gait._metrics import _check_band
-    from ..mechanism import mechanism_from_dict
-    from ..plan import fourbar_loops
+    from ..gait import (BAND_METRICS, DESCRIPTIONS, DIRECTIONS, METRICS, UNITS, VELOCITY_METRICS,
+                        available_metrics, compute_metrics)
+    from ..mechanism import mechanism_from_dict, walker_from_dict
 
     t0 = time.perf_counter()
     p = Path(os.fspath(path))
     names = _parse_names(names)
     if band is not None:
-        try:
-            band = _check_band(band)
-        except UserError as exc:
-            raise UserError(f"--{exc}") from None
+        if isinstance(band, bool) or not isinstance(band, (int, float)) or not 0.0 <= float(band) <= 1.0:
+            raise UserError(f"--band: expected a number in [0, 1], got {band!r}")
+        band = float(band)
     if not p.is_file():
         raise UserError(f"{p}: no such results file")
     try:
@@ -129,8 +125,8 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
         band = file_band if band is None else band
 
         # -- which metrics --------------------------------------------------------------------------
-        has_loop = bool(fourbar_loops(mech))
-        every = [m for m in METRICS if m not in MECHANISM_METRICS or has_loop]
+        why_not = available_metrics(mech)
+        every = [m for m in METRICS if why_not[m] is None]
         if names is None:
             chosen = [m for m in METRICS if m in stored] or every
         elif names is True:
@@ -139,10 +135,17 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             unknown = [n for n in names if n not in METRICS]
             if unknown:
                 raise UserError(f"--metrics: unknown metric {unknown[0]!r} (known: {', '.join(METRICS)}, or all)")
-            if "min_transmission_angle" in names and not has_loop:
-                raise UserError(f"--metrics: min_transmission_angle: mechanism {mech.name!r} has no crank-driven "
-                                f"four-bar loop")
+            for n in names:
+                if why_not[n] is not None:
+                    raise UserError(f"--metrics: {n}: {why_not[n]}")
             chosen = [m for m in METRICS if m in names]
+        walker = None
+        if mech.crank is not None:
+            try:
+                spec = json.loads(_text(f.attrs["study_resolved"])).get("walker") or {}
+            except (KeyError, TypeError, ValueError):
+                spec = {}
+            walker = walker_from_dict(spec, f"{p} (study_resolved)", "walker", base=mech.walker)
 
         def stored_band(m):
             return float(stored_group[m].attrs["band"]) if "band" in stored_group[m].attrs else file_band
@@ -154,17 +157,17 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
 
         # -- what they need ----------------------------------------------------------------------------
         foot = mech.foot
-        need_path = [m for m in compute if m in FOOT_METRICS]
+        need_path = [m for m in compute if m != "min_transmission_angle"]  # the others read the foot path
         need_vel = [m for m in compute if m in VELOCITY_METRICS]
         missing, blocked = [], set()
         if need_path and not ("paths" in f and foot in f["paths"]):
             missing.append(f"/paths/{foot} (the foot path), needed for {', '.join(need_path)}")
             blocked |= set(need_path)
-            fix = f"add vertex {foot!r} to [scene] vertices"
+            fix = f"vertex {foot!r} in [scene] vertices"
         elif need_vel and not ("velocities" in f and foot in f["velocities"]):
             missing.append(f"/velocities/{foot} (the foot velocities), needed for {', '.join(need_vel)}")
             blocked |= set(need_vel)
-            fix = "set [scene] velocities = true"
+            fix = "[scene] velocities = true"
         if missing:
             possible = [m for m in compute if m not in blocked]
             forced = [m for m in also if m in blocked]
@@ -218,15 +221,16 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                 paths = dpath[a:b] if dpath is not None else np.zeros((b - a, S, 2))
                 vel = dvel[a:b] if dvel is not None else None
                 out = compute_metrics(paths, vel, status, compute, band, mechanism=mech,
-                                      lengths=dlen[a:b], crank=dcrank[a:b])
+                                      lengths=dlen[a:b], crank=dcrank[a:b], walker=walker)
                 for d, m in zip(targets, compute):
                     d[a:b] = out[m]
                 if bar is not None:
                     bar.update(b - a)
             g.attrs["band"] = band
             g.attrs["computed"] = now
-            g.attrs["description"] = ("gait metrics of the foot path (explorer.gait); band = stance band, a "
-                                      "fraction of the step height")
+            g.attrs["description"] = ("gait metrics of the foot path (explorer.gait): the walker scene, the "
+                                      "single-leg band metrics and the buildability screen's inputs; band = "
+                                      "stance band, a fraction of the step height")
             f.flush()
             # the swap: the complete new group replaces the old one
             if "metrics" in f:

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError, where
-from ..kernels import STATUS_NAMES, assemble, simulate_batch
+from ..kernels import STATUS_NAMES, assemble
 from ..store._write import FILE_STATUS_NAMES, ResultsWriter
-from ._sample import study_sampler, study_variants
+from ._chunk import chunk_solver, compute_study_metrics, metric_plan
 from ._spec import Study, load_study
 
 
@@ -75,19 +75,6 @@ def _rate(x: float) -> str:
     return f"{x / 1e6:.2f} M" if x >= 1e5 else f"{x:,.0f}"
 
 
-def _metric_plan(study: Study):
-    """(compute function or None, metric names or None for all, needs velocities)."""
-    if study.metrics is False:
-        return None, None, False
-    try:
-        from ..gait import VELOCITY_METRICS, compute_metrics
-    except ImportError:
-        return None, None, False
-    names = None if study.metrics is True else list(study.metrics)
-    need_vel = names is None or any(m in VELOCITY_METRICS for m in names)
-    return compute_metrics, names, need_vel
-
-
 def run_study(study=None, output=None, resume: bool = False, force: bool = False, progress: bool = True,
               chunk_size: int | None = None) -> RunSummary:
     """Run a study and stream every variant to one HDF5 results file.
@@ -109,9 +96,6 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
     study = load_study(study)
     out = results_path(study, output, resume, force, chunk_size=chunk_size)
     validate_study(study)
-    mech = study.mech
-    compute_metrics, metric_names, metric_vel = _metric_plan(study)
-
     resumed = False
     if out.exists():
         if resume:
@@ -131,29 +115,16 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
     else:
         writer = ResultsWriter.create(out, study, chunk_size)
 
-    sim_vertices = list(study.vertex_names)
-    if compute_metrics is not None and mech.foot not in sim_vertices:
-        sim_vertices.append(mech.foot)
-    sim_velocities = study.velocities or metric_vel
-
     ran = 0
     try:
         pending = writer.pending()
-        sampler = study_sampler(study)
+        solve = chunk_solver(study)
         bar = _progress_bar(progress, writer, pending, study)
         committer = _Committer(writer, bar, study.steps, threaded=_THREADED)
         try:
             for i in pending:
                 a, b = writer.chunk_range(i)
-                lengths, crank = study_variants(study, a, b, sampler)
-                batch = simulate_batch(mech, lengths, crank, study.steps, vertices=sim_vertices,
-                                       velocities=sim_velocities, accelerations=study.accelerations,
-                                       tolerance=study.tolerance, method=study.method)
-                metrics = None
-                if compute_metrics is not None:
-                    foot = mech.foot
-                    metrics = compute_metrics(batch.paths[foot], batch.velocities.get(foot), batch.status,
-                                              metric_names, study.band, mechanism=mech, lengths=lengths, crank=crank)
+                lengths, crank, batch, metrics = solve(a, b)
                 committer.put(i, lengths, crank, batch, metrics)
                 ran += b - a
             committer.close()
@@ -182,12 +153,11 @@ def validate_study(study: Study) -> None:
     if fail is not None:
         raise UserError(f"{where(study.source, 'study.mechanism')}: the nominal design cannot be assembled at "
                         f"θ = 0: {fail.message}")
-    compute_metrics, metric_names, _ = _metric_plan(study)
-    if compute_metrics is not None:
+    if metric_plan(study)[2]:
         z = np.zeros((1, study.steps, 2))
+        crank = np.array([mech.crank.radius if mech.crank is not None else 1.0])
         try:
-            compute_metrics(z, z, np.ones(1, dtype=np.int8), metric_names, study.band, mechanism=mech,
-                            lengths=mech.lengths[None, :], crank=np.array([mech.crank.radius]))
+            compute_study_metrics(study, z, z, np.ones(1, dtype=np.int8), mech.lengths[None, :], crank)
         except UserError as exc:
             raise UserError(f"{where(study.source, 'scene.metrics')}: {exc}") from None
 

@@ -25,6 +25,19 @@ A study file::
     band = 0.01                   # stance band of the gait metrics, in (0, 1)
     metrics = true                # true (all), false, or a list of metric names
 
+    [walker]                      # the walker scene (metrics travel, bob, …); keys left out come from
+    legs = 4                      # the mechanism's own [walker] table, else 4 legs evenly spaced
+    phases = [0, 90, 180, 270]    # crank phase offset of each leg, degrees (default: evenly spaced)
+    mirrored = true               # odd legs mirrored (or a list of true/false, one per leg)
+    drag = 0.0                    # drag on the body as a fraction of its weight (torque metrics)
+    contact = 0.01                # feet within contact × crank radius of the ground touch it
+
+    [screen]                      # the buildability screen that rank, plot --top and show apply
+    min_transmission_angle = 5.0  # degrees
+    min_foot_headroom = 0.0       # model units the foot stays below the crank axle and ground pivots
+    max_foot_speed = 6.0          # peak foot speed, crank radii per radian of crank
+    max_self_crossings = 0
+
     [output]
     path = "results/jansen-2pct.h5"   # default results/<name>.h5; relative to the working directory
 
@@ -48,7 +61,8 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ..mechanism import Mechanism, builtin_mechanisms, load_mechanism
+from ..gait import SCREEN_KEYS, Screen, screen_from_dict
+from ..mechanism import Mechanism, Walker, builtin_mechanisms, load_mechanism, walker_from_dict
 
 PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "oat", "grid")
 SOLVE_METHODS = ("block", "dense")
@@ -59,6 +73,8 @@ _SECTIONS = {
     "study": ("name", "mechanism", "variants", "seed", "steps", "tolerance", "method"),
     "perturb": ("method", "spread", "links", "crank"),
     "scene": ("vertices", "velocities", "accelerations", "band", "metrics"),
+    "walker": ("legs", "phases", "mirrored", "drag", "contact"),
+    "screen": SCREEN_KEYS,
     "output": ("path", "compression"),
 }
 #: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
@@ -78,6 +94,8 @@ class Study:
     output : the ``[output] path`` as written (relative paths resolve against the working directory
         when the file is opened).
     source : the file the study came from (``builtin:NAME`` or ``<dict>``); text : its TOML text.
+    walker : the walker scene (:class:`~explorer.mechanism.Walker`: the study's ``[walker]`` over
+        the mechanism's own), None for a path-driven mechanism. screen : the ``[screen]`` thresholds.
     """
 
     name: str
@@ -101,6 +119,8 @@ class Study:
     text: str
     compression: str = "lzf"
     mechanism_path: str | None = None
+    walker: Walker | None = None
+    screen: Screen = field(default_factory=Screen)
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
 
     # -- derived -------------------------------------------------------------------------------
@@ -141,6 +161,8 @@ class Study:
                         "crank": self.crank},
             "scene": {"vertices": plain(self.vertices), "velocities": self.velocities,
                       "accelerations": self.accelerations, "band": self.band, "metrics": plain(self.metrics)},
+            "walker": self.walker.as_dict() if self.walker is not None else {},
+            "screen": self.screen.as_dict(),
             "output": {"path": self.output, "compression": self.compression},
         }
 
@@ -149,6 +171,7 @@ class Study:
         equal results. ``--resume`` uses it to refuse finishing a file with a different study."""
         d = self.as_dict()
         del d["output"]
+        del d["screen"]  # applied when ranking; the stored numbers do not depend on it
         return json.dumps(d, sort_keys=True)
 
 
@@ -228,7 +251,7 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
             if key not in _SECTIONS[sec]:
                 raise UserError(f"{where(source, f'{sec}.{key}')}: unknown key (allowed in [{sec}]: "
                                 f"{', '.join(_SECTIONS[sec])})")
-    st, pe, sc, ou = (data.get(s, {}) for s in ("study", "perturb", "scene", "output"))
+    st, pe, sc, ou, wa, scr = (data.get(s, {}) for s in ("study", "perturb", "scene", "output", "walker", "screen"))
     v = _Validator(source)
 
     for k in ("name", "mechanism"):
@@ -269,6 +292,13 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
     band = v.number("scene.band", sc.get("band", 0.01), 0.0, 1.0, "a number in (0, 1)", lo_open=True, hi_open=True)
     metrics = _metrics(v, sc.get("metrics", False))
 
+    walker = None
+    if mech.crank is not None:
+        walker = walker_from_dict(wa, source, "walker", base=mech.walker)
+    elif wa:
+        raise UserError(f"{where(source, 'walker')}: mechanism {mech.name!r} is driven along a path; a walker needs a crank")
+    screen = screen_from_dict(scr, source, "screen")
+
     out = ou.get("path", f"results/{name}.h5")
     out = v.string("output.path", out)
     compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
@@ -277,7 +307,7 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
                   method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
                   vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
                   metrics=metrics, output=out, source=source, text=text if text is not None else dumps_toml(data),
-                  mechanism_path=mech_path, _mech=mech, compression=compression)
+                  mechanism_path=mech_path, _mech=mech, compression=compression, walker=walker, screen=screen)
     return study
 
 

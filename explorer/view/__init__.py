@@ -6,8 +6,9 @@ Everything renders headless with matplotlib's Agg canvas; MP4 uses the ffmpeg bi
 Plots (each returns a :class:`matplotlib.figure.Figure`; save with :func:`save_figure` or
 ``fig.savefig``):
 
-* ``plot_top(results, by="stride", top=5)`` — the best variants' foot paths over the nominal.
-* ``plot_scatter(results, "stride", "flatness")`` — two metrics, Pareto front, nominal marked.
+* ``plot_top(results, top=5)`` — the best buildable variants' foot paths over the nominal (the
+  ranking of ``explorer rank``: by default the walker score, or ``by=METRIC``).
+* ``plot_scatter(results, "travel", "bob")`` — two metrics, Pareto front, nominal marked.
 * ``plot_velocity(cycle_or_mechanism_or_results, variant=None)`` — dx/dθ, dy/dθ: analytic solid,
   central finite differences dashed on top.
 * ``plot_sensitivity(results)`` — a one-at-a-time study: change of each metric per link.

@@ -25,7 +25,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..errors import UserError
-from ..gait import DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_front, rank, select, stance_indices
+from ..gait import (DEFAULT_BAND, DEFAULT_WEIGHTS, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_front, rank,
+                   screened_mask, select, stance_indices)
 from ..kernels import Cycle, simulate
 from ..mechanism import Mechanism
 from ._draw import STANCE_COLOR
@@ -180,33 +181,41 @@ def _segments_of(indices: np.ndarray, S: int) -> list[tuple[int, int]]:
 
 
 # -- plot_top -------------------------------------------------------------------------------------------
-def plot_top(results, by: str = "stride", top: int = 5, *, where: str | None = None, vertex: str | None = None,
-             band: float | None = None, figsize=(9.0, 6.0), dpi: float = 100) -> Figure:
-    """Foot paths of the ``top`` best variants by metric ``by`` over the nominal (variant 0) path.
+def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, where: str | None = None,
+             include_screened: bool = False, vertex: str | None = None, band: float | None = None,
+             figsize=(9.0, 6.0), dpi: float = 100) -> Figure:
+    """Foot paths of the ``top`` best variants over the nominal (variant 0) path.
 
-    Equal axes; each variant labelled with its rank and metric value; its stance (longest run within
-    ``band`` · height of its lowest point; default: the study's ``[scene] band``) drawn thick.
-    ``where`` is a pandas query filter as in :func:`explorer.gait.rank`.
+    The ranking is :func:`explorer.gait.rank`'s, so it shows the rows ``explorer rank`` lists for the
+    same request: by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS`, else one
+    metric ``by`` or a ``weights`` score; variants the buildability screen removes are left out unless
+    ``include_screened``; ``where`` is a pandas query filter. Equal axes; each variant labelled with
+    its rank and ranking value; its single-leg band stance (longest run within ``band`` · height of its
+    lowest point; default: the study's ``[scene] band``) drawn thick.
     """
     df = results.frame()
-    by = _check_metric(df, by)
+    if by is not None:
+        by = _check_metric(df, by)
     if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
         raise UserError(f"top: expected a whole number >= 1, got {top!r}")
     band = results_band(results) if band is None else float(band)
-    ranked = rank(df, by=by, top=int(top), where=where)
+    ranked = rank(df, by=by, top=int(top), where=where, weights=weights, include_screened=include_screened)
+    key = by if by is not None else "score"
     n_ok = int(ok_mask(df).sum())
+    n_pool = n_ok - (0 if include_screened else int(screened_mask(df).sum()))
+    pool = f"{n_pool} ok" + ("" if include_screened or n_pool == n_ok else " buildable")
     if ranked.empty:
-        raise UserError(f"no ok variant to rank by {by!r} ({n_ok} ok of {len(df)}"
-                        + (f", filter {where!r}" if where else "") + ")")
+        raise UserError(f"no ok variant to rank ({pool} of {len(df)}" + (f", filter {where!r}" if where else "") + ")")
     mech = results.mechanism
     vname = vertex if vertex is not None else mech.foot
     fig = new_figure(figsize, dpi)
     ax = fig.add_subplot()
     # the nominal, underneath
     nom = np.asarray(results.path(0, vertex), dtype=np.float64)
-    nom_val = df.loc[df["variant"] == 0, by].iloc[0] if "variant" in df.columns else df[by].iloc[0]
-    nom_text = f"{nom_val:.4g}" if pd.notna(nom_val) else "n/a"
-    ax.plot(*_closed(nom).T, "-", color="0.55", lw=3.0, zorder=1, label=f"nominal (variant 0): {by} = {nom_text}")
+    nom_row = df.loc[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
+    nom_val = nom_row[by].iloc[0] if by is not None else math.nan
+    nom_text = f": {by} = {nom_val:.4g}" if by is not None and pd.notna(nom_val) else ""
+    ax.plot(*_closed(nom).T, "-", color="0.55", lw=3.0, zorder=1, label=f"nominal (variant 0){nom_text}")
     si = stance_indices(nom, band)
     for a, b in _segments_of(si, len(nom)):
         ax.plot(nom[a:b, 0], nom[a:b, 1], "-", color="0.55", lw=7.0, alpha=0.45, solid_capstyle="butt", zorder=1)
@@ -216,23 +225,27 @@ def plot_top(results, by: str = "stride", top: int = 5, *, where: str | None = N
         p = np.asarray(results.path(v, vertex), dtype=np.float64)
         c = cmap[i]
         ax.plot(*_closed(p).T, "-", color=c, lw=1.4, zorder=3 + i * 0.01,
-                label=f"#{int(row['rank'])}  variant {v}: {by} = {row[by]:.4g}")
+                label=f"#{int(row['rank'])}  variant {v}: {key} = {row[key]:.4g}")
         for a, b in _segments_of(stance_indices(p, band), len(p)):
             ax.plot(p[a:b, 0], p[a:b, 1], "-", color=c, lw=4.5, alpha=0.55, solid_capstyle="butt",
                     zorder=2 + i * 0.01)
     handles, labels = ax.get_legend_handles_labels()
     handles.append(Line2D([], [], color="0.3", lw=5, alpha=0.5))
-    labels.append(f"stance (y ≤ y_min + {band:g}·height)")
+    labels.append(f"band stance (y ≤ y_min + {band:g}·height)")
     ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", frameon=False)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (model units)")
     ax.set_ylabel("y (model units)")
     ax.grid(True, lw=0.4, alpha=0.5)
-    d = DIRECTIONS.get(by)
-    better = {"max": "highest", "min": "lowest"}.get(d, "best")
+    if by is not None:
+        first = {"max": "highest", "min": "lowest"}.get(DIRECTIONS.get(by), "best")
+        how = f"by {by} ({first} first)"
+    else:
+        w = weights if weights is not None else DEFAULT_WEIGHTS
+        how = "by score of " + ", ".join(w)
     filt = f", where {where}" if where else ""
-    ax.set_title(f"{mech.name}: foot path of vertex {vname}, top {len(ranked)} of {n_ok} ok variants "
-                 f"by {by} ({better} first{filt})", fontsize="medium")
+    ax.set_title(f"{mech.name}: foot path of vertex {vname}, top {len(ranked)} of {pool} variants "
+                 f"{how}{filt}", fontsize="medium", wrap=True)
     return fig
 
 

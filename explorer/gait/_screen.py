@@ -1,0 +1,158 @@
+"""The buildability screen: which ok variants nobody would build, and why.
+
+A variant passes when every check whose metrics are stored holds (thresholds: :class:`Screen`, set in
+a study's ``[screen]`` table):
+
+* **toggle**: ``min_transmission_angle`` ≥ min_transmission_angle (default 5°; Jansen's nominal 8.6°):
+  the crank-driven four-bar loops keep away from their toggle (dead-centre) positions.
+* **foot above the frame**: ``foot_headroom`` ≥ min_foot_headroom (default 0): the foot's highest
+  point stays below the crank axle and every ground pivot, so the leg clears its own frame.
+* **foot whip**: ``max_speed`` / crank ≤ max_foot_speed (default 6 crank radii per radian; Jansen's
+  nominal 3.6): a foot whipped round faster than that loads the leg with inertia the quasi-static
+  torque does not show (near-toggle designs reach 10-60).
+* **crossing path**: ``self_crossings`` ≤ max_self_crossings (default 0): the foot path is a simple loop.
+
+A NaN metric fails its check (the check cannot vouch for the design). Failed variants (status not
+ok) are never buildable and their reason is their status. :func:`screen_columns` gives the two frame
+columns ``buildable`` (bool) and ``screen`` ("pass", or the reasons joined by "; ").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..errors import UserError, where
+
+
+@dataclass(frozen=True)
+class Screen:
+    """Thresholds of the buildability screen (see the module docstring).
+
+    min_transmission_angle : degrees, toggle margin of the crank-driven four-bar loops.
+    min_foot_headroom : model units the foot's highest point must stay below the crank axle and every
+        ground pivot (0: never at or above them; negative values allow that much).
+    max_foot_speed : largest peak foot speed |dF/dθ|, in crank radii per radian of crank.
+    max_self_crossings : crossings of the foot path allowed (0: a simple loop).
+    """
+
+    min_transmission_angle: float = 5.0
+    min_foot_headroom: float = 0.0
+    max_foot_speed: float = 6.0
+    max_self_crossings: int = 0
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def _column(name):
+    def get(df):
+        return df[name].to_numpy(dtype=np.float64, na_value=np.nan)
+    return get
+
+
+def _whip(df):
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return _column("max_speed")(df) / _column("crank")(df)
+
+
+#: (name, columns it reads, value(frame) -> (n,), threshold field, fails(value, threshold), reason), in
+#: report order. A reason starts with the check's name.
+CHECKS = (
+    ("toggle", ("min_transmission_angle",), _column("min_transmission_angle"), "min_transmission_angle",
+     lambda v, t: ~(v >= t), lambda v, t: f"toggle: min transmission angle {v:.3g}° < {t:g}°"),
+    ("foot above the frame", ("foot_headroom",), _column("foot_headroom"), "min_foot_headroom",
+     lambda v, t: ~(v >= t), lambda v, t: f"foot above the frame: headroom {v:.4g} < {t:g}"),
+    ("foot whip", ("max_speed", "crank"), _whip, "max_foot_speed",
+     lambda v, t: ~(v <= t), lambda v, t: f"foot whip: peak foot speed {v:.3g} crank radii/rad > {t:g}"),
+    ("crossing path", ("self_crossings",), _column("self_crossings"), "max_self_crossings",
+     lambda v, t: ~(v <= t), lambda v, t: f"crossing path: the foot path crosses itself {v:.0f}×"),
+)
+SCREEN_KEYS = tuple(c[3] for c in CHECKS)
+
+
+def screen_from_dict(table, source: str, key: str = "screen") -> Screen:
+    """Validate a study's ``[screen]`` table (keys :data:`SCREEN_KEYS`) into a :class:`Screen`."""
+    if not isinstance(table, dict):
+        raise UserError(f"{where(source, key)}: expected a table, got {table!r}")
+    for k in table:
+        if k not in SCREEN_KEYS:
+            raise UserError(f"{where(source, f'{key}.{k}')}: unknown key (allowed in [{key}]: {', '.join(SCREEN_KEYS)})")
+    out = {}
+    for k, v in table.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise UserError(f"{where(source, f'{key}.{k}')}: expected a finite number, got {v!r}")
+        if k == "max_self_crossings":
+            if not isinstance(v, int) or v < 0:
+                raise UserError(f"{where(source, f'{key}.{k}')}: expected a whole number >= 0, got {v!r}")
+            out[k] = int(v)
+        elif k == "min_transmission_angle" and not 0 <= v < 90:
+            raise UserError(f"{where(source, f'{key}.{k}')}: expected degrees in [0, 90), got {v!r}")
+        elif k == "max_foot_speed" and not v > 0:
+            raise UserError(f"{where(source, f'{key}.{k}')}: expected crank radii per radian > 0, got {v!r}")
+        else:
+            out[k] = float(v)
+    return Screen(**out)
+
+
+def screen_columns(df, screen: Screen | None = None):
+    """(buildable, reasons, applied) for a results frame, or None if it stores no screened metric.
+
+    buildable : (n,) bool, ok and passing every applied check; reasons : (n,) object array of "pass",
+    the failing checks' reasons joined by "; ", or "failed (STATUS)"; applied : the names of the
+    checks whose metric the frame holds.
+    """
+    from ._rank import ok_mask
+
+    screen = screen if screen is not None else Screen()
+    applied = [c for c in CHECKS if all(col in df.columns for col in c[1])]
+    if not applied:
+        return None
+    n = len(df)
+    ok = ok_mask(df)
+    values, fails = [], []
+    for _, _, value, field, failed, _ in applied:
+        v = value(df)
+        with np.errstate(invalid="ignore"):
+            fails.append(failed(v, getattr(screen, field)) & ok)
+        values.append(v)
+    bad = np.zeros(n, dtype=bool)
+    for f in fails:
+        bad |= f
+    reasons = np.full(n, "pass", dtype=object)
+    status = df["status"].astype(str).to_numpy() if "status" in df.columns else None
+    for i in np.flatnonzero(~ok):
+        reasons[i] = f"failed ({status[i]})" if status is not None else "failed"
+    for i in np.flatnonzero(bad):
+        parts = []
+        for (name, cols, _, field, _, text), v, f in zip(applied, values, fails):
+            if f[i]:
+                parts.append(f"{name}: {cols[0]} is undefined" if not math.isfinite(v[i])
+                             else text(float(v[i]), getattr(screen, field)))
+        reasons[i] = "; ".join(parts)
+    return ok & ~bad, reasons, [c[0] for c in applied]
+
+
+def screen_counts(df, screen: Screen | None = None) -> dict:
+    """How many ok variants of a results frame the screen removes, in total and per check.
+
+    Returns {"removed": n, "checks": {check name: n failing it (a variant may fail several)},
+    "applied": [checks whose metric the frame holds]}; "removed" is 0 and "applied" empty when the
+    frame stores no metric the screen reads.
+    """
+    from ._rank import ok_mask
+
+    screen = screen if screen is not None else Screen()
+    ok = ok_mask(df)
+    out = {"removed": 0, "checks": {}, "applied": []}
+    for name, cols, value, field, failed, _ in CHECKS:
+        if not all(c in df.columns for c in cols):
+            continue
+        with np.errstate(invalid="ignore"):
+            out["checks"][name] = int((failed(value(df), getattr(screen, field)) & ok).sum())
+        out["applied"].append(name)
+    if "buildable" in df.columns:
+        out["removed"] = int((ok & ~df["buildable"].to_numpy(dtype=bool)).sum())
+    return out

@@ -1,0 +1,122 @@
+"""The one table of metrics: name, unit, direction, definition and what each needs.
+
+Every other list of metric names (``METRICS``, ``DIRECTIONS``, ``UNITS``, the band metrics, the walker
+metrics …) is derived from :data:`TABLE`. Adding a metric means adding one row here and computing it in
+the kernel of its group (``leg`` and ``screen``: :mod:`explorer.gait._metrics`; ``walker``:
+:mod:`explorer.gait._walker`); storage, ranking, ``show`` and the plots pick it up from the table.
+
+Groups
+------
+walker     the walker scene: the leg replicated with crank phase offsets, the body resting on the
+           lowest foot (physical metrics; rankings default to these).
+leg        single-leg metrics of one foot path with a stance *band* (``y ≤ y_min + band·height``),
+           kept for comparison with published figures; those with ``band`` in ``needs`` depend on it.
+screen     what the buildability screen reads (:mod:`explorer.gait._screen`).
+
+``needs`` is a subset of {"velocity", "band", "mechanism", "crank", "walker"}: the foot velocities
+dF/dθ, the stance band, the mechanism and each variant's lengths, the crank radius, the walker spec.
+Every metric needs the foot path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One metric: ``name``; ``unit`` ("length" = the model units of the link lengths); ``direction``
+    "max" (larger is better) or "min"; ``group`` (walker | leg | screen); ``description`` (one line);
+    ``needs`` (see the module docstring)."""
+
+    name: str
+    unit: str
+    direction: str
+    group: str
+    description: str
+    needs: frozenset = frozenset()
+
+
+def _m(name, unit, direction, group, description, *needs) -> Metric:
+    return Metric(name, unit, direction, group, description, frozenset(needs))
+
+
+#: Every metric, in storage and display order: walker metrics first, then the single-leg band
+#: metrics, then the screen's inputs.
+TABLE: tuple[Metric, ...] = (
+    # -- the walker scene (body held level on the lowest foot, flat ground, no slip) -------------------
+    _m("travel", "length/turn", "max", "walker",
+       "how far the body moves per crank turn, |∫ dx_c/dθ dθ| over the contact foot c(θ)", "velocity", "walker"),
+    _m("bob", "length", "min", "walker",
+       "how much the body rises and falls per crank turn: max − min of the ground g(θ) = min_j y_j(θ)", "walker"),
+    _m("body_speed_ripple", "1", "min", "walker",
+       "std / mean of the body speed |dx_c/dθ| over the turn", "velocity", "walker"),
+    _m("peak_torque", "1 (per W·crank)", "min", "walker",
+       "largest |crank torque| carrying the load on the contact foot, per weight × crank radius",
+       "velocity", "crank", "walker"),
+    _m("torque_ripple", "1 (per W·crank)", "min", "walker",
+       "max − min of the crank torque over the turn, per weight × crank radius", "velocity", "crank", "walker"),
+    _m("clearance", "length", "max", "walker",
+       "lowest height above the ground a swinging foot keeps over the middle half of its swing",
+       "crank", "walker"),
+    _m("slip", "1", "min", "walker",
+       "sliding the feet in contact must absorb: ∫ spread of their horizontal speeds dθ / travel",
+       "velocity", "crank", "walker"),
+    _m("contact_fraction", "fraction of turn", "max", "walker",
+       "least fraction of the turn that any one leg's foot is in contact with the ground", "crank", "walker"),
+    # -- single-leg band metrics (published figures use these) ------------------------------------------
+    _m("width", "length", "max", "leg", "x-range of the whole foot path"),
+    _m("height", "length", "max", "leg", "y-range of the whole foot path (step height)"),
+    _m("stride", "length", "max", "leg", "x-span of the band stance (y ≤ y_min + band·height)", "band"),
+    _m("duty", "fraction of cycle", "max", "leg", "fraction of the cycle in the band stance", "band"),
+    _m("flatness", "1 (length/length)", "min", "leg", "std of y over the band stance / stride", "band"),
+    _m("stance_rms_line", "length", "min", "leg",
+       "RMS perpendicular distance of the band-stance points from their least-squares line y = a + b x", "band"),
+    _m("stance_speed", "length/rad", "max", "leg",
+       "mean foot speed |dF/dθ| over the band stance, per radian of crank", "band", "velocity"),
+    _m("speed_ripple", "1", "min", "leg", "std / mean of the foot speed over the band stance", "band", "velocity"),
+    _m("max_speed", "length/rad", "min", "leg",
+       "largest foot speed |dF/dθ| over the cycle, per radian of crank", "velocity"),
+    # -- what the buildability screen reads -------------------------------------------------------------
+    _m("min_transmission_angle", "deg", "max", "screen",
+       "smallest transmission angle (deviation from toggle) of the crank-driven four-bar loops", "mechanism"),
+    _m("foot_headroom", "length", "max", "screen",
+       "how far the foot's highest point stays below the crank axle and every ground pivot", "mechanism", "crank"),
+    _m("self_crossings", "count", "min", "screen", "times the foot path crosses itself"),
+)
+
+BY_NAME: dict[str, Metric] = {m.name: m for m in TABLE}
+#: Every metric name, in storage/display order.
+METRICS: tuple[str, ...] = tuple(m.name for m in TABLE)
+#: Natural ranking direction of each metric: "max" = larger is better, "min" = smaller is better.
+DIRECTIONS: dict[str, str] = {m.name: m.direction for m in TABLE}
+#: Unit of each metric ("length" = the model units of the link lengths).
+UNITS: dict[str, str] = {m.name: m.unit for m in TABLE}
+#: One-line help text per metric.
+DESCRIPTIONS: dict[str, str] = {m.name: m.description for m in TABLE}
+#: Metrics of the walker scene.
+WALKER_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "walker")
+#: Single-leg metrics of the foot path with a stance band (and the band-free width, height, max_speed).
+LEG_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "leg")
+#: What the buildability screen reads.
+SCREEN_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "screen")
+#: Metrics whose value depends on the stance band.
+BAND_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "band" in m.needs)
+#: Metrics that need the foot velocities dF/dθ.
+VELOCITY_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "velocity" in m.needs)
+#: Metrics that need the mechanism (and each variant's lengths), not only the foot path.
+MECHANISM_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "mechanism" in m.needs)
+#: Metrics that exist only for a crank-driven mechanism.
+CRANK_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "crank" in m.needs or "walker" in m.needs)
+#: Single-leg metrics of the foot path alone (computed by the foot kernel).
+PATH_METRICS: tuple[str, ...] = tuple(m for m in LEG_METRICS if "velocity" not in BY_NAME[m].needs)
+#: Single-leg metrics computed by the foot kernel (path and velocity).
+FOOT_METRICS: tuple[str, ...] = LEG_METRICS
+
+#: The default ranking (``explorer rank``, ``plot --top``, ``Results.rank()`` with no ``by``): a score
+#: in [0, 1] weighting equally how far the walker goes per turn, how smoothly (bob, body speed
+#: ripple), how hard the motor works (peak torque) and how high the feet step (clearance; without it
+#: the score prefers feet that barely lift, since lifting costs torque). Each metric is min-max
+#: normalised over the ranked rows, 1 = best; see :func:`explorer.gait.rank`.
+DEFAULT_WEIGHTS: dict[str, float] = {"travel": 1.0, "bob": 1.0, "body_speed_ripple": 1.0, "peak_torque": 1.0,
+                                     "clearance": 1.0}

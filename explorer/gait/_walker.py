@@ -1,0 +1,263 @@
+"""The walker scene: the study's leg replicated on one crankshaft, the body resting on the lowest foot.
+
+Computed from the foot path and velocity the kernels already produce (no second solve), for N
+variants at once by a Numba kernel.
+
+Model (the contract; body held level, flat ground, feet do not slip)
+--------------------------------------------------------------------
+The foot path p(θ) = (x, y) and its velocity p'(θ) = dp/dθ are sampled at θ_k = 2πk/S, in the
+frame of the body. Leg j = 0 … L−1 has crank phase offset φ_j; its foot is
+
+    p_j(θ) = p(θ + φ_j),                         p_j'(θ) = p'(θ + φ_j)           (a plain leg)
+    p_j(θ) = M p(π − θ − φ_j),                   p_j'(θ) = (x', −y')(π − θ − φ_j) (a mirrored leg)
+
+with M the reflection about the vertical through the crank centre (x → 2c_x − x). A phase that falls
+between two samples is read off the cubic Hermite interpolant of the samples and their velocities
+(exact when every φ_j is a multiple of 2π/S, as the evenly spaced defaults are for S divisible by L
+and by 2 with mirrored legs).
+
+At each sample, with Δ = 2π/S:
+
+* ground g_k = min_j y_j(θ_k); contact leg c_k = the smallest j attaining it (ties go to the lower j);
+* ``bob`` = max_k g_k − min_k g_k;
+* ``travel`` = |Δ Σ_k x'_{c_k}(θ_k)| (the contact foot is planted, so the body moves by −dx_c);
+* body speed s_k = |x'_{c_k}(θ_k)|; ``body_speed_ripple`` = std(s) / mean(s) (population std);
+* torque: the ground pushes the contact foot with F = (u·D, W), u = −sign(Σ_k x'_{c_k}) the walking
+  direction, W the weight and D = drag·W; by virtual work the quasi-static crank torque is
+  τ_k = −F · p'_{c_k}(θ_k). ``peak_torque`` = max_k |τ_k| / (W r), ``torque_ripple`` =
+  (max_k τ_k − min_k τ_k) / (W r), r the crank radius;
+* contact: leg j touches the ground at θ_k when y_j(θ_k) ≤ g_k + δ, δ = contact × r;
+* ``contact_fraction`` = min_j (samples in which leg j touches) / S;
+* ``slip`` = Δ Σ_k (max − min of x'_j(θ_k) over the legs j touching at θ_k) / travel: how far, per
+  unit of travel, the feet sharing the ground would have to slide against each other;
+* ``clearance``: leg j's swing is its longest cyclic run of n samples not touching (ties: the run
+  with the smallest start index); over the middle
+  half of it (run offsets i with ⌊n/4⌋ ≤ i < n − ⌊n/4⌋) the height above the ground y_j − g is at
+  least h_j = min of y_j − g there; ``clearance`` = min_j h_j (0 for a leg that never leaves the
+  ground): the tallest obstacle every foot steps over mid-swing.
+
+A variant whose status is not ok, or whose path or velocity holds a non-finite value, gets NaN.
+``travel`` = 0 makes ``slip`` NaN; a body speed whose mean is 0 makes ``body_speed_ripple`` NaN.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..kernels import parallel_rows
+from ._table import WALKER_METRICS
+
+_N = len(WALKER_METRICS)
+_COL = {name: i for i, name in enumerate(WALKER_METRICS)}
+(_TRAVEL, _BOB, _RIPPLE, _PEAK, _TRIPPLE, _CLEAR, _SLIP, _CONTACT) = (
+    _COL["travel"], _COL["bob"], _COL["body_speed_ripple"], _COL["peak_torque"], _COL["torque_ripple"],
+    _COL["clearance"], _COL["slip"], _COL["contact_fraction"])
+
+
+def leg_samples(walker, S: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each leg reads the sampled foot: (base, frac, sign), each (L,).
+
+    Leg j at sample k reads the foot at fractional sample index u = sign_j·k + base_j + frac_j
+    (mod S), with base_j an integer and 0 ≤ frac_j < 1; sign_j = −1 for a mirrored leg.
+    """
+    L = walker.legs
+    base = np.empty(L, dtype=np.int64)
+    frac = np.empty(L, dtype=np.float64)
+    sign = np.empty(L, dtype=np.int64)
+    for j in range(L):
+        shift = walker.phases[j] * S / (2.0 * math.pi)
+        if walker.mirrored[j]:
+            u, s = S / 2.0 - shift, -1
+        else:
+            u, s = shift, 1
+        r = round(u)
+        if abs(u - r) < 1e-9:  # on the grid: read the sample itself, exactly
+            u = float(r)
+        b = math.floor(u)
+        base[j], frac[j], sign[j] = b % S, u - b, s
+    return base, frac, sign
+
+
+@njit(cache=True, nogil=True)
+def _walker_kernel(base, frac, sign, mirrored, drag, contact, paths, vel, status, crank, out):
+    """Fill out[i, :] with the walker metrics (WALKER_METRICS order) of every ok variant i; out comes
+    NaN-filled. base, frac, sign (L,) from :func:`leg_samples`; mirrored (L,) bool; drag, contact
+    floats; per-row arrays last: paths, vel (N, S, 2), status (N,), crank (N,), out (N, n_metrics)."""
+    N = paths.shape[0]
+    S = paths.shape[1]
+    L = base.shape[0]
+    d = 2.0 * math.pi / S
+    Y = np.empty((L, S))
+    VX = np.empty((L, S))
+    VY = np.empty((L, S))
+    touch = np.empty((L, S), dtype=np.bool_)
+    G = np.empty(S)
+    C = np.empty(S, dtype=np.int64)
+    for i in range(N):
+        if status[i] != 0:
+            continue
+        finite = True
+        for k in range(S):
+            if not (math.isfinite(paths[i, k, 1]) and math.isfinite(vel[i, k, 0]) and math.isfinite(vel[i, k, 1])):
+                finite = False
+                break
+        r = crank[i]
+        if not finite or not (r > 0.0):
+            continue
+        # -- every leg's foot height and velocity at every sample -------------------------------------
+        for j in range(L):
+            f = frac[j]
+            for k in range(S):
+                u0 = (sign[j] * k + base[j]) % S
+                if f == 0.0:
+                    y = paths[i, u0, 1]
+                    vx = vel[i, u0, 0]
+                    vy = vel[i, u0, 1]
+                else:
+                    u1 = (u0 + 1) % S
+                    # cubic Hermite on [θ_u0, θ_u0 + Δ] from the samples and their θ-derivatives
+                    f2 = f * f
+                    f3 = f2 * f
+                    h00 = 2.0 * f3 - 3.0 * f2 + 1.0
+                    h10 = f3 - 2.0 * f2 + f
+                    h01 = -2.0 * f3 + 3.0 * f2
+                    h11 = f3 - f2
+                    g00 = (6.0 * f2 - 6.0 * f) / d
+                    g10 = 3.0 * f2 - 4.0 * f + 1.0
+                    g01 = (-6.0 * f2 + 6.0 * f) / d
+                    g11 = 3.0 * f2 - 2.0 * f
+                    y = h00 * paths[i, u0, 1] + h10 * d * vel[i, u0, 1] + h01 * paths[i, u1, 1] + h11 * d * vel[i, u1, 1]
+                    vx = g00 * paths[i, u0, 0] + g10 * vel[i, u0, 0] + g01 * paths[i, u1, 0] + g11 * vel[i, u1, 0]
+                    vy = g00 * paths[i, u0, 1] + g10 * vel[i, u0, 1] + g01 * paths[i, u1, 1] + g11 * vel[i, u1, 1]
+                Y[j, k] = y
+                if mirrored[j]:  # reflected (x' → −x') and driven backwards (dα/dθ = −1)
+                    VX[j, k] = vx
+                    VY[j, k] = -vy
+                else:
+                    VX[j, k] = vx
+                    VY[j, k] = vy
+        # -- ground, contact leg, body motion ----------------------------------------------------------
+        gmin = np.inf
+        gmax = -np.inf
+        sum_vx = 0.0
+        sum_s = 0.0
+        for k in range(S):
+            c = 0
+            g = Y[0, k]
+            for j in range(1, L):
+                if Y[j, k] < g:
+                    g = Y[j, k]
+                    c = j
+            G[k] = g
+            C[k] = c
+            if g < gmin:
+                gmin = g
+            if g > gmax:
+                gmax = g
+            sum_vx += VX[c, k]
+            sum_s += abs(VX[c, k])
+        travel = abs(d * sum_vx)
+        walk = 0.0
+        if sum_vx < 0.0:
+            walk = 1.0
+        elif sum_vx > 0.0:
+            walk = -1.0
+        mean_s = sum_s / S
+        var_s = 0.0
+        tmax = -np.inf
+        tmin = np.inf
+        tpeak = 0.0
+        delta = contact * r
+        slip = 0.0
+        for k in range(S):
+            c = C[k]
+            g = G[k]
+            e = abs(VX[c, k]) - mean_s
+            var_s += e * e
+            tau = -(walk * drag * VX[c, k] + VY[c, k])
+            if tau > tmax:
+                tmax = tau
+            if tau < tmin:
+                tmin = tau
+            if abs(tau) > tpeak:
+                tpeak = abs(tau)
+            lo = np.inf
+            hi = -np.inf
+            for j in range(L):
+                t = Y[j, k] <= g + delta
+                touch[j, k] = t
+                if t:
+                    if VX[j, k] < lo:
+                        lo = VX[j, k]
+                    if VX[j, k] > hi:
+                        hi = VX[j, k]
+            slip += hi - lo
+        # -- per leg: contact fraction and mid-swing clearance ----------------------------------------
+        cmin = np.inf
+        clear = np.inf
+        for j in range(L):
+            n_touch = 0
+            k0 = -1
+            for k in range(S):
+                if touch[j, k]:
+                    n_touch += 1
+                    k0 = k
+            if n_touch / S < cmin:
+                cmin = n_touch / S
+            if n_touch == S:  # never leaves the ground
+                clear = 0.0
+                continue
+            # longest cyclic run of samples off the ground, scanning from just after a touching sample
+            best_s = 0
+            best_n = 0
+            run_s = 0
+            run_n = 0
+            for m in range(1, S + 1):
+                k = (k0 + m) % S
+                if not touch[j, k]:
+                    if run_n == 0:
+                        run_s = k
+                    run_n += 1
+                else:
+                    if run_n > best_n or (run_n == best_n and run_s < best_s):
+                        best_s = run_s
+                        best_n = run_n
+                    run_n = 0
+            q = best_n // 4
+            h = np.inf
+            for m in range(q, best_n - q):
+                k = (best_s + m) % S
+                if Y[j, k] - G[k] < h:
+                    h = Y[j, k] - G[k]
+            if h < clear:
+                clear = h
+        out[i, _TRAVEL] = travel
+        out[i, _BOB] = gmax - gmin
+        if mean_s > 0.0:
+            out[i, _RIPPLE] = math.sqrt(var_s / S) / mean_s
+        out[i, _PEAK] = tpeak / r
+        out[i, _TRIPPLE] = (tmax - tmin) / r
+        out[i, _CLEAR] = clear
+        if travel > 0.0:
+            out[i, _SLIP] = d * slip / travel
+        out[i, _CONTACT] = cmin
+
+
+def walker_metrics(paths, velocities, status, crank, walker) -> np.ndarray:
+    """(N, len(WALKER_METRICS)) walker metrics; inputs validated by :func:`compute_metrics`.
+
+    paths, velocities (N, S, 2) float64 contiguous; status (N,) int64; crank (N,) crank radii;
+    walker : :class:`explorer.mechanism.Walker`.
+    """
+    N, S = paths.shape[0], paths.shape[1]
+    out = np.full((N, _N), np.nan)
+    if N == 0:
+        return out
+    base, frac, sign = leg_samples(walker, S)
+    mirrored = np.array(walker.mirrored, dtype=np.bool_)
+    parallel_rows(_walker_kernel, (base, frac, sign, mirrored, float(walker.drag), float(walker.contact)),
+                  (paths, velocities, status, np.ascontiguousarray(crank, dtype=np.float64), out))
+    return out

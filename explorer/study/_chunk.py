@@ -1,0 +1,57 @@
+"""The one chunk runner: what every way of running a study (``run_study``, Dask shards, an optimiser)
+does with a range of variants — sample them, solve them, compute the metrics the scene asks for."""
+
+from __future__ import annotations
+
+from ..kernels import simulate_batch
+from ._sample import study_sampler, study_variants
+from ._spec import Study
+
+
+def metric_plan(study: Study):
+    """(metric names or None for all, needs velocities, needs the foot) of the study's scene."""
+    if study.metrics is False:
+        return [], False, False
+    from ..gait import VELOCITY_METRICS
+    names = None if study.metrics is True else list(study.metrics)
+    need_vel = names is None or any(m in VELOCITY_METRICS for m in names)
+    return names, need_vel, True
+
+
+def compute_study_metrics(study: Study, paths, velocities, status, lengths, crank) -> dict | None:
+    """The scene's metrics of one chunk (None if the scene asks for none): foot paths and velocities
+    (n, S, 2), status (n,), lengths (n, n_links), crank (n,)."""
+    names, _, want = metric_plan(study)
+    if not want:
+        return None
+    from ..gait import compute_metrics
+    return compute_metrics(paths, velocities, status, names, study.band, mechanism=study.mech, lengths=lengths,
+                           crank=crank, walker=study.walker)
+
+
+def chunk_solver(study: Study):
+    """solve(a, b) → (lengths, crank, batch, metrics) for variants [a, b) of ``study``.
+
+    Solves only what the scene asks for: its vertices (plus the foot when metrics are asked for),
+    velocities when stored or needed by a metric, accelerations when stored.
+    """
+    mech = study.mech
+    _, metric_vel, want_metrics = metric_plan(study)
+    vertices = list(study.vertex_names)
+    if want_metrics and mech.foot not in vertices:
+        vertices.append(mech.foot)
+    velocities = study.velocities or metric_vel
+    sampler = study_sampler(study)
+
+    def solve(a: int, b: int):
+        lengths, crank = study_variants(study, a, b, sampler)
+        batch = simulate_batch(mech, lengths, crank, study.steps, vertices=vertices, velocities=velocities,
+                               accelerations=study.accelerations, tolerance=study.tolerance, method=study.method)
+        foot = mech.foot
+        metrics = None
+        if want_metrics:
+            metrics = compute_study_metrics(study, batch.paths[foot], batch.velocities.get(foot), batch.status,
+                                            lengths, crank)
+        return lengths, crank, batch, metrics
+
+    return solve
