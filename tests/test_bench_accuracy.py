@@ -20,7 +20,7 @@ MECH = explorer.load_mechanism("jansen")
 
 @pytest.fixture(scope="module")
 def tiny_report():
-    return accuracy_sweep(MECH, variants=24, tolerances=(1e-3, 1e-10), steps=(36, 90), dense_variants=6,
+    return accuracy_sweep(MECH, variants=24, tolerances=(1e-6, 1e-10), steps=(36, 90), dense_variants=6,
                           seed_variants=5, seed_steps=(36,), reference_steps=720, repeat=1)
 
 
@@ -34,7 +34,7 @@ def test_reference_matches_the_kernel_closed_form_and_finite_differences():
     # velocities: the chain rule against the kernels' eq. 29-30 solve and against central differences
     i = int(np.flatnonzero(ok)[0])
     mech = MECH.with_lengths(dict(zip(MECH.link_names, L[i])), crank=r[i])
-    c = simulate(mech, 90, tolerance=1e-13, velocities=True)
+    c = simulate(mech, 90, tolerance=1e-12, velocities=True)
     assert c.ok
     np.testing.assert_allclose(v[i], c.velocity("7"), rtol=0, atol=1e-7)
     fine, _, _ = closed_form_reference(MECH, L[i:i + 1], r[i:i + 1], 90 * 1000)
@@ -61,6 +61,15 @@ def test_sweep_rows_and_honest_errors(tiny_report):
     tight = [r for r in rep.rows if r["method"] in ("block", "dense") and r["tolerance"] == 1e-10]
     assert all(r["failed"] == 0 and r["foot_err_max"] < 1e-6 for r in tight)
     assert all(r["iterations"] > 0 for r in tight)
+    # the promise, per Newton row: every foot within tolerance x its design's longest link of the truth
+    newton = [r for r in rep.rows if r["method"] in ("block", "dense")]
+    for r in newton:
+        # the bound of the longest design in the row (the dense rows run on a subset)
+        assert 0.9 * r["tolerance"] * rep.meta["longest_link_max"] < r["foot_err_bound"]
+        assert r["foot_err_bound"] <= r["tolerance"] * rep.meta["longest_link_max"]
+        assert 0.0 <= r["promise_used"] <= 1.0, r
+        assert r["foot_err_max"] <= r["foot_err_bound"]
+    assert all(math.isnan(r["promise_used"]) for r in rep.rows if r["method"] not in ("block", "dense"))
     dense = [r for r in rep.rows if r["method"] == "dense"]
     assert all(r["variants"] == 6 and "first 6 variants" in r["note"] for r in dense)
     ge = [r for r in rep.rows if r["method"] == "seed001-full-GE" and r["tolerance"] == 1e-10]

@@ -114,10 +114,15 @@ def _disarm() -> None:
 # -- the proof ---------------------------------------------------------------------------------------
 @needs_dask
 def test_stitched_equals_single_process(client, reference, tmp_path):
+    import numba
     from explorer.study import run_study_dask
     out = tmp_path / "res" / "dk.h5"
+    threads = numba.config.NUMBA_NUM_THREADS  # every core (2 on the CI machines)
+    numba.set_num_threads(threads)
     s = run_study_dask(client, STUDY, output=out, shard_size=SHARD, progress=False)
     assert os.fspath(s) == str(out) and s.ran == 300 and not s.resumed
+    # the client warmed the kernels up on one thread, then gave this process its threads back
+    assert numba.get_num_threads() == threads
     folder = shards_folder(out)
     assert folder == tmp_path / "res" / "dk.shards"
     assert sorted(p.name for p in folder.glob("shard-*.h5")) == [shard_name(i) for i in range(5)]

@@ -54,7 +54,7 @@ def test_default_study_contents():
     s = load_study()  # no argument: the built-in default
     assert s.source == "builtin:default"
     assert (s.name, s.mechanism, s.variants, s.steps, s.tolerance, s.method) == \
-        ("jansen-2pct", "jansen", 10000, 360, 1e-10, "block")
+        ("jansen-2pct", "jansen", 10000, 360, 1e-11, "block")
     assert (s.perturb_method, s.spread, s.links, s.crank) == ("uniform", 0.02, "all", True)
     assert (s.vertices, s.velocities, s.accelerations) == (("7",), True, False)
     assert s.output == "results/jansen-2pct.h5"
@@ -115,9 +115,10 @@ BAD = [
     ("study.seed", 1.0, "integer"),
     ("study.steps", 2, "integer"),
     ("study.steps", "360", "integer"),
-    ("study.tolerance", 0.0, "(0, 1)"),
-    ("study.tolerance", 1.5, "(0, 1)"),
-    ("study.tolerance", "tight", "(0, 1)"),
+    ("study.tolerance", 0.0, "from 1e-12 to 1e-06"),
+    ("study.tolerance", 1.5, "from 1e-12 to 1e-06"),
+    ("study.tolerance", 1e-4, "from 1e-12 to 1e-06"),
+    ("study.tolerance", "tight", "from 1e-12 to 1e-06"),
     ("study.method", "newton", "'block', 'dense'"),
     ("study.colour", "red", "unknown key"),
     ("perturb.method", "random", "uniform"),

@@ -93,7 +93,7 @@ def _jansen_foot(lengths=naive.JANSEN_LENGTHS, crank=naive.JANSEN_CRANK):
 @pytest.fixture(scope="module")
 def jansen360():
     mech = explorer.load_mechanism("jansen")
-    cyc = explorer.simulate(mech, 360, tolerance=1e-13)
+    cyc = explorer.simulate(mech, 360, tolerance=1e-12)
     assert cyc.ok
     return mech, cyc.path("7"), cyc.velocity("7")
 
@@ -176,7 +176,7 @@ def _moved(scale=1.0, dx=0.0, dy=0.0):
 
 
 def _all_metrics(mech):
-    c = explorer.simulate(mech, 360, tolerance=1e-13)
+    c = explorer.simulate(mech, 360, tolerance=1e-12)
     assert c.ok
     out = compute_metrics(c.path("7")[None], c.velocity("7")[None], [0], mechanism=mech)
     return {k: float(v[0]) for k, v in out.items()}

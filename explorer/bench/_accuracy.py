@@ -10,6 +10,10 @@ Per cell (one method, one number of crank steps S, one Newton tolerance) over th
 * ``foot_err_max`` / ``foot_err_median`` — the largest foot-position error against the exact closed
   form at the same S angles, over all variants solved ok (max) and the median of the per-variant
   maxima;
+* ``foot_err_bound`` / ``promise_used`` — what the tolerance promises (Newton rows): every solved
+  position within tolerance × the design's longest link; the bound for the longest variant, and the
+  largest ratio over the variants of the measured foot error to that variant's own bound (≤ 1: the
+  promise is kept);
 * ``<metric>_err_max`` / ``_median`` — error of the gait metrics stride, flatness and stance_speed
   (``explorer.gait.compute_metrics``) computed from that cell's S samples, against the same metrics of
   a 14,400-step closed-form reference with exact (chain-rule) velocities: coarse sampling costs
@@ -34,19 +38,20 @@ from pathlib import Path
 
 import numpy as np
 
-from ..kernels import simulate, simulate_batch
+from ..kernels import TOLERANCE_RANGE, simulate, simulate_batch
 from ..errors import UserError
 from ..mechanism import Mechanism, load_mechanism
 from ..plan import DYAD, make_plan
 from . import _seeds
 
-DEFAULT_TOLERANCES: tuple[float, ...] = tuple(10.0 ** -k for k in range(2, 13))
+#: Newton tolerances swept by default: the whole accepted range (:data:`explorer.kernels.TOLERANCE_RANGE`).
+DEFAULT_TOLERANCES: tuple[float, ...] = (1e-6, 1e-8, 1e-10, 1e-11, 1e-12)
 DEFAULT_STEPS: tuple[int, ...] = (36, 90, 360, 1440)
 REFERENCE_STEPS = 14_400
 GAIT = ("stride", "flatness", "stance_speed")
 
 COLUMNS = ("method", "steps", "tolerance", "variants", "ok", "failed", "silent", "time_s", "us_per_config",
-           "iterations", "foot_err_max", "foot_err_median",
+           "iterations", "foot_err_max", "foot_err_median", "foot_err_bound", "promise_used",
            *(f"{m}_err_{s}" for m in GAIT for s in ("max", "median")), "note")
 
 
@@ -174,7 +179,8 @@ def _flips(P, ok, dyads):
     return np.where(ok, out, 0)
 
 
-def _row(method, steps, tol, n, status, iters, time_s, P, foot, closed, metrics, ref_metrics, dyads, note=""):
+def _row(method, steps, tol, n, status, iters, time_s, P, foot, closed, metrics, ref_metrics, dyads, note="",
+         longest=None):
     ok = status == 0
     row = dict(method=method, steps=int(steps), tolerance=tol, variants=int(n), ok=int(ok.sum()),
                failed=int((~ok).sum()), time_s=time_s, us_per_config=1e6 * time_s / (n * steps),
@@ -185,6 +191,9 @@ def _row(method, steps, tol, n, status, iters, time_s, P, foot, closed, metrics,
         err = np.max(np.hypot(paths[ok, :, 0] - closed[ok, :, 0], paths[ok, :, 1] - closed[ok, :, 1]), axis=1)
         row["foot_err_max"] = float(np.max(err))
         row["foot_err_median"] = float(np.median(err))
+        if longest is not None:  # the tolerance's promise: within tol × each design's longest link
+            row["foot_err_bound"] = float(tol * np.max(longest[ok]))
+            row["promise_used"] = float(np.max(err / (tol * longest[ok])))
         for m in GAIT:  # (NaN where a metric is undefined, e.g. flatness of a one-sample stance)
             e = np.abs(metrics[m][ok] - ref_metrics[m][ok])
             fin = np.isfinite(e)
@@ -192,6 +201,8 @@ def _row(method, steps, tol, n, status, iters, time_s, P, foot, closed, metrics,
             row[f"{m}_err_median"] = float(np.median(e[fin])) if fin.any() else math.nan
     else:
         row.update({k: math.nan for k in COLUMNS if k.endswith(("_max", "_median"))})
+    row.setdefault("foot_err_bound", math.nan)
+    row.setdefault("promise_used", math.nan)
     counts = np.bincount(status.astype(np.int64), minlength=5)
     names = {1: "assembly", 2: "branch", 3: "no-convergence", 4: "invalid"}
     fails = ", ".join(f"{int(counts[k])} {names[k]}" for k in sorted(names) if counts[k])
@@ -212,9 +223,10 @@ def accuracy_sweep(mech: Mechanism | str = "jansen", *, variants: int = 1000, sp
     """Run the sweep (see the module docstring). ``progress``: a callable taking one line, or None."""
     mech = load_mechanism(mech) if isinstance(mech, str) else mech
     say = progress or (lambda line: None)
+    lo, hi = TOLERANCE_RANGE
     for t in tolerances:
-        if not (0.0 < float(t) < 1.0):
-            raise UserError(f"tolerances: each must be in (0, 1), got {t!r}")
+        if not (lo <= float(t) <= hi):
+            raise UserError(f"tolerances: each must be from {lo:g} to {hi:g} (the accepted range), got {t!r}")
     for s in (*steps, *seed_steps):
         if int(s) < 3:
             raise UserError(f"steps: each must be an integer >= 3, got {s!r}")
@@ -255,7 +267,7 @@ def accuracy_sweep(mech: Mechanism | str = "jansen", *, variants: int = 1000, sp
         mechanism=mech.name, variants_drawn=variants, variants_assembled=N, spread=spread, seed=seed,
         reference_steps=reference_steps, dense_variants=n_dense, seed_variants=n_seed, repeat=repeat,
         threads=numba.get_num_threads(), band=band, max_iterations=max_iterations,
-        seed_max_iterations=seed_max_iterations,
+        seed_max_iterations=seed_max_iterations, longest_link_max=float(lengths.max()),
         reference_metrics_median={m: float(np.median(ref_metrics[m])) for m in GAIT}))
 
     # warm every kernel up (compile, or load from the cache) outside the timings
@@ -290,7 +302,8 @@ def accuracy_sweep(mech: Mechanism | str = "jansen", *, variants: int = 1000, sp
                 note = f"first {n} variants (dense is slow)" if n < N else ""
                 P = np.stack([b.paths[v] for v in mech.vertices], axis=2)
                 report.rows.append(_row(m, S, float(tol), n, b.status, b.iterations, t, P, foot, closed_p[:n], met,
-                                        {k: v[:n] for k, v in ref_metrics.items()}, dyads, note))
+                                        {k: v[:n] for k, v in ref_metrics.items()}, dyads, note,
+                                        longest=Ls.max(axis=1)))
                 say(_progress_line(report.rows[-1]))
         if S in seed_steps:
             for s in seed_solvers:
@@ -338,12 +351,13 @@ def format_table(report: AccuracyReport) -> str:
         f"{m['reference_metrics_median']['stance_speed']:.2f}; the max errors are in the CSV: they are dominated "
         "by variants whose stance flips to another run of samples)",
         "iter: mean Newton iterations per configuration (block: summed over its 5 dyads; seed001-sequential: over "
-        "its four 2x2 systems); tol: bound on every scaled residual |d² − L²|/L², for the seed rows on every "
-        "closure residual |f_i| (length units)",
+        "its four 2x2 systems); tol: every solved position within tol x the design's longest link (for the seed "
+        "rows: a bound on every closure residual |f_i|, length units); bound: that promise for the longest "
+        "variant; used: the largest foot err / its own variant's bound (<= 1: the promise is kept)",
         "",
     ]
     head = (f"{'method':>19s} {'steps':>5s} {'tol':>6s} {'n':>5s} {'fail':>4s} {'us/cfg':>8s} {'iter':>5s} "
-            f"{'foot err':>8s} {'stride~':>8s} {'flat~':>8s} {'speed~':>8s}  note")
+            f"{'foot err':>8s} {'bound':>8s} {'used':>8s} {'stride~':>8s} {'flat~':>8s} {'speed~':>8s}  note")
     lines += [head, "-" * len(head)]
     last = None
     for r in report.rows:
@@ -355,6 +369,7 @@ def format_table(report: AccuracyReport) -> str:
         lines.append(
             f"{r['method']:>19s} {r['steps']:5d} {_g(r['tolerance'], '.0e'):>6s} {r['variants']:5d} {r['failed']:4d} "
             f"{r['us_per_config']:8.3f} {_g(r['iterations'], '5.2f'):>5s} {_g(r['foot_err_max']):>8s} "
+            f"{_g(r.get('foot_err_bound')):>8s} {_g(r.get('promise_used')):>8s} "
             f"{_g(r['stride_err_median']):>8s} {_g(r['flatness_err_median']):>8s} "
             f"{_g(r['stance_speed_err_median']):>8s}  "
             f"{note}")
@@ -411,8 +426,14 @@ def plot(report: AccuracyReport, path) -> Path:
         if good:
             ax.plot([r["tolerance"] for r in good], [max(r["foot_err_max"], floor) for r in good], marker="o", ms=4,
                     color=colours[m], label=m)
+    bounds = sorted({(r["tolerance"], r["foot_err_bound"]) for r in with_tol
+                     if r["steps"] == s_a and r.get("foot_err_bound") == r.get("foot_err_bound")
+                     and r.get("foot_err_bound") is not None})
+    if bounds:  # what the tolerance promises for block and dense: tol × the longest link
+        ax.plot([b[0] for b in bounds], [b[1] for b in bounds], "k--", lw=1.2,
+                label="promised bound (block, dense): tol × longest link")
     ax.set_title(f"max foot error vs Newton tolerance ({s_a} steps)", fontsize=10)
-    ax.set_xlabel("tolerance (scaled residual; seed rows: closure residual, length units)")
+    ax.set_xlabel("tolerance (position error / longest link; seed rows: closure residual, length units)")
     ax.legend(fontsize=7)
     # (b), (c): every cell
     for ax, key, per_cycle, title in ((axes[1], "foot_err_max", False, "max foot error vs time"),

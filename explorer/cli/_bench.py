@@ -46,7 +46,8 @@ def register(sub) -> None:
                    help="each link and the crank scaled by uniform(1-F, 1+F) (default: 0.02)")
     a.add_argument("--seed", type=int, default=1, help="numpy default_rng seed of the draw (default: 1)")
     a.add_argument("--tolerances", type=_floats, default=None, metavar="T1,T2,...",
-                   help="Newton tolerances (default: every decade 1e-2 ... 1e-12)")
+                   help="Newton tolerances, each from 1e-12 to 1e-6: every solved position within tolerance x the "
+                        "longest link (default: 1e-6,1e-8,1e-10,1e-11,1e-12)")
     a.add_argument("--steps", type=_ints, default=None, metavar="S1,S2,...",
                    help="crank steps per cycle (default: 36,90,360,1440)")
     a.add_argument("--methods", default="block,dense,closed", metavar="M1,M2",

@@ -65,7 +65,7 @@ def dyad_batch_jit(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, clos
             for e in range(dla.shape[0]):
                 shortest = min(shortest, L[dla[e]], L[dlb[e]])
             res = dyad_sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale[i], P_init, signs, moving,
-                             shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
+                             shortest, tol * L.max(), maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
         status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res
 
 
@@ -86,5 +86,5 @@ def generic_batch_jit(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, l
             for e in range(L.shape[0]):
                 shortest = min(shortest, L[e])
             res = generic_sweep(ctx, tip, dkind, prm, tab, t_end, closed, cx, cy, scale[i], P_init, signs, moving,
-                                shortest, tol, maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
+                                shortest, tol * L.max(), maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
         status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res

@@ -4,9 +4,11 @@ Conventions shared by every kernel:
 
 * ``P``, ``V``, ``A`` are (n_vertices, 2) arrays of positions, dV/dθ and d²V/dθ² (model units,
   per radian, per radian²).
-* A link (u, w) of length d has the scaled residual (|p_w − p_u|² − d²)/d², so one tolerance means
-  the same relative length error for every link. A block is converged when every scaled residual is
-  ≤ ``tol`` in absolute value.
+* ``tol`` is a distance (model units): Newton stops once it has applied a correction that moves no
+  vertex of the block further than ``tol``. Newton converges quadratically, so the error left after
+  such a correction is of the order of its square: every solved vertex is within ``tol`` of the
+  exact root (the runners pass tolerance × the design's longest link). It also stops when every
+  scaled residual is at rounding level (:data:`ROUNDING`), where no closer position exists.
 * Return codes: OK, INFEASIBLE (a dyad's two circles do not meet: the design cannot assemble here),
   SIGN (the block's branch sign differs from the reference), NOCONV (Newton did not converge),
   SUSPECT (this step may have skipped over trouble: refine it).
@@ -24,6 +26,11 @@ SUSPECT = 4
 # A predictor or Newton correction longer than this fraction of the block's shortest link means the
 # step is too coarse for the local geometry: refine it instead of trusting where Newton lands.
 MAX_MOVE = 0.25
+# A scaled residual (|p_w − p_u|² − d²)/d² this small is rounding: no floating-point position is
+# closer to the root, so Newton stops there too. It matters only next to a fold (a double root),
+# where the position is fixed by the lengths to about sqrt(rounding) and no correction gets shorter
+# than that; elsewhere it bounds the position error by ~1e-15 d / sin(angle at the joint).
+ROUNDING = 1e-15
 # A Hermite-interpolated squared parent distance within this relative margin of a dyad's assembly
 # limit makes the step SUSPECT (it may hide a gap between samples).
 GAP_MARGIN = 1e-6
@@ -183,10 +190,9 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, links, link_a, link_b, L, h, hp
             gx = P1[w, 0] - P1[u, 0]
             gy = P1[w, 1] - P1[u, 1]
             d2 = L[e] * L[e]
-            res = gx * gx + gy * gy - d2
-            rhs[r] = -res
-            worst = max(worst, abs(res) / d2)
-        if worst <= tol:
+            rhs[r] = d2 - (gx * gx + gy * gy)
+            worst = max(worst, abs(rhs[r]) / d2)
+        if worst <= ROUNDING:
             break
         if it >= maxit:
             code = NOCONV
@@ -203,6 +209,8 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, links, link_a, link_b, L, h, hp
             P1[verts[j], 0] += s * rhs[2 * j]
             P1[verts[j], 1] += s * rhs[2 * j + 1]
         it += 1
+        if norm <= tol * tol:  # the correction just kept moved no vertex further than tol: converged
+            break
     if code == OK:
         sgn = general_sign(P1, verts, links, link_a, link_b, loc, M, rhs)
         for j in range(nb):

@@ -8,7 +8,7 @@ which makes this the simple, slow reference the block method is checked against.
 import numpy as np
 from numba import njit
 
-from ._blocks import MAX_MOVE, NOCONV, OK, lu_solve
+from ._blocks import MAX_MOVE, NOCONV, OK, ROUNDING, lu_solve
 
 
 @njit(cache=True)
@@ -71,7 +71,7 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, kno
         P1[known[k], 1] = known_pos[k, 1]
     it = 0
     while True:
-        if _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, True) <= tol:
+        if _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, True) <= ROUNDING:
             break
         if it >= maxit or lu_solve(M, rhs, n) == 0.0:
             return NOCONV, it
@@ -83,6 +83,8 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, kno
             P1[v, 0] += s * rhs[2 * v]
             P1[v, 1] += s * rhs[2 * v + 1]
         it += 1
+        if norm <= tol * tol:  # the correction just kept moved no vertex further than tol: converged
+            break
     # seed 000 eq. 29–30: M dV/dθ = B, B = the known vertices' rates, zero for the link rows
     nl = link_a.shape[0]
     _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, False)

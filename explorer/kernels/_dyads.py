@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, SIGN, SUSPECT, gap_suspect
+from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIGN, SUSPECT, gap_suspect
 
 
 # Below this |sin| of the angle at the placed vertex a dyad is at a fold (its parents' distance at
@@ -65,7 +65,8 @@ def dyad_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
     """Place every dyad in order at the new driver position (already in P1). Returns (code, dyad, iterations).
 
     A step of the sweep (see ``_sweep``): predict each vertex from P0/V0/Vp, Newton with a step
-    limit, check assembly, branch sign, a gap between samples and the move; then the tangent.
+    limit until a correction no longer than ``tol`` (model units) has been applied, check assembly,
+    branch sign, a gap between samples and the move; then the tangent.
     """
     iters = 0
     c2 = 0.5 * h * h / hp if hp != 0.0 else 0.0
@@ -104,8 +105,7 @@ def dyad_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
         py = P0[v, 1] + my
         pxp = px
         pyp = py
-        ta = tol * da2
-        tb = tol * db2
+        tol2 = tol * tol
         it = 0
         while True:
             ex = px - ax
@@ -115,8 +115,8 @@ def dyad_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
             ra = ex * ex + ey * ey - da2
             rb = fx * fx + fy * fy - db2
             det = ex * fy - ey * fx
-            if abs(ra) <= ta and abs(rb) <= tb:
-                break
+            if abs(ra) <= ROUNDING * da2 and abs(rb) <= ROUNDING * db2:
+                break  # as exact as floating point allows (matters only next to a fold)
             if it >= maxit or det == 0.0:
                 return NOCONV, k, iters + it
             inv = 0.5 / det
@@ -130,7 +130,16 @@ def dyad_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
             px += dx
             py += dy
             it += 1
+            # a correction this small leaves an error of order its square (Newton converges
+            # quadratically): keep it and stop, the position is within tol of the root
+            if n2 <= tol2:
+                break
         iters += it
+        ex = px - ax
+        ey = py - ay
+        fx = px - bx
+        fy = py - by
+        det = ex * fy - ey * fx
         # det = cross(p − a, p − b) = cross(b − a, p − a): the orientation, i.e. the branch sign
         if signs[k] != 0.0 and (det > 0.0) != (signs[k] > 0.0):
             if abs(det) > FOLD_SIN * math.sqrt((ex * ex + ey * ey) * (fx * fx + fy * fy)):

@@ -150,10 +150,14 @@ def generic_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc
             V1[known[i], ax] = kvel[i, ax]
             A1[known[i], ax] = kacc[i, ax]
     if code != OK:
-        # tell a design that cannot assemble here from one where Newton merely failed
-        c2, b2, _ = _blocks_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, False, False)
-        if c2 == INFEASIBLE:
-            return INFEASIBLE, b2, iters
+        # tell a design that cannot assemble here from one where Newton merely failed: next to a fold
+        # the full-system Newton converges only linearly and may run out of iterations, where the
+        # block step (which keeps each dyad's branch, as for FOLD below) still solves
+        c2, b2, it2 = _blocks_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, checks)
+        if c2 == INFEASIBLE or c2 == SUSPECT:
+            return c2, b2, iters + it2
+        if c2 == OK:
+            return OK, -1, iters + it2
         return NOCONV, -1, iters
     code, blk = _check_dense(ctx, signs, P0, V0, P1, V1, h, checks)
     if code == FOLD:

@@ -237,7 +237,7 @@ def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs,
         gap = 0.0
         for v in range(nv):
             gap = max(gap, abs(P0[v, 0] - P_first[v, 0]) + abs(P0[v, 1] - P_first[v, 1]))
-        if gap > max(1e-4, 10.0 * tol) * shortest:
+        if gap > max(1e-4 * shortest, 10.0 * tol):
             status = STATUS_BRANCH
             fail_t = t_end
     for k in range(reached, back):

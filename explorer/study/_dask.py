@@ -85,21 +85,33 @@ def _solver(study: Study):
     return chunk_solver(study)
 
 
-def _one_thread() -> None:
-    """A task runs on one Numba thread: Dask already runs one task per worker thread (per core)."""
+def _one_thread() -> int | None:
+    """A task runs on one Numba thread: Dask already runs one task per worker thread (per core).
+    Returns the calling thread's Numba thread count before (None without Numba)."""
     try:
         import numba
+        before = numba.get_num_threads()
         numba.set_num_threads(1)
+        return before
     except (ImportError, ValueError):
-        pass
+        return None
 
 
-def _warm(recipe: _Recipe) -> float:
-    """Compile or load every kernel the study uses (two variants); returns the seconds it took."""
+def _warm(recipe: _Recipe, restore: bool = False) -> float:
+    """Compile or load every kernel the study uses (two variants); returns the seconds it took.
+
+    restore : give the calling thread back its Numba thread count afterwards (the client: a later
+    ``run_study`` or ``simulate_batch`` in the same process must use every core again).
+    """
     t0 = time.perf_counter()
-    _one_thread()
-    study = recipe.study()
-    _solver(study)(0, min(2, study.n_variants))
+    before = _one_thread()
+    try:
+        study = recipe.study()
+        _solver(study)(0, min(2, study.n_variants))
+    finally:
+        if restore and before is not None:
+            import numba
+            numba.set_num_threads(before)
     return time.perf_counter() - t0
 
 
@@ -291,7 +303,7 @@ def _worker_threads(client) -> int:
 def _warm_everywhere(client, recipe: _Recipe) -> None:
     """Compile or load the study's kernels here, then on each host's first worker (one host at a
     time), then on the other workers together: no two processes ever write the Numba cache at once."""
-    _warm(recipe)
+    _warm(recipe, restore=True)
     workers = client.scheduler_info().get("workers", {})
     by_host: dict[str, list[str]] = {}
     for addr, w in workers.items():

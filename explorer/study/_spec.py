@@ -9,7 +9,7 @@ A study file::
                                   # oat / grid: levels per parameter (see below)
     seed = 1                      # integer ≥ 0
     steps = 360                   # crank samples per cycle (≥ 3)
-    tolerance = 1e-10             # Newton tolerance, in (0, 1)
+    tolerance = 1e-11             # every solved position within tolerance x the longest link (1e-12 … 1e-6)
     method = "block"              # or "dense"
 
     [perturb]
@@ -62,6 +62,7 @@ from pathlib import Path
 
 from ..errors import UserError, where
 from ..gait import SCREEN_KEYS, Screen, screen_from_dict
+from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
 from ..mechanism import Mechanism, Walker, builtin_mechanisms, load_mechanism, walker_from_dict
 
 PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "oat", "grid")
@@ -271,8 +272,10 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
         variants = v.integer("study.variants", st.get("variants", 10000), 1, MAX_VARIANTS)
     seed = v.integer("study.seed", st.get("seed", 0), 0, 2 ** 63 - 1)
     steps = v.integer("study.steps", st.get("steps", 360), 3, 10_000_000)
-    tolerance = v.number("study.tolerance", st.get("tolerance", 1e-10), 0.0, 1.0, "a number in (0, 1)",
-                         lo_open=True, hi_open=True)
+    lo, hi = TOLERANCE_RANGE
+    tolerance = v.number("study.tolerance", st.get("tolerance", DEFAULT_TOLERANCE), lo, hi,
+                         f"a number from {lo:g} to {hi:g}: the bound on every solved position's error relative to the "
+                         f"longest link (looser saves no time, tighter hits rounding)")
     method = v.choice("study.method", st.get("method", "block"), SOLVE_METHODS)
 
     spread = v.number("perturb.spread", pe.get("spread", 0.02), 0.0, 1.0, "a number in [0, 1)", hi_open=True)
