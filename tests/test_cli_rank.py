@@ -263,7 +263,9 @@ def incomplete(results, tmp_path):
 
 ERRORS = [
     (["rank", "{r}", "--by", "bogus"], "unknown metric 'bogus'"),
-    (["rank", "{r}", "--where", "stride >"], "where: cannot evaluate"),
+    (["rank", "{r}", "--where", "stride >"], "where: cannot parse"),
+    (["rank", "{r}", "--where", "__import__('os').system('true')"], "where: a call is not allowed"),
+    (["plot", "{r}", "--top", "3", "--where", "stride.__class__"], "where: an attribute is not allowed"),
     (["rank", "{r}", "--top", "-1"], "--top: expected a whole number"),
     (["rank", "{r}", "--top", "ten"], "--top: expected a whole number"),
     (["rank", "{r}", "--pareto", "stride", "--weights", "stride=1"], "exclude each other"),

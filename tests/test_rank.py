@@ -60,7 +60,7 @@ def test_where(frame):
     with pytest.raises(UserError, match="default ranking needs the walker metrics travel, bob"):
         rank(frame)
     for bad in ("duty >", "nonsense > 3", "duty >> 'a'"):
-        with pytest.raises(UserError, match="where: cannot evaluate") as e:
+        with pytest.raises(UserError, match="where: ") as e:
             rank(frame, by="stride", where=bad)
         assert repr(bad) in str(e.value)
 

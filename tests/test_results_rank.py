@@ -94,7 +94,7 @@ def test_rank_where_and_failed(results_path):
         assert len(allr) == res.n_variants
         assert (allr["status"].astype(str).iloc[:n_ok] == "ok").all()
         assert allr["stride"].iloc[n_ok:].isna().all()
-        with pytest.raises(UserError, match="where: cannot evaluate"):
+        with pytest.raises(UserError, match="where: cannot parse"):
             res.rank(where="stride >")
 
 

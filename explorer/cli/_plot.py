@@ -36,7 +36,7 @@ def register(sub) -> None:
                    help="with --top: also rank variants the buildability screen removes (toggle, foot above the "
                         "frame, crossing path)")
     p.add_argument("--where", metavar="EXPR", default=None,
-                   help="pandas query filter for --top and --scatter, e.g. \"duty > 0.3 and flatness < 0.002\"")
+                   help="filter for --top and --scatter over the frame's columns, e.g. \"bob < 0.2 and slip < 0.01\" (comparisons, arithmetic, and/or/not, in [...]; `backticks` for names such as `1-3`)")
     p.add_argument("-o", "--output", metavar="PATH", default=None,
                    help="output .png, .svg or .pdf (default: RESULTS-<mode>.png in the working directory)")
     p.add_argument("--dpi", type=float, default=150, help="resolution of PNG output (default: 150)")

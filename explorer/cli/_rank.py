@@ -18,9 +18,10 @@ def register(sub) -> None:
                     "crank torque (down), each min-max normalised over the ranked variants. Or one metric (--by, "
                     "in its natural direction), a weighted score of your own (--weights), or the Pareto front of "
                     "several metrics (--pareto). Variants the buildability screen removes (toggle: min "
-                    "transmission angle under 5°; a foot that rises to the crank axle or a ground pivot; a foot "
+                    "transmission angle under 5°; a foot that rises to the crank axle or a ground pivot; a foot whipped "
+                    "round faster than 6 crank radii per radian; a foot "
                     "path that crosses itself; thresholds in the study's [screen]) are left out and counted; "
-                    "--include-screened keeps them. --where filters first with a pandas query over the columns "
+                    "--include-screened keeps them. --where filters first over the columns "
                     "of the results frame (metrics, link lengths, crank, status). The table is for reading; csv "
                     "and json carry every column of the ranked frame (the same rows as Results.rank()) at full "
                     "precision.",
@@ -33,7 +34,7 @@ def register(sub) -> None:
                    help="metric to rank by (default: the walker score of travel, bob, body_speed_ripple, peak_torque)")
     p.add_argument("--top", metavar="N", default="10", help="rows to show (default: 10; 0 = all)")
     p.add_argument("--where", metavar="EXPR", default=None,
-                   help="pandas query filter, e.g. \"bob < 0.2 and slip < 0.01\"")
+                   help="filter, e.g. \"bob < 0.2 and slip < 0.01\": columns, numbers, comparisons, + - * /, and/or/not, in [...], `backticks` for names such as `1-3`; never run as Python")
     p.add_argument("--pareto", metavar="M1,M2,...", default=None,
                    help="only the Pareto front (non-dominated variants) of these metrics, sorted by the first")
     p.add_argument("--weights", metavar="M1=W1,...", default=None,

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import UserError
+from ._filter import evaluate_filter
 from ._table import DEFAULT_WEIGHTS, DIRECTIONS, METRICS
 
 if TYPE_CHECKING:  # pandas is imported where it is used: it costs ~0.4 s, and `explorer run` never needs it
@@ -94,22 +95,14 @@ def screened_mask(df: pd.DataFrame) -> np.ndarray:
 def select(df: pd.DataFrame, where=None, include_failed: bool = False, include_screened: bool = False) -> pd.DataFrame:
     """The rows that are ok (unless ``include_failed``), pass the buildability screen (unless
     ``include_screened``; only frames with a ``buildable`` column are screened) and satisfy the
-    pandas query ``where`` (e.g. "bob < 0.5 and slip < 0.05"); a bad expression is a UserError naming it."""
-    import pandas as pd
-
+    filter ``where`` (e.g. "bob < 0.5 and slip < 0.05", in the restricted grammar of
+    :mod:`explorer.gait._filter`: never executed as Python); a bad filter is a UserError naming it."""
     keep = np.ones(len(df), dtype=bool) if include_failed else ok_mask(df).copy()
     if not include_screened:
         keep &= ~screened_mask(df)
     df = df[keep]
     if where is not None and str(where).strip():
-        expr = str(where)
-        try:
-            df = df.query(expr)
-        except Exception as exc:  # pandas raises SyntaxError, NameError, TypeError, KeyError, ValueError …
-            msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise UserError(f"where: cannot evaluate {expr!r}: {msg}") from None
-        if not isinstance(df, pd.DataFrame):
-            raise UserError(f"where: {expr!r} is not a filter (it must evaluate to true/false per row)")
+        df = df[evaluate_filter(df, str(where))]
     return df
 
 
@@ -201,7 +194,7 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
 
     Rows are first filtered: failed variants (status not "ok") are dropped unless
     ``include_failed``, ok variants the buildability screen removes (``buildable`` false) unless
-    ``include_screened``; then ``where``, a pandas query string such as
+    ``include_screened``; then ``where``, a filter in the restricted grammar of :mod:`._filter` such as
     "duty > 0.3 and flatness < 0.002", keeps the rows where it is true (a bad expression raises
     UserError naming it). Then one of three modes, in this precedence:
 

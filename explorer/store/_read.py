@@ -186,7 +186,7 @@ class Results:
              pareto=None, include_failed: bool = False, include_screened: bool = False) -> "pd.DataFrame":
         """Ranked rows of :meth:`frame`, best first, with a ``rank`` column: :func:`explorer.gait.rank`
         (by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS`; one metric ``by``, a weighted ``score`` over normalised metrics with ``weights``, or the
-        Pareto front of ``pareto``; ``where`` is a pandas query such as "bob < 0.5 and slip < 0.05";
+        Pareto front of ``pareto``; ``where`` is a filter such as "bob < 0.5 and slip < 0.05" (explorer.gait._filter);
         failed variants are left out unless ``include_failed``, variants the buildability screen
         removes unless ``include_screened``; the frame's ``screen`` column says why).
 

@@ -189,7 +189,7 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     The ranking is :func:`explorer.gait.rank`'s, so it shows the rows ``explorer rank`` lists for the
     same request: by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS`, else one
     metric ``by`` or a ``weights`` score; variants the buildability screen removes are left out unless
-    ``include_screened``; ``where`` is a pandas query filter. Equal axes; each variant labelled with
+    ``include_screened``; ``where`` is a filter as in :func:`explorer.gait.rank`. Equal axes; each variant labelled with
     its rank and ranking value; its single-leg band stance (longest run within ``band`` · height of its
     lowest point; default: the study's ``[scene] band``) drawn thick.
     """
