@@ -108,10 +108,11 @@ def test_rank_table(results, capsys):
 
 def test_rank_csv_round_trips_to_the_api_ranking(results, capsys):
     cases = [(["--by", "flatness", "--top", "7"], dict(by="flatness", top=7)),
+             # csv and json carry every row unless --top is given
              (["--by", "stride", "--ascending", "--where", "duty > 0.2"], dict(by="stride", ascending=True,
-                                                                                 where="duty > 0.2")),
+                                                                                 where="duty > 0.2", top=None)),
              (["--pareto", "stride,speed_ripple", "--top", "0"], dict(pareto="stride,speed_ripple", top=None)),
-             (["--weights", "stride=2,flatness=1"], dict(weights={"stride": 2.0, "flatness": 1.0})),
+             (["--weights", "stride=2,flatness=1"], dict(weights={"stride": 2.0, "flatness": 1.0}, top=None)),
              (["--by", "duty", "--include-failed", "--top", "0"], dict(by="duty", include_failed=True, top=None))]
     with open_results(results) as res:
         for argv, kw in cases:

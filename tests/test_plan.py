@@ -171,3 +171,24 @@ length = 22.0
         msg = str(exc.value)
         assert msg.startswith(f"{path}: links: ") and "\n" not in msg
         assert "C" in msg
+
+
+def test_a_thousand_vertex_chain_plans_without_recursion():
+    """A chain of 1,000 dyads (vertex k on links to vertices k−1 and k−2) is planned iteratively: one
+    2x2 block per vertex, in chain order (the recursive matching used to hit Python's recursion limit)."""
+    import time
+
+    n = 1000
+    names = ["T", "G"] + [f"v{k}" for k in range(n)]
+    links = [{"a": names[k + 1], "b": names[k + 2], "length": 1.0} for k in range(n)]
+    links += [{"a": names[k], "b": names[k + 2], "length": 1.0} for k in range(n)]
+    d = {"name": "chain", "foot": names[-1], "crank": {"center": [0.0, 0.0], "radius": 0.5, "tip": "T"},
+         "fixed": {"G": [1.0, 0.0]}, "guess": {f"v{k}": [float(k), 1.0] for k in range(n)}, "links": links}
+    mech = mechanism_from_dict(d, "chain.toml")
+    t = time.perf_counter()
+    plan = make_plan(mech)
+    took = time.perf_counter() - t
+    assert plan.n_blocks == n
+    assert [mech.vertices[b.vertices[0]] for b in plan.blocks] == [f"v{k}" for k in range(n)]
+    assert all(len(b.vertices) == 1 for b in plan.blocks)
+    print(f"planned {n} vertices in {took * 1e3:.0f} ms")

@@ -190,7 +190,7 @@ def test_resume_refuses_another_study(results_file, tmp_path):
     target.write_bytes(path.read_bytes())
     with h5py.File(target, "r+") as f:
         f.attrs["complete"] = False
-    with pytest.raises(UserError, match=r"different study \(differs in study.seed\)"):
+    with pytest.raises(UserError, match=r"different run: differs in study.seed"):
         run_study(small(study__seed=3), output=target, resume=True, progress=False)
 
 

@@ -77,4 +77,10 @@ def main(argv=None) -> int:
         return 130
     except BrokenPipeError:  # e.g. `explorer rank ... | head`
         return 0
+    except OSError as exc:  # a damaged results file (a checksum that fails), a full disk, …: one line, exit 2
+        what = " ".join(str(exc).split()) or type(exc).__name__
+        if "checksum" in what.lower() or "filter returned failure" in what.lower():
+            what = f"corrupt data in a results file (a chunk fails its checksum): {what}"
+        print(f"explorer: error: {what[:400]}", file=sys.stderr)
+        return 2
     return int(code or 0)

@@ -41,8 +41,8 @@ def run(args) -> int:
         raise UserError("animate: give a RESULTS file (with --variant) or --mechanism NAME, not both and not neither")
     if args.variant is not None and args.results is None:
         raise UserError("animate: --variant goes with a RESULTS file")
-    if not (args.dpi > 0):
-        raise UserError(f"--dpi: expected a number > 0, got {args.dpi!r}")
+    if not (1 <= args.dpi <= 600):  # beyond that a figure is gigapixels: matplotlib fails or fills memory
+        raise UserError(f"--dpi: expected a number from 1 to 600, got {args.dpi!r}")
     if args.results is not None:
         stem = Path(args.results).stem + (f"-v{args.variant}" if args.variant is not None else "")
     else:

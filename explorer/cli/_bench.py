@@ -30,7 +30,7 @@ def register(sub) -> None:
     verbs = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
     a = verbs.add_parser(
         "accuracy", help="accuracy vs time: Newton tolerance x crank steps x method (+ the seeds' formulations)",
-        description="Over the variants that assemble (default: 1,000 Jansen variants at ±2 %%), sweep Newton "
+        description="Over the variants that assemble (default: 1,000 Jansen variants at ±2 %), sweep Newton "
                     "tolerance, crank steps per cycle and method (block Newton, dense Newton, exact closed form), "
                     "plus the seeds' formulations as extra rows (seed 001: 8 link angles, full 8x8 Newton and the "
                     "'sequential' 4 x 2x2 solve; seed 003: Gauss-Seidel instead of Gaussian elimination in the "

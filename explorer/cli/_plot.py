@@ -78,8 +78,8 @@ def run(args) -> int:
     if out is None:
         out = f"{Path(args.results).stem}-{mode}.png"
     check_output(out, FIGURE_FORMATS)  # a bad path fails before any work
-    if not (args.dpi > 0):
-        raise UserError(f"--dpi: expected a number > 0, got {args.dpi!r}")
+    if not (1 <= args.dpi <= 1200):  # beyond that a figure is gigapixels: matplotlib fails or fills memory
+        raise UserError(f"--dpi: expected a number from 1 to 1200, got {args.dpi!r}")
     with open_results(args.results) as res:
         if mode == "top":
             from ._rank import parse_weights

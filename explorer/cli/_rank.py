@@ -32,7 +32,8 @@ def register(sub) -> None:
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     p.add_argument("--by", metavar="METRIC", default=None,
                    help="metric to rank by (default: the walker score of travel, bob, body_speed_ripple, peak_torque)")
-    p.add_argument("--top", metavar="N", default="10", help="rows to show (default: 10; 0 = all)")
+    p.add_argument("--top", metavar="N", default=None,
+                   help="rows to show (default: 10 in the table, every row in csv and json; 0 = all)")
     p.add_argument("--where", metavar="EXPR", default=None,
                    help="filter, e.g. \"bob < 0.2 and slip < 0.01\": columns, numbers, comparisons, + - * /, and/or/not, in [...], `backticks` for names such as `1-3`; never run as Python")
     p.add_argument("--pareto", metavar="M1,M2,...", default=None,
@@ -194,7 +195,8 @@ def run(args) -> int:
     from ..gait import DEFAULT_WEIGHTS, DIRECTIONS, WALKER_METRICS
     from ..store import open_results
 
-    top = parse_top(args.top)
+    # machine formats carry everything unless --top is given; the table shows ten
+    top = parse_top(args.top if args.top is not None else ("0" if args.format in ("csv", "json") else "10"))
     pareto = parse_list(args.pareto, "--pareto") if args.pareto is not None else None
     weights = parse_weights(args.weights) if args.weights is not None else None
     if pareto is not None and weights is not None:

@@ -9,7 +9,7 @@ def register(sub) -> None:
     p = sub.add_parser(
         "show", help="one variant of a results file: lengths vs the nominal, metrics with their ranks, status",
         description="Print one variant of a results file: each link length and the crank radius against the "
-                    "nominal design (absolute and %% change), each stored metric with its rank among the ok "
+                    "nominal design (absolute and % change), each stored metric with its rank among the ok "
                     "variants (1 = best in the metric's natural direction; ties share a rank), its status "
                     "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
                     "buildability screen (and if not, why). Variant 0 is the nominal.")

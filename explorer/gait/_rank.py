@@ -107,11 +107,12 @@ def select(df: pd.DataFrame, where=None, include_failed: bool = False, include_s
 
 
 def _check_top(top):
+    """None or 0 (every row, as ``--top 0`` on the command line), else a row count >= 1."""
     if top is None:
         return None
     if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 0:
-        raise UserError(f"top: expected a whole number >= 0 or None, got {top!r}")
-    return int(top)
+        raise UserError(f"top: expected a whole number >= 0 (0 or None: every row), got {top!r}")
+    return int(top) or None
 
 
 def _tiebreak(df: pd.DataFrame) -> np.ndarray:
@@ -213,7 +214,7 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
       bob, body_speed_ripple and peak_torque, equal weights).
 
     NaN values of the sort key (a failed variant kept with include_failed, an undefined metric)
-    come last. Ties keep variant order. ``top`` rows are returned (None: all). ``rank`` is the
+    come last. Ties keep variant order. ``top`` rows are returned (0 or None: all, as ``--top 0``). ``rank`` is the
     1-based position, the first column; the frame's index is kept. Unknown metric names raise
     UserError listing the ones the frame has.
     """

@@ -108,6 +108,12 @@ class Cycle:
         d = self.path(lk.b) - self.path(lk.a)
         return np.arctan2(d[:, 1], d[:, 0])
 
+    def __repr__(self) -> str:
+        state = "ok" if self.ok else f"failed: {self.failure.message}" if self.failure is not None else "failed"
+        extra = " + velocities" if self.velocities is not None else ""
+        extra += " + accelerations" if self.accelerations is not None else ""
+        return f"<Cycle {self.mechanism.name}: {len(self.theta)} steps, {self.positions.shape[1]} vertices{extra}; {state}>"
+
 
 @dataclass(frozen=True)
 class Batch:
@@ -129,6 +135,15 @@ class Batch:
     fail_theta_end: np.ndarray
     fail_block: np.ndarray
     iterations: np.ndarray
+
+    def __repr__(self) -> str:
+        n = len(self.status)
+        counts = ", ".join(f"{STATUS_NAMES.get(int(c), c)} {int(k)}" for c, k in zip(*np.unique(self.status,
+                                                                                                  return_counts=True)))
+        extra = " + velocities" if self.velocities else ""
+        extra += " + accelerations" if self.accelerations else ""
+        return (f"<Batch {n} variants x {len(self.theta)} steps, vertices {', '.join(self.paths)}{extra}; "
+                f"{counts or 'empty'}>")
 
 
 # -- cached per topology and per driver and step count --------------------------------------------
@@ -437,6 +452,8 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ve
         scale = np.asarray(crank, dtype=np.float64).reshape(-1)
     if scale.shape[0] != lengths.shape[0]:
         raise UserError(f"crank: expected shape ({lengths.shape[0]},), got {scale.shape}")
+    if isinstance(vertices, str) and vertices != "all":
+        vertices = [vertices]  # one vertex name, not its characters ("37" is vertex 37, not 3 and 7)
     names = [mech.foot] if vertices is None else (list(mech.vertices) if vertices == "all" else [str(v) for v in vertices])
     out_idx = np.array([mech.vertex_index(v) for v in names], dtype=np.int64)
     plan = plan_for(mech)

@@ -8,7 +8,7 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ._model import Crank, Link, Mechanism, PathDriver, Walker, _check_length
+from ._model import NAME_RE, Crank, Link, Mechanism, PathDriver, Walker, _check_length
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker"}
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
@@ -36,11 +36,18 @@ def load_mechanism(name_or_path) -> Mechanism:
     guess, or a graph that does not have exactly one degree of freedom driven by the crank.
     """
     text, source = _read(name_or_path)
+    data = parse_toml(text, source)
+    return mechanism_from_dict(data, source)
+
+
+def parse_toml(text: str, source: str) -> dict:
+    """tomllib.loads with one-line errors: invalid TOML, or nesting too deep for the parser."""
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"{source}: not valid TOML: {exc}") from None
-    return mechanism_from_dict(data, source)
+    except RecursionError:
+        raise UserError(f"{source}: not valid TOML here: arrays or tables nested too deeply") from None
 
 
 def _read(name_or_path) -> tuple[str, str]:
@@ -114,6 +121,12 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         str(k): _point(source, f"guess.{k}", v)
         for k, v in _table(source, "guess", data.get("guess", {})).items()
     }
+    for key, names in (("fixed", fixed), ("guess", guess), ("crank.tip" if crank is not None else "driver.vertex", [tip])):
+        for v in names:
+            if not NAME_RE.match(v):
+                k = key if key in ("crank.tip", "driver.vertex") else f"{key}.{v}"
+                raise UserError(f"{where(source, k)}: vertex name {v!r} must be 1 to 64 letters, digits or _ . + - "
+                                f"(it names datasets in results files)")
     if tip in fixed:
         raise UserError(f"{where(source, 'fixed.' + tip)}: vertex {tip!r} is the driven vertex and cannot be fixed")
     for v in guess:
@@ -146,6 +159,9 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         if a == b:
             raise UserError(f"{where(source, key)}: link joins vertex {a!r} to itself")
         lname = _string(source, f"{key}.name", lt.get("name", f"{a}-{b}"))
+        if not NAME_RE.match(lname):
+            raise UserError(f"{where(source, f'{key}.name')}: link name {lname!r} must be 1 to 64 letters, digits or "
+                            f"_ . + - (it names a column of results)")
         length = _check_length(source, f"{key}.length", lt["length"])
         if lname in seen_names:
             raise UserError(f"{where(source, f'{key}.name')}: duplicate link name {lname!r}")
@@ -285,6 +301,9 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links) -> None
     for v in guess:
         if v not in touched:
             raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is on no link")
+    for v in fixed:
+        if v not in touched:
+            raise UserError(f"{where(source, 'fixed.' + v)}: vertex {v!r} is on no link")
     n_eq, n_unknown = len(links), 2 * len(guess)
     if n_eq != n_unknown:
         dof = n_unknown - n_eq + 1

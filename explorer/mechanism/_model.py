@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Mapping
@@ -10,6 +11,13 @@ from typing import Mapping
 import numpy as np
 
 from ..errors import UserError, where
+
+
+#: Lengths a mechanism may have, model units: beyond them squares of lengths lose every digit of their
+#: differences (or overflow), so no solve could be trusted.
+LENGTH_RANGE = (1e-9, 1e9)
+#: Vertex and link names: they become HDF5 dataset names and frame columns.
+NAME_RE = re.compile(r"^[A-Za-z0-9_.+-]{1,64}$")
 
 
 @dataclass(frozen=True)
@@ -207,8 +215,19 @@ class Mechanism:
 def _check_length(source: str, key: str, value) -> float:
     """Return ``value`` as a float, or raise UserError unless it is finite and > 0."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise UserError(f"{where(source, key)}: expected a number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or v <= 0.0:
-        raise UserError(f"{where(source, key)}: length must be finite and > 0, got {value!r}")
+        raise UserError(f"{where(source, key)}: expected a number, got {_short(value)}")
+    try:
+        v = float(value)
+    except OverflowError:
+        v = math.inf
+    lo, hi = LENGTH_RANGE
+    if not math.isfinite(v) or not lo <= v <= hi:
+        raise UserError(f"{where(source, key)}: a length must be finite and > 0, from {lo:g} to {hi:g} model units, "
+                        f"got {_short(value)}")
     return v
+
+
+def _short(value) -> str:
+    """repr of a value, shortened (a 400-digit integer is not printed whole)."""
+    text = repr(value) if not isinstance(value, int) or value.bit_length() < 200 else f"an integer of {len(str(value))} digits"
+    return text if len(text) <= 60 else text[:57] + "..."

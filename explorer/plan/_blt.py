@@ -10,7 +10,6 @@ triad, is one coupled *general* block.
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -152,51 +151,77 @@ def make_plan(mech: Mechanism) -> Plan:
 
 
 def _matching(eq_vars: list[list[int]], n_vars: int) -> list[int]:
-    """Maximum bipartite matching (Kuhn's augmenting paths); returns the equation of each variable."""
+    """Maximum bipartite matching (Kuhn's augmenting paths, searched depth first with an explicit
+    stack, so a mechanism of any size plans without recursion); returns the equation of each variable."""
     match_of_var = [-1] * n_vars
-
-    def augment(e: int, seen: set[int]) -> bool:
-        for v in eq_vars[e]:
-            if v not in seen:
-                seen.add(v)
-                if match_of_var[v] < 0 or augment(match_of_var[v], seen):
-                    match_of_var[v] = e
-                    return True
-        return False
-
-    for e in range(len(eq_vars)):
-        augment(e, set())
+    for root in range(len(eq_vars)):
+        seen: set[int] = set()
+        # each frame: (equation, position in its variable list, the variable it tried last)
+        stack = [[root, 0, -1]]
+        found = False
+        while stack:
+            frame = stack[-1]
+            e, i = frame[0], frame[1]
+            if found:
+                # unwind: every equation on the path takes the variable it went through
+                match_of_var[frame[2]] = e
+                stack.pop()
+                continue
+            if i >= len(eq_vars[e]):
+                stack.pop()
+                continue
+            v = eq_vars[e][i]
+            frame[1] += 1
+            if v in seen:
+                continue
+            seen.add(v)
+            frame[2] = v
+            if match_of_var[v] < 0:
+                found = True
+            else:
+                stack.append([match_of_var[v], 0, -1])
     return match_of_var
 
 
 def _tarjan(deps: list[list[int]]) -> list[list[int]]:
-    """Strongly connected components, each emitted after every component it depends on."""
-    sys.setrecursionlimit(max(sys.getrecursionlimit(), 10 * len(deps) + 100))
+    """Strongly connected components, each emitted after every component it depends on (Tarjan's
+    algorithm with an explicit stack: no recursion, whatever the mechanism's size)."""
     index, low, on_stack, stack, out = {}, {}, set(), [], []
-    counter = [0]
-
-    def visit(v: int) -> None:
-        index[v] = low[v] = counter[0]
-        counter[0] += 1
-        stack.append(v)
-        on_stack.add(v)
-        for w in deps[v]:
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on_stack:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on_stack.discard(w)
-                comp.append(w)
-                if w == v:
+    counter = 0
+    for root in range(len(deps)):
+        if root in index:
+            continue
+        work = [(root, 0)]
+        while work:
+            v, i = work.pop()
+            if i == 0:
+                index[v] = low[v] = counter
+                counter += 1
+                stack.append(v)
+                on_stack.add(v)
+            recurse = False
+            while i < len(deps[v]):
+                w = deps[v][i]
+                i += 1
+                if w not in index:
+                    work.append((v, i))
+                    work.append((w, 0))
+                    recurse = True
                     break
-            out.append(sorted(comp))
-
-    for v in range(len(deps)):
-        if v not in index:
-            visit(v)
+                if w in on_stack:
+                    low[v] = min(low[v], index[w])
+            if recurse:
+                continue
+            if low[v] == index[v]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on_stack.discard(w)
+                    comp.append(w)
+                    if w == v:
+                        break
+                out.append(sorted(comp))
+            if work:  # back in the caller: take the child's low link
+                u = work[-1][0]
+                low[u] = min(low[u], low[v])
     return out

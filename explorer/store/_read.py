@@ -33,8 +33,10 @@ def open_results(path) -> "Results":
         f = h5py.File(p, "r")
     except OSError as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        if "lock" in msg:
+        if "unable to lock" in msg.lower():
             msg = "the file is being written by another process (unable to lock it)"
+        elif "truncated" in msg.lower() or "signature" in msg.lower():
+            msg = f"truncated or corrupt ({msg})"
         raise UserError(f"{p}: cannot open as an HDF5 results file: {msg}") from None
     if f.attrs.get("format") != FORMAT:
         f.close()
@@ -46,7 +48,13 @@ def open_results(path) -> "Results":
         except UserError:
             f.close()
             raise
-    return Results(f, p)
+    try:
+        return Results(f, p)
+    except (KeyError, ValueError, TypeError, OSError) as exc:  # a foreign or damaged file with our format tag
+        f.close()
+        what = f"missing {exc.args[0]}" if isinstance(exc, KeyError) and exc.args else \
+            (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+        raise UserError(f"{p}: not a readable explorer results file ({what[:200]})") from None
 
 
 class Results:
@@ -223,9 +231,26 @@ class Results:
         if vertex not in g:
             raise UserError(f"{self.filename}: vertex {vertex!r} is not stored "
                             f"(stored: {', '.join(g.keys())}; set [scene] vertices)")
-        if isinstance(variant, (int, np.integer)) and not -self.n_variants <= variant < self.n_variants:
-            raise UserError(f"{self.filename}: variant {variant} out of range (0 to {self.n_variants - 1})")
-        return g[vertex][variant]
+        if isinstance(variant, (int, np.integer)):
+            if not -self.n_variants <= variant < self.n_variants:
+                raise UserError(f"{self.filename}: variant {variant} out of range (0 to {self.n_variants - 1})")
+            return g[vertex][variant]
+        if isinstance(variant, slice):
+            return g[vertex][variant]
+        # any sequence of variants, in any order, repeats allowed (h5py wants sorted unique indices)
+        try:
+            idx = np.asarray(variant).astype(np.int64, casting="safe").reshape(-1)
+        except (TypeError, ValueError):
+            raise UserError(f"{self.filename}: variant: expected a whole number, a slice or a list of them, "
+                            f"got {variant!r}") from None
+        bad = idx[(idx < -self.n_variants) | (idx >= self.n_variants)]
+        if bad.size:
+            raise UserError(f"{self.filename}: variant {int(bad[0])} out of range (0 to {self.n_variants - 1})")
+        idx = np.where(idx < 0, idx + self.n_variants, idx)
+        uniq, back = np.unique(idx, return_inverse=True)
+        if uniq.size == 0:
+            return np.empty((0,) + g[vertex].shape[1:])
+        return g[vertex][uniq][back]
 
     def _vertex(self, vertex) -> str:
         if vertex is not None:
@@ -236,7 +261,8 @@ class Results:
     def path(self, variant: int, vertex: str | None = None) -> np.ndarray:
         """Positions of ``vertex`` (default: the foot) for one variant, shape (steps, 2), model units.
 
-        ``variant`` may also be a slice or a sorted index array, giving (n, steps, 2).
+        ``variant`` may also be a slice or any list of variants (any order, repeats allowed, such as
+        ``r.rank(...).variant.values``), giving (n, steps, 2) in that order.
         """
         return self._series("paths", variant, vertex)
 

@@ -22,6 +22,7 @@ one single-threaded worker per core (``dask worker ADDRESS --nworkers N --nthrea
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import sys
 import time
@@ -33,9 +34,10 @@ import numpy as np
 
 from ..errors import UserError
 from ..kernels import STATUS_NAMES
+from ..store._lock import OutputLock
 from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch,
                              write_shard)
-from ..store._write import FILE_STATUS_NAMES, FORMAT, _mechanism_text
+from ..store._write import FILE_STATUS_NAMES, FORMAT, _mechanism_text, fingerprint_diff
 from ._chunk import chunk_solver
 from ._run import RunSummary, _state, results_path, validate_study
 from ._spec import Study, load_study
@@ -156,6 +158,12 @@ def run_study_dask(client, study=None, output=None, resume: bool = False, force:
     study = load_study(study)
     out = results_path(study, output, resume, force, shard_size=shard_size, chunk_size=chunk_size)
     validate_study(study)
+    with OutputLock(out):  # one run per output, from creation to the end
+        return _run_dask_locked(client, distributed, study, out, resume, force, shard_size, progress, chunk_size,
+                                retries, t0)
+
+
+def _run_dask_locked(client, distributed, study, out, resume, force, shard_size, progress, chunk_size, retries, t0):
     folder = shards_folder(out)
 
     # -- what is there already
@@ -183,7 +191,8 @@ def run_study_dask(client, study=None, output=None, resume: bool = False, force:
         raise UserError(f"{folder}: holds the shards of an unfinished run; pass --resume to finish it or "
                         f"--force to start over")
     elif old is not None and old.fingerprint != study.fingerprint():
-        raise UserError(f"{folder}: holds shards of a different study; pass --force to start over")
+        why = fingerprint_diff(json.loads(old.fingerprint), json.loads(study.fingerprint()))
+        raise UserError(f"{folder}: holds shards of a different run ({why}); pass --force to start over")
 
     workers = _worker_threads(client)
     if old is not None:

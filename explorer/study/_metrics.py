@@ -104,7 +104,7 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
         f = h5py.File(p, "r+")
     except (OSError, ValueError) as exc:
         reason = _reason(exc)
-        if "lock" in reason or "in use" in reason:
+        if "unable to lock" in reason or "in use" in reason:
             reason = "the file is open in another process (close it, or wait for `explorer run` to finish)"
         raise UserError(f"{p}: cannot open the results file for writing: {reason}") from None
     try:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import queue
+import stat
 import sys
 import threading
 import time
@@ -13,6 +15,7 @@ import numpy as np
 
 from ..errors import UserError, where
 from ..kernels import STATUS_NAMES, assemble
+from ..store._lock import OutputLock
 from ..store._write import FILE_STATUS_NAMES, ResultsWriter
 from ._chunk import chunk_solver, compute_study_metrics, metric_plan
 from ._spec import Study, load_study
@@ -96,6 +99,11 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
     study = load_study(study)
     out = results_path(study, output, resume, force, chunk_size=chunk_size)
     validate_study(study)
+    with OutputLock(out):  # one run per output, from creation to the end
+        return _run_locked(study, out, resume, force, progress, chunk_size, t0)
+
+
+def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chunk_size, t0: float) -> RunSummary:
     resumed = False
     if out.exists():
         if resume:
@@ -171,10 +179,70 @@ def results_path(study, output, resume: bool, force: bool, **sizes) -> Path:
         raise UserError("--resume and --force exclude each other: resume finishes a file, force starts it over")
     if out.is_dir():
         raise UserError(f"{out}: is a folder; the results path must be a file such as {out / (study.name + '.h5')}")
+    inputs = [("study", study.source), ("mechanism", study.mechanism_path)]
+    for what, src in inputs:
+        if src and Path(src).is_file() and _same_file(out, Path(src)):
+            raise UserError(f"{out}: is the run's own {what} file; choose another results path with -o")
+    if force and (out.exists() or out.is_symlink()):
+        _check_overwritable(out)
+    _check_disk_space(study, out)
     for name, v in sizes.items():
         if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
             raise UserError(f"{name.replace('_', ' ')}: expected an integer ≥ 1 (variants), got {v!r}")
     return out
+
+
+def estimated_bytes(study) -> int:
+    """An upper estimate of a study's results file: every stored series uncompressed (compression
+    saves 15-20 %), plus the per-variant columns."""
+    n_series = len(study.vertex_names) * (1 + int(study.velocities) + int(study.accelerations))
+    per_variant = n_series * study.steps * 2 * 8 + (len(study.mech.links) + 32) * 8
+    return study.n_variants * per_variant
+
+
+def _check_disk_space(study, out: Path) -> None:
+    """Refuse, before anything is written, a study whose results would not fit on the disk."""
+    import shutil
+    folder = out.parent if str(out.parent) else Path(".")
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return
+    need = estimated_bytes(study)
+    if study.compression != "none":
+        need = int(need * 0.8)  # lzf/gzip + shuffle: 0.77-0.85 of the raw size, measured
+    if need > free:
+        raise UserError(f"{out}: the study would write about {need / 1e9:,.1f} GB and {folder} has "
+                        f"{free / 1e9:,.1f} GB free; store fewer vertices, steps or variants (or another disk)")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        if a.exists():
+            return os.path.samefile(a, b)
+        return a.resolve() == b.resolve()
+    except OSError:
+        return False
+
+
+def _check_overwritable(out: Path) -> None:
+    """--force replaces explorer results files only: not a study, a mechanism, a device, anything else."""
+    import h5py
+    from ..store import FORMAT
+    if out.is_symlink() or not stat.S_ISREG(out.stat().st_mode):
+        raise UserError(f"{out}: is not a regular file; --force overwrites explorer results files only")
+    try:
+        with h5py.File(out, "r") as f:
+            ours = f.attrs.get("format") == FORMAT
+    except OSError as exc:
+        if "unable to lock" in str(exc).lower():
+            raise UserError(f"{out}: is open in another process; wait for it to finish") from None
+        ours = False
+    if not ours:
+        raise UserError(f"{out}: is not an explorer results file; --force overwrites explorer results files only "
+                        f"(move it away or choose another output with -o)")
 
 
 #: Commit chunks on a background thread while the next chunk is solved (h5py releases the GIL while

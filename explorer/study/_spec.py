@@ -52,10 +52,10 @@ directory.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -63,7 +63,7 @@ from pathlib import Path
 from ..errors import UserError, where
 from ..gait import SCREEN_KEYS, Screen, screen_from_dict
 from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
-from ..mechanism import Mechanism, Walker, builtin_mechanisms, load_mechanism, walker_from_dict
+from ..mechanism import Mechanism, Walker, builtin_mechanisms, load_mechanism, parse_toml, walker_from_dict
 
 PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "oat", "grid")
 SOLVE_METHODS = ("block", "dense")
@@ -168,12 +168,22 @@ class Study:
         }
 
     def fingerprint(self) -> str:
-        """JSON of everything that decides the results (the output path excluded): equal fingerprints,
-        equal results. ``--resume`` uses it to refuse finishing a file with a different study."""
+        """JSON of everything that decides the results (the output path and the screen excluded): the
+        resolved study, the mechanism file's content (SHA-256) and the explorer version. Equal
+        fingerprints, equal results: ``--resume`` refuses to finish a file with another one."""
         d = self.as_dict()
         del d["output"]
         del d["screen"]  # applied when ranking; the stored numbers do not depend on it
+        d["mechanism_sha256"] = hashlib.sha256(self.mechanism_text().encode()).hexdigest()
+        from .. import __version__
+        d["explorer_version"] = __version__
         return json.dumps(d, sort_keys=True)
+
+    def mechanism_text(self) -> str:
+        """The TOML text of the study's mechanism file (a built-in's own file for a built-in)."""
+        if self.mechanism_path:
+            return Path(self.mechanism_path).read_text(encoding="utf-8")
+        return (resources.files("explorer.mechanism") / "builtin" / f"{self.mechanism}.toml").read_text(encoding="utf-8")
 
 
 def variant_count(method: str, variants: int, k: int) -> int:
@@ -232,10 +242,7 @@ def load_study(study=None, *, source: str | None = None) -> Study:
             text = (resources.files("explorer.study") / "builtin" / f"{s}.toml").read_text(encoding="utf-8")
         else:
             raise UserError(f"{s}: no such study file or built-in study (built-ins: {', '.join(builtin_studies())})")
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise UserError(f"{src}: not valid TOML: {exc}") from None
+        data = parse_toml(text, src)
     return study_from_dict(data, src, text=text, base=base)
 
 

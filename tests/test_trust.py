@@ -1,0 +1,188 @@
+"""Trust under careless input: a run never overwrites its own inputs or anything that is not a results
+file, never resumes a file made from other inputs, and never shares its output with another run; a
+damaged or foreign file is a one-line error, never a number; the API does what its call says."""
+
+from __future__ import annotations
+
+import os
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import explorer
+from explorer.cli import main
+from explorer.errors import UserError
+from explorer.store._lock import OutputLock
+
+STUDY = """[study]
+name = "trust"
+mechanism = "leg.toml"
+variants = 6
+steps = 24
+[perturb]
+spread = 0.01
+[scene]
+metrics = true
+[output]
+path = "out.h5"
+"""
+
+
+@pytest.fixture
+def files(tmp_path):
+    leg = tmp_path / "leg.toml"
+    leg.write_text((resources.files("explorer.mechanism") / "builtin" / "jansen.toml").read_text(), encoding="utf-8")
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY, encoding="utf-8")
+    return tmp_path, study, leg
+
+
+def cli(capsys, *args):
+    code = main([str(a) for a in args])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.mark.parametrize("which", ["study", "leg"])
+def test_output_that_is_an_input_is_refused(files, capsys, which):
+    tmp, study, leg = files
+    target = study if which == "study" else leg
+    before = target.read_bytes()
+    code, _, err = cli(capsys, "run", study, "-o", target, "--force", "-q")
+    assert code == 2 and err.count("\n") == 1
+    assert ("run's own study file" if which == "study" else "run's own mechanism file") in err
+    assert target.read_bytes() == before
+
+
+def test_force_overwrites_results_files_only(files, capsys):
+    tmp, study, leg = files
+    text = tmp / "notes.txt"
+    text.write_text("precious", encoding="utf-8")
+    code, _, err = cli(capsys, "run", study, "-o", text, "--force", "-q")
+    assert code == 2 and "not an explorer results file" in err and text.read_text() == "precious"
+    fifo = tmp / "pipe"
+    os.mkfifo(fifo)
+    code, _, err = cli(capsys, "run", study, "-o", fifo, "--force", "-q")
+    assert code == 2 and "not a regular file" in err and not fifo.is_file()
+    # a results file is replaced
+    out = tmp / "out.h5"
+    assert cli(capsys, "run", study, "-o", out, "-q")[0] == 0
+    assert cli(capsys, "run", study, "-o", out, "--force", "-q")[0] == 0
+    assert not list(tmp.glob(".*lock")) and not list(tmp.glob(".*partial"))
+
+
+def test_resume_refuses_a_changed_mechanism_or_version(files, capsys, monkeypatch):
+    tmp, study, leg = files
+    out = tmp / "out.h5"
+    assert cli(capsys, "run", study, "-o", out, "-q")[0] == 0
+    import h5py
+    with h5py.File(out, "r+") as f:  # as if the run had been interrupted
+        f.attrs["complete"] = False
+        f["chunks/done"][-1] = False
+    leg.write_text(leg.read_text().replace("length = 50.0", "length = 50.5", 1), encoding="utf-8")
+    code, _, err = cli(capsys, "run", study, "-o", out, "--resume", "-q")
+    assert code == 2 and "the mechanism file's content changed" in err and "--force" in err
+    leg.write_text(leg.read_text().replace("length = 50.5", "length = 50.0", 1), encoding="utf-8")
+    monkeypatch.setattr(explorer, "__version__", "99.0")
+    code, _, err = cli(capsys, "run", study, "-o", out, "--resume", "-q")
+    assert code == 2 and "explorer is now version 99.0" in err
+    monkeypatch.undo()
+    assert cli(capsys, "run", study, "-o", out, "--resume", "-q")[0] == 0
+
+
+def test_a_second_run_on_one_output_is_refused(files, capsys):
+    tmp, study, leg = files
+    out = tmp / "out.h5"
+    with OutputLock(out):  # another run holds it
+        code, _, err = cli(capsys, "run", study, "-o", out, "-q")
+        assert code == 2 and f"another explorer run (pid {os.getpid()})" in err
+        assert not out.exists()
+    assert cli(capsys, "run", study, "-o", out, "-q")[0] == 0
+    assert not list(tmp.glob(".*lock"))
+    with pytest.raises(UserError, match="another explorer run"):
+        with OutputLock(out):
+            explorer.run_study(str(study), output=out, force=True, progress=False)
+
+
+# -- damaged and foreign results files ---------------------------------------------------------------------
+@pytest.fixture
+def results(files, capsys):
+    tmp, study, leg = files
+    out = tmp / "out.h5"
+    assert cli(capsys, "run", study, "-o", out, "-q")[0] == 0
+    return out
+
+
+def _scramble_chunk(path, name, chunk=0):
+    import h5py
+    with h5py.File(path, "r") as f:
+        info = f[name].id.get_chunk_info(chunk)
+    with open(path, "r+b") as fh:
+        fh.seek(info.byte_offset + info.size // 2)
+        fh.write(b"\x5a\xa5\x5a\xa5")
+
+
+def test_a_corrupt_chunk_is_an_error_never_a_number(results, capsys, tmp_path):
+    import h5py
+    with h5py.File(results, "r") as f:
+        stride_before = f["metrics/stride"][...].tobytes()
+    _scramble_chunk(results, "paths/7")
+    for argv in (["plot", results, "--top", "2", "-o", tmp_path / "p.png"], ["metrics", results, "--band", "0.02"]):
+        code, _, err = cli(capsys, *argv)
+        assert code == 2 and err.count("\n") == 1 and ("checksum" in err or "corrupt" in err), err
+    with h5py.File(results, "r") as f:  # the failed recompute left the stored metrics as they were
+        assert f["metrics/stride"][...].tobytes() == stride_before
+        assert "metrics_partial" not in f
+    _scramble_chunk(results, "metrics/travel")
+    code, _, err = cli(capsys, "rank", results)
+    assert code == 2 and ("checksum" in err or "corrupt" in err), err
+
+
+def test_truncated_and_foreign_files_give_one_line(results, capsys, tmp_path):
+    import h5py
+    trunc = tmp_path / "trunc.h5"
+    trunc.write_bytes(results.read_bytes()[: results.stat().st_size // 3])
+    code, _, err = cli(capsys, "rank", trunc)
+    assert code == 2 and err.count("\n") == 1 and "in use" not in err and "truncated or corrupt" in err, err
+    bare = tmp_path / "bare.h5"
+    with h5py.File(bare, "w") as f:
+        f.attrs["format"] = "explorer-results"
+    for verb in (["rank", bare], ["show", bare, "0"], ["plot", bare, "--top", "1", "-o", tmp_path / "x.png"]):
+        code, _, err = cli(capsys, *verb)
+        assert code == 2 and err.count("\n") == 1 and "not a readable explorer results file" in err, err
+    broken = tmp_path / "broken.h5"
+    broken.write_bytes(results.read_bytes())
+    with h5py.File(broken, "r+") as f:
+        f.attrs["study_resolved"] = "{not json"
+    code, _, err = cli(capsys, "rank", broken)
+    assert code == 2 and "not a readable explorer results file" in err, err
+
+
+# -- API surprises ---------------------------------------------------------------------------------------
+def test_results_path_takes_any_order_and_repeats(results):
+    with explorer.open_results(results) as r:
+        whole = r.file["paths/7"][...]
+        order = [4, 1, 4, 0, -1]
+        np.testing.assert_array_equal(r.path(order), whole[[4, 1, 4, 0, 5]])
+        np.testing.assert_array_equal(r.path(np.array([3, 2])), whole[[3, 2]])
+        with pytest.raises(UserError, match="variant 6 out of range"):
+            r.path([1, 6])
+
+
+def test_one_vertex_name_is_not_its_characters():
+    m = explorer.load_mechanism("jansen")
+    b = explorer.simulate_batch(m, m.lengths[None], [15.0], 12, vertices="7")
+    assert list(b.paths) == ["7"]
+    assert repr(b).startswith("<Batch 1 variants x 12 steps") and "\n" not in repr(b)
+    c = explorer.simulate(m, 12)
+    assert repr(c) == "<Cycle jansen: 12 steps, 7 vertices + velocities; ok>"
+
+
+def test_bounded_dpi_and_help_without_double_percent(results, capsys, tmp_path):
+    code, _, err = cli(capsys, "plot", results, "--top", "1", "--dpi", "1e9", "-o", tmp_path / "a.png")
+    assert code == 2 and "--dpi: expected a number from 1 to 1200" in err
+    for verb in ("show", "run", "plot", "rank"):
+        with pytest.raises(SystemExit):
+            main([verb, "--help"])
+        assert "%%" not in capsys.readouterr().out
