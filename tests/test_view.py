@@ -323,14 +323,20 @@ def test_plot_scatter_front_and_nominal(results):
     fig = plot_scatter(results, "stride", "flatness")
     ax = fig.axes[0]
     df = results.frame()
-    ok = df[df["status"] == "ok"]
+    every_ok = df[df["status"] == "ok"]
+    ok = every_ok[every_ok["buildable"]]  # the front is over the legs the screen passes
+    screened = every_ok[~every_ok["buildable"]].dropna(subset=["stride", "flatness"])
     front = ok[pareto_front(ok, ["stride", "flatness"])]
     line = next(l for l in ax.get_lines() if l.get_label().startswith("Pareto"))
     assert sorted(line.get_xdata()) == sorted(front["stride"])
     star = next(l for l in ax.get_lines() if l.get_label().startswith("nominal"))
     assert star.get_xdata()[0] == pytest.approx(df.loc[0, "stride"])
     assert "higher is better" in ax.get_xlabel() and "lower is better" in ax.get_ylabel()
-    assert len(ax.collections[0].get_offsets()) == len(ok.dropna(subset=["stride", "flatness"]))
+    shown = {c.get_label().split(" (")[0]: len(c.get_offsets()) for c in ax.collections}
+    assert shown["buildable variants"] == len(ok.dropna(subset=["stride", "flatness"]))
+    assert shown.get("screened out as unbuildable", 0) == len(screened)
+    every = plot_scatter(results, "stride", "flatness", include_screened=True).axes[0]
+    assert len(every.collections[0].get_offsets()) == len(every_ok.dropna(subset=["stride", "flatness"]))
     with pytest.raises(UserError, match="two different"):
         plot_scatter(results, "stride", "stride")
 

@@ -33,8 +33,8 @@ def register(sub) -> None:
     p.add_argument("--weights", metavar="M1=W1,...", default=None,
                    help="with --top: rank by a weighted score of these metrics instead")
     p.add_argument("--include-screened", action="store_true",
-                   help="with --top: also rank variants the buildability screen removes (toggle, foot above the "
-                        "frame, crossing path)")
+                   help="with --top or --scatter: also rank (or put on the front) the variants the buildability "
+                        "screen removes (toggle, foot above the frame, foot whip, crossing path)")
     p.add_argument("--where", metavar="EXPR", default=None,
                    help="filter for --top and --scatter over the frame's columns, e.g. \"bob < 0.2 and slip < 0.01\" (comparisons, arithmetic, and/or/not, in [...]; `backticks` for names such as `1-3`)")
     p.add_argument("-o", "--output", metavar="PATH", default=None,
@@ -57,7 +57,7 @@ def _mode(args) -> str:
         raise UserError("plot: say what to plot: --top N [--by METRIC], --scatter M1,M2, --velocity VARIANT "
                         "or --sensitivity")
     for opt, given in (("--by", args.by is not None), ("--weights", args.weights is not None),
-                       ("--include-screened", args.include_screened)):
+                       ("--include-screened", args.include_screened and mode != "scatter")):
         if given and mode != "top":
             raise UserError(f"plot: {opt} goes with --top, not with --{mode}")
     if args.by is not None and args.weights is not None:
@@ -90,7 +90,7 @@ def run(args) -> int:
             names = [s.strip() for s in args.scatter.split(",") if s.strip()]
             if len(names) != 2:
                 raise UserError(f"--scatter: expected two metrics as M1,M2, got {args.scatter!r}")
-            fig = plot_scatter(res, names[0], names[1], where=args.where)
+            fig = plot_scatter(res, names[0], names[1], where=args.where, include_screened=args.include_screened)
         elif mode == "velocity":
             fig = plot_velocity(res, args.velocity)
         else:

@@ -34,7 +34,8 @@ from ._draw import STANCE_COLOR
 #: Figure formats save_figure writes, by extension.
 FIGURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 
-_UNIT_TEXT = {"length": "model units", "length/rad": "model units/rad"}
+_UNIT_TEXT = {"length": "model units", "length/rad": "model units/rad", "length/turn": "model units per crank turn",
+              "1 (per W·crank)": "per weight × crank radius"}
 
 
 # -- figures and files ---------------------------------------------------------------------------------
@@ -261,11 +262,13 @@ def _cmap(n: int) -> list:
 
 
 # -- plot_scatter ---------------------------------------------------------------------------------------
-def plot_scatter(results, x: str, y: str, *, where: str | None = None, directions=None, figsize=(7.5, 5.5),
-                 dpi: float = 100) -> Figure:
+def plot_scatter(results, x: str, y: str, *, where: str | None = None, directions=None,
+                 include_screened: bool = False, figsize=(7.5, 5.5), dpi: float = 100) -> Figure:
     """Every ok variant as a point in metrics ``x`` and ``y``, the Pareto front over both, the nominal marked.
 
-    ``directions`` overrides the natural directions of the front (dict metric -> "max"/"min").
+    Variants the buildability screen removes are drawn in grey and left off the front unless
+    ``include_screened`` (as ``explorer rank`` leaves them out). ``directions`` overrides the natural
+    directions of the front (dict metric -> "max"/"min").
     """
     df = results.frame()
     x, y = _check_metric(df, x), _check_metric(df, y)
@@ -273,13 +276,19 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
         raise UserError(f"scatter: name two different metrics, got {x!r} twice")
     ok = df[ok_mask(df)]
     if where:
-        ok = select(ok, where, include_failed=True)
+        ok = select(ok, where, include_failed=True, include_screened=True)
     ok = ok[np.isfinite(ok[x].to_numpy(dtype=float)) & np.isfinite(ok[y].to_numpy(dtype=float))]
+    out = ok[screened_mask(ok)] if not include_screened else ok.iloc[:0]
+    ok = ok[~screened_mask(ok)] if not include_screened else ok
     mech = results.mechanism
     fig = new_figure(figsize, dpi)
     ax = fig.add_subplot()
+    if len(out):
+        ax.scatter(out[x], out[y], s=6, color="0.7", alpha=0.5, lw=0, rasterized=len(out) > 2000,
+                   label=f"screened out as unbuildable ({len(out)})", zorder=1)
+    label = "ok variants" if include_screened or "buildable" not in df.columns else "buildable variants"
     ax.scatter(ok[x], ok[y], s=7, color="tab:blue", alpha=0.45, lw=0, rasterized=len(ok) > 2000,
-               label=f"ok variants ({len(ok)})", zorder=2)
+               label=f"{label} ({len(ok)})", zorder=2)
     front = ok[pareto_front(ok, [x, y], directions)] if len(ok) else ok
     if len(front):
         f = front.sort_values([x, y])
@@ -295,7 +304,7 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     ax.legend(loc="best", fontsize="small")
     n = len(df)
     filt = f", where {where}" if where else ""
-    ax.set_title(f"{mech.name}: {y} against {x}, {len(ok)} ok of {n} variants{filt}", fontsize="medium")
+    ax.set_title(f"{mech.name}: {y} against {x}, {len(ok) + len(out)} ok of {n} variants{filt}", fontsize="medium")
     return fig
 
 
