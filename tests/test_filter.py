@@ -28,6 +28,7 @@ def frame():
         "1-3": rng.uniform(49, 51, n),
         "status": pd.Categorical(rng.choice(["ok", "assembly", "branch"], n)),
         "buildable": rng.random(n) < 0.7,
+        "screen": np.array(rng.choice(["pass", "toggle: min transmission angle 4.1° < 5°"], n), dtype=object),
     })
 
 
@@ -54,6 +55,8 @@ VALID = [
     ("buildable and not (bob > 1)", "buildable and not (bob > 1)"),
     ("buildable == true", "buildable == True"),
     ("stride > 1e9", "stride > 1e9"),
+    ("screen == 'pass' and bob < 1", "screen == 'pass' and bob < 1"),   # a text column (str under pandas 3)
+    ("screen != 'pass'", "screen != 'pass'"),
 ]
 
 

@@ -157,10 +157,13 @@ def evaluate_filter(df, text: str) -> np.ndarray:
         if col not in df.columns:
             known = ", ".join(str(c) for c in df.columns)
             raise FilterError(f"where: unknown column {col!r} in {text!r} (columns: {known})")
+        import pandas as pd
         s = df[col]
-        if s.dtype == object or str(s.dtype) == "category" or s.dtype == bool:
-            return s.astype(object).to_numpy() if s.dtype != bool else s.to_numpy(dtype=bool)
-        return s.to_numpy(dtype=np.float64, na_value=np.nan)
+        if pd.api.types.is_bool_dtype(s):
+            return s.to_numpy(dtype=bool)
+        if pd.api.types.is_numeric_dtype(s):
+            return s.to_numpy(dtype=np.float64, na_value=np.nan)
+        return s.astype(object).to_numpy()  # text: object, str (pandas 3) or categorical columns
 
     def ev(node):
         if isinstance(node, ast.BoolOp):
