@@ -1,21 +1,49 @@
 """explorer: design-space exploration of planar linkages (Jansen's Strandbeest leg first).
 
-The pipeline, one subpackage each: mechanism → plan → kernels → study → store → gait → view → cli.
+The pipeline, one subpackage each: mechanism → plan → kernels → gait → store → study → view → cli.
+
+The public names below are imported on first use (PEP 562), so that ``import explorer`` and
+``explorer --help`` stay light: Numba, h5py and the kernels load only when something needs them.
 """
 
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
 
 from .errors import UserError
-from .kernels import STATUS_NAMES, Batch, Cycle, Failure, simulate, simulate_batch
-from .mechanism import Crank, Link, Mechanism, PathDriver, builtin_mechanisms, load_mechanism
-from .plan import Grashof, grashof, make_plan
-from .store import Results, open_results
-from .study import RunSummary, Study, load_study, recompute_metrics, run_study, run_study_dask, sample_variants
 
 try:
     __version__ = version("explorer")
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+unknown"
+
+#: public name -> the subpackage that defines it
+_LAZY = {
+    **dict.fromkeys(("STATUS_NAMES", "Batch", "Cycle", "Failure", "simulate", "simulate_batch"), "kernels"),
+    **dict.fromkeys(("Crank", "Link", "Mechanism", "PathDriver", "builtin_mechanisms", "load_mechanism"), "mechanism"),
+    **dict.fromkeys(("Grashof", "grashof", "make_plan"), "plan"),
+    **dict.fromkeys(("Results", "open_results"), "store"),
+    **dict.fromkeys(("RunSummary", "Study", "load_study", "recompute_metrics", "run_study", "run_study_dask",
+                     "sample_variants"), "study"),
+}
+
+
+#: the subpackages, reachable as attributes (``explorer.gait``) like any imported submodule
+_SUBPACKAGES = ("bench", "cli", "gait", "kernels", "mechanism", "plan", "store", "study", "view")
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value  # once imported, a plain attribute
+        return value
+    if name in _SUBPACKAGES:
+        return import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'explorer' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = ["STATUS_NAMES", "Batch", "Crank", "Cycle", "Failure", "Grashof", "Link", "Mechanism", "PathDriver",
            "UserError", "builtin_mechanisms", "grashof", "load_mechanism", "make_plan", "simulate", "simulate_batch",

@@ -186,3 +186,83 @@ def test_bounded_dpi_and_help_without_double_percent(results, capsys, tmp_path):
         with pytest.raises(SystemExit):
             main([verb, "--help"])
         assert "%%" not in capsys.readouterr().out
+
+
+def test_closed_needs_no_velocities_flag_and_batch_agrees_with_simulate_on_a_failed_nominal():
+    m = explorer.load_mechanism("jansen")
+    c = explorer.simulate(m, 36, method="closed")  # positions only, by default
+    assert c.ok and c.velocities is None
+    b = explorer.simulate_batch(m, m.lengths[None], [15.0], 36, method="closed")
+    assert b.velocities == {} and b.status[0] == 0
+    with pytest.raises(UserError, match="positions only"):
+        explorer.simulate(m, 36, method="closed", velocities=True)
+    # a nominal that cannot assemble: simulate reports it, simulate_batch too (no exception)
+    broken = m.with_lengths({"1-3": 5.0})
+    one = explorer.simulate(broken, 36)
+    assert not one.ok and one.failure.kind == "assembly"
+    many = explorer.simulate_batch(broken, np.tile(broken.lengths, (3, 1)), np.full(3, 15.0), 36)
+    assert many.status.tolist() == [1, 1, 1] and np.isnan(many.paths["7"]).all()
+    assert (many.fail_theta == one.failure.theta).all()
+    assert set(many.fail_block.tolist()) == {one.failure.block}
+
+
+def test_help_and_loading_stay_light():
+    """`explorer --help` and loading a study file import neither Numba nor h5py nor pandas."""
+    import subprocess
+    import sys
+    code = ("import sys\nfrom explorer.cli import main\n"
+            "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "import explorer\nexplorer.UserError\n"
+            "heavy = [m for m in ('numba', 'h5py', 'pandas', 'matplotlib') if m in sys.modules]\n"
+            "assert not heavy, heavy\nprint('light')")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip().endswith("light"), out.stderr
+
+
+# -- signals ----------------------------------------------------------------------------------------------
+def _start_and_signal(tmp_path, out, signals, gap):
+    import signal
+    import subprocess
+    import sys
+    import time
+    study = tmp_path / "big.toml"
+    study.write_text('[study]\nname = "big"\nmechanism = "jansen"\nvariants = 150000\nsteps = 72\n'
+                     '[scene]\nmetrics = true\n', encoding="utf-8")
+    proc = subprocess.Popen([sys.executable, "-m", "explorer.cli", "run", str(study), "-o", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while not out.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+    time.sleep(0.4)  # a chunk or two in
+    for sig in signals:
+        proc.send_signal({"INT": signal.SIGINT, "TERM": signal.SIGTERM}[sig])
+        time.sleep(gap)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err, study
+
+
+@pytest.mark.parametrize("signals,gap,code", [(("INT", "INT"), 0.0, 130), (("INT", "INT"), 0.03, 130),
+                                             (("TERM",), 0.0, 143)])
+def test_interrupts_stop_cleanly_and_resume(tmp_path, capsys, signals, gap, code):
+    out = tmp_path / "big.h5"
+    rc, err, study = _start_and_signal(tmp_path, out, signals, gap)
+    if rc == 0:
+        pytest.skip("the run finished before the signal arrived (a very fast machine)")
+    assert rc == code, err                               # not a negative code: no crash
+    assert err.strip().count("\n") == 0 and "--resume" in err, err
+    assert ("terminated" if code == 143 else "interrupted") in err
+    assert not list(tmp_path.glob(".*lock")) and not list(tmp_path.glob(".*partial"))
+    assert main(["run", str(study), "-o", str(out), "--resume", "-q"]) == 0
+    with explorer.open_results(out) as r:
+        assert r.complete and (r.file["status"][...] >= 0).all()
+
+
+def test_one_way_to_name_a_variant(results, capsys, tmp_path):
+    a = cli(capsys, "show", results, "3")
+    b = cli(capsys, "show", results, "--variant", "3")
+    assert a[0] == b[0] == 0 and a[1] == b[1]
+    assert cli(capsys, "show", results)[0] == 2
+    assert cli(capsys, "plot", results, "--velocity", "--variant", "1", "-o", tmp_path / "v.png")[0] == 0
+    assert cli(capsys, "plot", results, "--velocity", "1", "-o", tmp_path / "w.png")[0] == 0
+    code, _, err = cli(capsys, "plot", results, "--top", "2", "--variant", "1", "-o", tmp_path / "t.png")
+    assert code == 2 and "--variant goes with --velocity" in err

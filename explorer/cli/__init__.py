@@ -62,10 +62,26 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminate_as_interrupt():
+    """SIGTERM stops a run like Ctrl-C (between commits, saying how to resume); returns the handler it
+    replaced (None outside the main thread)."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def terminate(signum, frame):
+        from ..study import Terminated
+        raise Terminated()
+
+    return signal.signal(signal.SIGTERM, terminate)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``explorer`` command; returns the exit code (0 ok, 2 user error)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    previous = _terminate_as_interrupt()
     try:
         code = args.func(args)
     except UserError as exc:
@@ -73,8 +89,12 @@ def main(argv=None) -> int:
         print(f"explorer: error: {msg}", file=sys.stderr)
         return getattr(exc, "exit_code", 2)
     except KeyboardInterrupt as exc:
-        print(f"explorer: interrupted{': ' + str(exc) if str(exc) else ''}", file=sys.stderr)
-        return 130
+        terminated = type(exc).__name__ == "Terminated"
+        word = "terminated" if terminated else "interrupted"
+        text = str(exc)
+        print(f"explorer: {text if text.split(': ', 1)[-1].startswith(word) else word + (': ' + text if text else '')}",
+              file=sys.stderr)
+        return 143 if terminated else 130
     except BrokenPipeError:  # e.g. `explorer rank ... | head`
         return 0
     except OSError as exc:  # a damaged results file (a checksum that fails), a full disk, …: one line, exit 2
@@ -83,4 +103,8 @@ def main(argv=None) -> int:
             what = f"corrupt data in a results file (a chunk fails its checksum): {what}"
         print(f"explorer: error: {what[:400]}", file=sys.stderr)
         return 2
+    finally:
+        if previous is not None:
+            import signal
+            signal.signal(signal.SIGTERM, previous)
     return int(code or 0)

@@ -29,12 +29,12 @@ def register(sub) -> None:
                        description="Benchmarks of explorer's solvers, run on this machine.")
     verbs = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
     a = verbs.add_parser(
-        "accuracy", help="accuracy vs time: Newton tolerance x crank steps x method (+ the seeds' formulations)",
+        "accuracy", help="accuracy vs time: Newton tolerance x crank steps x method (+ the link-angle formulations)",
         description="Over the variants that assemble (default: 1,000 Jansen variants at ±2 %), sweep Newton "
                     "tolerance, crank steps per cycle and method (block Newton, dense Newton, exact closed form), "
-                    "plus the seeds' formulations as extra rows (seed 001: 8 link angles, full 8x8 Newton and the "
-                    "'sequential' 4 x 2x2 solve; seed 003: Gauss-Seidel instead of Gaussian elimination in the "
-                    "Newton step). Per cell: wall time (best of a few runs, kernels warmed), mean Newton "
+                    "plus the link-angle formulations explorer grew from as extra rows (8 link angles solved as one "
+                    "8x8 Newton system and as four 2x2 systems in order; Gauss-Seidel instead of Gaussian "
+                    "elimination in the Newton step). Per cell: wall time (best of a few runs, kernels warmed), mean Newton "
                     "iterations, max foot-position error against the closed form at the same angles, and the error "
                     "of stride, flatness and stance_speed against a 14,400-step closed-form reference. Prints a "
                     "table and writes DIR/accuracy.csv and DIR/accuracy.png (log-log error vs time).")

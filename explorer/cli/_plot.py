@@ -22,7 +22,7 @@ def register(sub) -> None:
                         "ranks them (default: the walker score; or --by / --weights)")
     g.add_argument("--scatter", metavar="M1,M2", default=None,
                    help="every ok variant in two metrics (x,y) with the Pareto front and the nominal marked")
-    g.add_argument("--velocity", type=int, metavar="VARIANT", default=None,
+    g.add_argument("--velocity", type=int, metavar="VARIANT", nargs="?", const=-1, default=None,
                    help="dx/dθ and dy/dθ of the foot of one variant (0 = nominal): analytic solid, central "
                         "finite differences dashed on top")
     g.add_argument("--sensitivity", action="store_true",
@@ -39,6 +39,8 @@ def register(sub) -> None:
                    help="filter for --top and --scatter over the frame's columns, e.g. \"bob < 0.2 and slip < 0.01\" (comparisons, arithmetic, and/or/not, in [...]; `backticks` for names such as `1-3`)")
     p.add_argument("-o", "--output", metavar="PATH", default=None,
                    help="output .png, .svg or .pdf (default: RESULTS-<mode>.png in the working directory)")
+    p.add_argument("--variant", type=int, metavar="N", default=None,
+                   help="with --velocity: the variant (as in `explorer show --variant` and `explorer animate`)")
     p.add_argument("--dpi", type=float, default=150, help="resolution of PNG output (default: 150)")
     p.set_defaults(func=run)
 
@@ -62,6 +64,8 @@ def _mode(args) -> str:
             raise UserError(f"plot: {opt} goes with --top, not with --{mode}")
     if args.by is not None and args.weights is not None:
         raise UserError("plot: --by and --weights exclude each other: pick one way to rank")
+    if args.variant is not None and mode != "velocity":
+        raise UserError(f"plot: --variant goes with --velocity, not with --{mode}")
     if args.where is not None and mode not in ("top", "scatter"):
         raise UserError(f"plot: --where goes with --top or --scatter, not with --{mode}")
     return mode
@@ -92,7 +96,13 @@ def run(args) -> int:
                 raise UserError(f"--scatter: expected two metrics as M1,M2, got {args.scatter!r}")
             fig = plot_scatter(res, names[0], names[1], where=args.where, include_screened=args.include_screened)
         elif mode == "velocity":
-            fig = plot_velocity(res, args.velocity)
+            v = args.velocity if args.velocity != -1 else args.variant
+            if args.velocity != -1 and args.variant is not None and args.variant != args.velocity:
+                raise UserError(f"plot: two different variants given (--velocity {args.velocity}, --variant "
+                                f"{args.variant})")
+            if v is None:
+                raise UserError("plot: --velocity needs a variant: --velocity --variant N (or --velocity N)")
+            fig = plot_velocity(res, v)
         else:
             fig = plot_sensitivity(res)
         path = save_figure(fig, out, dpi=args.dpi)

@@ -1,4 +1,4 @@
-"""``explorer show RESULTS VARIANT``: one variant's lengths against the nominal, its metrics and ranks, its status."""
+"""``explorer show RESULTS VARIANT`` (or ``--variant N``): one variant's lengths against the nominal, its metrics and ranks, its status."""
 
 from __future__ import annotations
 
@@ -14,7 +14,10 @@ def register(sub) -> None:
                     "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
                     "buildability screen (and if not, why). Variant 0 is the nominal.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
-    p.add_argument("variant", metavar="VARIANT", help="variant number, 0 to N-1 (0 = the nominal design)")
+    p.add_argument("variant", metavar="VARIANT", nargs="?", default=None,
+                   help="variant number, 0 to N-1 (0 = the nominal design); or give it as --variant N")
+    p.add_argument("--variant", dest="variant_opt", metavar="N", default=None,
+                   help="the variant, as `explorer animate` and `explorer plot --velocity` take it")
     p.set_defaults(func=run)
 
 
@@ -56,9 +59,15 @@ def run(args) -> int:
     from ..gait import DIRECTIONS, METRICS, UNITS
     from ..store import open_results
 
+    from ..errors import UserError
+    if args.variant is not None and args.variant_opt is not None and args.variant != args.variant_opt:
+        raise UserError(f"show: two different variants given ({args.variant} and --variant {args.variant_opt})")
+    chosen = args.variant if args.variant is not None else args.variant_opt
+    if chosen is None:
+        raise UserError("show: say which variant: explorer show RESULTS VARIANT (or --variant N)")
     with open_results(args.results) as res:
         name, n = res.filename, res.n_variants
-        v = parse_variant(args.variant, n, name)
+        v = parse_variant(chosen, n, name)
         df = res.frame()
         nominal = res.nominal
         perturbed = set(res.perturbed)

@@ -295,7 +295,7 @@ def _check_common(steps, tolerance, method, max_iterations):
 
 
 def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TOLERANCE, method: str = "block",
-             velocities: bool = True, accelerations: bool = False,
+             velocities: bool | None = None, accelerations: bool = False,
              max_iterations: int = DEFAULT_MAX_ITERATIONS) -> Cycle:
     """Solve ``mech`` at every sample of its driver: θ_k = 2πk/steps for a crank (k = 0 … steps−1),
     t_k = T·k/(steps−1) for a prescribed path of duration T.
@@ -306,12 +306,14 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
     ``tolerance`` bounds the error of every solved position, relative to the design's longest link:
     Newton stops once it has applied a correction shorter than tolerance × the longest link, which
     (Newton converging quadratically) leaves an error of the order of that correction squared.
-    It must be in :data:`TOLERANCE_RANGE` (1e-12 … 1e-6; default 1e-11). Velocities and
-    accelerations are returned when asked for. The result is ok only if every sample solved on the
+    It must be in :data:`TOLERANCE_RANGE` (1e-12 … 1e-6; default 1e-11). Velocities (default: yes,
+    except with method "closed", which gives positions only) and accelerations are returned when
+    asked for. The result is ok only if every sample solved on the
     branch chosen at the start (by the guess), no assembly gap hides between samples, and a crank
     cycle closes on itself.
     """
     _check_common(steps, tolerance, method, max_iterations)
+    velocities = _default_velocities(velocities, method)
     plan = plan_for(mech)
     drv = _drive_for(mech.crank or mech.path, steps)
     nv = len(mech.vertices)
@@ -424,7 +426,15 @@ def _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, m
     parallel_rows(batch_kernel, (*head, *tail), (lengths, scale, pos, vel, acc, status, fth, fend, fbl, its))
 
 
-def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, vertices=None, velocities: bool = True,
+def _default_velocities(velocities, method: str) -> bool:
+    """None → velocities unless the method is "closed" (positions only)."""
+    if velocities is None:
+        return method != "closed"
+    return bool(velocities)
+
+
+def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, vertices=None,
+                   velocities: bool | None = None,
                    accelerations: bool = False, tolerance: float = DEFAULT_TOLERANCE, method: str = "block",
                    max_iterations: int = DEFAULT_MAX_ITERATIONS) -> Batch:
     """Solve N variants of ``mech`` in parallel; only what is asked for is computed.
@@ -437,9 +447,13 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ve
     Every variant starts its first Newton solve from the nominal design's configuration and must
     keep the nominal's branch in every block; one that differs is flagged "branch", not mixed in.
     Returns a :class:`Batch`; rows with a length (or crank) that is not finite and within
-    [1e-150, 1e150] (where squared lengths stay representable) get status "invalid".
+    [1e-150, 1e150] (where squared lengths stay representable) get status "invalid". If the nominal
+    design itself cannot be assembled at the start, there is no configuration or branch to start
+    from: every row fails as the nominal does (as :func:`simulate` reports it), with NaN paths.
+    velocities : default yes, except with method "closed" (positions only).
     """
     _check_common(steps, tolerance, method, max_iterations)
+    velocities = _default_velocities(velocities, method)
     lengths = np.asarray(lengths, dtype=np.float64)
     nl = len(mech.links)
     if lengths.ndim != 2 or lengths.shape[1] != nl:
@@ -458,13 +472,21 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ve
     out_idx = np.array([mech.vertex_index(v) for v in names], dtype=np.int64)
     plan = plan_for(mech)
     P0, fail = assemble(mech)
-    if fail is not None:
-        raise UserError(f"{where(mech.source, 'guess')}: the nominal design cannot be assembled at the start: {fail.message}")
-    signs = _signs(plan, P0)
-    blocks = np.arange(plan.n_blocks) if method == "dense" else plan.needed_blocks(out_idx)
-    pos, vel, acc, status, fth, fend, fbl, its = _run(mech, plan, lengths, scale, steps, out_idx, velocities,
-                                                      accelerations, tolerance, method, max_iterations, P0, signs,
-                                                      blocks)
+    if fail is not None:  # no start: every row fails as the nominal does
+        N, n_out = lengths.shape[0], len(names)
+        pos = np.full((N, steps, n_out, 2), np.nan)
+        vel, acc = pos.copy(), pos.copy()
+        code = {v: k for k, v in STATUS_NAMES.items()}[fail.kind]
+        status = np.full(N, code, dtype=np.int8)
+        fth, fend = np.full(N, fail.theta), np.full(N, np.nan)
+        fbl = np.full(N, -1 if fail.block is None else fail.block, dtype=np.int64)
+        its = np.zeros(N, dtype=np.int64)
+    else:
+        signs = _signs(plan, P0)
+        blocks = np.arange(plan.n_blocks) if method == "dense" else plan.needed_blocks(out_idx)
+        pos, vel, acc, status, fth, fend, fbl, its = _run(mech, plan, lengths, scale, steps, out_idx, velocities,
+                                                          accelerations, tolerance, method, max_iterations, P0, signs,
+                                                          blocks)
     return Batch(
         theta=_drive_for(mech.crank or mech.path, steps).params,
         paths={v: pos[:, :, j] for j, v in enumerate(names)},

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
+import signal
 import stat
 import sys
 import threading
@@ -136,19 +138,23 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
                 committer.put(i, lengths, crank, batch, metrics)
                 ran += b - a
             committer.close()
-        except KeyboardInterrupt:
-            committer.abort()
-            done = int(writer.done.sum())
-            raise KeyboardInterrupt(f"{out}: interrupted with {done} of {writer.n_chunks} chunks committed; "
-                                    f"run again with --resume to finish it") from None
+        except KeyboardInterrupt as exc:
+            with signals_held():  # a second Ctrl-C must not cut the commit in flight (h5py would crash)
+                committer.abort()
+                done = int(writer.done.sum())
+            what = "terminated" if isinstance(exc, Terminated) else "interrupted"
+            raise type(exc)(f"{out}: {what} with {done} of {writer.n_chunks} chunks committed; run again with "
+                            f"--resume to finish it") from None
         finally:
-            committer.abort()
-            if bar is not None:
-                bar.close()
+            with signals_held():
+                committer.abort()
+                if bar is not None:
+                    bar.close()
         writer.finish()
         counts = _counts(writer)
     finally:
-        writer.close()
+        with signals_held():
+            writer.close()
     return RunSummary(out, study.name, study.n_variants, study.steps, ran, counts, time.perf_counter() - t0,
                       resumed=resumed)
 
@@ -216,6 +222,37 @@ def _check_disk_space(study, out: Path) -> None:
     if need > free:
         raise UserError(f"{out}: the study would write about {need / 1e9:,.1f} GB and {folder} has "
                         f"{free / 1e9:,.1f} GB free; store fewer vertices, steps or variants (or another disk)")
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that a run stops between commits and says how to resume
+    (``explorer`` exits 143 for it, 130 for Ctrl-C)."""
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Hold SIGINT and SIGTERM while the file is being closed or the commit thread stopped: a second
+    Ctrl-C there used to interrupt a flush in progress and crash the process. They are delivered
+    (raised) once the block has finished. Only the main thread can hold signals; elsewhere a no-op."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+    def hold(signum, frame):
+        pending.append(signum)
+
+    for sig in old:
+        signal.signal(sig, hold)
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+    # an interrupt raised in the handled code takes precedence; one held here is not lost silently
+    if pending and sys.exc_info()[0] is None:
+        raise Terminated() if signal.SIGTERM in pending else KeyboardInterrupt()
 
 
 def _same_file(a: Path, b: Path) -> bool:
