@@ -82,7 +82,7 @@ def test_a_study_larger_than_the_disk_is_refused_before_writing(tmp_path, monkey
     (tmp_path / "s.toml").write_text(big, encoding="utf-8")
     code = main(["run", "s.toml", "-o", "big.h5"])
     err = capsys.readouterr().err
-    assert code == 2 and "GB free" in err and err.count("\n") == 1, err
+    assert code == 2 and " free; store fewer" in err and err.count("\n") == 1, err
     assert not list(tmp_path.glob("*.h5")) and not list(tmp_path.glob(".*"))
 
 

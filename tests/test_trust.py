@@ -266,3 +266,54 @@ def test_one_way_to_name_a_variant(results, capsys, tmp_path):
     assert cli(capsys, "plot", results, "--velocity", "1", "-o", tmp_path / "w.png")[0] == 0
     code, _, err = cli(capsys, "plot", results, "--top", "2", "--variant", "1", "-o", tmp_path / "t.png")
     assert code == 2 and "--variant goes with --velocity" in err
+
+
+def test_a_disk_that_fills_mid_run_is_one_line_and_resumable(tmp_path):
+    """On a 5 MB tmpfs (where the test can mount one), with the size check bypassed so the disk fills
+    while chunks are committed: one line, exit 2, no crash, and the committed chunks resume."""
+    import subprocess
+    import sys
+    disk = tmp_path / "small"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=5m", "tmpfs", str(disk)], capture_output=True,
+                             text=True)
+    if mounted.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here ({mounted.stderr.strip() or 'mount failed'})")
+    try:
+        study = tmp_path / "big.toml"
+        study.write_text('[study]\nname = "big"\nmechanism = "jansen"\nvariants = 150000\nsteps = 72\n',
+                         encoding="utf-8")
+        out = disk / "big.h5"
+        code = ("import sys\nimport explorer.study._run as r\nr._check_disk_space = lambda *a: None\n"
+                "from explorer.cli import main\n"
+                f"sys.exit(main(['run', {str(study)!r}, '-o', {str(out)!r}, '-q']))")
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+        assert p.returncode == 2, (p.returncode, p.stderr)            # not 139: no segmentation fault
+        assert p.stderr.count("\n") == 1 and "the disk is full" in p.stderr and "--resume" in p.stderr, p.stderr
+        assert not list(disk.glob(".*partial")) and not list(disk.glob(".*lock"))
+        with explorer.open_results(out) as r:
+            assert not r.complete and r.file["chunks/done"][...].any()  # what was committed is readable
+        moved = tmp_path / "big.h5"  # "free some space": here, move the file to a disk with room
+        moved.write_bytes(out.read_bytes())
+        assert main(["run", str(study), "-o", str(moved), "--resume", "-q"]) == 0
+        with explorer.open_results(moved) as r:
+            assert r.complete and (r.file["status"][...] >= 0).all()
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)
+
+
+def test_corrupt_headers_give_one_line(results, capsys, tmp_path):
+    """Scrambled bytes in the file's first 4 kB (superblock, root group, attributes), ten times: every
+    verb answers with exit 0 or one line and exit 2, never a traceback."""
+    rng = np.random.default_rng(11)
+    good = results.read_bytes()
+    for k in range(10):
+        data = bytearray(good)
+        for pos in rng.integers(0, 4096, 8):
+            data[pos] = int(rng.integers(0, 256))
+        bad = tmp_path / f"bad{k}.h5"
+        bad.write_bytes(bytes(data))
+        for argv in (["rank", bad], ["show", bad, "0"]):
+            code, _, err = cli(capsys, *argv)
+            assert code in (0, 2), (k, argv, err)
+            assert code == 0 or (err.count("\n") == 1 and err.startswith("explorer: error: ")), (k, err)

@@ -16,7 +16,9 @@ Modules are discovered automatically (no edit here needed to add a verb). A
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
+import os
 import pkgutil
 import sys
 
@@ -94,6 +96,11 @@ def main(argv=None) -> int:
         text = str(exc)
         print(f"explorer: {text if text.split(': ', 1)[-1].startswith(word) else word + (': ' + text if text else '')}",
               file=sys.stderr)
+        if argv is None and previous is not None:  # the command itself: it exits now, so a further Ctrl-C
+            import signal                          # (impatience) must not turn exit 130 into a kill
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            previous = None
         return 143 if terminated else 130
     except BrokenPipeError:  # e.g. `explorer rank ... | head`
         return 0
@@ -101,10 +108,40 @@ def main(argv=None) -> int:
         what = " ".join(str(exc).split()) or type(exc).__name__
         if "checksum" in what.lower() or "filter returned failure" in what.lower():
             what = f"corrupt data in a results file (a chunk fails its checksum): {what}"
+        full = exc.errno in (errno.ENOSPC, errno.EDQUOT) or "No space left" in what
+        if full:
+            what = ("the disk is full: " + what.split("(")[0].strip()
+                    + "; the chunks committed so far are kept: free some space and run again with --resume")
         print(f"explorer: error: {what[:400]}", file=sys.stderr)
+        if full:
+            # HDF5 would try to flush the open file once more at interpreter exit, cannot, and crashes
+            # the process: leave now (everything committed is already on disk)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(2)
+        return 2
+    except Exception as exc:
+        if not _from_h5py(exc):
+            raise  # a bug: its traceback is what a report needs
+        # damaged HDF5 metadata deep inside a results file (h5py raises RuntimeError, ValueError, …)
+        what = " ".join(str(exc).split()) or type(exc).__name__
+        print(f"explorer: error: a results file is damaged or unreadable: {what[:300]}", file=sys.stderr)
         return 2
     finally:
         if previous is not None:
             import signal
             signal.signal(signal.SIGTERM, previous)
     return int(code or 0)
+
+
+def _from_h5py(exc: BaseException) -> bool:
+    """True if ``exc`` was raised inside h5py (reading a file), not in explorer's own code."""
+    tb = exc.__traceback__
+    last = None
+    while tb is not None:
+        last = tb
+        tb = tb.tb_next
+    if last is None:
+        return False
+    module = last.tb_frame.f_globals.get("__name__", "")
+    return module.startswith("h5py") or "h5py" in last.tb_frame.f_code.co_filename

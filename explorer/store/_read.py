@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import os
-import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -38,19 +37,17 @@ def open_results(path) -> "Results":
         elif "truncated" in msg.lower() or "signature" in msg.lower():
             msg = f"truncated or corrupt ({msg})"
         raise UserError(f"{p}: cannot open as an HDF5 results file: {msg}") from None
-    if f.attrs.get("format") != FORMAT:
-        f.close()
-        raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
-    if "shards" in f.attrs:  # a study stitched from shard files (explorer.run_study_dask): are they there?
-        from ._shards import check_sources
-        try:
-            check_sources(f, p)
-        except UserError:
-            f.close()
-            raise
     try:
+        if f.attrs.get("format") != FORMAT:
+            raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
+        if "shards" in f.attrs:  # a study stitched from shard files (explorer.run_study_dask): are they there?
+            from ._shards import check_sources
+            check_sources(f, p)
         return Results(f, p)
-    except (KeyError, ValueError, TypeError, OSError) as exc:  # a foreign or damaged file with our format tag
+    except UserError:
+        f.close()
+        raise
+    except (KeyError, ValueError, TypeError, OSError, RuntimeError) as exc:  # foreign or damaged metadata
         f.close()
         what = f"missing {exc.args[0]}" if isinstance(exc, KeyError) and exc.args else \
             (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
@@ -88,8 +85,10 @@ class Results:
     def mechanism(self) -> Mechanism:
         """The nominal mechanism, rebuilt from the copy of its TOML stored in the file."""
         if self._mech is None:
-            data = tomllib.loads(str(self.attrs["mechanism"]))
-            self._mech = mechanism_from_dict(data, str(self.attrs.get("mechanism_source", self.filename)))
+            from ..mechanism import parse_toml
+            source = f"{self.filename} (its stored mechanism)"
+            data = parse_toml(str(self.attrs.get("mechanism", "")), source)
+            self._mech = mechanism_from_dict(data, source)
         return self._mech
 
     @property

@@ -216,12 +216,17 @@ def _check_disk_space(study, out: Path) -> None:
         free = shutil.disk_usage(folder).free
     except OSError:
         return
-    need = estimated_bytes(study)
-    if study.compression != "none":
-        need = int(need * 0.8)  # lzf/gzip + shuffle: 0.77-0.85 of the raw size, measured
+    need = int(estimated_bytes(study) * 1.05)  # uncompressed, plus HDF5's own overhead: an upper bound
     if need > free:
-        raise UserError(f"{out}: the study would write about {need / 1e9:,.1f} GB and {folder} has "
-                        f"{free / 1e9:,.1f} GB free; store fewer vertices, steps or variants (or another disk)")
+        raise UserError(f"{out}: the study would write up to {_size(need)} and {folder} has {_size(free)} free; "
+                        f"store fewer vertices, steps or variants (or use another disk)")
+
+
+def _size(n: int) -> str:
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:,.1f} {unit}"
+    return f"{n} bytes"
 
 
 class Terminated(KeyboardInterrupt):
