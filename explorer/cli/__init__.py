@@ -84,6 +84,8 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     previous = _terminate_as_interrupt()
+    hook = sys.unraisablehook
+    sys.unraisablehook = _quiet_failed_writes
     try:
         code = args.func(args)
     except UserError as exc:
@@ -108,30 +110,51 @@ def main(argv=None) -> int:
         what = " ".join(str(exc).split()) or type(exc).__name__
         if "checksum" in what.lower() or "filter returned failure" in what.lower():
             what = f"corrupt data in a results file (a chunk fails its checksum): {what}"
-        full = exc.errno in (errno.ENOSPC, errno.EDQUOT) or "No space left" in what
-        if full:
-            what = ("the disk is full: " + what.split("(")[0].strip()
-                    + "; the chunks committed so far are kept: free some space and run again with --resume")
+        if _disk_full(exc):
+            _exit_disk_full(what)
         print(f"explorer: error: {what[:400]}", file=sys.stderr)
-        if full:
-            # HDF5 would try to flush the open file once more at interpreter exit, cannot, and crashes
-            # the process: leave now (everything committed is already on disk)
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(2)
         return 2
     except Exception as exc:
         if not _from_h5py(exc):
             raise  # a bug: its traceback is what a report needs
-        # damaged HDF5 metadata deep inside a results file (h5py raises RuntimeError, ValueError, …)
         what = " ".join(str(exc).split()) or type(exc).__name__
+        if _disk_full(exc):  # h5py reports a full disk as RuntimeError too
+            _exit_disk_full(what)
+        # damaged HDF5 metadata deep inside a results file (h5py raises RuntimeError, ValueError, …)
         print(f"explorer: error: a results file is damaged or unreadable: {what[:300]}", file=sys.stderr)
         return 2
     finally:
+        sys.unraisablehook = hook
         if previous is not None:
             import signal
             signal.signal(signal.SIGTERM, previous)
     return int(code or 0)
+
+
+def _quiet_failed_writes(unraisable) -> None:
+    """h5py reports a write that failed (a full disk) once more from every object it frees, as
+    "Exception ignored in ObjectID.__dealloc__" tracebacks; the error itself is reported once, as one
+    line. Everything else goes to Python's default hook."""
+    text = f"{unraisable.object} {unraisable.exc_value}"
+    if "h5py" in text and ("write failed" in text or "errno = 28" in text or "No space left" in text):
+        return
+    sys.__unraisablehook__(unraisable)
+
+
+def _disk_full(exc: BaseException) -> bool:
+    text = str(exc)
+    return getattr(exc, "errno", None) in (errno.ENOSPC, errno.EDQUOT) or "No space left" in text or "errno = 28" in text
+
+
+def _exit_disk_full(what: str) -> None:
+    """One line, then leave at once: HDF5 would try to flush the open file again at interpreter exit,
+    fail, and crash the process (everything committed is already on disk)."""
+    short = what.split("(")[0].strip()
+    print(f"explorer: error: the disk is full ({short[:120]}); the chunks committed so far are kept: free some "
+          f"space and run again with --resume", file=sys.stderr)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(2)
 
 
 def _from_h5py(exc: BaseException) -> bool:
