@@ -93,7 +93,7 @@ def run(args) -> int:
 
     # -- lengths -----------------------------------------------------------------------------------------
     rows = [("parameter", "value", "nominal", "change", "change %")]
-    for p in list(res.link_names) + ["crank"]:
+    for p in list(res.link_names) + (["crank"] if mech.crank is not None else []):
         val, nom = float(row[p]), nominal[p]
         d = val - nom
         pct = f"{100.0 * d / nom:+.3f} %" if nom else "-"

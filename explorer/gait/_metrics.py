@@ -338,8 +338,9 @@ def _available(mechanism, walker, crank) -> dict[str, str | None]:
             why = "needs the mechanism (mechanism=, lengths=, crank=)"
         elif m == "min_transmission_angle" and not fourbar_loops(mechanism):
             why = f"mechanism {mechanism.name!r} has no crank-driven four-bar loop"
-        elif m in CRANK_METRICS and mechanism is not None and not has_crank:
-            why = f"mechanism {mechanism.name!r} is driven along a path, not by a crank; a walker needs a crank"
+        elif mechanism is not None and not has_crank:
+            why = (f"mechanism {mechanism.name!r} is driven along a path, not by a crank: gait metrics describe a "
+                   f"leg's closed foot path over a crank turn")
         elif m in CRANK_METRICS and mechanism is None and (walker is None or crank is None):
             why = "needs a crank-driven mechanism (mechanism=) or walker= and crank="
         out[m] = why

@@ -177,7 +177,9 @@ class Results:
         """What the buildability screen removes from the ok variants: {"removed": n, "checks": {check:
         n}, "applied": [check names]} (:func:`explorer.gait.screen_counts`); ``df`` : a frame() to reuse."""
         from ..gait import screen_counts
-        return screen_counts(self.frame() if df is None else df, self.screen)
+        out = screen_counts(self.frame() if df is None else df, self.screen)
+        out["path_driven"] = self.mechanism.crank is None
+        return out
 
     @property
     def screen(self):
@@ -212,6 +214,9 @@ class Results:
         missing = [n for n in names if n in METRICS and n not in stored]
         if not missing:
             return
+        if not stored and self.mechanism.crank is None:
+            raise UserError(f"{self.filename}: mechanism {self.mechanism.name!r} is driven along a path: gait metrics "
+                            f"do not apply to it; rank by a column such as iterations (--by iterations --ascending)")
         if not stored:
             raise UserError(f"{self.filename}: no gait metrics stored; compute them with "
                             f"`explorer metrics {self.filename}` (no re-solving) or set [scene] metrics = true "

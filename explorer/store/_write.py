@@ -188,8 +188,10 @@ class ResultsWriter:
             d.attrs["nominal"] = mech.lengths
             d.attrs["units"] = "model units"
             d = g.create_dataset("crank", shape=(N,), dtype="f8", chunks=(rows,), fillvalue=np.nan, **SCALAR_FILTERS)
-            d.attrs["nominal"] = float(mech.crank.radius)
+            d.attrs["nominal"] = float(mech.crank.radius) if mech.crank is not None else np.nan
             d.attrs["units"] = "model units"
+            if mech.crank is None:
+                d.attrs["description"] = "no crank: the mechanism is driven along a path (NaN)"
             g.attrs["perturbed"] = _strings(list(study.link_names) + (["crank"] if study.crank else []))
 
             codes = sorted(FILE_STATUS_NAMES)

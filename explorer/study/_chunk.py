@@ -45,7 +45,8 @@ def chunk_solver(study: Study):
 
     def solve(a: int, b: int):
         lengths, crank = study_variants(study, a, b, sampler)
-        batch = simulate_batch(mech, lengths, crank, study.steps, vertices=vertices, velocities=velocities,
+        radii = crank if mech.crank is not None else None  # a path driver has no crank radius (NaN column)
+        batch = simulate_batch(mech, lengths, radii, study.steps, vertices=vertices, velocities=velocities,
                                accelerations=study.accelerations, tolerance=study.tolerance, method=study.method)
         foot = mech.foot
         metrics = None

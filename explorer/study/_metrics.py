@@ -125,6 +125,9 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
         band = file_band if band is None else band
 
         # -- which metrics --------------------------------------------------------------------------
+        if mech.crank is None:
+            raise UserError(f"{p}: mechanism {mech.name!r} is driven along a path, not by a crank: gait metrics "
+                            f"describe a leg's closed foot path over a crank turn, so there are none to compute")
         why_not = available_metrics(mech)
         every = [m for m in METRICS if why_not[m] is None]
         if names is None:

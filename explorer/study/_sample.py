@@ -126,7 +126,7 @@ def apply_multipliers(mech: Mechanism, mult: np.ndarray, links=None, crank: bool
         raise UserError(f"multipliers: expected {len(cols) + int(crank)} columns, got {mult.shape[1]}")
     lengths = np.broadcast_to(mech.lengths, (n, len(mech.links))).copy()
     lengths[:, cols] *= mult[:, :len(cols)]
-    radius = np.full(n, float(mech.crank.radius))
+    radius = np.full(n, float(mech.crank.radius) if mech.crank is not None else np.nan)
     if crank:
         radius *= mult[:, -1]
     return lengths, radius

@@ -287,7 +287,10 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
 
     spread = v.number("perturb.spread", pe.get("spread", 0.02), 0.0, 1.0, "a number in [0, 1)", hi_open=True)
     links = v.names("perturb.links", pe.get("links", "all"), mech.link_names, "link")
-    crank = v.boolean("perturb.crank", pe.get("crank", True))
+    crank = v.boolean("perturb.crank", pe.get("crank", mech.crank is not None))
+    if crank and mech.crank is None:
+        raise UserError(f"{where(source, 'perturb.crank')}: mechanism {mech.name!r} is driven along a path; it has no "
+                        f"crank radius to perturb (set crank = false)")
     k = (len(mech.links) if links == "all" else len(links)) + int(crank)
     if k == 0:
         raise UserError(f"{where(source, 'perturb.links')}: nothing to perturb (give links or set crank = true)")

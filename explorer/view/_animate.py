@@ -192,6 +192,9 @@ class LinkageAnimation:
             raise UserError(f"animate: expected a Mechanism, a Cycle or results, got {type(source).__name__}")
         self.cycle = cyc
         self.mech = mech = cyc.mechanism
+        if mech.crank is None and self.legs > 1:
+            raise UserError(f"legs: mechanism {mech.name!r} is driven along a path; a walker of several legs needs a "
+                            f"crank (draw it with legs = 1)")
         self.title_base = f"{mech.name}{label}"
         self.S = S = len(cyc.theta)
         P = cyc.positions
@@ -236,7 +239,7 @@ class LinkageAnimation:
     # -- building the figure -------------------------------------------------------------------------
     def _build(self, dpi, figsize, arrow_scale):
         mech, cyc = self.mech, self.cycle
-        cx = mech.crank.center[0]
+        cx = mech.crank.center[0] if mech.crank is not None else 0.0
         foot = mech.vertex_index(mech.foot)
         valid = cyc.positions[: self.n_valid]
         path = valid[:, foot]
@@ -249,9 +252,10 @@ class LinkageAnimation:
         pts = [valid.reshape(-1, 2)]
         fixed = np.array(list(mech.fixed.values()), dtype=np.float64).reshape(-1, 2)
         pts.append(fixed)
-        r = mech.crank.radius
-        c = np.array(mech.crank.center)
-        pts.append(np.array([c + (r, r), c - (r, r)]))
+        if mech.crank is not None:
+            r = mech.crank.radius
+            c = np.array(mech.crank.center)
+            pts.append(np.array([c + (r, r), c - (r, r)]))
         allp = np.vstack(pts)
         if any(self._mirrored):
             allp = np.vstack([allp, mirror_positions(allp, cx)])
@@ -307,14 +311,18 @@ class LinkageAnimation:
                    Line2D([], [], color=ARROW_COLOR, lw=2, marker=">", ms=6),
                    Line2D([], [], color=CRANK_COLOR, lw=4),
                    Line2D([], [], color=GROUND_COLOR, ls="none", marker="^", ms=8)]
-        labels = ["foot path (one cycle)", f"foot velocity dF/dθ (× {self.arrow_scale:.2g} rad)", "crank",
+        crank = mech.crank is not None
+        labels = ["foot path (one cycle)" if crank else "tip path",
+                  f"foot velocity dF/dθ (× {self.arrow_scale:.2g} rad)" if crank else
+                  f"tip velocity (× {self.arrow_scale:.2g} s)", "crank" if crank else "(driven along its path)",
                   "ground pivots"]
         fig.legend(handles, labels, loc="outside lower center", ncols=4, fontsize="small", frameon=False)
         # The title is static (drawn into the background once); only the short clock text to its right
         # changes per frame. A fixed title position (y given): matplotlib would otherwise move it past
         # the hidden axes.
         legs = f" · {self.legs} legs (odd ones mirrored)" if self.legs > 1 else ""
-        text = f"{self.title_base}{legs} · {self.cycles:g} crank turn{'s' if self.cycles != 1 else ''}"
+        what = "crank turn" if mech.crank is not None else "pass along the path"
+        text = f"{self.title_base}{legs} · {self.cycles:g} {what}{'s' if self.cycles != 1 else ''}"
         if self.failure:  # above the name, so the clock on the name's line never overlaps it
             text = f"not ok: {self.failure}; drawn up to it\n{text}"
         self.title = ax.set_title(text, fontsize="medium", loc="left", y=1.0, pad=8)
@@ -352,15 +360,18 @@ class LinkageAnimation:
         """Move every leg to frame ``i`` and update the clock text (no artist is created)."""
         k = self.frame_index(i)
         P, V = self.cycle.positions, self._vel
-        cx = self.mech.crank.center[0]
+        cx = self.mech.crank.center[0] if self.mech.crank is not None else 0.0
         for j, art in enumerate(self.legs_artists):
             kk = self.leg_index(j, k)
             if self._mirrored[j]:
                 art.update(mirror_positions(P[kk], cx), mirror_velocity(V[kk]))
             else:
                 art.update(P[kk], V[kk])
-        deg = math.degrees(float(self.cycle.theta[k]))
-        self.clock.set_text(f"θ = {deg:5.1f}°  t = {i / self.fps:5.2f} s")
+        if self.mech.crank is None:  # a path driver's parameter is its own time, in seconds
+            self.clock.set_text(f"path t = {float(self.cycle.theta[k]):5.2f} s")
+        else:
+            deg = math.degrees(float(self.cycle.theta[k]))
+            self.clock.set_text(f"θ = {deg:5.1f}°  t = {i / self.fps:5.2f} s")
 
     def data_to_pixels(self, xy: np.ndarray) -> np.ndarray:
         """Pixel (column, row) positions, row 0 at the top, of data points (n, 2) in a rendered frame."""

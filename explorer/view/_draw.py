@@ -73,9 +73,10 @@ class LegArtists:
         self.arrow_scale = float(arrow_scale)
         self._a = np.array([mech.vertex_index(l.a) for l in mech.links], dtype=np.int64)
         self._b = np.array([mech.vertex_index(l.b) for l in mech.links], dtype=np.int64)
-        self._tip = mech.vertex_index(mech.crank.tip)
+        self._tip = mech.vertex_index(mech.driven)
         self._foot = mech.vertex_index(mech.foot)
-        self._center = np.array(mech.crank.center, dtype=np.float64)
+        # a path driver has no crank arm: its "crank" artist stays empty
+        self._center = np.array(mech.crank.center, dtype=np.float64) if mech.crank is not None else None
         nl = len(mech.links)
         # one polyline with NaN breaks draws every link in a single artist
         self._seg = np.full((3 * nl, 2), np.nan)
@@ -117,9 +118,10 @@ class LegArtists:
         seg[0::3] = P[self._a]
         seg[1::3] = P[self._b]
         self.links.set_data(seg[:, 0], seg[:, 1])
-        self._crank[0] = self._center
-        self._crank[1] = P[self._tip]
-        self.crank.set_data(self._crank[:, 0], self._crank[:, 1])
+        if self._center is not None:
+            self._crank[0] = self._center
+            self._crank[1] = P[self._tip]
+            self.crank.set_data(self._crank[:, 0], self._crank[:, 1])
         self.joints.set_data(P[:, 0], P[:, 1])
         f = P[self._foot]
         self.foot.set_data([f[0]], [f[1]])
@@ -138,13 +140,19 @@ class LegArtists:
 
 def draw_ground(ax: Axes, mech: Mechanism, *, mirrored: bool = False, crank_circle: bool = True,
                 zorder: float = 2.0, label: str | None = "ground pivots") -> list:
-    """Static parts: the ground pivots (triangles), the crank centre and the crank circle."""
-    cx, cy = mech.crank.center
+    """Static parts: the ground pivots (triangles), the crank centre and the crank circle (a path driver
+    has neither: its path is drawn as the driven vertex's trajectory instead)."""
     fixed = np.array(list(mech.fixed.values()), dtype=np.float64).reshape(-1, 2)
-    if mirrored:
-        fixed = mirror_positions(fixed, cx)
+    if mech.crank is None:
+        crank_circle = False
+        cx = cy = None
+        pts = fixed
+    else:
+        cx, cy = mech.crank.center
+        pts = np.vstack([fixed, [[cx, cy]]])
+    if mirrored and cx is not None:
+        pts = mirror_positions(pts, cx)
     out = []
-    pts = np.vstack([fixed, [[cx, cy]]])
     (p,) = ax.plot(pts[:, 0], pts[:, 1], "^", ms=10, color=GROUND_COLOR, zorder=zorder, label=label)
     out.append(p)
     if crank_circle:

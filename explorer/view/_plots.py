@@ -133,14 +133,14 @@ def variant_mechanism(results, variant) -> Mechanism:
     nominal = results.mechanism
     row = variant_row(results, v)
     lengths = {name: float(row[name]) for name in nominal.link_names if name in row.index}
-    crank = float(row["crank"]) if "crank" in row.index else None
+    crank = float(row["crank"]) if "crank" in row.index and nominal.crank is not None else None
     if not all(math.isfinite(x) and x > 0 for x in lengths.values()) or (crank is not None and not crank > 0):
         raise UserError(f"variant {v}: its lengths are not all finite and > 0 (status {row.get('status', '?')})")
     mech = nominal.with_lengths(lengths, crank=crank)
     P0, fail = assemble(nominal)
     if fail is None:
         from dataclasses import replace
-        skip = set(nominal.fixed) | {nominal.crank.tip}
+        skip = set(nominal.fixed) | {nominal.driven}
         guess = {name: tuple(P0[i]) for i, name in enumerate(nominal.vertices) if name not in skip}
         mech = replace(mech, guess=guess)
     return mech
