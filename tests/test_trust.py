@@ -317,3 +317,20 @@ def test_corrupt_headers_give_one_line(results, capsys, tmp_path):
             code, _, err = cli(capsys, *argv)
             assert code in (0, 2), (k, argv, err)
             assert code == 0 or (err.count("\n") == 1 and err.startswith("explorer: error: ")), (k, err)
+
+
+def test_simulate_batch_takes_parameters_by_name():
+    """A frame with its columns in any order is the design it names (it used to be read by position)."""
+    import pandas as pd
+    m = explorer.load_mechanism("jansen")
+    rng = np.random.default_rng(3)
+    L = m.lengths * rng.uniform(0.99, 1.01, (4, 10))
+    r = 15.0 * rng.uniform(0.99, 1.01, 4)
+    ref = explorer.simulate_batch(m, L, r, 24)
+    df = pd.DataFrame(L, columns=m.link_names).assign(crank=r)
+    reversed_df = df[list(df.columns)[::-1]]
+    for given in (reversed_df, {k: reversed_df[k].to_numpy() for k in reversed_df.columns}):
+        got = explorer.simulate_batch(m, given, None, 24)
+        np.testing.assert_array_equal(got.paths["7"], ref.paths["7"])
+    with pytest.raises(UserError, match="no column for link '1-3'"):
+        explorer.simulate_batch(m, df.drop(columns="1-3"), None, 24)

@@ -426,6 +426,26 @@ def _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, m
     parallel_rows(batch_kernel, (*head, *tail), (lengths, scale, pos, vel, acc, status, fth, fend, fbl, its))
 
 
+def _by_name(mech: Mechanism, lengths, crank):
+    """Lengths given by name — a pandas DataFrame or a dict {link name: (N,) values} — as an (N, n_links)
+    array in ``mech.links`` order (column order does not matter; a "crank" column gives the radii
+    when ``crank`` is None). A plain array is taken in ``mech.links`` order, as documented."""
+    columns = None
+    if hasattr(lengths, "columns") and hasattr(lengths, "to_numpy"):  # a DataFrame
+        columns = {str(c): lengths[c].to_numpy(dtype=np.float64) for c in lengths.columns}
+    elif isinstance(lengths, dict):
+        columns = {str(k): np.asarray(v, dtype=np.float64).reshape(-1) for k, v in lengths.items()}
+    if columns is None:
+        return lengths, crank
+    missing = [n for n in mech.link_names if n not in columns]
+    if missing:
+        raise UserError(f"lengths: no column for link {missing[0]!r} (links: {', '.join(mech.link_names)}; "
+                        f"columns given: {', '.join(columns)})")
+    if crank is None and "crank" in columns and mech.crank is not None:
+        crank = columns["crank"]
+    return np.column_stack([columns[n] for n in mech.link_names]), crank
+
+
 def _default_velocities(velocities, method: str) -> bool:
     """None → velocities unless the method is "closed" (positions only)."""
     if velocities is None:
@@ -439,8 +459,10 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ve
                    max_iterations: int = DEFAULT_MAX_ITERATIONS) -> Batch:
     """Solve N variants of ``mech`` in parallel; only what is asked for is computed.
 
-    lengths : (N, n_links) link lengths in ``mech.links`` order; crank : (N,) crank radii (None: the
-        nominal radius for every variant; must be None for a path-driven mechanism).
+    lengths : (N, n_links) link lengths in ``mech.links`` order, or by name: a pandas DataFrame (a
+        results frame will do) or a dict with a column per link name, in any order (a "crank"
+        column gives the radii when ``crank`` is None); crank : (N,) crank radii (None: the nominal
+        radius for every variant; must be None for a path-driven mechanism).
     vertices : names whose paths are returned (default: the foot; "all" for every vertex). Blocks
         that neither place a requested vertex nor feed one are not solved (block and closed
         methods; "dense" solves everything).
@@ -454,6 +476,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ve
     """
     _check_common(steps, tolerance, method, max_iterations)
     velocities = _default_velocities(velocities, method)
+    lengths, crank = _by_name(mech, lengths, crank)
     lengths = np.asarray(lengths, dtype=np.float64)
     nl = len(mech.links)
     if lengths.ndim != 2 or lengths.shape[1] != nl:
