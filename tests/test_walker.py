@@ -214,3 +214,21 @@ def test_walker_needs_a_crank_and_valid_tables(tmp_path):
             mechanism_from_dict({**d, "walker": table}, "m.toml")
     m = mechanism_from_dict({**d, "walker": {"legs": 3, "phases": [0, 100, 250], "mirrored": [False, True, False]}})
     assert m.walker.phases == pytest.approx(tuple(math.radians(x) for x in (0, 100, 250)))
+
+
+def test_animate_walker_draws_the_legs_the_metrics_describe(tmp_path):
+    """`animate --walker`: each drawn leg sits at the sample the walker kernel reads for that leg."""
+    from explorer.gait import leg_samples
+    from explorer.view._animate import LinkageAnimation
+    for name in ("jansen", "fourbar"):
+        mech = explorer.load_mechanism(name)
+        anim = LinkageAnimation(mech, cycles=1, frames=12, walker=True)
+        w = mech.walker
+        assert anim.legs == w.legs and anim._mirrored == list(w.mirrored)
+        base, frac, sign = leg_samples(w, anim.S)
+        assert (frac == 0).all()  # the animation's grid holds every phase exactly
+        for j in range(w.legs):
+            for k in (0, 7, anim.S // 3):
+                assert anim.leg_index(j, k) == (sign[j] * k + base[j]) % anim.S
+    with pytest.raises(UserError, match="needs a crank"):
+        LinkageAnimation(explorer.load_mechanism("arm"), walker=True)

@@ -23,6 +23,9 @@ def register(sub) -> None:
     p.add_argument("--cycles", type=float, default=2, metavar="K", help="crank turns to show (default: 2)")
     p.add_argument("--legs", type=int, default=1, metavar="N",
                    help="draw a walker of N legs, crank phases spread evenly, odd legs mirrored (default: 1)")
+    p.add_argument("--walker", action="store_true",
+                   help="draw the walker the metrics describe (the study's [walker], else the mechanism's: its legs, "
+                        "phases and mirrored legs) instead of --legs")
     p.add_argument("--frames", type=int, default=None, metavar="F",
                    help="total frames (default: 60 per crank turn)")
     p.add_argument("--fps", type=float, default=30, help="frames per second of the movie (default: 30)")
@@ -49,7 +52,10 @@ def run(args) -> int:
         stem = Path(args.mechanism).stem
     out = args.output if args.output is not None else f"{stem}.mp4"
     check_output(out, MOVIE_FORMATS)  # a bad path fails before any work
-    kw = dict(cycles=args.cycles, frames=args.frames, legs=args.legs, fps=args.fps, dpi=args.dpi)
+    if args.walker and args.legs != 1:
+        raise UserError("animate: --walker draws the walker of the study or mechanism; give it or --legs, not both")
+    kw = dict(cycles=args.cycles, frames=args.frames, legs=args.legs, fps=args.fps, dpi=args.dpi,
+              walker=True if args.walker else None)
     if args.results is not None:
         with open_results(args.results) as res:
             movie = animate(res, out, variant=0 if args.variant is None else args.variant, **kw)

@@ -164,9 +164,10 @@ class LinkageAnimation:
 
     def __init__(self, source, *, cycles: float = 2, frames: int | None = None, legs: int = 1, fps: float = DEFAULT_FPS,
                  variant: int | None = None, steps: int | None = None, dpi: float = 100, figsize=None,
-                 arrow_scale: float | None = None):
+                 arrow_scale: float | None = None, walker=None):
         self.cycles = _positive("cycles", cycles)
-        self.legs = _positive_int("legs", legs, MAX_LEGS)
+        self.walker = _resolve_walker(source, walker)
+        self.legs = self.walker.legs if self.walker is not None else _positive_int("legs", legs, MAX_LEGS)
         self.fps = _positive("fps", fps)
         dpi = _positive("dpi", dpi)
         if frames is None:
@@ -209,8 +210,12 @@ class LinkageAnimation:
         else:  # central differences of the positions (a Cycle solved without velocities)
             from ._plots import central_differences
             self._vel = central_differences(cyc.theta, P[:, foot], cyclic=self.n_valid == S)
-        self._mirrored = [self.legs > 1 and j % 2 == 1 for j in range(self.legs)]
-        self._offset = [round(j * S / self.legs) for j in range(self.legs)]
+        if self.walker is not None:  # the walker the metrics describe: its phases (to the nearest sample) and mirrors
+            self._mirrored = list(self.walker.mirrored)
+            self._offset = [round(p * S / (2.0 * math.pi)) % S for p in self.walker.phases]
+        else:
+            self._mirrored = [self.legs > 1 and j % 2 == 1 for j in range(self.legs)]
+            self._offset = [round(j * S / self.legs) for j in range(self.legs)]
         self._build(dpi, figsize, arrow_scale)
 
     # -- frame → sample indices ----------------------------------------------------------------------
@@ -320,7 +325,11 @@ class LinkageAnimation:
         # The title is static (drawn into the background once); only the short clock text to its right
         # changes per frame. A fixed title position (y given): matplotlib would otherwise move it past
         # the hidden axes.
-        legs = f" · {self.legs} legs (odd ones mirrored)" if self.legs > 1 else ""
+        if self.walker is not None:
+            n_mirror = sum(self._mirrored)
+            legs = f" · walker of {self.legs} legs" + (f" ({n_mirror} mirrored)" if n_mirror else "")
+        else:
+            legs = f" · {self.legs} legs (odd ones mirrored)" if self.legs > 1 else ""
         what = "crank turn" if mech.crank is not None else "pass along the path"
         text = f"{self.title_base}{legs} · {self.cycles:g} {what}{'s' if self.cycles != 1 else ''}"
         if self.failure:  # above the name, so the clock on the name's line never overlaps it
@@ -410,15 +419,39 @@ class LinkageAnimation:
         return Movie(p, self.n_frames, self.fps, time.perf_counter() - t0, self.failure)
 
 
+def _resolve_walker(source, walker):
+    """None, a Walker as given, or (walker=True) the source's own: a results file's study [walker], else the
+    mechanism's [walker] table, else four evenly spaced legs."""
+    if walker is None or walker is False:
+        return None
+    from ..mechanism import Walker, walker_from_dict
+    if isinstance(walker, Walker):
+        return walker
+    if is_results(source):
+        mech = source.mechanism
+        spec = (getattr(source, "study", {}) or {}).get("walker") or {}
+        if mech.crank is None:
+            raise UserError(f"walker: mechanism {mech.name!r} is driven along a path; a walker needs a crank")
+        return walker_from_dict(spec, f"{getattr(source, 'filename', 'results')} (study)", "walker", base=mech.walker)
+    mech = source if isinstance(source, Mechanism) else source.mechanism if isinstance(source, Cycle) \
+        else load_mechanism(source)
+    if mech.crank is None:
+        raise UserError(f"walker: mechanism {mech.name!r} is driven along a path; a walker needs a crank")
+    return mech.walker if mech.walker is not None else Walker()
+
+
 def animate(source, out_path, cycles: float = 2, frames: int | None = None, legs: int = 1, fps: float = DEFAULT_FPS, *,
             variant: int | None = None, steps: int | None = None, dpi: float = 100, figsize=None,
-            arrow_scale: float | None = None, progress=None) -> Movie:
+            arrow_scale: float | None = None, progress=None, walker=None) -> Movie:
     """Animate a linkage over ``cycles`` crank turns into ``out_path`` (.mp4 or .gif).
 
     source : a Mechanism, a built-in mechanism name or mechanism file, a Cycle, or results (with
         ``variant``, default 0 = the nominal).
     frames : total frames (default 60 per crank turn); fps : frames per second of the movie.
     legs : 1 for one leg; N for a walker of N legs with crank phases 2πj/N, odd legs mirrored.
+    walker : a :class:`explorer.mechanism.Walker`, or True for the one the metrics describe (the
+        results' study ``[walker]``, else the mechanism's): its legs, phases (to the nearest sample of
+        the animation's grid) and mirrored legs; overrides ``legs``.
     arrow_scale : data units of arrow per (model unit/rad) of foot speed (default: the fastest foot
         speed draws an arrow 0.3 × the path's width); 0 hides the arrows.
 
@@ -430,5 +463,5 @@ def animate(source, out_path, cycles: float = 2, frames: int | None = None, legs
     """
     check_output(out_path, MOVIE_FORMATS)  # fail before solving anything
     anim = LinkageAnimation(source, cycles=cycles, frames=frames, legs=legs, fps=fps, variant=variant, steps=steps,
-                            dpi=dpi, figsize=figsize, arrow_scale=arrow_scale)
+                            dpi=dpi, figsize=figsize, arrow_scale=arrow_scale, walker=walker)
     return anim.write(out_path, progress=progress)
