@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, event, given, settings
+from hypothesis import HealthCheck, assume, event, example, given, settings
 from hypothesis import strategies as st
 
 import naive_mech as nm
@@ -140,6 +140,10 @@ def test_classification_matches_brute_force(crank, coupler, rocker, ground):
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(crank=st.floats(4.0, 35.0), coupler=st.floats(10.0, 45.0), rocker=st.floats(10.0, 45.0),
        ground=st.floats(15.0, 40.0), sigma=st.sampled_from([-1, 1]))
+# found by hypothesis: θ4 = π exactly at a sample (the reference's half-angle formula is 0/0 there), and a
+# sample on the fold itself (the joint fixed only to sqrt(rounding) there, for every method)
+@example(crank=10.0, coupler=10.0, rocker=30.0, ground=40.0, sigma=-1)
+@example(crank=9.0, coupler=10.0, rocker=31.0, ground=40.0, sigma=-1)
 def test_crank_rockers_turn_and_triple_rockers_fail(crank, coupler, rocker, ground, sigma):
     """Every Grashof crank-rocker (or double-crank) solves ok over the full turn, matching the closed
     form; every triple-rocker (or other class whose crank cannot turn) fails with kind "assembly" at
@@ -157,7 +161,10 @@ def test_crank_rockers_turn_and_triple_rockers_fail(crank, coupler, rocker, grou
     c = simulate(mech, 120, tolerance=1e-12, velocities=False)
     ref = nm.fourbar_closed_form(c.theta, crank, coupler, rocker, (ground, 0.0), sigma)["B"]
     reach = np.isfinite(ref[:, 0])
-    np.testing.assert_allclose(c.path("B")[reach], ref[reach], rtol=0, atol=1e-8 * ground)
+    # within ~1e-6 of a fold the joint is fixed only to ~sqrt(rounding) of the lengths, for both
+    near_fold = nm.fold_margin(c.theta, crank, coupler, rocker, (ground, 0.0)) < 1e-6
+    atol = np.where(near_fold, 1e-5 * ground, 1e-8 * ground)[:, None]
+    assert (np.abs(c.path("B") - ref)[reach] <= np.broadcast_to(atol, ref.shape)[reach]).all()
     if kind in ("crank-rocker", "double-crank"):  # the crank turns fully against the ground
         assert c.ok, c.failure
     else:
