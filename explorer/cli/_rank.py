@@ -217,10 +217,12 @@ def run(args) -> int:
     extra = parse_list(args.columns, "--columns") if args.columns is not None else None
 
     with open_results(args.results) as res:
+        frame = res.frame()  # read once: the ranking and the screen's counts share it
         full = res.rank(by=by, top=None, where=args.where, ascending=args.ascending, weights=weights,
-                        pareto=pareto, include_failed=args.include_failed, include_screened=args.include_screened)
+                        pareto=pareto, include_failed=args.include_failed, include_screened=args.include_screened,
+                        frame=frame)
         counts = res.status_counts()
-        screened = res.screen_summary()
+        screened = res.screen_summary(frame)
         n, complete, name = res.n_variants, res.complete, res.filename
     ranked = full if top is None else full.iloc[:top]
 

@@ -208,8 +208,11 @@ def evaluate_filter(df, text: str) -> np.ndarray:
             return column(node.id)
         return _literal_value(node)
 
+    def _text(v):
+        return isinstance(v, str) or (isinstance(v, np.ndarray) and v.dtype == object)
+
     def _num(v):
-        if isinstance(v, str) or (isinstance(v, np.ndarray) and v.dtype == object):
+        if _text(v):
             raise FilterError(f"where: arithmetic or an ordering on text in {text!r}")
         return np.asarray(v, dtype=np.float64)
 
@@ -220,10 +223,11 @@ def evaluate_filter(df, text: str) -> np.ndarray:
         return np.broadcast_to(a, (n,))
 
     def _equal(a, b, n):
-        if isinstance(a, np.ndarray) and a.dtype == object or isinstance(b, str):
-            return np.broadcast_to(np.asarray(a, dtype=object) == b, (n,)) if not isinstance(b, np.ndarray) \
-                else np.asarray(a, dtype=object) == b
-        return np.broadcast_to(np.equal(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)), (n,))
+        if _text(a) or _text(b):
+            eq = np.asarray(a, dtype=object) == np.asarray(b, dtype=object)
+        else:
+            eq = np.equal(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
+        return np.broadcast_to(eq, (n,))
 
     result = ev(tree.body)
     arr = np.asarray(result)

@@ -61,6 +61,7 @@ from numba import njit
 from ..errors import UserError
 from ..kernels import parallel_rows
 from ..plan import fourbar_loops
+from ._runs import all_finite, longest_cyclic_run
 from ._walker import walker_metrics
 
 from ._table import (BY_NAME, CRANK_METRICS, DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, LEG_METRICS,  # noqa: F401
@@ -77,32 +78,7 @@ _N_FOOT = len(FOOT_METRICS)
 @njit(cache=True)
 def _stance(y, thr):
     """Longest cyclic run of y <= thr: (start, length); ties to the smallest start. (0, S) if all."""
-    S = y.shape[0]
-    k0 = -1
-    for k in range(S):
-        if not (y[k] <= thr):
-            k0 = k
-            break
-    if k0 < 0:
-        return 0, S
-    best_start = 0
-    best_len = 0
-    run_start = 0
-    run_len = 0
-    # scan S samples starting right after a sample that is out of the band, so no run is cut
-    for j in range(1, S + 1):
-        k = (k0 + j) % S
-        if y[k] <= thr:
-            if run_len == 0:
-                run_start = k
-            run_len += 1
-        else:
-            if run_len > best_len or (run_len == best_len and run_len > 0 and run_start < best_start):
-                best_start = run_start
-                best_len = run_len
-            run_len = 0
-    # the scan ends on sample k0, which is out of the band, so every run has been closed
-    return best_start, best_len
+    return longest_cyclic_run(y <= thr)
 
 
 def stance_indices(path, band: float = DEFAULT_BAND) -> np.ndarray:
@@ -239,14 +215,7 @@ def _crossings_kernel(paths, status, out):
     start = np.empty(S + 1, dtype=np.int64)
     order = np.empty(S, dtype=np.int64)
     for i in range(N):
-        if status[i] != 0:
-            continue
-        finite = True
-        for k in range(S):
-            if not (math.isfinite(paths[i, k, 0]) and math.isfinite(paths[i, k, 1])):
-                finite = False
-                break
-        if not finite:
+        if status[i] != 0 or not all_finite(paths[i]):
             continue
         xmin = np.inf
         xmax = -np.inf
@@ -375,7 +344,8 @@ def _resolve_names(names, available: dict[str, str | None]) -> list[str]:
     return [m for m in METRICS if m in chosen]
 
 
-def _check_band(band) -> float:
+def check_band(band) -> float:
+    """``band`` as a float in [0, 1], or UserError naming it."""
     if isinstance(band, bool) or not isinstance(band, (int, float, np.integer, np.floating)):
         raise UserError(f"band: expected a number in [0, 1], got {band!r}")
     b = float(band)
@@ -434,7 +404,7 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
         if not np.issubdtype(status.dtype, np.integer):
             raise UserError(f"status: expected integer codes (0 = ok), got dtype {status.dtype}")
         status = status.astype(np.int64, copy=False)
-    band = _check_band(band)
+    band = check_band(band)
     chosen = _resolve_names(names, _available(mechanism, walker, crank))
     need_vel = [m for m in chosen if m in VELOCITY_METRICS]
     if need_vel and velocities is None:

@@ -97,20 +97,13 @@ def screen_from_dict(table, source: str, key: str = "screen") -> Screen:
     return Screen(**out)
 
 
-def screen_columns(df, screen: Screen | None = None):
-    """(buildable, reasons, applied) for a results frame, or None if it stores no screened metric.
-
-    buildable : (n,) bool, ok and passing every applied check; reasons : (n,) object array of "pass",
-    the failing checks' reasons joined by "; ", or "failed (STATUS)"; applied : the names of the
-    checks whose metric the frame holds.
-    """
+def _evaluate(df, screen: Screen | None):
+    """(applied checks, their values, their failure masks among the ok rows, ok mask): the one place
+    the screen's checks are evaluated, for both the frame's columns and the counts."""
     from ._rank import ok_mask
 
     screen = screen if screen is not None else Screen()
     applied = [c for c in CHECKS if all(col in df.columns for col in c[1])]
-    if not applied:
-        return None
-    n = len(df)
     ok = ok_mask(df)
     values, fails = [], []
     for _, _, value, field, failed, _ in applied:
@@ -118,6 +111,21 @@ def screen_columns(df, screen: Screen | None = None):
         with np.errstate(invalid="ignore"):
             fails.append(failed(v, getattr(screen, field)) & ok)
         values.append(v)
+    return applied, values, fails, ok
+
+
+def screen_columns(df, screen: Screen | None = None):
+    """(buildable, reasons, applied) for a results frame, or None if it stores no screened metric.
+
+    buildable : (n,) bool, ok and passing every applied check; reasons : (n,) object array of "pass",
+    the failing checks' reasons joined by "; ", or "failed (STATUS)"; applied : the names of the
+    checks whose metric the frame holds.
+    """
+    screen = screen if screen is not None else Screen()
+    applied, values, fails, ok = _evaluate(df, screen)
+    if not applied:
+        return None
+    n = len(df)
     bad = np.zeros(n, dtype=bool)
     for f in fails:
         bad |= f
@@ -142,17 +150,9 @@ def screen_counts(df, screen: Screen | None = None) -> dict:
     "applied": [checks whose metric the frame holds]}; "removed" is 0 and "applied" empty when the
     frame stores no metric the screen reads.
     """
-    from ._rank import ok_mask
-
-    screen = screen if screen is not None else Screen()
-    ok = ok_mask(df)
-    out = {"removed": 0, "checks": {}, "applied": []}
-    for name, cols, value, field, failed, _ in CHECKS:
-        if not all(c in df.columns for c in cols):
-            continue
-        with np.errstate(invalid="ignore"):
-            out["checks"][name] = int((failed(value(df), getattr(screen, field)) & ok).sum())
-        out["applied"].append(name)
-    if "buildable" in df.columns:
-        out["removed"] = int((ok & ~df["buildable"].to_numpy(dtype=bool)).sum())
-    return out
+    applied, _, fails, ok = _evaluate(df, screen)
+    removed = np.zeros(len(df), dtype=bool)
+    for f in fails:
+        removed |= f
+    return {"removed": int(removed.sum()), "checks": {c[0]: int(f.sum()) for c, f in zip(applied, fails)},
+            "applied": [c[0] for c in applied]}

@@ -48,6 +48,7 @@ import numpy as np
 from numba import njit
 
 from ..kernels import parallel_rows
+from ._runs import all_finite, longest_cyclic_run
 from ._table import WALKER_METRICS
 
 _N = len(WALKER_METRICS)
@@ -97,15 +98,8 @@ def _walker_kernel(base, frac, sign, mirrored, drag, contact, paths, vel, status
     G = np.empty(S)
     C = np.empty(S, dtype=np.int64)
     for i in range(N):
-        if status[i] != 0:
-            continue
-        finite = True
-        for k in range(S):
-            if not (math.isfinite(paths[i, k, 1]) and math.isfinite(vel[i, k, 0]) and math.isfinite(vel[i, k, 1])):
-                finite = False
-                break
         r = crank[i]
-        if not finite or not (r > 0.0):
+        if status[i] != 0 or not (r > 0.0) or not (all_finite(paths[i]) and all_finite(vel[i])):
             continue
         # -- every leg's foot height and velocity at every sample -------------------------------------
         for j in range(L):
@@ -200,32 +194,16 @@ def _walker_kernel(base, frac, sign, mirrored, drag, contact, paths, vel, status
         clear = np.inf
         for j in range(L):
             n_touch = 0
-            k0 = -1
             for k in range(S):
                 if touch[j, k]:
                     n_touch += 1
-                    k0 = k
             if n_touch / S < cmin:
                 cmin = n_touch / S
             if n_touch == S:  # never leaves the ground
                 clear = 0.0
                 continue
-            # longest cyclic run of samples off the ground, scanning from just after a touching sample
-            best_s = 0
-            best_n = 0
-            run_s = 0
-            run_n = 0
-            for m in range(1, S + 1):
-                k = (k0 + m) % S
-                if not touch[j, k]:
-                    if run_n == 0:
-                        run_s = k
-                    run_n += 1
-                else:
-                    if run_n > best_n or (run_n == best_n and run_s < best_s):
-                        best_s = run_s
-                        best_n = run_n
-                    run_n = 0
+            # the swing: the longest cyclic run of samples off the ground (ties: the smallest start)
+            best_s, best_n = longest_cyclic_run(~touch[j])
             q = best_n // 4
             h = np.inf
             for m in range(q, best_n - q):

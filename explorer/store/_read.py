@@ -192,20 +192,22 @@ class Results:
             return Screen()
 
     def rank(self, by=None, top: int | None = 10, where: str | None = None, ascending=None, weights=None,
-             pareto=None, include_failed: bool = False, include_screened: bool = False) -> "pd.DataFrame":
+             pareto=None, include_failed: bool = False, include_screened: bool = False,
+             frame: "pd.DataFrame | None" = None) -> "pd.DataFrame":
         """Ranked rows of :meth:`frame`, best first, with a ``rank`` column: :func:`explorer.gait.rank`
         (by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS`; one metric ``by``, a weighted ``score`` over normalised metrics with ``weights``, or the
         Pareto front of ``pareto``; ``where`` is a filter such as "bob < 0.5 and slip < 0.05" (explorer.gait._filter);
         failed variants are left out unless ``include_failed``, variants the buildability screen
-        removes unless ``include_screened``; the frame's ``screen`` column says why).
+        removes unless ``include_screened``; the frame's ``screen`` column says why). ``frame``: a
+        :meth:`frame` already read, to reuse.
 
         A metric that is not stored raises UserError saying how to compute it
         (``explorer metrics RESULTS`` or ``[scene] metrics = true``).
         """
         from ..gait import rank
         self._check_metrics(_ranked_columns(by, weights, pareto))
-        return rank(self.frame(), by=by, top=top, where=where, ascending=ascending, weights=weights,
-                    pareto=pareto, include_failed=include_failed, include_screened=include_screened)
+        return rank(self.frame() if frame is None else frame, by=by, top=top, where=where, ascending=ascending,
+                    weights=weights, pareto=pareto, include_failed=include_failed, include_screened=include_screened)
 
     def _check_metrics(self, names) -> None:
         """UserError if any of ``names`` is a gait metric that this file does not store."""

@@ -136,7 +136,7 @@ def plan_shards(study, workers: int = 1, shard_size: int | None = None, chunk_si
     360 steps).
     """
     N, S = study.n_variants, study.steps
-    n_series = len(study.vertex_names) * (1 + int(study.velocities) + int(study.accelerations))
+    n_series = study.n_series
     if shard_size is None:
         want = math.ceil(N / (SHARDS_PER_WORKER * max(1, int(workers))))
         want = max(want, math.ceil(MIN_SHARD_CONFIGURATIONS / S), math.ceil(N / MAX_SHARDS))

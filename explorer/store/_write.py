@@ -43,7 +43,6 @@ import json
 import math
 import os
 from datetime import datetime, timezone
-from importlib import resources
 from pathlib import Path
 
 import h5py
@@ -94,12 +93,6 @@ def chunk_rows(n_variants: int, steps: int, n_series: int, target: int | None = 
     return max(1, min(rows, n_variants))
 
 
-def _mechanism_text(study) -> str:
-    if study.mechanism_path:
-        return Path(study.mechanism_path).read_text(encoding="utf-8")
-    return (resources.files("explorer.mechanism") / "builtin" / f"{study.mechanism}.toml").read_text(encoding="utf-8")
-
-
 def _strings(values) -> np.ndarray:
     return np.array([str(v) for v in values], dtype=h5py.string_dtype())
 
@@ -148,8 +141,7 @@ class ResultsWriter:
         mech = study.mech
         N, S = study.n_variants, study.steps
         vertices = study.vertex_names
-        n_series = len(vertices) * (1 + int(study.velocities) + int(study.accelerations))
-        rows = chunk_rows(N, S, n_series, rows)
+        rows = chunk_rows(N, S, study.n_series, rows)
         n_chunks = -(-N // rows)
         h = min(hdf5_rows(S), rows)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
@@ -170,7 +162,7 @@ class ResultsWriter:
             f.attrs["study_source"] = study.source
             f.attrs["study_resolved"] = json.dumps(study.as_dict())
             f.attrs["study_fingerprint"] = study.fingerprint()
-            f.attrs["mechanism"] = _mechanism_text(study)
+            f.attrs["mechanism"] = study.mechanism_text()
             f.attrs["mechanism_source"] = mech.source
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S

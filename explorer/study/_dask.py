@@ -37,7 +37,7 @@ from ..kernels import STATUS_NAMES
 from ..store._lock import OutputLock
 from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch,
                              write_shard)
-from ..store._write import FILE_STATUS_NAMES, FORMAT, _mechanism_text, fingerprint_diff
+from ..store._write import FILE_STATUS_NAMES, FORMAT, fingerprint_diff
 from ._chunk import chunk_solver
 from ._run import RunSummary, _state, results_path, validate_study
 from ._spec import Study, load_study
@@ -61,7 +61,7 @@ class _Recipe:
     def __init__(self, study: Study):
         from dataclasses import fields
         self.fields = tuple((f.name, getattr(study, f.name)) for f in fields(study) if f.name != "_mech")
-        self.mechanism_text = _mechanism_text(study)
+        self.mechanism_text = study.mechanism_text()
         self.mechanism_source = study.mech.source
         self.key = (study.fingerprint(), self.mechanism_text)
 

@@ -88,16 +88,17 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
     or a file that lacks the foot path or velocities the metrics need (named in the message).
     """
     from ..gait import (BAND_METRICS, DESCRIPTIONS, DIRECTIONS, METRICS, UNITS, VELOCITY_METRICS,
-                        available_metrics, compute_metrics)
+                        available_metrics, check_band, compute_metrics)
     from ..mechanism import mechanism_from_dict, walker_from_dict
 
     t0 = time.perf_counter()
     p = Path(os.fspath(path))
     names = _parse_names(names)
     if band is not None:
-        if isinstance(band, bool) or not isinstance(band, (int, float)) or not 0.0 <= float(band) <= 1.0:
-            raise UserError(f"--band: expected a number in [0, 1], got {band!r}")
-        band = float(band)
+        try:
+            band = check_band(band)
+        except UserError as exc:
+            raise UserError(f"--{exc}") from None
     if not p.is_file():
         raise UserError(f"{p}: no such results file")
     try:

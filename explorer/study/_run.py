@@ -201,8 +201,7 @@ def results_path(study, output, resume: bool, force: bool, **sizes) -> Path:
 def estimated_bytes(study) -> int:
     """An upper estimate of a study's results file: every stored series uncompressed (compression
     saves 15-20 %), plus the per-variant columns."""
-    n_series = len(study.vertex_names) * (1 + int(study.velocities) + int(study.accelerations))
-    per_variant = n_series * study.steps * 2 * 8 + (len(study.mech.links) + 32) * 8
+    per_variant = study.n_series * study.steps * 2 * 8 + (len(study.mech.links) + 32) * 8
     return study.n_variants * per_variant
 
 

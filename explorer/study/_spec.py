@@ -142,6 +142,11 @@ class Study:
         return tuple(n for n in self.mech.link_names if n in chosen)
 
     @property
+    def n_series(self) -> int:
+        """(N, steps, 2) datasets stored: every scene vertex's path, velocities, accelerations."""
+        return len(self.vertex_names) * (1 + int(self.velocities) + int(self.accelerations))
+
+    @property
     def n_parameters(self) -> int:
         """Number of perturbed parameters k (links, plus one for the crank)."""
         return len(self.link_names) + int(self.crank)
