@@ -50,3 +50,18 @@ def test_numba_cache_dir_is_honoured(tmp_path):
     assert out.returncode == 0, out.stderr
     key, path = out.stdout.split()
     assert path.startswith(str(tmp_path / f"explorer-{key}")), path
+
+
+def test_nothing_is_cached_inside_the_package(tmp_path):
+    """Files pip did not install outlive `pip uninstall`: a cache inside an installed package left an
+    `explorer` folder without __init__.py that shadowed the next (editable) install."""
+    code = ("import explorer\nfrom explorer.kernels._cache import kernel_cache_path\n"
+            "from explorer.gait import _walker\n"
+            "print(explorer.__file__, kernel_cache_path(_walker._walker_kernel))")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert out.returncode == 0, out.stderr
+    init, path = out.stdout.split()
+    assert path.startswith(str(tmp_path / "explorer" / "numba-")), path
+    assert not path.startswith(os.path.dirname(init))

@@ -7,9 +7,13 @@ cached in a folder named after a hash of the code of every module that defines o
 (``explorer/kernels``, ``explorer/gait``, ``explorer/bench``): changed code, a new folder, a fresh
 compile; a changed docstring or comment leaves the hash alone (it is taken over the syntax tree,
 docstrings removed), so it costs at most the recompile of the functions in that one file (Numba's own
-check). The folder is ``$NUMBA_CACHE_DIR/explorer-<hash>`` when that variable is set, else
-``explorer/__pycache__/numba-<hash>`` beside the installed package, else (a read-only install) the
-user's cache folder. Folders of other hashes in the same place are removed, best effort.
+check). The folder is ``$NUMBA_CACHE_DIR/explorer-<hash>`` when that variable is set, else the user's
+cache folder, ``$XDG_CACHE_HOME/explorer/numba-<hash>`` (``~/.cache/...``), and only if that cannot be
+written, ``explorer/__pycache__/numba-<hash>`` in the package. Nothing is written into an installed
+package otherwise: files pip did not install would outlive ``pip uninstall`` and leave an
+``explorer`` folder without ``__init__.py`` that shadows the next install. Beside the current folder,
+the three most recently used folders of other hashes are kept (other installs may share the user's
+cache) and older ones removed, best effort.
 
 This plugs a locator class into Numba's caching (``numba.core.caching.CacheImpl``); if those
 internals are missing (another Numba), the cache falls back to Numba's default locations, guarded by
@@ -61,12 +65,16 @@ def kernel_sources() -> list[tuple[str, str]]:
     return out
 
 
+def _user_cache() -> Path:
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "explorer"
+
+
 def _key() -> str:
     """source_key of the kernel sources, memoised against a hash of their raw bytes (parsing 22 files
     costs ~0.15 s; hashing their bytes ~1 ms): the syntax trees are parsed only after a file changed."""
     texts = kernel_sources()
     raw = hashlib.sha1("\0".join(f"{n}\0{t}" for n, t in texts).encode()).hexdigest()
-    memo = _PACKAGE / "__pycache__" / "explorer-kernel-key.txt"
+    memo = _user_cache() / "kernel-key.txt"
     try:
         seen_raw, seen_key = memo.read_text().split()
         if seen_raw == raw:
@@ -75,7 +83,7 @@ def _key() -> str:
         pass
     key = source_key(texts)
     try:
-        memo.parent.mkdir(exist_ok=True)
+        memo.parent.mkdir(parents=True, exist_ok=True)
         memo.write_text(f"{raw} {key}")
     except OSError:
         pass
@@ -90,16 +98,20 @@ def cache_bases() -> list[Path]:
     from numba.core import config
     if config.CACHE_DIR:
         return [Path(config.CACHE_DIR) / f"explorer-{KEY}"]
-    user = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "explorer" / f"numba-{KEY}"
-    return [_PACKAGE / "__pycache__" / f"numba-{KEY}", user]
+    return [_user_cache() / f"numba-{KEY}", _PACKAGE / "__pycache__" / f"numba-{KEY}"]
+
+
+#: Folders of other code hashes kept beside the current one (other installs may share the cache).
+KEEP_OTHER_KEYS = 3
 
 
 def _remove_other_keys(base: Path) -> None:
     prefix = base.name.rsplit("-", 1)[0] + "-"
     try:
-        for old in base.parent.glob(prefix + "*"):
-            if old != base and old.is_dir():
-                shutil.rmtree(old, ignore_errors=True)
+        others = [p for p in base.parent.glob(prefix + "*") if p != base and p.is_dir()]
+        others.sort(key=lambda p: p.stat().st_mtime, reverse=True)
+        for old in others[KEEP_OTHER_KEYS:]:
+            shutil.rmtree(old, ignore_errors=True)
     except OSError:
         pass
 
