@@ -39,7 +39,7 @@ from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_sha
                              write_shard)
 from ..store._write import FILE_STATUS_NAMES, FORMAT, fingerprint_diff
 from ._chunk import chunk_solver
-from ._run import RunSummary, _state, results_path, validate_study
+from ._run import RunSummary, _state, results_path, signals_held, validate_study
 from ._spec import Study, load_study
 
 INSTALL_HINT = 'pip install "explorer[dask]"'
@@ -221,7 +221,7 @@ def _run_dask_locked(client, distributed, study, out, resume, force, shard_size,
                 try:
                     res = fut.result()
                 except Exception as exc:  # a shard failed for good: keep what is done, report
-                    client.cancel(futures)
+                    _stop(client, futures, distributed)
                     n_done = sum(completed_shards(folder, plan))
                     msg = " ".join(str(exc).split()) or type(exc).__name__
                     raise UserError(f"{out}: a shard failed ({type(exc).__name__}: {msg[:300]}); {n_done} of "
@@ -231,7 +231,8 @@ def _run_dask_locked(client, distributed, study, out, resume, force, shard_size,
                 if bar is not None:
                     bar.update(_size(plan, res["shard"]) * study.steps)
         except KeyboardInterrupt:
-            client.cancel(futures)
+            with signals_held():  # a second Ctrl-C must not cut the wait short
+                _stop(client, futures, distributed)
             n_done = sum(completed_shards(folder, plan))
             raise KeyboardInterrupt(f"{out}: interrupted with {n_done} of {plan.n_shards} shards complete; "
                                     f"run again with --resume to finish it") from None
@@ -307,6 +308,29 @@ def _worker_threads(client) -> int:
         return max(1, sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values()))
     except Exception:
         return 1
+
+
+#: Longest wait, seconds, for the shards being worked on when a run stops (about one shard's time).
+STOP_WAIT = 300.0
+
+
+def _stop(client, futures, distributed) -> None:
+    """Stop a run's shard tasks: cancel those not started and wait for those being worked on.
+
+    Cancelling a task that is already running does not stop it on its worker: it would go on and
+    write its shard after this run returned (and released the output's lock), under a run that
+    --resume may have started by then, and the count of completed shards reported would be short.
+    """
+    try:
+        busy = {k for keys in client.processing().values() for k in keys}
+    except Exception:  # the scheduler is gone: nothing more will run
+        return
+    running = [f for f in futures if f.key in busy and not f.done()]
+    client.cancel([f for f in futures if f.key not in busy])
+    try:
+        distributed.wait(running, timeout=STOP_WAIT)
+    except Exception:  # a timeout or a lost scheduler: report what is complete now
+        pass
 
 
 def _warm_everywhere(client, recipe: _Recipe) -> None:
