@@ -3,8 +3,10 @@ draw the foot path where its data says."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
+import matplotlib.pyplot
 import numpy as np
 import pytest
 from matplotlib.colors import rgb_to_hsv, to_rgb
@@ -165,6 +167,25 @@ def test_walker_mirrored_pairs(jansen, tmp_path):
     frames = _gif_frames(anim.write(tmp_path / "walker.gif").path)
     assert len(frames) == 8
     _check_foot_path(frames[0], anim, share=0.75)
+
+
+def test_long_title_never_runs_into_the_clock(jansen):
+    # a walker's title on a long name is wider than the line beside the clock: the name goes on a line of
+    # its own and the rest stays beside the clock, neither overlapping it (a plain leg's keeps one line)
+    for name, walker, lines in (("jansen variant 2193", True, 2), ("jansen variant 2193 of a long study", True, 2),
+                                ("jansen", None, 1)):
+        mech = dataclasses.replace(jansen, name=name)
+        anim = LinkageAnimation(mech, cycles=2, frames=4, walker=walker)  # the CLI's dpi
+        r = anim.fig.canvas.get_renderer()
+        anim.title.set_visible(True)  # drawn into the cached background, hidden since: measure it shown
+        title, clock = anim.title.get_window_extent(r), anim.clock.get_window_extent(r)
+        assert title.width > 100 and clock.width > 100
+        last_line = title.y0 <= clock.y1 and clock.y0 <= title.y1
+        em = anim.title.get_fontsize() * anim.fig.dpi / 72
+        assert not last_line or clock.x0 - title.x1 >= em  # a clear gap, not letters touching
+        assert anim.title.get_text().count("\n") + 1 == lines
+        assert anim.title.get_text().startswith(mech.name)
+        matplotlib.pyplot.close(anim.fig)
 
 
 def test_failed_design_renders_up_to_its_failure(jansen, tmp_path):

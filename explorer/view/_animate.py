@@ -331,14 +331,20 @@ class LinkageAnimation:
         else:
             legs = f" · {self.legs} legs (odd ones mirrored)" if self.legs > 1 else ""
         what = "crank turn" if mech.crank is not None else "pass along the path"
-        text = f"{self.title_base}{legs} · {self.cycles:g} {what}{'s' if self.cycles != 1 else ''}"
-        if self.failure:  # above the name, so the clock on the name's line never overlaps it
-            text = f"not ok: {self.failure}; drawn up to it\n{text}"
-        self.title = ax.set_title(text, fontsize="medium", loc="left", y=1.0, pad=8)
+        rest = f"{legs} · {self.cycles:g} {what}{'s' if self.cycles != 1 else ''}"
+        # above the name, so the clock on the name's line never overlaps it
+        failure = f"not ok: {self.failure}; drawn up to it\n" if self.failure else ""
+        self.title = ax.set_title(f"{failure}{self.title_base}{rest}", fontsize="medium", loc="left", y=1.0,
+                                  pad=8)
         self.clock = ax.text(1.0, 1.0, " ", ha="right", va="baseline", fontsize="medium", family="monospace",
                              transform=ax.transAxes + ScaledTranslation(0.0, 8 / 72, fig.dpi_scale_trans))
         self.draw_frame(0)
         fig.canvas.draw()  # lay out once (constrained), with every part in place
+        if _too_close(self.title, self.clock):
+            # a long title (a walker's, a long name) would run into the clock: the name on a line of its
+            # own, the clock beside the shorter rest (the clock's width is the same every frame)
+            self.title.set_text(f"{failure}{self.title_base}\n{rest.removeprefix(' · ')}")
+            fig.canvas.draw()
         fig.set_layout_engine(None)  # then freeze the layout: no re-layout per frame
         self._cache_background()
 
@@ -417,6 +423,13 @@ class LinkageAnimation:
             msg = getattr(exc, "strerror", None) or (str(exc).splitlines() or [type(exc).__name__])[0]
             raise UserError(f"{p}: cannot write the {fmt.upper()}: {msg}") from None
         return Movie(p, self.n_frames, self.fps, time.perf_counter() - t0, self.failure)
+
+
+def _too_close(title, clock) -> bool:
+    """Whether the title's text comes within one em of the clock's (both drawn; sizes in pixels)."""
+    r = title.figure.canvas.get_renderer()
+    em = title.get_fontsize() * title.figure.dpi / 72
+    return title.get_window_extent(r).padded(em).overlaps(clock.get_window_extent(r))
 
 
 def _resolve_walker(source, walker):
