@@ -35,7 +35,7 @@ def test_every_kernel_module_caches_in_the_keyed_folder():
     from explorer.bench import _seeds
     from explorer.gait import _metrics, _walker
     from explorer.kernels import _batch
-    for fn in (_walker._walker_kernel, _metrics._crossings_kernel, _batch.dyad_batch_jit,
+    for fn in (_walker._walker_kernel, _metrics._crossings_kernel, _batch.fast_batch_jit,
                next(getattr(_seeds, n) for n in dir(_seeds) if hasattr(getattr(_seeds, n), "_cache"))):
         path = kernel_cache_path(fn)
         assert path is not None and KEY in path, (fn, path)

@@ -1,7 +1,7 @@
 """The batch kernels: one design, or N variants in parallel, through the sweep driver.
 
 For every row they are handed, the ``*_batch_jit`` kernels check the variant's lengths, build its
-step context (the fast all-dyad one or the generic one) and run :func:`~._sweep.sweep`, serially and
+block table (and, for the generic step, its context) and run :func:`~._sweep.sweep`, serially and
 without the GIL: :func:`~._rows.parallel_rows` runs them in parallel over blocks of rows. (The
 per-variant part is written into each loop rather than called: a separately compiled function
 layer re-optimises the whole sweep once more, about 2 s on a cold cache.)
@@ -11,10 +11,10 @@ layer re-optimises the whole sweep once more, about 2 s on a cold cache.)
 import numpy as np
 from numba import njit
 
+from ..plan import DYAD
 from ._drive import CRANK
-from ._dyads import dyad_context
-from ._generic import generic_context
-from ._sweep import STATUS_INVALID, dyad_sweep, generic_sweep
+from ._step import block_table, generic_context
+from ._sweep import STATUS_INVALID, fast_sweep, generic_sweep
 
 # Lengths outside this range are "invalid": their squares (the residuals are in squared lengths)
 # would underflow to 0 or overflow to inf (NaN compares false, so NaN is invalid as well).
@@ -44,47 +44,82 @@ def _invalid(out_pos, out_vel, out_acc, want_vel, want_acc):
     return STATUS_INVALID, 0.0, np.nan, -1, 0
 
 
-@njit(cache=True, nogil=True)
-def dyad_batch_jit(dv, dpa, dpb, dla, dlb, dlp, tip, kind, prm, tab, t_end, closed, cx, cy, P_init, signs, moving, tol,
-                   maxit, out_idx, want_vel, want_acc, lengths, scale, out_pos, out_vel, out_acc, status, fail_t,
-                   fail_end, fail_block, iters):
-    """Every row of ``lengths`` (N, n_links) / ``scale`` (N,) through :func:`_sweep.sweep` with the dyad
-    step, serially.
+@njit(cache=True)
+def design_start(P_init, fixed, fixed_pos):
+    """A design's start: the nominal start P_init with its own fixed vertices ``fixed_pos`` in place."""
+    P = P_init.copy()
+    for f in range(fixed.shape[0]):
+        P[fixed[f], 0] = fixed_pos[f, 0]
+        P[fixed[f], 1] = fixed_pos[f, 1]
+    return P
 
-    Outputs in place: out_pos (N, S, n_out, 2); out_vel / out_acc the same when asked, else
-    (N, 0, n_out, 2); status, fail_t, fail_end, fail_block, iters (N,). The per-row arguments come
-    last (from ``lengths`` on), for :func:`~._rows.parallel_rows`.
+
+@njit(cache=True)
+def _shortest(tab, L):
+    """The shortest dyad length of a block table (the scale of the sweep's closing check); the
+    shortest distance equation if there is no dyad."""
+    out = np.inf
+    for k in range(tab.shape[0]):
+        if tab[k].kind == DYAD:
+            out = min(out, np.sqrt(tab[k].da2), np.sqrt(tab[k].db2))
+    if out == np.inf:
+        for e in range(L.shape[0]):
+            out = min(out, L[e])
+    return out
+
+
+@njit(cache=True, nogil=True)
+def fast_batch_jit(topo, drv, opts, P_init, signs, designs, outs):
+    """Every design (row) of ``designs`` through :func:`_sweep.sweep` with the fast DYAD / ATTACH step,
+    serially, writing ``outs`` in place.
+
+    topo, drv, opts, designs, outs: the ``_inputs`` named tuples; P_init (n_vertices, 2): the
+    nominal's configuration at the first sample (every design's first Newton solve starts there);
+    signs (n_blocks,): the nominal's branch of each block. The per-row arguments come last
+    (``designs``, ``outs``), for :func:`~._rows.parallel_rows`.
     """
-    for i in range(lengths.shape[0]):
-        L = lengths[i]
-        if not valid_lengths(L, scale[i]):
-            res = _invalid(out_pos[i], out_vel[i], out_acc[i], want_vel, want_acc)
+    crank = drv.kind == CRANK
+    for i in range(designs.scale.shape[0]):
+        L = designs.dist[i]
+        scale = designs.scale[i]
+        if not valid_lengths(L, scale):
+            res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], opts.want_vel, opts.want_acc)
         else:
-            ctx = dyad_context(dv, dpa, dpb, dla, dlb, L, dlp, tip, kind == CRANK, cx, cy, scale[i], P_init)
-            shortest = np.inf
-            for e in range(dla.shape[0]):
-                shortest = min(shortest, L[dla[e]], L[dlb[e]])
-            res = dyad_sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale[i], P_init, signs, moving,
-                             shortest, tol * L.max(), maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
-        status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res
+            P = design_start(P_init, topo.fixed, designs.fixed[i])
+            cx = designs.center[i, 0]
+            cy = designs.center[i, 1]
+            tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, L,
+                              designs.uv[i], P, cx, cy, scale, crank)
+            res = fast_sweep(tab, topo, drv, opts, P, signs, cx, cy, scale, _shortest(tab, L), designs.tol[i],
+                             outs.pos[i], outs.vel[i], outs.acc[i])
+        outs.status[i], outs.fail_t[i], outs.fail_end[i], outs.fail_block[i], outs.iters[i] = res
 
 
 @njit(cache=True, nogil=True)
-def generic_batch_jit(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos, tip, dkind,
-                      prm, tab, t_end, closed, cx, cy, P_init, signs, moving, tol, maxit, out_idx, want_vel, want_acc,
-                      lengths, scale, out_pos, out_vel, out_acc, status, fail_t, fail_end, fail_block, iters):
-    """Every row through :func:`_sweep.sweep` with the generic step, serially; the outputs and the
-    order of arguments are those of :func:`dyad_batch_jit`."""
-    for i in range(lengths.shape[0]):
-        L = lengths[i]
-        if not valid_lengths(L, scale[i]):
-            res = _invalid(out_pos[i], out_vel[i], out_acc[i], want_vel, want_acc)
+def generic_batch_jit(topo, drv, opts, P_init, signs, designs, outs):
+    """Every design through :func:`_sweep.sweep` with the generic step (``opts.method``: block or
+    dense), serially; arguments as for :func:`fast_batch_jit`."""
+    crank = drv.kind == CRANK
+    known = np.empty(topo.fixed.shape[0] + 1, dtype=np.int64)
+    known[0] = topo.tip
+    for f in range(topo.fixed.shape[0]):
+        known[f + 1] = topo.fixed[f]
+    for i in range(designs.scale.shape[0]):
+        L = designs.dist[i]
+        scale = designs.scale[i]
+        if not valid_lengths(L, scale):
+            res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], opts.want_vel, opts.want_acc)
         else:
-            ctx = generic_context(method, kind, vert_ptr, verts, link_ptr, blinks, link_a, link_b, known, fixed_pos,
-                                  L)
+            P = design_start(P_init, topo.fixed, designs.fixed[i])
+            cx = designs.center[i, 0]
+            cy = designs.center[i, 1]
+            tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, L,
+                              designs.uv[i], P, cx, cy, scale, crank)
+            ctx = generic_context(opts.method, tab, topo.gen_vptr, topo.gen_verts, topo.gen_rptr, topo.gen_rows,
+                                  topo.dist_a, topo.dist_b, topo.att_vpq, L, designs.uv[i], known, designs.fixed[i])
             shortest = np.inf
             for e in range(L.shape[0]):
                 shortest = min(shortest, L[e])
-            res = generic_sweep(ctx, tip, dkind, prm, tab, t_end, closed, cx, cy, scale[i], P_init, signs, moving,
-                                shortest, tol * L.max(), maxit, out_idx, want_vel, want_acc, out_pos[i], out_vel[i], out_acc[i])
-        status[i], fail_t[i], fail_end[i], fail_block[i], iters[i] = res
+            res = generic_sweep(ctx, topo, drv, opts, P, signs, cx, cy, scale, shortest, designs.tol[i],
+                                outs.pos[i], outs.vel[i], outs.acc[i])
+        outs.status[i], outs.fail_t[i], outs.fail_end[i], outs.fail_block[i], outs.iters[i] = res

@@ -1,4 +1,5 @@
-"""Per-block Newton solves, tangents and checks (Numba, pure: arrays in, arrays out).
+"""The GENERAL block kind (Newton on a coupled block), and what every kind shares: step codes, the
+between-sample gap check, the dense LU (Numba, pure: arrays in, arrays out).
 
 Conventions shared by every kernel:
 
@@ -16,6 +17,8 @@ Conventions shared by every kernel:
 
 import numpy as np
 from numba import njit
+
+from ..plan import ROW_ATTACH_X, ROW_DIST
 
 OK = 0
 INFEASIBLE = 1
@@ -128,50 +131,102 @@ def lu_solve(M, rhs, n):
 
 
 @njit(cache=True)
-def _general_jacobian(P, verts, links, link_a, link_b, loc, M):
-    """Unscaled Jacobian of a general block's link equations w.r.t. its own vertices (rows: links)."""
+def _row_ends(row, dist_a, dist_b, att_vpq):
+    """(type, first vertex, second vertex, third vertex or −1) of a GENERAL block's row."""
+    typ = row[0]
+    e = row[1]
+    if typ == ROW_DIST:
+        return typ, dist_a[e], dist_b[e], -1
+    return typ, att_vpq[e, 0], att_vpq[e, 1], att_vpq[e, 2]
+
+
+@njit(cache=True)
+def _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M):
+    """Jacobian of a general block's rows w.r.t. its own vertices (columns 2·loc + axis).
+
+    A distance row is |p_w − p_u|² − d² (unscaled); an attach row is the x or y component of
+    p_j − p_p − u (p_q − p_p) − v R(p_q − p_p), linear in the positions.
+    """
     n = 2 * verts.shape[0]
     for i in range(n):
         for j in range(n):
             M[i, j] = 0.0
-    for r in range(links.shape[0]):
-        e = links[r]
-        u = link_a[e]
-        w = link_b[e]
-        gx = P[w, 0] - P[u, 0]
-        gy = P[w, 1] - P[u, 1]
-        if loc[u] >= 0:
-            M[r, 2 * loc[u]] -= 2.0 * gx
-            M[r, 2 * loc[u] + 1] -= 2.0 * gy
-        if loc[w] >= 0:
-            M[r, 2 * loc[w]] += 2.0 * gx
-            M[r, 2 * loc[w] + 1] += 2.0 * gy
+    for r in range(rows.shape[0]):
+        typ, u, w, z = _row_ends(rows[r], dist_a, dist_b, att_vpq)
+        if typ == ROW_DIST:
+            gx = P[w, 0] - P[u, 0]
+            gy = P[w, 1] - P[u, 1]
+            if loc[u] >= 0:
+                M[r, 2 * loc[u]] -= 2.0 * gx
+                M[r, 2 * loc[u] + 1] -= 2.0 * gy
+            if loc[w] >= 0:
+                M[r, 2 * loc[w]] += 2.0 * gx
+                M[r, 2 * loc[w] + 1] += 2.0 * gy
+        else:
+            # joint u, base p = w, q = z; x row: j.x − p.x − cu (q.x − p.x) + cv (q.y − p.y)
+            cu = uv[rows[r, 1], 0]
+            cv = uv[rows[r, 1], 1]
+            ax = 0 if typ == ROW_ATTACH_X else 1
+            oth = 1 - ax
+            sv = 1.0 if ax == 0 else -1.0  # the sign of the cv term on the other axis
+            if loc[u] >= 0:
+                M[r, 2 * loc[u] + ax] += 1.0
+            if loc[w] >= 0:
+                M[r, 2 * loc[w] + ax] += cu - 1.0
+                M[r, 2 * loc[w] + oth] -= sv * cv
+            if loc[z] >= 0:
+                M[r, 2 * loc[z] + ax] -= cu
+                M[r, 2 * loc[z] + oth] += sv * cv
 
 
 @njit(cache=True)
-def general_sign(P, verts, links, link_a, link_b, loc, M, rhs):
+def _attach_residual(P, row, att_vpq, uv):
+    """The x or y component of p_j − (p_p + u (p_q − p_p) + v R(p_q − p_p)) for an attach row."""
+    t = row[1]
+    j = att_vpq[t, 0]
+    p = att_vpq[t, 1]
+    q = att_vpq[t, 2]
+    gx = P[q, 0] - P[p, 0]
+    gy = P[q, 1] - P[p, 1]
+    if row[0] == ROW_ATTACH_X:
+        return P[j, 0] - (P[p, 0] + uv[t, 0] * gx - uv[t, 1] * gy)
+    return P[j, 1] - (P[p, 1] + uv[t, 0] * gy + uv[t, 1] * gx)
+
+
+@njit(cache=True)
+def general_sign(P, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs):
     """Sign of the determinant of a general block's Jacobian at P (its branch sign); 0.0 if singular."""
     for j in range(verts.shape[0]):
         loc[verts[j]] = j
-    _general_jacobian(P, verts, links, link_a, link_b, loc, M)
+    _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M)
     for j in range(verts.shape[0]):
         loc[verts[j]] = -1
     return lu_solve(M, rhs, 2 * verts.shape[0])
 
 
 @njit(cache=True)
-def solve_general(P0, V0, Vp, P1, V1, A1, verts, links, link_a, link_b, L, h, hp, tol, maxit, sign_ref,
+def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, L, uv, h, hp, tol, maxit, sign_ref,
                   want_acc, checks, loc, M, rhs):
-    """Newton on one coupled block (e.g. an Assur triad) with a step limit; then its tangent.
+    """Newton on one coupled block (e.g. an Assur triad, or a body inside a loop) with a step limit;
+    then its tangent.
 
-    ``verts`` and ``links`` are the block's vertex and link indices; ``loc`` (n_vertices,) is scratch
-    filled with −1, ``M`` and ``rhs`` are scratch of at least the block's size. Returns (code, iterations).
+    ``verts`` are the block's vertices and ``rows`` its equations (``_inputs.Topology.gen_rows``);
+    ``loc`` (n_vertices,) is scratch filled with −1, ``M`` and ``rhs`` are scratch of at least the
+    block's size. Returns (code, iterations).
     """
     nb = verts.shape[0]
     n = 2 * nb
     shortest = np.inf
-    for r in range(links.shape[0]):
-        shortest = min(shortest, L[links[r]])
+    for r in range(rows.shape[0]):
+        if rows[r, 0] == ROW_DIST:
+            shortest = min(shortest, L[rows[r, 1]])
+        else:
+            t = rows[r, 1]
+            p = att_vpq[t, 1]
+            q = att_vpq[t, 2]
+            for e in range(dist_a.shape[0]):  # the body's base distance
+                if (dist_a[e] == p and dist_b[e] == q) or (dist_a[e] == q and dist_b[e] == p):
+                    shortest = min(shortest, L[e])
     lim = MAX_MOVE * shortest
     for j in range(nb):
         v = verts[j]
@@ -183,21 +238,26 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, links, link_a, link_b, L, h, hp
     it = 0
     while True:
         worst = 0.0
-        for r in range(links.shape[0]):
-            e = links[r]
-            u = link_a[e]
-            w = link_b[e]
-            gx = P1[w, 0] - P1[u, 0]
-            gy = P1[w, 1] - P1[u, 1]
-            d2 = L[e] * L[e]
-            rhs[r] = d2 - (gx * gx + gy * gy)
-            worst = max(worst, abs(rhs[r]) / d2)
+        for r in range(rows.shape[0]):
+            if rows[r, 0] == ROW_DIST:
+                e = rows[r, 1]
+                u = dist_a[e]
+                w = dist_b[e]
+                gx = P1[w, 0] - P1[u, 0]
+                gy = P1[w, 1] - P1[u, 1]
+                d2 = L[e] * L[e]
+                rhs[r] = d2 - (gx * gx + gy * gy)
+                worst = max(worst, abs(rhs[r]) / d2)
+            else:
+                res = _attach_residual(P1, rows[r], att_vpq, uv)
+                rhs[r] = -res
+                worst = max(worst, abs(res) / shortest)
         if worst <= ROUNDING:
             break
         if it >= maxit:
             code = NOCONV
             break
-        _general_jacobian(P1, verts, links, link_a, link_b, loc, M)
+        _general_jacobian(P1, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M)
         if lu_solve(M, rhs, n) == 0.0:
             code = NOCONV
             break
@@ -212,7 +272,7 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, links, link_a, link_b, L, h, hp
         if norm <= tol * tol:  # the correction just kept moved no vertex further than tol: converged
             break
     if code == OK:
-        sgn = general_sign(P1, verts, links, link_a, link_b, loc, M, rhs)
+        sgn = general_sign(P1, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs)
         for j in range(nb):
             loc[verts[j]] = j
         if sgn == 0.0 or (sign_ref != 0.0 and (sgn > 0.0) != (sign_ref > 0.0)):
@@ -225,46 +285,54 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, links, link_a, link_b, L, h, hp
                 if mx * mx + my * my > 4.0 * lim * lim:
                     code = SUSPECT
     if code == OK:
-        _general_rates(P1, V1, A1, verts, links, link_a, link_b, loc, M, rhs, False)
+        _general_rates(P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs, False)
         if want_acc:
-            _general_rates(P1, V1, A1, verts, links, link_a, link_b, loc, M, rhs, True)
+            _general_rates(P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs, True)
     for j in range(nb):
         loc[verts[j]] = -1
     return code, it
 
 
 @njit(cache=True)
-def _general_rates(P, V, A, verts, links, link_a, link_b, loc, M, rhs, accel):
+def _general_rates(P, V, A, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs, accel):
     """Tangent (accel=False: V) or second derivative (accel=True: A) of a general block's vertices.
 
     Differentiating (p_w − p_u)·(p_w − p_u) = d² once gives (p_w − p_u)·(v_w − v_u) = 0; twice gives
-    (p_w − p_u)·(a_w − a_u) = −|v_w − v_u|². Known (upstream) vertices move to the right-hand side.
+    (p_w − p_u)·(a_w − a_u) = −|v_w − v_u|². An attach row is linear: its rates obey the same row
+    with the rates in place of the positions. Known (upstream) vertices move to the right-hand side.
     """
     nb = verts.shape[0]
-    _general_jacobian(P, verts, links, link_a, link_b, loc, M)
-    for r in range(links.shape[0]):
-        e = links[r]
-        u = link_a[e]
-        w = link_b[e]
-        gx = P[w, 0] - P[u, 0]
-        gy = P[w, 1] - P[u, 1]
+    _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M)
+    R = A if accel else V
+    for r in range(rows.shape[0]):
+        typ, u, w, z = _row_ends(rows[r], dist_a, dist_b, att_vpq)
         val = 0.0
-        if accel:
-            wx = V[w, 0] - V[u, 0]
-            wy = V[w, 1] - V[u, 1]
-            val = -2.0 * (wx * wx + wy * wy)
+        if typ == ROW_DIST:
+            gx = P[w, 0] - P[u, 0]
+            gy = P[w, 1] - P[u, 1]
+            if accel:
+                wx = V[w, 0] - V[u, 0]
+                wy = V[w, 1] - V[u, 1]
+                val = -2.0 * (wx * wx + wy * wy)
             if loc[u] < 0:
-                val += 2.0 * (gx * A[u, 0] + gy * A[u, 1])
+                val += 2.0 * (gx * R[u, 0] + gy * R[u, 1])
             if loc[w] < 0:
-                val -= 2.0 * (gx * A[w, 0] + gy * A[w, 1])
+                val -= 2.0 * (gx * R[w, 0] + gy * R[w, 1])
         else:
+            # minus the row's terms in known vertices (the rates of the unknown ones are solved for)
+            cu = uv[rows[r, 1], 0]
+            cv = uv[rows[r, 1], 1]
+            ax = 0 if typ == ROW_ATTACH_X else 1
+            oth = 1 - ax
+            sv = 1.0 if ax == 0 else -1.0
             if loc[u] < 0:
-                val += 2.0 * (gx * V[u, 0] + gy * V[u, 1])
+                val -= R[u, ax]
             if loc[w] < 0:
-                val -= 2.0 * (gx * V[w, 0] + gy * V[w, 1])
+                val -= (cu - 1.0) * R[w, ax] - sv * cv * R[w, oth]
+            if loc[z] < 0:
+                val -= -cu * R[z, ax] + sv * cv * R[z, oth]
         rhs[r] = val
     lu_solve(M, rhs, 2 * nb)
-    out = A if accel else V
     for j in range(nb):
-        out[verts[j], 0] = rhs[2 * j]
-        out[verts[j], 1] = rhs[2 * j + 1]
+        R[verts[j], 0] = rhs[2 * j]
+        R[verts[j], 1] = rhs[2 * j + 1]

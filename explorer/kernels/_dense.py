@@ -1,7 +1,8 @@
 """The dense reference method: Newton on seed 000's full square system, and its eq. 29–30 tangent.
 
 Unknowns are the x, y of every vertex (2 n_vertices); equations are one squared-length residual per
-link plus the coordinate equations of the crank tip and the fixed vertices. No structure is used,
+distance equation (links, bodies' base pairs), two linear rows per body attach equation, and the
+coordinate equations of the crank tip and the fixed vertices. No structure is used,
 which makes this the simple, slow reference the block method is checked against.
 """
 
@@ -12,16 +13,18 @@ from ._blocks import MAX_MOVE, NOCONV, OK, ROUNDING, lu_solve
 
 
 @njit(cache=True)
-def _assemble(P, link_a, link_b, L, known, known_pos, M, rhs, with_residual):
-    """Fill M (2nv, 2nv) with the full Jacobian at P; if ``with_residual``, rhs = −F(P) and return the worst scaled residual."""
+def _assemble(P, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, with_residual):
+    """Fill M (2nv, 2nv) with the full Jacobian at P; if ``with_residual``, rhs = −F(P) and return the worst scaled residual.
+
+    Rows: the distance equations, then two rows (x, y) per attach equation, then two per known vertex."""
     nv = P.shape[0]
     n = 2 * nv
-    nl = link_a.shape[0]
+    nl = link_a.shape[0] + 2 * att_vpq.shape[0]
     for i in range(n):
         for j in range(n):
             M[i, j] = 0.0
     worst = 0.0
-    for e in range(nl):
+    for e in range(link_a.shape[0]):
         u = link_a[e]
         w = link_b[e]
         gx = P[w, 0] - P[u, 0]
@@ -35,6 +38,30 @@ def _assemble(P, link_a, link_b, L, known, known_pos, M, rhs, with_residual):
             res = gx * gx + gy * gy - d2
             rhs[e] = -res
             worst = max(worst, abs(res) / d2)
+    for t in range(att_vpq.shape[0]):
+        j = att_vpq[t, 0]
+        p = att_vpq[t, 1]
+        q = att_vpq[t, 2]
+        cu = uv[t, 0]
+        cv = uv[t, 1]
+        gx = P[q, 0] - P[p, 0]
+        gy = P[q, 1] - P[p, 1]
+        for ax in range(2):
+            r = link_a.shape[0] + 2 * t + ax
+            oth = 1 - ax
+            sv = 1.0 if ax == 0 else -1.0
+            M[r, 2 * j + ax] += 1.0
+            M[r, 2 * p + ax] += cu - 1.0
+            M[r, 2 * p + oth] -= sv * cv
+            M[r, 2 * q + ax] -= cu
+            M[r, 2 * q + oth] += sv * cv
+            if with_residual:
+                if ax == 0:
+                    res = P[j, 0] - (P[p, 0] + cu * gx - cv * gy)
+                else:
+                    res = P[j, 1] - (P[p, 1] + cu * gy + cv * gx)
+                rhs[r] = -res
+                worst = max(worst, abs(res) / np.sqrt(gx * gx + gy * gy))
     for k in range(known.shape[0]):
         v = known[k]
         for ax in range(2):
@@ -48,8 +75,8 @@ def _assemble(P, link_a, link_b, L, known, known_pos, M, rhs, with_residual):
 
 
 @njit(cache=True)
-def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, known_vel, known_acc, h, hp,
-                tol, maxit, want_acc, M, rhs):
+def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, known, known_pos, known_vel, known_acc, h,
+                hp, tol, maxit, want_acc, M, rhs):
     """Predict from P0/V0/Vp, then full-system Newton; on success fill P1, V1 (and A1).
 
     ``known`` (n_known,) lists the crank tip then the fixed vertices, with their target positions,
@@ -71,7 +98,7 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, kno
         P1[known[k], 1] = known_pos[k, 1]
     it = 0
     while True:
-        if _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, True) <= ROUNDING:
+        if _assemble(P1, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, True) <= ROUNDING:
             break
         if it >= maxit or lu_solve(M, rhs, n) == 0.0:
             return NOCONV, it
@@ -85,9 +112,9 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, kno
         it += 1
         if norm <= tol * tol:  # the correction just kept moved no vertex further than tol: converged
             break
-    # seed 000 eq. 29–30: M dV/dθ = B, B = the known vertices' rates, zero for the link rows
-    nl = link_a.shape[0]
-    _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, False)
+    # seed 000 eq. 29–30: M dV/dθ = B, B = the known vertices' rates, zero for the link and attach rows
+    nl = link_a.shape[0] + 2 * att_vpq.shape[0]
+    _assemble(P1, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, False)
     for e in range(nl):
         rhs[e] = 0.0
     for k in range(known.shape[0]):
@@ -99,8 +126,10 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, known, known_pos, kno
         V1[v, 0] = rhs[2 * v]
         V1[v, 1] = rhs[2 * v + 1]
     if want_acc:
-        _assemble(P1, link_a, link_b, L, known, known_pos, M, rhs, False)
+        _assemble(P1, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, False)
         for e in range(nl):
+            rhs[e] = 0.0  # attach rows are linear: no curvature term
+        for e in range(link_a.shape[0]):
             wx = V1[link_b[e], 0] - V1[link_a[e], 0]
             wy = V1[link_b[e], 1] - V1[link_a[e], 1]
             rhs[e] = -2.0 * (wx * wx + wy * wy)

@@ -18,12 +18,16 @@ BLOCKS_PER_THREAD = 8
 def parallel_rows(kernel, shared: tuple, rows: tuple, threads: int | None = None) -> None:
     """Call ``kernel(*shared, *(a[lo:hi] for a in rows))`` for row blocks [lo, hi) covering every row.
 
-    rows : arrays that share their first axis (N, ...) — the kernel's per-row inputs and outputs,
-        written in place through the slices (slices along axis 0 keep C-contiguity, so no recompile).
+    rows : arrays, or named tuples of arrays (``_inputs.Designs``, ``Outputs``), that share their first
+        axis (N, ...) — the kernel's per-row inputs and outputs, written in place through the slices
+        (slices along axis 0 keep C-contiguity, so no recompile).
     threads : worker threads (default: ``numba.get_num_threads()``, which honours
         ``NUMBA_NUM_THREADS`` and ``numba.set_num_threads``).
     """
-    n = rows[0].shape[0]
+    def part(a, lo, hi):
+        return type(a)(*(x[lo:hi] for x in a)) if isinstance(a, tuple) else a[lo:hi]
+
+    n = (rows[0][0] if isinstance(rows[0], tuple) else rows[0]).shape[0]
     threads = numba.get_num_threads() if threads is None else int(threads)
     if threads <= 1 or n <= 1:
         kernel(*shared, *rows)
@@ -31,7 +35,7 @@ def parallel_rows(kernel, shared: tuple, rows: tuple, threads: int | None = None
     size = max(1, -(-n // (threads * BLOCKS_PER_THREAD)))
 
     def block(lo: int) -> None:
-        kernel(*shared, *(a[lo:lo + size] for a in rows))
+        kernel(*shared, *(part(a, lo, lo + size) for a in rows))
 
     pool = ThreadPoolExecutor(max_workers=min(threads, -(-n // size)))
     try:

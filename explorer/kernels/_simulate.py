@@ -10,13 +10,15 @@ import numpy as np
 
 from ..errors import UserError, where
 from ..mechanism import Mechanism
-from ..plan import DYAD, Plan, make_plan
+from ..plan import ATTACH, DYAD, GENERAL, Plan, make_plan
 from ._blocks import solve_general
 from ._closed import closed_batch_jit
+from ._design import designs as _designs
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
-from ._batch import dyad_batch_jit, generic_batch_jit
+from ._batch import fast_batch_jit, generic_batch_jit
+from ._inputs import Drive, Options, Outputs, topology
 from ._rows import parallel_rows
-from ._generic import BLOCK, DENSE, block_signs
+from ._step import BLOCK, DENSE, block_signs, block_table
 from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
 
 #: Status code -> name; the same codes are stored in results files as ``/status``.
@@ -148,7 +150,8 @@ class Batch:
 
 # -- cached per topology and per driver and step count --------------------------------------------
 def _topology(mech: Mechanism) -> tuple:
-    return (mech.vertices, tuple((l.a, l.b) for l in mech.links), mech.driven, tuple(mech.fixed))
+    return (mech.vertices, tuple((l.a, l.b) for l in mech.links), mech.driven, tuple(mech.fixed),
+            tuple(b.joints for b in mech.bodies))
 
 
 _PLANS: dict = {}
@@ -208,8 +211,9 @@ def _scale(mech: Mechanism) -> float:
 def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
     """Positions (n_vertices, 2) of ``mech`` at its first sample on the branch its guess selects.
 
-    A dyad takes the circle–circle intersection on the same side of its parents as the guess; a
-    general block runs damped Newton from the guess. Returns (positions, None) or (partial, Failure).
+    A dyad takes the circle–circle intersection on the same side of its parents as the guess; a body
+    joint follows its base pair rigidly; a general block runs damped Newton from the guess.
+    Returns (positions, None) or (partial, Failure).
     """
     plan = plan_for(mech)
     P = np.zeros((len(mech.vertices), 2))
@@ -219,7 +223,9 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
         P[mech.vertex_index(v)] = xy
     drv = _drive_for(mech.crank or mech.path, 3)
     P[plan.tip] = np.array(drv.center) + _scale(mech) * drv.table[0, :2]
-    L = mech.lengths
+    des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
+    L, uv = des.dist[0], des.uv[0]
+    topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
     n = 2 * len(mech.vertices)
     loc, M, rhs = np.full(len(mech.vertices), -1, dtype=np.int64), np.empty((n, n)), np.empty(n)
     Z = np.zeros_like(P)
@@ -231,15 +237,26 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
             if p is None:
                 return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, math.nan, k)
             P[v] = p
+        elif blk.kind == ATTACH:
+            j, p, q = plan.attach[blk.attaches[0][0]]
+            (u, w), g = uv[blk.attaches[0][0]], P[q] - P[p]
+            P[j] = P[p] + u * g + w * np.array([-g[1], g[0]])
         else:
             P1 = P.copy()
-            code, _ = solve_general(P, Z, Z, P1, Z.copy(), Z.copy(), np.array(blk.vertices), np.array(blk.links),
-                                    plan.link_a, plan.link_b, L, 0.0, 0.0, 1e-12 * L.max(), 200, 0.0, False, False,
-                                    loc, M, rhs)
+            g = topo.gen[k]
+            rows = topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]]
+            code, _ = solve_general(P, Z, Z, P1, Z.copy(), Z.copy(), np.array(blk.vertices), rows, plan.link_a,
+                                    plan.link_b, plan.attach, L, uv, 0.0, 0.0, 1e-12 * mech.size, 200, 0.0, False,
+                                    False, loc, M, rhs)
             if code != 0:
                 return P, _failure(mech, plan, STATUS_NOCONV, 0.0, math.nan, k)
             P = P1
     return P, None
+
+
+def _nominal_design(mech: Mechanism, plan: Plan, tolerance: float):
+    """The nominal design as the kernels read it (``_inputs.Designs`` of one row)."""
+    return _designs(mech, plan, mech.lengths[None, :], np.array([_scale(mech)]), None, tolerance)
 
 
 def _other(plan: Plan, link: int, v: int) -> int:
@@ -322,128 +339,95 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
         nan = np.full((steps, nv, 2), np.nan)
         return Cycle(mech, drv.params, nan, nan.copy() if velocities else None,
                      nan.copy() if accelerations else None, False, fail, 0)
-    signs = _signs(plan, P0)
+    signs = _signs(mech, plan, P0)
     pos, vel, acc, status, fth, fend, fbl, its = _run(
-        mech, plan, mech.lengths[None, :], np.array([_scale(mech)]), steps, np.arange(nv), velocities, accelerations,
-        tolerance, method, max_iterations, P0, signs, np.arange(plan.n_blocks))
+        mech, plan, _nominal_design(mech, plan, tolerance), steps, np.arange(nv), velocities, accelerations, method,
+        max_iterations, P0, signs, np.arange(plan.n_blocks))
     st = int(status[0])
     failure = None if st == STATUS_OK else _failure(mech, plan, st, float(fth[0]), float(fend[0]), int(fbl[0]))
     return Cycle(mech, drv.params, pos[0], vel[0] if velocities else None, acc[0] if accelerations else None,
                  st == STATUS_OK, failure, int(its[0]))
 
 
-def _signs(plan: Plan, P: np.ndarray) -> np.ndarray:
-    """Branch sign (+1.0 / −1.0, 0.0 if singular) of every block at positions P (n_vertices, 2)."""
-    if all(b.kind == DYAD for b in plan.blocks):
-        # the orientation of each placed vertex (``_blocks.dyad_sign``), without compiling the general
+def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
+    """Branch sign (+1.0 / −1.0; 0.0 if singular or for an ATTACH block, which has none) of every block
+    at positions P (n_vertices, 2)."""
+    kind = plan.kind
+    if not np.any(kind == GENERAL):
+        # the orientation of each dyad's vertex (``_blocks.dyad_sign``), without compiling the general
         # blocks' determinant for plans that have none
-        t = _dyad_tables(plan, range(plan.n_blocks))
-        v, a, b = (P[i] for i in t[:3])
-        return np.sign((b[:, 0] - a[:, 0]) * (v[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (v[:, 0] - a[:, 0]))
-    n = 2 * plan.n_vertices
-    return block_signs(P, *plan.arrays(), plan.link_a, plan.link_b, np.full(plan.n_vertices, -1, dtype=np.int64),
-                       np.empty((n, n)), np.empty(n))
+        out = np.zeros(plan.n_blocks)
+        for k, blk in enumerate(plan.blocks):
+            if blk.kind == DYAD:
+                v = blk.vertices[0]
+                a, b = (_other(plan, e, v) for e in blk.links)
+                g, w = P[b] - P[a], P[v] - P[a]
+                out[k] = np.sign(g[0] * w[1] - g[1] * w[0])
+        return out
+    des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
+    topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
+    tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, des.dist[0],
+                      des.uv[0], P, *des.center[0], des.scale[0], mech.crank is not None)
+    return block_signs(P, tab, topo.gen_vptr, topo.gen_verts, topo.gen_rptr, topo.gen_rows, topo.dist_a, topo.dist_b,
+                       topo.att_vpq, des.uv[0])
 
 
-def _dyad_tables(plan: Plan, blocks) -> tuple:
-    """(dv, dpa, dpb, dla, dlb): placed vertex, parents and links of each dyad in ``blocks``, int64 (n,)."""
-    cols = [[], [], [], [], []]
-    for b in blocks:
-        v = plan.blocks[b].vertices[0]
-        la, lb = plan.blocks[b].links
-        for col, x in zip(cols, (v, _other(plan, la, v), _other(plan, lb, v), la, lb)):
-            col.append(x)
-    return tuple(np.array(c, dtype=np.int64) for c in cols)
-
-
-def _parent_links(mech: Mechanism, plan: Plan, blocks) -> np.ndarray:
-    """Per dyad in ``blocks``: the link joining its two parents (their distance is then constant), −2 if
-    the parents are the crank tip and a fixed vertex (a distance range known in closed form), else −1."""
-    out = []
-    for b in blocks:
-        v = plan.blocks[b].vertices[0]
-        pa, pb = (_other(plan, e, v) for e in plan.blocks[b].links)
-        join = [e for e in range(len(plan.link_a)) if {int(plan.link_a[e]), int(plan.link_b[e])} == {pa, pb}]
-        if join:
-            out.append(join[0])
-        elif mech.crank is not None and plan.tip in (pa, pb) and ({pa, pb} - {plan.tip}) <= set(plan.fixed.tolist()):
-            out.append(-2)
-        else:
-            out.append(-1)
-    return np.array(out, dtype=np.int64)
-
-
-def _run(mech, plan, lengths, scale, steps, out_idx, velocities, accelerations, tolerance, method, max_iterations,
-         P0, signs, blocks):
-    """Allocate the outputs and call the kernel for ``method`` on the plan restricted to ``blocks``."""
+def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max_iterations, P0, signs, blocks):
+    """Allocate the outputs and call the kernel for ``method`` on the plan restricted to ``blocks``;
+    ``des``: the variants' ``_inputs.Designs``."""
     drv = _drive_for(mech.crank or mech.path, steps)
-    N = lengths.shape[0]
+    N = des.scale.shape[0]
     k = len(out_idx)
-    pos = np.empty((N, steps, k, 2))
-    vel = np.empty((N, steps if velocities else 0, k, 2))
-    acc = np.empty((N, steps if accelerations else 0, k, 2))
-    status = np.empty(N, dtype=np.int8)
-    fth = np.empty(N)
-    fend = np.full(N, np.nan)
-    fbl = np.full(N, -1, dtype=np.int64)
-    its = np.zeros(N, dtype=np.int64)
-    lengths = np.ascontiguousarray(lengths, dtype=np.float64)
-    scale = np.ascontiguousarray(scale, dtype=np.float64)
-    out_idx = np.asarray(out_idx, dtype=np.int64)
-    sg = np.ascontiguousarray(signs[blocks])
-    # parallel_rows runs one design on this thread: there is nothing to share out.
-    if method == "closed":
-        if velocities or accelerations or not all(plan.blocks[b].kind == DYAD for b in blocks):
-            raise UserError("method 'closed': the closed form gives positions only, and only for all-dyad plans")
-        head = (*_dyad_tables(plan, blocks), plan.tip, drv.kind, drv.prm, drv.table, drv.params, drv.t_end,
-                drv.closed, *drv.center)
-        parallel_rows(closed_batch_jit, (*head, P0, sg, out_idx), (lengths, scale, pos, status, fth, fend, fbl))
-    else:
-        _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, max_iterations, out_idx,
-               velocities, accelerations, pos, vel, acc, status, fth, fend, fbl, its)
-    if len(blocks):  # report the failing block by its index in the full plan
-        fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
-    return pos, vel, acc, status, fth, fend, fbl, its
-
-
-def _solve(mech, plan, method, blocks, drv, lengths, scale, P0, sg, tolerance, max_iterations, out_idx, velocities,
-           accelerations, pos, vel, acc, status, fth, fend, fbl, its):
-    """The Newton methods: the fast all-dyad kernel where it applies, else the generic one."""
-    cx, cy = drv.center
-    fixed_pos = np.array([mech.fixed[mech.vertices[i]] for i in plan.fixed], dtype=np.float64).reshape(-1, 2)
+    outs = Outputs(np.empty((N, steps, k, 2)), np.empty((N, steps if velocities else 0, k, 2)),
+                   np.empty((N, steps if accelerations else 0, k, 2)), np.empty(N, dtype=np.int8), np.empty(N),
+                   np.full(N, np.nan), np.full(N, -1, dtype=np.int64), np.zeros(N, dtype=np.int64))
     solved = sorted({plan.tip, *(v for b in blocks for v in plan.blocks[b].vertices)})
     moving = np.arange(len(mech.vertices)) if method == "dense" else np.array(solved, dtype=np.int64)
-    drive_args = (plan.tip, drv.kind, drv.prm, drv.table, drv.t_end, drv.closed, cx, cy)
-    if method == "block" and all(plan.blocks[b].kind == DYAD for b in blocks):
-        head = (*_dyad_tables(plan, blocks), _parent_links(mech, plan, blocks), *drive_args)
-        batch_kernel = dyad_batch_jit
+    topo = topology(plan, blocks, moving, out_idx, mech.crank is not None)
+    kdrv = Drive(drv.kind, drv.prm, drv.table, drv.params, drv.t_end, drv.closed)
+    sg = np.ascontiguousarray(signs[blocks])
+    general = bool(np.any(topo.kind == GENERAL))
+    if method == "closed":
+        if velocities or accelerations or general:
+            raise UserError("method 'closed': the closed form gives positions only, and only for plans of dyads and "
+                            "rigid bodies (no coupled blocks)")
+        parallel_rows(closed_batch_jit, (topo, kdrv, P0, sg), (des, outs))
     else:
-        known = np.concatenate([[plan.tip], plan.fixed]).astype(np.int64)
-        head = (BLOCK if method == "block" else DENSE, *plan.arrays(blocks), plan.link_a, plan.link_b, known,
-                fixed_pos, *drive_args)
-        batch_kernel = generic_batch_jit
-    tail = (P0, sg, moving, float(tolerance), int(max_iterations), out_idx, bool(velocities), bool(accelerations))
-    parallel_rows(batch_kernel, (*head, *tail), (lengths, scale, pos, vel, acc, status, fth, fend, fbl, its))
+        opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations), bool(velocities),
+                       bool(accelerations))
+        kernel = generic_batch_jit if (method == "dense" or general) else fast_batch_jit
+        parallel_rows(kernel, (topo, kdrv, opts, P0, sg), (des, outs))
+    fbl = outs.fail_block
+    if len(blocks):  # report the failing block by its index in the full plan
+        fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
+    return outs.pos, outs.vel, outs.acc, outs.status, outs.fail_t, outs.fail_end, fbl, outs.iters
 
 
-def _by_name(mech: Mechanism, lengths, crank):
-    """Lengths given by name — a pandas DataFrame or a dict {link name: (N,) values} — as an (N, n_links)
-    array in ``mech.links`` order (column order does not matter; a "crank" column gives the radii
-    when ``crank`` is None). A plain array is taken in ``mech.links`` order, as documented."""
+def _by_name(mech: Mechanism, lengths, crank, geometry):
+    """Parameters given by name — a pandas DataFrame or a dict {name: (N,) values} — as an (N, n_links)
+    array in ``mech.links`` order, the crank radii and the geometry (column order does not matter; a
+    "crank" column gives the radii when ``crank`` is None; coordinate columns such as "2.x" join
+    ``geometry`` unless it names them; other columns, such as a results frame's metrics, are
+    ignored). A plain array is taken in ``mech.links`` order, as documented."""
     columns = None
     if hasattr(lengths, "columns") and hasattr(lengths, "to_numpy"):  # a DataFrame
         columns = {str(c): lengths[c].to_numpy(dtype=np.float64) for c in lengths.columns}
     elif isinstance(lengths, dict):
         columns = {str(k): np.asarray(v, dtype=np.float64).reshape(-1) for k, v in lengths.items()}
     if columns is None:
-        return lengths, crank
+        return lengths, crank, geometry
     missing = [n for n in mech.link_names if n not in columns]
     if missing:
         raise UserError(f"lengths: no column for link {missing[0]!r} (links: {', '.join(mech.link_names)}; "
                         f"columns given: {', '.join(columns)})")
     if crank is None and "crank" in columns and mech.crank is not None:
         crank = columns["crank"]
-    return np.column_stack([columns[n] for n in mech.link_names]), crank
+    coords = [n for n, kind in ((n, mech.parameter_kind(n)) for n in mech.parameters()) if kind == "coordinate"]
+    geometry = dict(geometry or {})
+    for n in coords:
+        if n in columns and n not in geometry:
+            geometry[n] = columns[n]
+    return np.column_stack([columns[n] for n in mech.link_names]), crank, geometry
 
 
 def _default_velocities(velocities, method: str) -> bool:
@@ -453,16 +437,21 @@ def _default_velocities(velocities, method: str) -> bool:
     return bool(velocities)
 
 
-def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, vertices=None,
+def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, geometry=None, vertices=None,
                    velocities: bool | None = None,
                    accelerations: bool = False, tolerance: float = DEFAULT_TOLERANCE, method: str = "block",
                    max_iterations: int = DEFAULT_MAX_ITERATIONS) -> Batch:
     """Solve N variants of ``mech`` in parallel; only what is asked for is computed.
 
-    lengths : (N, n_links) link lengths in ``mech.links`` order, or by name: a pandas DataFrame (a
-        results frame will do) or a dict with a column per link name, in any order (a "crank"
-        column gives the radii when ``crank`` is None); crank : (N,) crank radii (None: the nominal
-        radius for every variant; must be None for a path-driven mechanism).
+    lengths : (N, n_links) link lengths in ``mech.links`` order, or every design parameter by name
+        (``Mechanism.parameters``): a pandas DataFrame (a results frame will do) or a dict with a
+        column per link name, in any order; a "crank" column gives the radii when ``crank`` is
+        None, coordinate columns ("crank.x", "2.y", "coupler.P.x") the geometry; columns that name
+        no parameter are ignored.
+    crank : (N,) crank radii (None: the nominal radius for every variant; must be None for a
+        path-driven mechanism).
+    geometry : {coordinate parameter name: (N,) values}, model units: the crank centre, ground
+        pivots and body joints of each variant (those not given keep their nominal values).
     vertices : names whose paths are returned (default: the foot; "all" for every vertex). Blocks
         that neither place a requested vertex nor feed one are not solved (block and closed
         methods; "dense" solves everything).
@@ -476,7 +465,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ve
     """
     _check_common(steps, tolerance, method, max_iterations)
     velocities = _default_velocities(velocities, method)
-    lengths, crank = _by_name(mech, lengths, crank)
+    lengths, crank, geometry = _by_name(mech, lengths, crank, geometry)
     lengths = np.asarray(lengths, dtype=np.float64)
     nl = len(mech.links)
     if lengths.ndim != 2 or lengths.shape[1] != nl:
@@ -505,11 +494,11 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ve
         fbl = np.full(N, -1 if fail.block is None else fail.block, dtype=np.int64)
         its = np.zeros(N, dtype=np.int64)
     else:
-        signs = _signs(plan, P0)
+        signs = _signs(mech, plan, P0)
         blocks = np.arange(plan.n_blocks) if method == "dense" else plan.needed_blocks(out_idx)
-        pos, vel, acc, status, fth, fend, fbl, its = _run(mech, plan, lengths, scale, steps, out_idx, velocities,
-                                                          accelerations, tolerance, method, max_iterations, P0, signs,
-                                                          blocks)
+        des = _designs(mech, plan, lengths, scale, geometry, tolerance)
+        pos, vel, acc, status, fth, fend, fbl, its = _run(mech, plan, des, steps, out_idx, velocities, accelerations,
+                                                          method, max_iterations, P0, signs, blocks)
     return Batch(
         theta=_drive_for(mech.crank or mech.path, steps).params,
         paths={v: pos[:, :, j] for j, v in enumerate(names)},

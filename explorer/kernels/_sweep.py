@@ -1,7 +1,7 @@
 """Continuation over the driver's parameter with branch tracking and adaptive refinement.
 
 One driver serves every solver. Its source is written once, below, against a global ``step``;
-:func:`_specialise` binds that name to the fast all-dyad step or to the generic block / dense step
+:func:`_specialise` binds that name to the fast DYAD / ATTACH step or to the generic block / dense step
 and jits each copy under its own name, so each compiles (and caches) only the step it calls, and
 calls it directly. (Passing the step as an argument instead disables caching; dispatching through
 ``@overload`` measured 2x slower.)
@@ -25,8 +25,8 @@ from numba import njit
 
 from ._blocks import INFEASIBLE, SIGN, SUSPECT
 from ._drive import drive
-from ._dyads import dyad_step
-from ._generic import generic_step
+from ._fast import fast_step
+from ._step import generic_step
 
 # Per-variant status codes (public: they are stored in results files).
 STATUS_OK = 0
@@ -101,21 +101,34 @@ def _copy(dst, src):
         dst[v, 1] = src[v, 1]
 
 
-def sweep(ctx, tip, kind, prm, tab, t_end, closed, cx, cy, scale, P_init, signs, moving, shortest, tol, maxit,
-          out_idx, want_vel, want_acc, out_pos, out_vel, out_acc):
+def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out_pos, out_vel, out_acc):
     """Solve one design at every sample of its driver, writing the requested rows.
 
-    tab (S, 6): driver values at the S samples t_k = k·t_end/S (closed: a crank, t_end = 2π) or
-    k·t_end/(S−1) (open: a path from 0 to t_end). P_init (n_vertices, 2): start of the first
-    Newton solve (fixed vertices already in place). signs (n_blocks,): the branch each block keeps.
-    out_pos[k, j] = position of vertex out_idx[j] at sample k, likewise out_vel (d/dparameter) and
-    out_acc when asked; NaN where not reached. Returns (status, failure parameter or NaN, end of the
+    ctx: the step's context (a block table, or a ``GenericContext``); topo, drv, opts: the
+    ``_inputs`` Topology, Drive and Options. The driver's S samples are t_k = k·t_end/S (closed: a
+    crank, t_end = 2π) or k·t_end/(S−1) (open: a path from 0 to t_end). P_init (n_vertices, 2):
+    start of the first Newton solve (this design's fixed vertices in place). signs (n_blocks,): the
+    branch each block keeps. (cx, cy), scale: the design's crank centre and radius. shortest: its
+    shortest dyad length; tol: Newton's stopping distance (model units).
+    out_pos[k, j] = position of vertex topo.out_idx[j] at sample k, likewise out_vel (d/dparameter)
+    and out_acc when asked; NaN where not reached. Returns (status, failure parameter or NaN, end of the
     unreachable range or NaN, failing block or −1, total Newton iterations).
 
     One loop makes every move, so the step is inlined (and compiled) once: phase 0 solves sample 0
     (a zero step from P_init, checks off), phase 1 steps forward, and phase 2, after a crank cycle
     fails, steps backward from θ = 0 to the other end of the reachable range.
     """
+    tip = topo.tip
+    moving = topo.moving
+    out_idx = topo.out_idx
+    kind = drv.kind
+    prm = drv.prm
+    tab = drv.table
+    t_end = drv.t_end
+    closed = drv.closed
+    maxit = opts.maxit
+    want_vel = opts.want_vel
+    want_acc = opts.want_acc
     S = tab.shape[0]
     nv = P_init.shape[0]
     P0 = P_init.copy()
@@ -262,7 +275,7 @@ def _specialise(step_fn, name: str):
     return njit(cache=True)(copy)
 
 
-#: :func:`sweep` with the fast all-dyad step; its context comes from ``_dyads.dyad_context``.
-dyad_sweep = _specialise(dyad_step, "dyad")
-#: :func:`sweep` with the generic block / dense step; its context comes from ``_generic.generic_context``.
+#: :func:`sweep` with the fast DYAD / ATTACH step; its context is the design's block table (``_step.block_table``).
+fast_sweep = _specialise(fast_step, "fast")
+#: :func:`sweep` with the generic block / dense step; its context comes from ``_step.generic_context``.
 generic_sweep = _specialise(generic_step, "generic")

@@ -8,9 +8,9 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ._model import NAME_RE, Crank, Link, Mechanism, PathDriver, Walker, _check_length
+from ._model import LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, PathDriver, Walker, _check_length
 
-_TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker"}
+_TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies"}
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
 WALKER_KEYS = ("legs", "phases", "mirrored", "drag", "contact")
 #: Most legs a walker may have.
@@ -20,6 +20,7 @@ _DRIVER_KEYS = {"vertex", "path", "start", "end", "center", "radius", "start_ang
 _PATH_KEYS = {"line": {"start", "end"}, "arc": {"center", "radius", "start_angle", "end_angle"}, "points": {"points"}}
 _CRANK_KEYS = {"center", "radius", "tip"}
 _LINK_KEYS = {"a", "b", "length", "name"}
+_BODY_KEYS = {"name", "joints"}
 
 
 def builtin_mechanisms() -> tuple[str, ...]:
@@ -134,14 +135,16 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
             raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is fixed or driven and takes no guess")
 
     raw_links = data["links"]
-    if not isinstance(raw_links, list) or not raw_links:
+    if raw_links == [] and data.get("bodies"):
+        raw_links = None  # a mechanism of bodies only
+    elif not isinstance(raw_links, list) or not raw_links:
         raise UserError(f"{where(source, 'links')}: expected one or more [[links]] tables, got {raw_links!r}")
     vertices = [tip, *fixed, *guess]
     known = set(vertices)
     links: list[Link] = []
     seen_names: set[str] = set()
     seen_pairs: dict[frozenset, str] = {}
-    for i, lt in enumerate(raw_links):
+    for i, lt in enumerate(raw_links or []):
         key = f"links[{i}]"
         _table(source, key, lt)
         _unknown_keys(source, key + ".", lt, _LINK_KEYS)
@@ -172,19 +175,84 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         seen_pairs[pair] = lname
         links.append(Link(lname, a, b, length))
 
+    bodies = _bodies(source, data.get("bodies", []), known, fixed, seen_pairs, seen_names)
     foot = _string(source, "foot", data["foot"])
     if foot not in known:
         raise UserError(f"{where(source, 'foot')}: unknown vertex {foot!r} (known: {', '.join(vertices)})")
     if foot in fixed:
         raise UserError(f"{where(source, 'foot')}: vertex {foot!r} is fixed; the foot must be a moving vertex")
-    _check_degrees_of_freedom(source, tip, "crank.tip" if crank is not None else "driver.vertex", fixed, guess, links)
+    _check_degrees_of_freedom(source, tip, "crank.tip" if crank is not None else "driver.vertex", fixed, guess, links,
+                              bodies)
     walker = None
     if "walker" in data:
         if crank is None:
             raise UserError(f"{where(source, 'walker')}: a walker needs a crank; this mechanism is driven by a path")
         walker = walker_from_dict(data["walker"], source, "walker")
-    return Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
-                     walker)
+    mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
+                     walker, bodies)
+    _check_parameter_names(mech)
+    return mech
+
+
+def _bodies(source: str, raw, known: set, fixed: dict, seen_pairs: dict, seen_names: set) -> tuple[Body, ...]:
+    """The ``[[bodies]]`` tables: a name and ``joints = { J = [x, y], ... }`` in the body's own frame."""
+    if not isinstance(raw, list):
+        raise UserError(f"{where(source, 'bodies')}: expected [[bodies]] tables, got {raw!r}")
+    out = []
+    for i, bt in enumerate(raw):
+        key = f"bodies[{i}]"
+        _table(source, key, bt)
+        _unknown_keys(source, key + ".", bt, _BODY_KEYS)
+        for k in ("name", "joints"):
+            if k not in bt:
+                raise UserError(f"{where(source, f'{key}.{k}')}: missing required key")
+        bname = _string(source, f"{key}.name", bt["name"])
+        if not NAME_RE.match(bname) or "." in bname:
+            raise UserError(f"{where(source, f'{key}.name')}: body name {bname!r} must be 1 to 64 letters, digits or "
+                            f"_ + - (no '.': it names parameters such as {bname}.P.x)")
+        if bname in seen_names:
+            raise UserError(f"{where(source, f'{key}.name')}: {bname!r} already names a link or another body")
+        seen_names.add(bname)
+        jt = _table(source, f"{key}.joints", bt["joints"])
+        if len(jt) < 2:
+            raise UserError(f"{where(source, f'{key}.joints')}: a body carries two or more joints, got {len(jt)}")
+        joints, points = [], []
+        for j, xy in jt.items():
+            if j not in known:
+                raise UserError(f"{where(source, f'{key}.joints.{j}')}: vertex {j!r} is neither driven, fixed, nor in "
+                                f"[guess] (a missing guess or an unknown vertex)")
+            joints.append(str(j))
+            points.append(_point(source, f"{key}.joints.{j}", xy))
+        for a in range(len(points)):
+            for b in range(a):
+                d = math.dist(points[a], points[b])
+                if not d >= LENGTH_RANGE[0]:
+                    raise UserError(f"{where(source, f'{key}.joints.{joints[a]}')}: joints {joints[b]} and {joints[a]} "
+                                    f"sit at the same point of the body")
+                pair = frozenset((joints[a], joints[b]))
+                if pair in seen_pairs:
+                    raise UserError(f"{where(source, f'{key}.joints')}: joints {joints[b]} and {joints[a]} are already "
+                                    f"held at a fixed distance by {seen_pairs[pair]!r} (over-constrained)")
+                seen_pairs[pair] = f"body {bname}"
+        n_fixed = sum(j in fixed for j in joints)
+        if n_fixed > 1:
+            raise UserError(f"{where(source, f'{key}.joints')}: body {bname!r} has {n_fixed} fixed joints: it is the "
+                            f"ground; list its joints under [fixed] instead")
+        out.append(Body(bname, tuple(joints), tuple(points)))
+    return tuple(out)
+
+
+def _check_parameter_names(mech: Mechanism) -> None:
+    """Design parameters share one namespace (link names, "crank", "crank.x", "2.x", "body.J.x"): two
+    that would share a name are refused, naming where the second comes from."""
+    seen = set()
+    for name, _ in mech.parameter_items():
+        if name in seen:
+            key = next((f"links[{i}].name" for i, l in enumerate(mech.links) if l.name == name),
+                       next((f"fixed.{v}" for v in mech.fixed if name in (f"{v}.x", f"{v}.y")), "bodies"))
+            raise UserError(f"{where(mech.source, key)}: two design parameters would be called {name!r} (a link, the "
+                            f"crank's or a ground pivot's coordinates, a body joint's); rename the link or vertex")
+        seen.add(name)
 
 
 def walker_from_dict(table, source: str, key: str = "walker", base: Walker | None = None) -> Walker:
@@ -282,8 +350,9 @@ def _driver(source: str, value) -> PathDriver:
     return PathDriver(**fields)
 
 
-def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links) -> None:
-    """Count check: 2 unknowns per guessed vertex, one equation per link that moves something.
+def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=()) -> None:
+    """Count check: 2 unknowns per guessed vertex, one equation per link that moves something and
+    2n − 3 per body of n joints (a rigid shape of n points has 2n coordinates less 3 for its place).
 
     With the crank tip's and fixed vertices' coordinate equations this is seed 000's square system,
     leaving exactly the one degree of freedom that the crank drives.
@@ -295,7 +364,11 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links) -> None
                 f"{where(source, f'links[{i}]')}: link {l.name!r} joins two driven or fixed vertices "
                 f"({l.a}, {l.b}); it would lock the crank or duplicate the ground"
             )
-    touched = {v for l in links for v in (l.a, l.b)}
+    for i, b in enumerate(bodies):
+        if sum(j in grounded for j in b.joints) > 1:
+            raise UserError(f"{where(source, f'bodies[{i}].joints')}: body {b.name!r} holds two driven or fixed "
+                            f"vertices; it would lock the crank or duplicate the ground")
+    touched = {v for l in links for v in (l.a, l.b)} | {j for b in bodies for j in b.joints}
     if tip not in touched:
         raise UserError(f"{where(source, tip_key)}: vertex {tip!r} is on no link; the driver would move nothing")
     for v in guess:
@@ -304,11 +377,12 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links) -> None
     for v in fixed:
         if v not in touched:
             raise UserError(f"{where(source, 'fixed.' + v)}: vertex {v!r} is on no link")
-    n_eq, n_unknown = len(links), 2 * len(guess)
+    n_eq, n_unknown = len(links) + sum(2 * len(b.joints) - 3 for b in bodies), 2 * len(guess)
     if n_eq != n_unknown:
         dof = n_unknown - n_eq + 1
+        what = "link and body equations" if bodies else "link equations"
         raise UserError(
-            f"{where(source, 'links')}: {n_eq} link equations for {n_unknown} unknown coordinates gives "
-            f"{dof} degrees of freedom; a crank-driven linkage needs exactly 1 "
+            f"{where(source, 'links')}: {n_eq} {what} for {n_unknown} unknown coordinates gives "
+            f"{dof} degrees of freedom; a linkage with one driver needs exactly 1 "
             f"(add or remove {abs(n_unknown - n_eq)} link(s))"
         )

@@ -31,6 +31,26 @@ class Link:
 
 
 @dataclass(frozen=True)
+class Body:
+    """A rigid body (a ternary or bigger link) that carries the joints ``joints``.
+
+    ``points[i]`` is joint ``joints[i]``'s position in the body's own frame (model units); only the
+    shape matters, not where the frame is. Joints may be collinear (a coupler with its foot on the
+    line through its two pins). A body turns and moves but never mirrors.
+    """
+
+    name: str
+    joints: tuple[str, ...]
+    points: tuple[tuple[float, float], ...]
+
+    @property
+    def span(self) -> float:
+        """The largest distance between two of the body's joints, model units."""
+        pts = np.asarray(self.points, dtype=np.float64)
+        return float(np.max(np.hypot(*(pts[:, None, :] - pts[None, :, :]).transpose(2, 0, 1))))
+
+
+@dataclass(frozen=True)
 class Crank:
     """The driver: vertex ``tip`` moves on a circle of ``radius`` about ``center``.
 
@@ -135,6 +155,15 @@ class Mechanism:
     walker : Walker or None
         The file's ``[walker]`` table: the default walker scene of this leg (None: the generic
         default, :class:`Walker`).
+    bodies : tuple[Body, ...]
+        Rigid bodies with two or more joints (file order).
+
+    Design parameters
+    -----------------
+    Every number a designer may vary has a name (:meth:`parameters`): each link's length by its
+    name (``"2-6"``); for a crank, its radius ``"crank"`` and centre ``"crank.x"``, ``"crank.y"``;
+    each ground pivot's coordinates ``"2.x"``, ``"2.y"``; each body joint's coordinates in its
+    body's frame ``"coupler.P.x"``, ``"coupler.P.y"``.
     """
 
     name: str
@@ -148,6 +177,7 @@ class Mechanism:
     source: str = "<memory>"
     path: PathDriver | None = None
     walker: Walker | None = None
+    bodies: tuple[Body, ...] = ()
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -184,6 +214,61 @@ class Mechanism:
     @property
     def link_names(self) -> tuple[str, ...]:
         return tuple(l.name for l in self.links)
+
+    @property
+    def size(self) -> float:
+        """The longest link or body span, model units: the scale of tolerances and coordinate spreads."""
+        spans = [l.length for l in self.links] + [b.span for b in self.bodies]
+        return float(max(spans))
+
+    def parameters(self) -> dict[str, float]:
+        """Every design parameter's nominal value by name, in a fixed order: link lengths
+        (:attr:`links` order), the crank radius and centre, the ground pivots' coordinates, then the
+        body joints' coordinates (body, then joint order). Lengths are model units, coordinates too."""
+        return dict(self.parameter_items())
+
+    def parameter_items(self) -> list[tuple[str, float]]:
+        """(name, nominal) of every design parameter, in :meth:`parameters` order (as a list, so a
+        loader can tell two parameters that would share a name)."""
+        out = [(l.name, float(l.length)) for l in self.links]
+        if self.crank is not None:
+            out += [("crank", float(self.crank.radius)), ("crank.x", float(self.crank.center[0])),
+                    ("crank.y", float(self.crank.center[1]))]
+        for v, (x, y) in self.fixed.items():
+            out += [(f"{v}.x", float(x)), (f"{v}.y", float(y))]
+        for b in self.bodies:
+            for j, (x, y) in zip(b.joints, b.points):
+                out += [(f"{b.name}.{j}.x", float(x)), (f"{b.name}.{j}.y", float(y))]
+        return out
+
+    def parameter_kind(self, name: str) -> str:
+        """``"length"`` (a link length or the crank radius: positive, varied relatively) or
+        ``"coordinate"`` (a crank centre, ground pivot or body joint coordinate: varied by a
+        distance). UserError naming the known parameters if ``name`` is not one."""
+        if name not in self.parameters():
+            known = ", ".join(self.parameters())
+            raise UserError(f"{where(self.source, 'parameters')}: unknown design parameter {name!r} (known: {known})")
+        return "length" if name == "crank" or name in self.link_names else "coordinate"
+
+    def with_parameters(self, values: Mapping[str, float]) -> "Mechanism":
+        """A variant with some design parameters (by name, see :meth:`parameters`) replaced."""
+        values = {str(k): float(v) for k, v in values.items()}
+        for k in values:
+            self.parameter_kind(k)  # raises on an unknown name
+        lengths = {k: v for k, v in values.items() if k in self.link_names}
+        out = self.with_lengths(lengths, values.get("crank"))
+        changes = {}
+        if out.crank is not None and ("crank.x" in values or "crank.y" in values):
+            cx, cy = out.crank.center
+            changes["crank"] = replace(out.crank, center=(values.get("crank.x", cx), values.get("crank.y", cy)))
+        if any(f"{v}.{a}" in values for v in self.fixed for a in "xy"):
+            changes["fixed"] = {v: (values.get(f"{v}.x", x), values.get(f"{v}.y", y)) for v, (x, y) in self.fixed.items()}
+        if self.bodies and any(k.count(".") == 2 for k in values):
+            changes["bodies"] = tuple(
+                replace(b, points=tuple((values.get(f"{b.name}.{j}.x", x), values.get(f"{b.name}.{j}.y", y))
+                                        for j, (x, y) in zip(b.joints, b.points)))
+                for b in self.bodies)
+        return replace(out, **changes) if changes else out
 
     @property
     def lengths(self) -> np.ndarray:

@@ -1,11 +1,12 @@
 """Structural analysis: block-lower-triangular (BLT) order of a linkage's equations.
 
-Equations are the links; unknowns are the x and y of every vertex that is neither fixed nor the
-crank tip. A maximum matching pairs each equation with an unknown it contains; Tarjan's strongly
+Equations are the links and the rigid bodies' equations (see ``_kinds``); unknowns are the x and
+y of every vertex that is neither fixed nor the crank tip. A maximum matching pairs each equation with an unknown it contains; Tarjan's strongly
 connected components of the resulting dependency graph, emitted dependencies first, are the blocks.
 Each block is solved after the blocks it reads from. A vertex placed by two links to already-known
-vertices is a *dyad* (a 2x2 block with a closed-form twin); anything else, such as an Assur class III
-triad, is one coupled *general* block.
+vertices is a *dyad* (a 2x2 block with a closed-form twin); a body joint placed by its body's known
+base pair is an *attach* block (exact); anything else, such as an Assur class III triad, is one
+coupled *general* block.
 """
 
 from __future__ import annotations
@@ -14,11 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from itertools import combinations, product
+
 from ..errors import UserError, where
 from ..mechanism import Mechanism
+from ._kinds import ATTACH, DYAD, GENERAL
 
-DYAD = 0
-GENERAL = 1
+#: Most combinations of body base pairs tried when choosing them (beyond: the first pair of each body,
+#: or the pair through its ground pivot).
+MAX_BASE_COMBINATIONS = 256
 
 
 @dataclass(frozen=True)
@@ -26,44 +31,54 @@ class Block:
     """One block of the plan.
 
     vertices : indices (into ``mech.vertices``) of the vertices this block places.
-    links : indices (into ``mech.links``) of its equations, ``2 * len(vertices)`` of them.
-    kind : DYAD or GENERAL.
+    links : indices of its distance equations (``Plan.link_a``/``link_b``: the mechanism's links,
+        then each body's base pair).
+    attaches : its attach rows, as (attach equation, axis 0 = x / 1 = y) pairs.
+    kind : DYAD, ATTACH or GENERAL (see ``_kinds``).
     depends : indices of earlier blocks it reads positions from.
+
+    ``len(links) + len(attaches) == 2 * len(vertices)``.
     """
 
     vertices: tuple[int, ...]
     links: tuple[int, ...]
     kind: int
     depends: tuple[int, ...]
+    attaches: tuple[tuple[int, int], ...] = ()
 
 
 @dataclass(frozen=True)
 class Plan:
     """The solve order of one mechanism topology, reused for every variant and crank angle.
 
-    Array fields are what the Numba kernels read:
-
-    link_a, link_b : (n_links,) int64, vertex index of each link's ends.
-    tip : int, index of the crank tip; fixed : (n_fixed,) int64, indices of the fixed vertices.
-    kind : (n_blocks,) int64, DYAD or GENERAL.
-    vert_ptr, verts : CSR lists of each block's vertices; link_ptr, blinks : of each block's links.
+    n_links : the mechanism's links; distance equations ``n_links ...`` are the bodies' base pairs.
+    link_a, link_b : (n_distances,) int64, vertex index of each distance equation's ends.
+    body_base : (n_bodies, 2) int64, the base pair of each body (indices into its ``joints``).
+    attach : (n_attach, 3) int64, (joint, base p, base q) vertex indices of each attach equation;
+        attach_body, attach_joint : (n_attach,) the body and the joint's index in it.
+    tip : int, index of the crank tip (driven vertex); fixed : (n_fixed,) int64, the fixed vertices.
     """
 
     n_vertices: int
     blocks: tuple[Block, ...]
+    n_links: int
     link_a: np.ndarray
     link_b: np.ndarray
+    body_base: np.ndarray
+    attach: np.ndarray
+    attach_body: np.ndarray
+    attach_joint: np.ndarray
     tip: int
     fixed: np.ndarray
-    kind: np.ndarray
-    vert_ptr: np.ndarray
-    verts: np.ndarray
-    link_ptr: np.ndarray
-    blinks: np.ndarray
 
     @property
     def n_blocks(self) -> int:
         return len(self.blocks)
+
+    @property
+    def kind(self) -> np.ndarray:
+        """(n_blocks,) int64, each block's kind."""
+        return np.array([b.kind for b in self.blocks], dtype=np.int64)
 
     def block_of_vertex(self) -> dict[int, int]:
         """Map vertex index -> index of the block that places it (solved vertices only)."""
@@ -81,52 +96,75 @@ class Plan:
                 todo.extend(self.blocks[b].depends)
         return np.array(sorted(need), dtype=np.int64)
 
-    def arrays(self, blocks=None) -> tuple:
-        """The tuple of arrays the kernels take, restricted to ``blocks`` (default: all), in order."""
-        if blocks is None:
-            return (self.kind, self.vert_ptr, self.verts, self.link_ptr, self.blinks)
-        sel = [self.blocks[i] for i in blocks]
-        return _csr(sel)
-
-
-def _csr(blocks) -> tuple:
-    kind = np.array([b.kind for b in blocks], dtype=np.int64)
-    vert_ptr = np.zeros(len(blocks) + 1, dtype=np.int64)
-    link_ptr = np.zeros(len(blocks) + 1, dtype=np.int64)
-    for i, b in enumerate(blocks):
-        vert_ptr[i + 1] = vert_ptr[i] + len(b.vertices)
-        link_ptr[i + 1] = link_ptr[i] + len(b.links)
-    verts = np.array([v for b in blocks for v in b.vertices], dtype=np.int64)
-    blinks = np.array([l for b in blocks for l in b.links], dtype=np.int64)
-    return kind, vert_ptr, verts, link_ptr, blinks
-
 
 def make_plan(mech: Mechanism) -> Plan:
     """Sort ``mech``'s equations into block-lower-triangular order.
 
-    Raises UserError if the link graph has no perfect matching (some part is over-constrained
-    while another is free to move) even though the equation count is right.
+    Each rigid body of n joints gives one distance equation between two of its joints (its *base
+    pair*) and an attach equation (two rows) for each other joint. Base pairs are chosen so that the
+    blocks come out smallest: with the right pair, a body placed by two joints places the rest by
+    ATTACH blocks (exact), and the pair's own distance serves a DYAD.
+
+    Raises UserError if the equations have no perfect matching (some part is over-constrained while
+    another is free to move) even though the equation count is right.
     """
     index = {v: i for i, v in enumerate(mech.vertices)}
     tip = index[mech.driven]
     grounded = {tip, *(index[v] for v in mech.fixed)}
-    free = [i for i in range(len(mech.vertices)) if i not in grounded]
-    link_a = np.array([index[l.a] for l in mech.links], dtype=np.int64)
-    link_b = np.array([index[l.b] for l in mech.links], dtype=np.int64)
+    choices = []
+    for body in mech.bodies:
+        pairs = list(combinations(range(len(body.joints)), 2))
+        ground = [i for i, j in enumerate(body.joints) if index[j] in grounded]
+        choices.append(pairs if not ground else sorted(pairs, key=lambda pq: ground[0] not in pq))
+    n_comb = 1
+    for c in choices:
+        n_comb *= len(c)
+    combos = product(*choices) if n_comb <= MAX_BASE_COMBINATIONS else [tuple(c[0] for c in choices)]
+    best, error = None, None
+    for bases in combos:
+        try:
+            plan = _plan_with_bases(mech, index, tip, grounded, bases)
+        except UserError as exc:
+            error = error or exc
+            continue
+        score = (sum(len(b.vertices) ** 2 for b in plan.blocks if b.kind == GENERAL), plan.n_blocks)
+        if best is None or score < best[0]:
+            best = (score, plan)
+    if best is None:
+        raise error
+    return best[1]
 
-    # Unknown coordinates are (vertex, axis); equation e contains both coordinates of its free ends.
+
+def _plan_with_bases(mech, index, tip, grounded, bases) -> Plan:
+    free = [i for i in range(len(mech.vertices)) if i not in grounded]
+    ends = [(index[l.a], index[l.b]) for l in mech.links]
+    attach, attach_body, attach_joint = [], [], []
+    for bi, (body, (p, q)) in enumerate(zip(mech.bodies, bases)):
+        ends.append((index[body.joints[p]], index[body.joints[q]]))
+        for ji, j in enumerate(body.joints):
+            if ji not in (p, q):
+                attach.append((index[j], index[body.joints[p]], index[body.joints[q]]))
+                attach_body.append(bi)
+                attach_joint.append(ji)
+    link_a = np.array([a for a, _ in ends], dtype=np.int64)
+    link_b = np.array([b for _, b in ends], dtype=np.int64)
+
+    # Unknown coordinates are (vertex, axis). Scalar equations: the distance equations, then two rows
+    # per attach equation; each contains every free coordinate of the vertices it names.
     coords = [(v, ax) for v in free for ax in (0, 1)]
     cidx = {c: i for i, c in enumerate(coords)}
+    eqs = [("d", e) for e in range(len(ends))] + [("a", (t, ax)) for t in range(len(attach)) for ax in (0, 1)]
     eq_vars = []
-    for a, b in zip(link_a, link_b):
-        eq_vars.append([cidx[(int(v), ax)] for v in (a, b) if int(v) not in grounded for ax in (0, 1)])
+    for typ, e in eqs:
+        verts = ends[e] if typ == "d" else attach[e[0]]
+        eq_vars.append([cidx[(int(v), ax)] for v in verts if int(v) not in grounded for ax in (0, 1)])
 
     match_of_coord = _matching(eq_vars, len(coords))
     unmatched = [coords[c] for c in range(len(coords)) if match_of_coord[c] < 0]
     if unmatched:
         names = sorted({mech.vertices[v] for v, _ in unmatched})
         raise UserError(
-            f"{where(mech.source, 'links')}: the links do not place vertices {', '.join(names)} "
+            f"{where(mech.source, 'links')}: the links and bodies do not place vertices {', '.join(names)} "
             f"(some part of the graph is over-constrained while another can move freely)"
         )
 
@@ -141,13 +179,26 @@ def make_plan(mech: Mechanism) -> Plan:
     blocks = []
     for k, comp in enumerate(comps):
         verts = tuple(sorted({coords[c][0] for c in comp}, key=free.index))
-        links = tuple(sorted({match_of_coord[c] for c in comp}))
+        rows = [eqs[match_of_coord[c]] for c in comp]
+        links = tuple(sorted(e for typ, e in rows if typ == "d"))
+        attaches = tuple(sorted(e for typ, e in rows if typ == "a"))
         depends = tuple(sorted({comp_of[d] for c in comp for d in deps[c]} - {k}))
-        is_dyad = len(verts) == 1 and len(links) == 2
-        blocks.append(Block(verts, links, DYAD if is_dyad else GENERAL, depends))
-    kind, vert_ptr, verts, link_ptr, blinks = _csr(blocks)
+        blocks.append(Block(verts, links, _classify(verts, links, attaches, attach), depends, attaches))
     fixed = np.array(sorted(grounded - {tip}), dtype=np.int64)
-    return Plan(len(mech.vertices), tuple(blocks), link_a, link_b, tip, fixed, kind, vert_ptr, verts, link_ptr, blinks)
+    att = np.array(attach, dtype=np.int64).reshape(-1, 3)
+    return Plan(len(mech.vertices), tuple(blocks), len(mech.links), link_a, link_b,
+                np.array(bases, dtype=np.int64).reshape(-1, 2), att, np.array(attach_body, dtype=np.int64),
+                np.array(attach_joint, dtype=np.int64), tip, fixed)
+
+
+def _classify(verts, links, attaches, attach) -> int:
+    """The kind of a block (see ``_kinds``): one vertex by two distances, one body joint by its
+    attach equation, or a coupled block."""
+    if len(verts) == 1 and len(links) == 2:
+        return DYAD
+    if len(verts) == 1 and len(attaches) == 2 and attaches[0][0] == attaches[1][0] and attach[attaches[0][0]][0] == verts[0]:
+        return ATTACH
+    return GENERAL
 
 
 def _matching(eq_vars: list[list[int]], n_vars: int) -> list[int]:

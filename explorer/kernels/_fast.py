@@ -1,9 +1,17 @@
-"""The fast path: block Newton for plans made only of dyads (the Jansen leg, four-bars, most legs).
+"""The closed-form block kinds, DYAD and ATTACH, and the fast step that places them.
 
-Same method, checks and results as the generic step in ``_generic`` (which it is tested against),
-specialised for speed: per variant, each dyad's vertex, parents and squared lengths sit in flat
-tables and the step is scalar code; nothing of the dense or general-block machinery is compiled in,
-so this kernel also compiles in a fraction of the time.
+* DYAD: one vertex placed by two distances to known vertices (the Jansen leg is five of them), by
+  Newton on the 2x2 system with branch tracking, a gap check and the tangent.
+* ATTACH: a rigid body's joint placed from its body's known base pair p, q, exactly: at
+  p + u (q − p) + v R(q − p) (R: a quarter turn counter-clockwise), (u, v) being the joint's
+  coordinates in the frame of the base pair scaled by its length (``_design``). A rigid transform:
+  no Newton, no branch (a body never mirrors), no way to fail; its rates follow by the same map.
+
+:func:`fast_step` is scalar code over the per-variant block table (``_inputs.BLOCK_DTYPE``: each
+block's kind, vertex, parents and squared lengths by name), both kinds written in its one loop. (A
+function per kind, inlined, measured 2x slower on the Jansen leg: Numba counts references to the six
+state arrays at every inlined call, atomically.) The generic step (``_step``) calls it on one
+block's row at a time.
 """
 
 import math
@@ -11,6 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ..plan import DYAD
 from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIGN, SUSPECT, gap_suspect
 
 
@@ -19,66 +28,64 @@ from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIG
 FOLD_SIN = 1e-2
 
 
-@njit(cache=True)
-def dyad_context(dv, dpa, dpb, dla, dlb, L, dlp, tip, crank, cx, cy, scale, P_init):
-    """Per-variant table of the dyad step, shape (n_dyads, 9): vertex, parent a, parent b (as floats),
-    da², db², (da+db)², (da−db)², the largest move allowed per step squared, and 1.0 where the
-    between-sample gap check is needed (0.0 where the parents' distance provably stays inside the
-    assembly range: ``dlp`` ≥ 0 is a link joining the parents, so their distance is constant; −2 marks
-    parents that are the crank tip (radius ``scale`` about (cx, cy)) and a fixed vertex, whose distance
-    range is known in closed form; −1: neither).
-
-    One array rather than a tuple: unpacking a tuple of arrays in the hot loop costs atomic
-    reference counting on every step.
-    """
-    nd = dv.shape[0]
-    ctx = np.empty((nd, 9))
-    for k in range(nd):
-        d1 = L[dla[k]]
-        d2 = L[dlb[k]]
-        ctx[k, 0] = dv[k]
-        ctx[k, 1] = dpa[k]
-        ctx[k, 2] = dpb[k]
-        ctx[k, 3] = d1 * d1
-        ctx[k, 4] = d2 * d2
-        ctx[k, 5] = (d1 + d2) * (d1 + d2)
-        ctx[k, 6] = (d1 - d2) * (d1 - d2)
-        ctx[k, 7] = (MAX_MOVE * min(d1, d2)) ** 2
-        lo = ctx[k, 6] * (1.0 + GAP_MARGIN)
-        hi = ctx[k, 5] * (1.0 - GAP_MARGIN)
-        qmin = -1.0
-        qmax = -1.0
-        if dlp[k] >= 0:
-            qmin = L[dlp[k]] * L[dlp[k]]
-            qmax = qmin
-        elif dlp[k] == -2 and crank:
-            other = dpb[k] if dpa[k] == tip else dpa[k]
-            D = math.hypot(P_init[other, 0] - cx, P_init[other, 1] - cy)
-            qmin = (D - scale) * (D - scale)
-            qmax = (D + scale) * (D + scale)
-        ctx[k, 8] = 0.0 if (qmin >= 0.0 and lo < qmin and qmax < hi) else 1.0
-    return ctx
+@njit(cache=True, inline="always")
+def dyad_fill(rec, v, a, b, d1, d2, qmin, qmax):
+    """Fill block-table row ``rec`` (``_inputs.BLOCK_DTYPE``) for a dyad placing vertex v at distances
+    d1 from parent a and d2 from parent b. [qmin, qmax] bounds the parents' squared distance over the
+    whole cycle where that is known (qmin < 0: unknown); inside the assembly range with margin, the
+    between-sample gap check is not needed."""
+    rec.vertex = v
+    rec.a = a
+    rec.b = b
+    rec.da2 = d1 * d1
+    rec.db2 = d2 * d2
+    rec.hi2 = (d1 + d2) * (d1 + d2)
+    rec.lo2 = (d1 - d2) * (d1 - d2)
+    rec.lim2 = (MAX_MOVE * min(d1, d2)) ** 2
+    lo = rec.lo2 * (1.0 + GAP_MARGIN)
+    hi = rec.hi2 * (1.0 - GAP_MARGIN)
+    rec.gap = 0 if (qmin >= 0.0 and lo < qmin and qmax < hi) else 1
 
 
 @njit(cache=True, inline="always")
-def dyad_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, checks):
-    """Place every dyad in order at the new driver position (already in P1). Returns (code, dyad, iterations).
+def fast_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, checks):
+    """Place every block of the block table ``ctx`` (DYAD and ATTACH rows) in order at the new driver
+    position (already in P1). Returns (code, failing block or −1, iterations).
 
-    A step of the sweep (see ``_sweep``): predict each vertex from P0/V0/Vp, Newton with a step
-    limit until a correction no longer than ``tol`` (model units) has been applied, check assembly,
-    branch sign, a gap between samples and the move; then the tangent.
+    A dyad: predict its vertex from P0/V0/Vp, Newton with a step limit until a correction no longer
+    than ``tol`` (model units) has been applied, check assembly, the branch ``signs[k]``, a gap
+    between samples and the move; then the tangent (and second derivative). A body joint: the rigid
+    transform of its base pair, with its rates.
     """
     iters = 0
     c2 = 0.5 * h * h / hp if hp != 0.0 else 0.0
     for k in range(ctx.shape[0]):
-        v = int(ctx[k, 0])
-        a = int(ctx[k, 1])
-        b = int(ctx[k, 2])
-        da2 = ctx[k, 3]
-        db2 = ctx[k, 4]
-        hi2 = ctx[k, 5]
-        lo2 = ctx[k, 6]
-        lim2 = ctx[k, 7]
+        rec = ctx[k]
+        v = rec.vertex
+        a = rec.a
+        b = rec.b
+        if rec.kind != DYAD:  # ATTACH (the fast step is given no GENERAL row)
+            u = rec.u
+            w = rec.v
+            gx = P1[b, 0] - P1[a, 0]
+            gy = P1[b, 1] - P1[a, 1]
+            P1[v, 0] = P1[a, 0] + u * gx - w * gy
+            P1[v, 1] = P1[a, 1] + u * gy + w * gx
+            gx = V1[b, 0] - V1[a, 0]
+            gy = V1[b, 1] - V1[a, 1]
+            V1[v, 0] = V1[a, 0] + u * gx - w * gy
+            V1[v, 1] = V1[a, 1] + u * gy + w * gx
+            if want_acc:
+                gx = A1[b, 0] - A1[a, 0]
+                gy = A1[b, 1] - A1[a, 1]
+                A1[v, 0] = A1[a, 0] + u * gx - w * gy
+                A1[v, 1] = A1[a, 1] + u * gy + w * gx
+            continue
+        da2 = rec.da2
+        db2 = rec.db2
+        hi2 = rec.hi2
+        lo2 = rec.lo2
+        lim2 = rec.lim2
         ax = P1[a, 0]
         ay = P1[a, 1]
         bx = P1[b, 0]
@@ -88,7 +95,7 @@ def dyad_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
         q1 = gx * gx + gy * gy
         if q1 > hi2 or q1 < lo2:
             return INFEASIBLE, k, iters
-        if checks and ctx[k, 8] != 0.0:
+        if checks and rec.gap != 0:
             # may the parents' distance leave the assembly range between the two samples?
             ux = P0[b, 0] - P0[a, 0]
             uy = P0[b, 1] - P0[a, 1]

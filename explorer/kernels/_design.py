@@ -1,0 +1,89 @@
+"""Design parameters → the numbers the kernels read for each variant (``_inputs.Designs``).
+
+A design is its mechanism's named parameters (``Mechanism.parameters``): link lengths, the crank
+radius and centre, the ground pivots, the bodies' joint coordinates. The kernels read what the plan
+makes of them: each distance equation's length (links, then each body's base-pair distance), each
+attach equation's (u, v) — the joint's coordinates in the frame of its body's base pair, scaled by
+that pair's length — the fixed vertices' positions, the crank centre and radius, and Newton's
+stopping distance. Computed here once per chunk, vectorised over the variants.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import UserError
+from ..mechanism import Mechanism
+from ..plan import Plan
+from ._inputs import Designs
+
+
+def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray, geometry: dict | None,
+            tolerance: float) -> Designs:
+    """The :class:`~._inputs.Designs` of N variants.
+
+    lengths (N, n_links) in ``mech.links`` order; scale (N,) crank radii (ones for a path driver);
+    geometry: {coordinate parameter name: (N,) values} (crank centre, ground pivots, body joints;
+    those left out keep their nominal). tolerance: relative to each design's size (its longest
+    link or body span). A variant with a non-finite parameter, or a body whose base pair coincides, gets
+    NaN lengths, which the kernels report as "invalid" (as they do lengths out of range, see
+    ``_batch.valid_lengths``).
+    """
+    N = lengths.shape[0]
+    nominal = mech.parameters()
+    geometry = dict(geometry or {})
+    for name in geometry:
+        if mech.parameter_kind(name) != "coordinate":
+            raise UserError(f"geometry: {name!r} is a length; pass it with the lengths (or the crank radii)")
+
+    def col(name):
+        if name in geometry:
+            c = np.asarray(geometry[name], dtype=np.float64).reshape(-1)
+            if c.shape[0] != N:
+                raise UserError(f"geometry: column {name!r} has {c.shape[0]} values for {N} variants")
+            return c
+        return np.full(N, nominal[name])
+
+    n_links = len(mech.links)
+    dist = np.empty((N, len(plan.link_a)))
+    dist[:, :n_links] = lengths
+    size = np.max(lengths, axis=1) if n_links else np.zeros(N)
+    points = []
+    for bi, body in enumerate(mech.bodies):
+        pts = np.stack([np.stack([col(f"{body.name}.{j}.x"), col(f"{body.name}.{j}.y")], axis=-1)
+                        for j in body.joints], axis=1)  # (N, n_joints, 2)
+        points.append(pts)
+        p, q = plan.body_base[bi]
+        dist[:, n_links + bi] = np.hypot(*(pts[:, q] - pts[:, p]).T)
+        diff = pts[:, :, None, :] - pts[:, None, :, :]
+        size = np.maximum(size, np.max(np.hypot(diff[..., 0], diff[..., 1]), axis=(1, 2)))
+    uv = np.empty((N, len(plan.attach), 2))
+    for t, (bi, ji) in enumerate(zip(plan.attach_body, plan.attach_joint)):
+        pts = points[bi]
+        p, q = plan.body_base[bi]
+        e = pts[:, q] - pts[:, p]
+        w = pts[:, ji] - pts[:, p]
+        e2 = np.sum(e * e, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv[:, t, 0] = np.sum(w * e, axis=1) / e2
+            uv[:, t, 1] = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / e2
+    names = [mech.vertices[v] for v in plan.fixed]
+    fixed = np.stack([np.stack([col(f"{v}.x"), col(f"{v}.y")], axis=-1) for v in names], axis=1) if names \
+        else np.zeros((N, 0, 2))
+    if mech.crank is not None:
+        center = np.stack([col("crank.x"), col("crank.y")], axis=-1)
+    else:
+        center = np.zeros((N, 2))
+    # an attached joint's error is at most (|1 − u| + |u| + 2|v|) times its base pair's: tighten
+    # Newton's stopping distance by that much so that every joint keeps the promise
+    amp = np.ones(N)
+    if uv.shape[1]:
+        with np.errstate(invalid="ignore"):
+            amp = np.maximum(1.0, np.max(np.abs(1.0 - uv[..., 0]) + np.abs(uv[..., 0]) + 2.0 * np.abs(uv[..., 1]),
+                                         axis=1))
+    tol = tolerance * size / amp
+    ok = (np.all(np.isfinite(uv), axis=(1, 2)) & np.all(np.isfinite(fixed), axis=(1, 2))
+          & np.all(np.isfinite(center), axis=1) & np.isfinite(tol) & (tol > 0))
+    dist[~ok] = np.nan
+    return Designs(np.ascontiguousarray(dist), np.ascontiguousarray(uv), np.ascontiguousarray(fixed),
+                   np.ascontiguousarray(center), np.ascontiguousarray(scale, dtype=np.float64), tol)

@@ -1,0 +1,60 @@
+"""The block kinds of a plan: what each one is, and where each one lives.
+
+A plan (``_blt``) cuts a linkage's equations into blocks solved one after another. Every block has
+one kind; the kind decides how the kernels place its vertices:
+
+========  ==============================================================  ===========================
+kind      a block that ...                                                kernels (``explorer.kernels``)
+========  ==============================================================  ===========================
+DYAD      places one vertex by two distance equations to known vertices   ``_fast``: circle–circle
+          (two links, or a link and a body's pair): Newton on a 2x2        Newton, branch = the sign of
+          system, or the closed form                                       the 2x2 determinant
+ATTACH    places one joint of a rigid body whose base pair of joints is   ``_fast``: a rigid
+          known: exactly, by the body's rigid transform (no Newton, no    transform, exact (no branch,
+          branch: a body never mirrors)                                    no failure)
+GENERAL   couples several vertices (an Assur triad, a body that is part   ``_blocks``: Newton on the
+          of a loop): Newton on the block's rows together                  block, branch = sign of det
+========  ==============================================================  ===========================
+
+The two closed-form kinds share ``_fast.fast_step``'s one loop (a function per kind measured 2x
+slower, see there); the exact closed form (``_closed``) places them the same way.
+
+Equations come in two forms. A *distance* equation |p_b − p_a| = d (a link, or a body's base pair)
+is one scalar row; an *attach* equation p_j = p_p + u (p_q − p_p) + v R(p_q − p_p) (R: a quarter
+turn counter-clockwise) places body joint j from the body's base pair (p, q) and is two rows, x and
+y. The (u, v) of each attach equation and the lengths of the distance equations are per-variant
+numbers derived from the design parameters (``kernels._design``).
+
+How to add a block kind
+-----------------------
+1. Give it a number here (``BlockKind`` and the module constant), and recognise it in
+   ``_blt.make_plan`` where blocks are classified (``_classify``).
+2. Give it what it reads: fields of the per-variant block table (``kernels._inputs.BLOCK_DTYPE``,
+   filled in ``kernels._step.block_table``) and, for topology it needs beyond a row, a field of
+   ``kernels._inputs.Topology`` (built in ``kernels._inputs.topology``).
+3. Write its kernel: a branch of ``kernels._fast.fast_step``'s loop if it is a closed form (and of
+   ``kernels._closed._place``), else a module like ``kernels._blocks`` called from
+   ``kernels._step._blocks_step`` (and its branch check in ``_check_dense`` / ``block_signs``).
+4. Test it against an independent reference in ``tests/`` (see ``tests/test_bodies.py``).
+"""
+
+from enum import IntEnum
+
+
+class BlockKind(IntEnum):
+    """The kind of a plan block (stored as an int64 in the kernels' tables)."""
+
+    DYAD = 0
+    ATTACH = 1
+    GENERAL = 2
+
+
+DYAD = int(BlockKind.DYAD)
+ATTACH = int(BlockKind.ATTACH)
+GENERAL = int(BlockKind.GENERAL)
+
+#: Row types of a GENERAL block (``Topology.gen_rows[:, 0]``): a distance equation, or the x / y
+#: row of an attach equation.
+ROW_DIST = 0
+ROW_ATTACH_X = 1
+ROW_ATTACH_Y = 2
