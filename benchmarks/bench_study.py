@@ -61,7 +61,7 @@ def main(argv=None) -> None:
     mech = study.mech
     N, S = study.n_variants, study.steps
     configs = N * S
-    L, c = study_variants(study)
+    L, c, _ = study_variants(study)
     tmp = Path(tempfile.mkdtemp(prefix="bench-study-"))
     out = tmp / "bench.h5"
     kw = dict(tolerance=study.tolerance, vertices=list(study.vertex_names))

@@ -79,12 +79,13 @@ def _length(L, u, w):
     return L[(u, w)] if (u, w) in L else L[(w, u)]
 
 
-def jansen_closed_form(lengths, crank, thetas, signs=None):
+def jansen_closed_form(lengths, crank, thetas, signs=None, center=JANSEN_CENTER, fixed2=JANSEN_FIXED2):
     """Jansen leg positions by sequential circle-circle intersections (plain numpy).
 
     lengths : (10,) or (N, 10) link lengths in JANSEN_LINKS order; crank : scalar or (N,) radius;
     thetas : (S,) crank angles, or (N, S) per variant; signs : dict vertex -> ±1 (default: the nominal design's, from the
-    seed's guess). Returns (positions, ok, slack):
+    seed's guess); center : the crank centre, (2,) or (N, 2) per variant; fixed2 : ground pivot 2, (2,)
+    or (N, 2). Returns (positions, ok, slack):
     positions (…, S, 7, 2) in JANSEN_VERTICES order (NaN where not assemblable),
     ok (…, S) bool, True where every vertex assembles,
     slack dict vertex -> (…, S) circle-circle slack of that dyad (NaN when a parent is missing).
@@ -99,10 +100,12 @@ def jansen_closed_form(lengths, crank, thetas, signs=None):
     N = lengths.shape[0]
     th = np.broadcast_to(thetas if thetas.ndim == 2 else thetas[None, :], (N, thetas.shape[-1]))
     S = th.shape[1]
+    c = np.broadcast_to(np.asarray(center, dtype=float), (N, 2))
+    f2 = np.broadcast_to(np.asarray(fixed2, dtype=float), (N, 2))
     P = {}
-    P["1"] = np.stack([JANSEN_CENTER[0] + crank[:, None] * np.cos(th),
-                       JANSEN_CENTER[1] + crank[:, None] * np.sin(th)], axis=-1)
-    P["2"] = np.broadcast_to(np.array(JANSEN_FIXED2), (N, S, 2))
+    P["1"] = np.stack([c[:, 0, None] + crank[:, None] * np.cos(th),
+                       c[:, 1, None] + crank[:, None] * np.sin(th)], axis=-1)
+    P["2"] = np.broadcast_to(f2[:, None, :], (N, S, 2))
     col = {pair: lengths[:, i][:, None] for i, pair in enumerate(JANSEN_LINKS)}
     slack = {}
     for v, a, b in JANSEN_ORDER:

@@ -132,7 +132,8 @@ def test_sample_variants_maps_to_lengths():
 
 def test_study_variants_match_default_study_head():
     study = load_study()
-    L, c = study_variants(study, 0, 8)
+    L, c, G = study_variants(study, 0, 8)
+    assert G.shape == (8, 0)  # the default study moves no coordinate
     assert np.array_equal(L[0], study.mech.lengths) and c[0] == study.mech.crank.radius
     assert np.all(np.abs(L[1:] / study.mech.lengths - 1) <= 0.02)
     assert np.all(np.abs(c[1:] / study.mech.crank.radius - 1) <= 0.02)

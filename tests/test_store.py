@@ -92,7 +92,7 @@ def test_layout(results_file):
 def test_stored_paths_are_the_kernel_output(results_file):
     path, _ = results_file
     study = load_study(small())
-    L, c = study_variants(study)
+    L, c, _ = study_variants(study)
     b = simulate_batch(study.mech, L, c, 36, vertices=["7", "4"], velocities=True)
     with open_results(path) as r:
         with h5py.File(path, "r") as f:

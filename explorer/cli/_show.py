@@ -1,4 +1,5 @@
-"""``explorer show RESULTS VARIANT`` (or ``--variant N``): one variant's lengths against the nominal, its metrics and ranks, its status."""
+"""``explorer show RESULTS VARIANT`` (or ``--variant N``): one variant's design parameters (lengths, crank,
+pivots, ...) against the nominal, its metrics and ranks, its status."""
 
 from __future__ import annotations
 
@@ -7,9 +8,12 @@ import math
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "show", help="one variant of a results file: lengths vs the nominal, metrics with their ranks, status",
-        description="Print one variant of a results file: each link length and the crank radius against the "
-                    "nominal design (absolute and % change), each stored metric with its rank among the ok "
+        "show", help="one variant of a results file: design parameters vs the nominal, metrics with their ranks, status",
+        description="Print one variant of a results file: every design parameter (each link length, the crank "
+                    "radius and centre, the ground pivots' and body joints' coordinates) against the nominal "
+                    "design (absolute change, and % of the nominal for a length or of the mechanism's size for "
+                    "a coordinate; parameters the study kept fixed are marked), each stored metric with its "
+                    "rank among the ok "
                     "variants (1 = best in the metric's natural direction; ties share a rank), its status "
                     "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
                     "buildability screen (and if not, why). Variant 0 is the nominal.")
@@ -53,6 +57,33 @@ def _table(rows, right) -> list[str]:
     return out
 
 
+def parameter_lines(mech, row, nominal: dict, perturbed) -> list[str]:
+    """The table of every design parameter of ``mech`` (``Mechanism.parameters`` order): the variant's
+    value (its frame ``row``'s column, or the nominal where the file stores none), the nominal
+    (``nominal``, else the mechanism's), the change, and the change in % of the nominal (a length) or
+    of the mechanism's size (a coordinate, whose own value is no scale)."""
+    size = mech.size
+    pivots = {f"{v}.{a}" for v in mech.fixed for a in "xy"}
+    rows = [("parameter", "value", "nominal", "change", "change %")]
+    for p, mech_nominal in mech.parameters().items():
+        nom = float(nominal.get(p, mech_nominal))
+        val = float(row[p]) if p in row.index else nom
+        d = val - nom
+        if mech.parameter_kind(p) == "length":
+            pct = f"{100.0 * d / nom:+.3f} %" if nom else "-"
+            label = p if p == "crank" else f"link {p}"
+        else:
+            pct = f"{100.0 * d / size:+.3f} % of size"
+            label = f"pivot {p}" if p in pivots else (p if p in ("crank.x", "crank.y") else f"joint {p}")
+        if p not in perturbed:
+            label += " (fixed)"
+        rows.append((label, f"{val:.4f}", f"{nom:.4f}", f"{d:+.4f}", pct))
+    out = _table(rows, (False, True, True, True, True))
+    if any(mech.parameter_kind(p) == "coordinate" for p in mech.parameters()):
+        out.append(f"(a coordinate's change is in % of the mechanism's size, {size:g}: its longest link or body span)")
+    return out
+
+
 def run(args) -> int:
     import numpy as np
 
@@ -91,18 +122,9 @@ def run(args) -> int:
         vert = f", vertex {row['fail_vertex']}" if row["fail_vertex"] is not None else ""
         lines.append(f"status: failed ({status}){at}{vert}")
 
-    # -- lengths -----------------------------------------------------------------------------------------
-    rows = [("parameter", "value", "nominal", "change", "change %")]
-    for p in list(res.link_names) + (["crank"] if mech.crank is not None else []):
-        val, nom = float(row[p]), nominal[p]
-        d = val - nom
-        pct = f"{100.0 * d / nom:+.3f} %" if nom else "-"
-        label = p if p == "crank" else f"link {p}"
-        if p not in perturbed:
-            label += " (fixed)"
-        rows.append((label, f"{val:.4f}", f"{nom:.4f}", f"{d:+.4f}", pct))
+    # -- design parameters -------------------------------------------------------------------------------
     lines.append("")
-    lines += _table(rows, (False, True, True, True, True))
+    lines += parameter_lines(mech, row, nominal, perturbed)
 
     # -- metrics -----------------------------------------------------------------------------------------
     if "screen" in row.index and status == "ok":

@@ -61,6 +61,7 @@ from numba import njit
 from ..errors import UserError
 from ..kernels import parallel_rows
 from ..plan import fourbar_loops
+from ..plan._grashof import loop_ground, loop_side
 from ._runs import all_finite, longest_cyclic_run
 from ._walker import walker_metrics
 
@@ -274,21 +275,24 @@ def _crossings_kernel(paths, status, out):
         out[i] = count
 
 
-def foot_headroom(mech, paths, status=None) -> np.ndarray:
+def foot_headroom(mech, paths, status=None, geometry=None) -> np.ndarray:
     """(N,) min(y of the crank centre and every ground pivot) − max over the cycle of the foot's y.
 
-    paths (N, S, 2). NaN for non-ok variants, non-finite paths, or a mechanism with neither a crank
-    nor a ground pivot."""
+    paths (N, S, 2). geometry : None or {coordinate parameter name: (N,) values}: each variant's own
+    crank centre and pivots ("crank.y", "2.y"; those not given keep the nominal's). NaN for non-ok
+    variants, non-finite paths, or a mechanism with neither a crank nor a ground pivot."""
     paths = np.asarray(paths, dtype=np.float64)
-    heights = [y for _, y in mech.fixed.values()]
-    if mech.crank is not None:
-        heights.append(mech.crank.center[1])
+    geometry = geometry or {}
     N = paths.shape[0]
+    heights = [geometry.get(f"{v}.y", y) for v, (_, y) in mech.fixed.items()]
+    if mech.crank is not None:
+        heights.append(geometry.get("crank.y", mech.crank.center[1]))
     if not heights:
         return np.full(N, np.nan)
     with np.errstate(invalid="ignore"):
         top = paths[:, :, 1].max(axis=1) if paths.shape[1] else np.full(N, np.nan)
-    out = min(heights) - top
+    low = np.min(np.stack([np.broadcast_to(np.asarray(h, dtype=np.float64), (N,)) for h in heights]), axis=0)
+    out = low - top
     out[~np.isfinite(paths).all(axis=(1, 2))] = np.nan
     if status is not None:
         out[np.asarray(status) != 0] = np.nan
@@ -355,7 +359,7 @@ def check_band(band) -> float:
 
 
 def compute_metrics(paths, velocities=None, status=None, names=None, band: float = DEFAULT_BAND, *,
-                    mechanism=None, lengths=None, crank=None, walker=None) -> dict[str, np.ndarray]:
+                    mechanism=None, lengths=None, crank=None, walker=None, geometry=None) -> dict[str, np.ndarray]:
     """Metrics of N foot paths: the walker scene, the single-leg band metrics and the screen's inputs
     (definitions: :mod:`explorer.gait._walker` and this module's docstring; units and directions:
     :data:`explorer.gait.TABLE`).
@@ -386,6 +390,10 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
     walker : :class:`explorer.mechanism.Walker`, optional
         The walker scene (default: the mechanism's ``[walker]`` table, else ``Walker()``: four legs
         evenly spaced).
+    geometry : dict, optional
+        {coordinate parameter name: (N,) values} of each variant's crank centre and ground pivots
+        ("crank.x", "2.y", see ``Mechanism.parameters``; those not given keep the nominal's): read by
+        foot_headroom and min_transmission_angle (the loops' ground links).
 
     Returns
     -------
@@ -405,6 +413,7 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
             raise UserError(f"status: expected integer codes (0 = ok), got dtype {status.dtype}")
         status = status.astype(np.int64, copy=False)
     band = check_band(band)
+    geometry = _geometry(geometry, mechanism, N)
     chosen = _resolve_names(names, _available(mechanism, walker, crank))
     need_vel = [m for m in chosen if m in VELOCITY_METRICS]
     if need_vel and velocities is None:
@@ -452,10 +461,28 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
             parallel_rows(_crossings_kernel, (), (cpaths, status, out))
         result["self_crossings"] = out
     if "foot_headroom" in chosen:
-        result["foot_headroom"] = foot_headroom(mechanism, cpaths, status)
+        result["foot_headroom"] = foot_headroom(mechanism, cpaths, status, geometry=geometry)
     if "min_transmission_angle" in chosen:
-        result["min_transmission_angle"] = min_transmission_angle(mechanism, lengths, crank, status=status, n=N)
+        result["min_transmission_angle"] = min_transmission_angle(mechanism, lengths, crank, status=status, n=N,
+                                                                  geometry=geometry)
     return {m: np.array(result[m], dtype=np.float64) for m in chosen}
+
+
+def _geometry(geometry, mechanism, N: int) -> dict | None:
+    """``geometry`` checked: {coordinate parameter name of ``mechanism``: (N,) float64}, or None."""
+    if not geometry:
+        return None
+    if mechanism is None:
+        raise UserError("geometry: needs the mechanism (mechanism=) whose coordinates it names")
+    out = {}
+    for key, col in dict(geometry).items():
+        if mechanism.parameter_kind(str(key)) != "coordinate":
+            raise UserError(f"geometry: {key!r} is a length, not a coordinate (pass it in lengths= or crank=)")
+        v = np.asarray(col, dtype=np.float64).reshape(-1)
+        if v.shape != (N,):
+            raise UserError(f"geometry[{key!r}]: expected shape ({N},), got {np.shape(col)}")
+        out[str(key)] = v
+    return out
 
 
 def _per_variant(values, N: int, default, name: str) -> np.ndarray:
@@ -470,11 +497,14 @@ def _per_variant(values, N: int, default, name: str) -> np.ndarray:
 
 
 # -- transmission angle ------------------------------------------------------------------------------
-def min_transmission_angle(mech, lengths=None, crank=None, *, status=None, n: int | None = None) -> np.ndarray:
+def min_transmission_angle(mech, lengths=None, crank=None, *, status=None, n: int | None = None,
+                           geometry=None) -> np.ndarray:
     """Least transmission angle (degrees) over a full crank turn of every crank-driven four-bar loop.
 
     lengths : (N, n_links) in ``mech.links`` order (default: the nominal, N = ``n`` or 1);
-    crank : (N,) crank radii (default: the nominal's); status : (N,) ints, non-zero → NaN.
+    crank : (N,) crank radii (default: the nominal's); status : (N,) ints, non-zero → NaN;
+    geometry : None or {coordinate parameter name: (N,) values}, each variant's crank centre and
+    ground pivots (they set each loop's ground link |centre − pivot|).
     Returns (N,) float64; NaN where a loop cannot close at an extreme (|cos μ| > 1), for non-ok
     variants, and everywhere if ``mech`` has no crank-driven four-bar loop. Closed form (see the
     module docstring), exact in θ rather than sampled.
@@ -496,14 +526,16 @@ def min_transmission_angle(mech, lengths=None, crank=None, *, status=None, n: in
         r = np.asarray(crank, dtype=np.float64).reshape(-1)
         if r.shape != (N,):
             raise UserError(f"crank: expected shape ({N},), got {r.shape}")
+    if geometry:
+        for key, col in geometry.items():
+            if np.shape(col) != (N,):
+                raise UserError(f"geometry[{key!r}]: expected shape ({N},), got {np.shape(col)}")
     out = np.full(N, np.inf)
     loops = fourbar_loops(mech)
-    cx, cy = mech.crank.center
     with np.errstate(invalid="ignore", divide="ignore"):
         for v, f, i_c, i_l in loops:
-            fx, fy = mech.fixed[f]
-            g = math.hypot(fx - cx, fy - cy)
-            c, l = L[:, i_c], L[:, i_l]
+            g = loop_ground(mech, f, geometry, N)
+            c, l = loop_side(mech, i_c, L, geometry), loop_side(mech, i_l, L, geometry)
             cos_lo = (c * c + l * l - (g - r) ** 2) / (2 * c * l)  # d = |g - r|: smallest μ
             cos_hi = (c * c + l * l - (g + r) ** 2) / (2 * c * l)  # d = g + r: largest μ
             bad = (np.abs(cos_lo) > 1.0) | (np.abs(cos_hi) > 1.0)

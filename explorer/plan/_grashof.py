@@ -40,23 +40,56 @@ class Grashof:
     lengths: tuple[float, float, float, float]
 
 
-def fourbar_loops(mech: Mechanism) -> list[tuple[str, str, int, int]]:
-    """The crank-driven four-bar loops of ``mech``: (vertex v, ground pivot f, link tip–v, link f–v)."""
+def fourbar_loops(mech: Mechanism) -> list[tuple]:
+    """The crank-driven four-bar loops of ``mech``: (vertex v, ground pivot f, side tip–v, side f–v).
+
+    A side is a link (its index in ``mech.links``) or two joints of one rigid body, (body index,
+    joint, joint); :func:`loop_side` gives its length.
+    """
     if mech.crank is None:
         return []
     tip = mech.crank.tip
+
+    def sides(u, w):
+        out = [i for i, l in enumerate(mech.links) if {l.a, l.b} == {u, w}]
+        out += [(bi, u, w) for bi, b in enumerate(mech.bodies) if u in b.joints and w in b.joints]
+        return out
+
     loops = []
     for v in mech.vertices:
         if v == tip or v in mech.fixed:
             continue
-        to_tip = [i for i, l in enumerate(mech.links) if {l.a, l.b} == {tip, v}]
+        to_tip = sides(tip, v)
         if not to_tip:
             continue
         for f in mech.fixed:
-            to_f = [i for i, l in enumerate(mech.links) if {l.a, l.b} == {f, v}]
+            to_f = sides(f, v)
             if to_f:
                 loops.append((v, f, to_tip[0], to_f[0]))
     return loops
+
+
+def loop_side(mech: Mechanism, side, lengths=None, geometry=None, n: int | None = None):
+    """The length of a loop side (see :func:`fourbar_loops`): the nominal's (a float) without
+    ``lengths``; else (N,) per variant, from ``lengths`` (N, n_links) for a link, or from the body's
+    joint coordinates in ``geometry`` ({parameter name: (N,) values}; those not given keep the
+    nominal's) for a body pair."""
+    if isinstance(side, (int, np.integer)):
+        return float(mech.links[side].length) if lengths is None else np.asarray(lengths, dtype=np.float64)[:, side]
+    bi, a, b = side
+    body = mech.bodies[bi]
+    pts = dict(zip(body.joints, body.points))
+    geometry = geometry or {}
+    rows = n if lengths is None else np.asarray(lengths).shape[0]
+
+    def coord(j, ax):
+        name = f"{body.name}.{j}.{'xy'[ax]}"
+        if lengths is None and not geometry:
+            return pts[j][ax]
+        return np.broadcast_to(np.asarray(geometry.get(name, pts[j][ax]), dtype=np.float64), (rows,))
+
+    d = np.hypot(coord(b, 0) - coord(a, 0), coord(b, 1) - coord(a, 1))
+    return float(d) if np.ndim(d) == 0 else d
 
 
 def classify(crank, coupler, rocker, ground, rtol: float = 1e-9):
@@ -88,7 +121,7 @@ def grashof(mech: Mechanism, vertex: str | None = None) -> Grashof:
     for v, f, coupler, rocker in loops:
         cx, cy = mech.crank.center
         fx, fy = mech.fixed[f]
-        lengths = (mech.crank.radius, mech.links[coupler].length, mech.links[rocker].length, math.hypot(fx - cx, fy - cy))
+        lengths = (mech.crank.radius, loop_side(mech, coupler), loop_side(mech, rocker), math.hypot(fx - cx, fy - cy))
         kind, margin = classify(*lengths)
         g = Grashof(str(kind), float(margin), v, lengths)
         if best is None or g.margin < best.margin:
@@ -96,16 +129,34 @@ def grashof(mech: Mechanism, vertex: str | None = None) -> Grashof:
     return best
 
 
-def grashof_batch(mech: Mechanism, lengths, crank) -> tuple[np.ndarray, np.ndarray]:
-    """Grashof class and margin of the limiting loop of every variant: lengths (N, n_links), crank (N,)."""
+def loop_ground(mech: Mechanism, pivot: str, geometry=None, n: int | None = None):
+    """The ground link of a crank-driven four-bar loop: the distance from the crank centre to ground
+    pivot ``pivot``. Without ``geometry``, the nominal's (a float); with ``geometry`` ({coordinate
+    parameter name: (N,) values}, such as "crank.x" or "2.y"; those not given keep the nominal's),
+    (N,) per variant (``n`` rows when ``geometry`` gives none of the four coordinates)."""
+    cx, cy = mech.crank.center
+    fx, fy = mech.fixed[pivot]
+    if not geometry:
+        return math.hypot(fx - cx, fy - cy)
+    cols = [np.asarray(geometry.get(k, d), dtype=np.float64)
+            for k, d in (("crank.x", cx), ("crank.y", cy), (f"{pivot}.x", fx), (f"{pivot}.y", fy))]
+    shape = np.broadcast_shapes(*(c.shape for c in cols), (n,) if n is not None else ())
+    cx, cy, fx, fy = (np.broadcast_to(c, shape) for c in cols)
+    return np.hypot(fx - cx, fy - cy)
+
+
+def grashof_batch(mech: Mechanism, lengths, crank, geometry=None) -> tuple[np.ndarray, np.ndarray]:
+    """Grashof class and margin of the limiting loop of every variant: lengths (N, n_links), crank (N,),
+    geometry : None (the nominal's pivots) or {coordinate parameter name: (N,) values} (the crank
+    centre and ground pivots of each variant: they set each loop's ground link)."""
     loops = fourbar_loops(mech)
     L = np.asarray(lengths, dtype=np.float64)
     r = np.asarray(crank, dtype=np.float64)
     kinds = np.full(L.shape[0], "", dtype=object)
     margins = np.full(L.shape[0], np.inf)
     for v, f, coupler, rocker in loops:
-        g = math.hypot(mech.fixed[f][0] - mech.crank.center[0], mech.fixed[f][1] - mech.crank.center[1])
-        k, m = classify(r, L[:, coupler], L[:, rocker], g)
+        g = loop_ground(mech, f, geometry, L.shape[0])
+        k, m = classify(r, loop_side(mech, coupler, L, geometry), loop_side(mech, rocker, L, geometry), g)
         take = m < margins
         kinds[take], margins[take] = k[take], m[take]
     if not loops:

@@ -11,7 +11,11 @@ Layout (N variants, S = steps, readable with plain h5py)::
     /variants/lengths      (N, n_links) float64; attrs links (names, columns in order), link_ends,
                            nominal (n_links,), units
     /variants/crank        (N,) float64 crank radius; attr nominal
-    /variants              attr perturbed: names of the perturbed parameters
+    /variants/geometry     (N, k) float64, only when the study moves coordinates (k > 0): the crank
+                           centre, ground pivot and body joint coordinates it perturbs; attrs names
+                           (k,) (parameter names such as "crank.x", "2.y", "coupler.P.x", columns in
+                           order), nominal (k,), units. Coordinates not listed keep their nominal.
+    /variants              attr perturbed: names of the perturbed parameters (mech.parameters() order)
     /status                (N,) int8; attrs codes / names (and mapping, JSON): 0 ok, 1 assembly,
                            2 branch, 3 no-convergence, 4 invalid, -1 not-run (incomplete files)
     /fail_theta            (N,) float64 rad, first failing crank angle; NaN when ok

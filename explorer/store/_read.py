@@ -59,7 +59,8 @@ class Results:
 
     theta : (steps,) crank angles, rad. study : the study as a nested dict, every default filled
     in; study_text : the study file's text. mechanism : the nominal :class:`Mechanism`.
-    link_names, vertices (stored), n_variants N, steps, complete (False for an interrupted run),
+    link_names, geometry_names (the perturbed coordinates stored in ``/variants/geometry``, () if
+    none), vertices (stored), n_variants N, steps, complete (False for an interrupted run),
     attrs : the root attributes as a dict. ``file`` is the underlying ``h5py.File``.
     Use as a context manager or call :meth:`close`.
     """
@@ -73,6 +74,8 @@ class Results:
         self.n_variants = int(self.attrs["n_variants"])
         self.steps = int(self.attrs["steps"])
         self.link_names = tuple(_text(s) for s in f["variants/lengths"].attrs["links"])
+        g = f["variants"].get("geometry")
+        self.geometry_names = tuple(_text(s) for s in g.attrs["names"]) if g is not None else ()
         self.vertices = tuple(f["paths"].keys()) if "paths" in f else ()
         self._mech = None
 
@@ -112,15 +115,21 @@ class Results:
 
     @property
     def nominal(self) -> dict[str, float]:
-        """The nominal design: {link name: length, ..., "crank": radius}, as stored in the file."""
+        """The nominal design as stored in the file: {link name: length, ..., "crank": radius, then each
+        perturbed coordinate ("2.x": value, ...)}. Every design parameter, stored or not:
+        ``mechanism.parameters()``."""
         nom = self.file["variants/lengths"].attrs["nominal"]
         out = {name: float(v) for name, v in zip(self.link_names, nom)}
         out["crank"] = float(self.file["variants/crank"].attrs["nominal"])
+        if self.geometry_names:
+            gnom = self.file["variants/geometry"].attrs["nominal"]
+            out.update({name: float(v) for name, v in zip(self.geometry_names, gnom)})
         return out
 
     @property
     def perturbed(self) -> tuple[str, ...]:
-        """Names of the parameters the study perturbed (link names and possibly "crank")."""
+        """Names of the parameters the study perturbed (link names, possibly "crank", and the
+        coordinates it moved, such as "2.x")."""
         return tuple(_text(s) for s in self.file["variants"].attrs.get("perturbed", ()))
 
     def status_counts(self) -> dict[str, int]:
@@ -133,7 +142,8 @@ class Results:
 
     # -- tables ----------------------------------------------------------------------------------------
     def frame(self) -> "pd.DataFrame":
-        """One row per variant: ``variant``, one column per link length (by link name), ``crank``,
+        """One row per variant: ``variant``, one column per link length (by link name), ``crank``, one
+        column per perturbed coordinate (named by its parameter, such as ``"2.x"`` or ``"crank.y"``),
         ``status`` (name; categorical), ``status_code``, ``fail_theta`` and ``fail_theta_end`` (rad,
         the unreachable crank range of a failed variant; NaN when ok), ``fail_vertex`` (None when ok),
         ``iterations``, ``grashof`` and ``grashof_margin`` (class and margin of the limiting
@@ -149,6 +159,11 @@ class Results:
         for j, name in enumerate(self.link_names):
             cols[name] = L[:, j]
         cols["crank"] = f["variants/crank"][...]
+        geometry = {}
+        if self.geometry_names:
+            G = f["variants/geometry"][...]
+            geometry = {name: G[:, j] for j, name in enumerate(self.geometry_names)}
+            cols.update(geometry)
         codes = f["status"][...]
         order = sorted(FILE_STATUS_NAMES, key=lambda c: (c < 0, c))
         cols["status"] = pd.Categorical.from_codes(_category_codes(codes, order),
@@ -163,7 +178,8 @@ class Results:
         if "iterations" in f:
             cols["iterations"] = f["iterations"][...]
         if fourbar_loops(self.mechanism):
-            cols["grashof"], cols["grashof_margin"] = grashof_batch(self.mechanism, L, cols["crank"])
+            cols["grashof"], cols["grashof_margin"] = grashof_batch(self.mechanism, L, cols["crank"],
+                                                                    geometry=geometry or None)
         for m in self.metric_names:
             cols[m] = f["metrics"][m][...]
         df = pd.DataFrame(cols)

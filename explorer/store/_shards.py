@@ -182,7 +182,7 @@ def shard_complete(path, plan: ShardPlan, i: int, metrics: list | None = None) -
 def write_shard(folder, plan: ShardPlan, i: int, study, solve) -> bool:
     """Solve and write shard ``i`` of ``plan`` into ``folder`` atomically; False if it was already there.
 
-    solve(a, b) → (lengths, crank, batch, metrics) for variants [a, b) (one chunk). The file is
+    solve(a, b) → (lengths, crank, geometry, batch, metrics) for variants [a, b) (one chunk). The file is
     made under a hidden temporary name, every chunk of the shard written, closed, fsynced and only
     then renamed to ``shard-0000i.h5``: a worker killed at any point leaves no file under that name.
     """
@@ -201,8 +201,8 @@ def write_shard(folder, plan: ShardPlan, i: int, study, solve) -> bool:
             first, last = a // plan.chunk_rows, -(-b // plan.chunk_rows)
             for c in range(first, last):
                 ca, cb = writer.chunk_range(c)
-                lengths, crank, batch, metrics = solve(ca, cb)
-                writer.write_chunk(c, lengths, crank, batch, metrics)
+                lengths, crank, geometry, batch, metrics = solve(ca, cb)
+                writer.write_chunk(c, lengths, crank, batch, metrics, geometry=geometry)
             at = writer.f.attrs
             at["shard_index"] = i
             at["shard_start"] = a

@@ -124,6 +124,7 @@ class ResultsWriter:
                          (f["iterations"], "iterations")]
         if "fail_theta_end" in f:
             self._scalars.append((f["fail_theta_end"], "fail_theta_end"))
+        self._geometry = f["variants/geometry"] if "variants/geometry" in f else None
         self._series = [(f[g][v], g, v) for g in ("paths", "velocities", "accelerations") if g in f for v in f[g]]
         self._done = f["chunks/done"]
 
@@ -184,7 +185,18 @@ class ResultsWriter:
             d.attrs["units"] = "model units"
             if mech.crank is None:
                 d.attrs["description"] = "no crank: the mechanism is driven along a path (NaN)"
-            g.attrs["perturbed"] = _strings(list(study.link_names) + (["crank"] if study.crank else []))
+            moved = study.geometry_names
+            if moved:  # only a study that moves coordinates has the dataset (older files never do)
+                k = len(moved)
+                d = g.create_dataset("geometry", shape=(N, k), dtype="f8", chunks=(rows, k), fillvalue=np.nan,
+                                     **SCALAR_FILTERS)
+                nominal = mech.parameters()
+                d.attrs["names"] = _strings(moved)
+                d.attrs["nominal"] = np.array([nominal[n] for n in moved], dtype=np.float64)
+                d.attrs["units"] = "model units"
+                d.attrs["description"] = ("perturbed coordinates (crank centre, ground pivots, body joints in their "
+                                          "body's frame), one column per attr 'names'")
+            g.attrs["perturbed"] = _strings(study.parameter_names)
 
             codes = sorted(FILE_STATUS_NAMES)
             d = f.create_dataset("status", shape=(N,), dtype="i1", chunks=(rows,), fillvalue=STATUS_NOT_RUN,
@@ -271,21 +283,30 @@ class ResultsWriter:
     def complete(self) -> bool:
         return bool(self.f.attrs["complete"])
 
-    def write_chunk(self, i: int, lengths, crank, batch, metrics: dict | None = None) -> None:
+    def write_chunk(self, i: int, lengths, crank, batch, metrics: dict | None = None, geometry=None) -> None:
         """Commit chunk ``i`` atomically: its rows of every dataset, flush, then ``done[i]``, flush.
 
         lengths (n, n_links), crank (n,), batch : the :class:`~explorer.kernels.Batch` of these n
-        variants; metrics : optional {name: (n,) array}, stored under ``/metrics/<name>``.
+        variants; metrics : optional {name: (n,) array}, stored under ``/metrics/<name>``;
+        geometry : (n, g) perturbed coordinates, required when the file has ``/variants/geometry``
+        (columns in its ``names`` order).
         """
         a, b = self.chunk_range(i)
         if len(crank) != b - a:
             raise ValueError(f"chunk {i}: expected {b - a} variants, got {len(crank)}")
+        if self._geometry is not None:
+            shape = (b - a, self._geometry.shape[1])
+            if geometry is None or np.shape(geometry) != shape:
+                raise ValueError(f"chunk {i}: expected geometry of shape {shape}, got "
+                                 f"{None if geometry is None else np.shape(geometry)}")
         f = self.f
         values = {"lengths": lengths, "crank": crank, "status": batch.status, "fail_theta": batch.fail_theta,
                   "fail_theta_end": batch.fail_theta_end, "fail_block": batch.fail_block,
                   "iterations": batch.iterations}
         for d, key in self._scalars:
             d[a:b] = values[key]
+        if self._geometry is not None:
+            self._geometry[a:b] = geometry
         for d, group, v in self._series:
             d[a:b] = getattr(batch, group)[v]
         for name, values in (metrics or {}).items():

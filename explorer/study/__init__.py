@@ -9,11 +9,11 @@ variants; ``run_study(study, output=..., resume=..., force=...)`` is what ``expl
 from ._dask import run_study_dask
 from ._metrics import recompute_metrics
 from ._run import RunSummary, Terminated, run_study
-from ._sample import BLOCK, Sampler, apply_multipliers, sample_variants, study_sampler, study_variants
+from ._sample import BLOCK, Sampler, apply_multipliers, apply_samples, sample_variants, study_sampler, study_variants
 from ._spec import (MAX_VARIANTS, PERTURB_METHODS, SOLVE_METHODS, Study, builtin_studies, default_study_text,
                     dumps_toml, load_study, study_from_dict, variant_count)
 
 __all__ = ["Terminated", "BLOCK", "MAX_VARIANTS", "PERTURB_METHODS", "SOLVE_METHODS", "RunSummary", "Sampler", "Study",
-           "apply_multipliers", "builtin_studies", "default_study_text", "dumps_toml", "load_study",
+           "apply_multipliers", "apply_samples", "builtin_studies", "default_study_text", "dumps_toml", "load_study",
            "recompute_metrics", "run_study", "run_study_dask", "sample_variants", "study_from_dict", "study_sampler",
            "study_variants", "variant_count"]

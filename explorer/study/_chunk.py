@@ -18,19 +18,30 @@ def metric_plan(study: Study):
     return names, need_vel, True
 
 
-def compute_study_metrics(study: Study, paths, velocities, status, lengths, crank) -> dict | None:
+def geometry_columns(study: Study, geometry) -> dict | None:
+    """{coordinate parameter name: (n,) column} of a chunk's geometry (n, g), None when the study
+    moves no coordinate (then the kernels and metrics use the nominal's, as before)."""
+    names = study.geometry_names
+    if not names or geometry is None:
+        return None
+    return {name: geometry[:, j] for j, name in enumerate(names)}
+
+
+def compute_study_metrics(study: Study, paths, velocities, status, lengths, crank, geometry=None) -> dict | None:
     """The scene's metrics of one chunk (None if the scene asks for none): foot paths and velocities
-    (n, S, 2), status (n,), lengths (n, n_links), crank (n,)."""
+    (n, S, 2), status (n,), lengths (n, n_links), crank (n,), geometry (n, g) in
+    ``study.geometry_names`` order (or None: the nominal's pivots)."""
     names, _, want = metric_plan(study)
     if not want:
         return None
     from ..gait import compute_metrics
     return compute_metrics(paths, velocities, status, names, study.band, mechanism=study.mech, lengths=lengths,
-                           crank=crank, walker=study.walker)
+                           crank=crank, walker=study.walker, geometry=geometry_columns(study, geometry))
 
 
 def chunk_solver(study: Study):
-    """solve(a, b) → (lengths, crank, batch, metrics) for variants [a, b) of ``study``.
+    """solve(a, b) → (lengths, crank, geometry, batch, metrics) for variants [a, b) of ``study``;
+    geometry is (n, g), the perturbed coordinates in ``study.geometry_names`` order ((n, 0) if none).
 
     Solves only what the scene asks for: its vertices (plus the foot when metrics are asked for),
     velocities when stored or needed by a metric, accelerations when stored.
@@ -44,15 +55,18 @@ def chunk_solver(study: Study):
     sampler = study_sampler(study)
 
     def solve(a: int, b: int):
-        lengths, crank = study_variants(study, a, b, sampler)
+        lengths, crank, geometry = study_variants(study, a, b, sampler)
         radii = crank if mech.crank is not None else None  # a path driver has no crank radius (NaN column)
+        moved = geometry_columns(study, geometry)
+        extra = {"geometry": moved} if moved else {}  # only a study that moves coordinates passes them
         batch = simulate_batch(mech, lengths, radii, study.steps, vertices=vertices, velocities=velocities,
-                               accelerations=study.accelerations, tolerance=study.tolerance, method=study.method)
+                               accelerations=study.accelerations, tolerance=study.tolerance, method=study.method,
+                               **extra)
         foot = mech.foot
         metrics = None
         if want_metrics:
             metrics = compute_study_metrics(study, batch.paths[foot], batch.velocities.get(foot), batch.status,
-                                            lengths, crank)
-        return lengths, crank, batch, metrics
+                                            lengths, crank, geometry)
+        return lengths, crank, geometry, batch, metrics
 
     return solve

@@ -83,7 +83,7 @@ def _rebuild(recipe: _Recipe) -> Study:
 
 
 def _solver(study: Study):
-    """solve(a, b) → (lengths, crank, batch, metrics) for variants [a, b): the one chunk runner."""
+    """solve(a, b) → (lengths, crank, geometry, batch, metrics) for variants [a, b): the one chunk runner."""
     return chunk_solver(study)
 
 

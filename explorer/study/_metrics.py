@@ -212,6 +212,8 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             dpath = f["paths"][foot] if need_path else None
             dvel = f["velocities"][foot] if need_vel else None
             dstatus, dlen, dcrank = f["status"], f["variants/lengths"], f["variants/crank"]
+            dgeom = f["variants/geometry"] if "variants/geometry" in f else None  # each variant's own pivots
+            gnames = [_text(s) for s in dgeom.attrs["names"]] if dgeom is not None else []
             targets = [g[m] for m in compute]
             ok = 0
             S = int(f.attrs["steps"])
@@ -224,8 +226,10 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                 ok += int((status == 0).sum())
                 paths = dpath[a:b] if dpath is not None else np.zeros((b - a, S, 2))
                 vel = dvel[a:b] if dvel is not None else None
+                G = dgeom[a:b] if dgeom is not None else None
+                geometry = {n: G[:, j] for j, n in enumerate(gnames)} if G is not None else None
                 out = compute_metrics(paths, vel, status, compute, band, mechanism=mech,
-                                      lengths=dlen[a:b], crank=dcrank[a:b], walker=walker)
+                                      lengths=dlen[a:b], crank=dcrank[a:b], walker=walker, geometry=geometry)
                 for d, m in zip(targets, compute):
                     d[a:b] = out[m]
                 if bar is not None:

@@ -134,8 +134,8 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
         try:
             for i in pending:
                 a, b = writer.chunk_range(i)
-                lengths, crank, batch, metrics = solve(a, b)
-                committer.put(i, lengths, crank, batch, metrics)
+                lengths, crank, geometry, batch, metrics = solve(a, b)
+                committer.put(i, lengths, crank, geometry, batch, metrics)
                 ran += b - a
             committer.close()
         except KeyboardInterrupt as exc:
@@ -201,7 +201,7 @@ def results_path(study, output, resume: bool, force: bool, **sizes) -> Path:
 def estimated_bytes(study) -> int:
     """An upper estimate of a study's results file: every stored series uncompressed (compression
     saves 15-20 %), plus the per-variant columns."""
-    per_variant = study.n_series * study.steps * 2 * 8 + (len(study.mech.links) + 32) * 8
+    per_variant = study.n_series * study.steps * 2 * 8 + (len(study.mech.links) + len(study.geometry_names) + 32) * 8
     return study.n_variants * per_variant
 
 
@@ -305,8 +305,8 @@ class _Committer:
             self.thread.start()
 
     def _commit(self, item) -> None:
-        i, lengths, crank, batch, metrics = item
-        self.writer.write_chunk(i, lengths, crank, batch, metrics)
+        i, lengths, crank, geometry, batch, metrics = item
+        self.writer.write_chunk(i, lengths, crank, batch, metrics, geometry=geometry)
         if self.bar is not None:
             self.bar.update(len(crank) * self.steps)
 

@@ -1,8 +1,18 @@
-"""Samplers: the variants of a study as relative multipliers of the nominal lengths.
+"""Samplers: the variants of a study as offsets δ of its design parameters from the nominal.
 
-Variant 0 is always the nominal design (all multipliers 1). Variant i ≥ 1 is a row of k
-multipliers, one per perturbed parameter: the chosen links in ``mech.links`` order, then the crank
-radius if it is perturbed. A variant's lengths are ``nominal × multiplier``.
+Variant 0 is always the nominal design, exactly. Variant i ≥ 1 is a row of k samples δ, one per
+perturbed parameter in ``mech.parameters()`` order (:attr:`~explorer.study.Study.parameter_names`:
+the chosen links in ``mech.links`` order, the crank radius, then the coordinates), each in
+[−spread, spread] (or with sigma = spread for ``normal``). A sample maps to a value by the
+parameter's kind (:meth:`~explorer.mechanism.Mechanism.parameter_kind`):
+
+* a length (a link, the crank radius) varies relatively: ``nominal × (1 + δ)`` (the *multiplier*
+  1 + δ);
+* a coordinate (the crank centre, a ground pivot, a body joint) varies by a distance:
+  ``nominal + δ × mech.size``. Coordinates vary by ±spread × the mechanism's size, its longest
+  link or body span, since a coordinate's own value (often 0) is no scale.
+
+The lines below give the multipliers 1 + δ; a coordinate's δ is the same draw without the 1.
 
 - ``uniform``: 1 + spread·U(−1, 1), independently per parameter.
 - ``normal``: 1 + spread·Z, Z ~ N(0, 1) (spread is sigma). Draws are *not* clipped: a variant with a
@@ -51,7 +61,9 @@ def _qmc_engine(name: str, d: int, seed: int):
 
 
 class Sampler:
-    """Multipliers of one study design: ``rows(start, stop)`` → (stop − start, k) float64.
+    """Samples of one study design: ``rows(start, stop)`` → (stop − start, k) float64 multipliers
+    1 + δ; ``rows(start, stop, offsets=mask)`` gives δ itself in the columns where ``mask`` is True
+    (the coordinates), from the same draws.
 
     method : one of uniform, normal, lhs, sobol, oat, grid; variants : the study's ``variants``
     (N for random methods, levels per parameter for oat and grid); k : number of perturbed
@@ -68,19 +80,27 @@ class Sampler:
         self._lhs = None
         if method in ("oat", "grid"):
             self.levels = np.linspace(1.0 - self.spread, 1.0 + self.spread, self.variants)
+            self.offset_levels = np.linspace(-self.spread, self.spread, self.variants)
 
-    def rows(self, start: int = 0, stop: int | None = None) -> np.ndarray:
-        """Multipliers of variants ``start … stop − 1``, shape (stop − start, k); variant 0 is all ones."""
+    def rows(self, start: int = 0, stop: int | None = None, offsets=None) -> np.ndarray:
+        """Samples of variants ``start … stop − 1``, shape (stop − start, k): multipliers 1 + δ, or δ in
+        the columns where the boolean mask ``offsets`` (k,) is True. Variant 0 is exactly 1 (0 for an
+        offset column)."""
         stop = self.n_total if stop is None else min(int(stop), self.n_total)
         start = max(0, int(start))
-        out = np.ones((max(stop - start, 0), self.k))
+        off = np.zeros(self.k, dtype=bool) if offsets is None else np.asarray(offsets, dtype=bool).reshape(-1)
+        if off.shape != (self.k,):
+            raise UserError(f"offsets: expected {self.k} flags, got {off.shape[0]}")
+        base = np.where(off, 0.0, 1.0)
+        out = np.tile(base, (max(stop - start, 0), 1))
         a = max(start, 1)  # variant 0 stays nominal; variant i ≥ 1 is design point i − 1
         if stop > a:
-            out[a - start:] = self._points(a - 1, stop - 1)
+            out[a - start:] = self._points(a - 1, stop - 1, off, base)
         return out
 
-    def _points(self, a: int, b: int) -> np.ndarray:
-        """Design points a … b − 1 (point p is variant p + 1)."""
+    def _points(self, a: int, b: int, off: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """Design points a … b − 1 (point p is variant p + 1): ``base + spread·draw`` per column (base
+        1 for a multiplier, 0 for an offset), the same arithmetic for both."""
         m, s = self.method, self.spread
         if m in ("uniform", "normal"):
             pieces = []
@@ -89,7 +109,7 @@ class Sampler:
                 draw = rng.uniform(-1.0, 1.0, (BLOCK, self.k)) if m == "uniform" else rng.standard_normal((BLOCK, self.k))
                 lo, hi = max(a - blk * BLOCK, 0), min(b - blk * BLOCK, BLOCK)
                 pieces.append(draw[lo:hi])
-            return 1.0 + s * np.concatenate(pieces)
+            return base + s * np.concatenate(pieces)
         if m == "sobol":
             eng = _qmc_engine("Sobol", self.k, self.seed)
             if a:
@@ -97,20 +117,25 @@ class Sampler:
             with warnings.catch_warnings():  # balance needs powers of two; documented, not nagged per chunk
                 warnings.simplefilter("ignore", UserWarning)
                 u = eng.random(b - a)
-            return 1.0 + s * (2.0 * u - 1.0)
+            return base + s * (2.0 * u - 1.0)
         if m == "lhs":
             if self._lhs is None:
                 n = self.n_total - 1
                 self._lhs = _qmc_engine("LatinHypercube", self.k, self.seed).random(n) if n else np.empty((0, self.k))
-            return 1.0 + s * (2.0 * self._lhs[a:b] - 1.0)
+            return base + s * (2.0 * self._lhs[a:b] - 1.0)
+        # oat and grid: the levels of each column's kind (linspace of the multipliers or of the offsets)
+        levels = [self.offset_levels if o else self.levels for o in off]
         p = np.arange(a, b)
-        out = np.ones((b - a, self.k))
+        out = np.tile(base, (b - a, 1))
         L = self.variants
         if m == "oat":
-            out[np.arange(b - a), p // L] = self.levels[p % L]
+            j, lev = p // L, p % L
+            for col in np.unique(j):
+                rows = np.flatnonzero(j == col)
+                out[rows, col] = levels[col][lev[rows]]
             return out
         idx = np.unravel_index(p, (L,) * self.k)  # grid
-        return np.stack([self.levels[i] for i in idx], axis=1) if b > a else out
+        return np.stack([levels[c][i] for c, i in enumerate(idx)], axis=1) if b > a else out
 
 
 def apply_multipliers(mech: Mechanism, mult: np.ndarray, links=None, crank: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -148,12 +173,48 @@ def sample_variants(mech: Mechanism, variants: int, method: str = "uniform", spr
     return apply_multipliers(mech, mult, names, crank)
 
 
+def apply_samples(mech: Mechanism, samples: np.ndarray, names) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The design of n variants from samples (n, k), one column per parameter in ``names`` (in any
+    order): a length's column is a multiplier 1 + δ (value = nominal × multiplier), a coordinate's
+    column an offset δ (value = nominal + δ × ``mech.size``).
+
+    Returns (lengths (n, n_links) in ``mech.links`` order, crank radii (n,) (NaN for a path driver),
+    geometry (n, g)): the coordinate parameters among ``names``, in the order they come there.
+    """
+    names = tuple(names)
+    samples = np.asarray(samples, dtype=np.float64)
+    n = samples.shape[0]
+    if samples.ndim != 2 or samples.shape[1] != len(names):
+        raise UserError(f"samples: expected {len(names)} columns, got shape {samples.shape}")
+    nominal = mech.parameters()
+    lengths = np.broadcast_to(mech.lengths, (n, len(mech.links))).copy()
+    radius = np.full(n, float(mech.crank.radius) if mech.crank is not None else np.nan)
+    coords = [j for j, p in enumerate(names) if mech.parameter_kind(p) == "coordinate"]
+    geometry = np.empty((n, len(coords)))
+    size = mech.size
+    index = {p: i for i, p in enumerate(mech.link_names)}
+    for j, p in enumerate(names):
+        if p == "crank":
+            radius = radius * samples[:, j]
+        elif p in index:
+            lengths[:, index[p]] *= samples[:, j]
+    for c, j in enumerate(coords):
+        geometry[:, c] = nominal[names[j]] + samples[:, j] * size
+    return lengths, radius, geometry
+
+
 def study_sampler(study) -> Sampler:
     """The :class:`Sampler` of a validated :class:`~explorer.study.Study`."""
     return Sampler(study.perturb_method, study.variants, study.n_parameters, study.spread, study.seed)
 
 
 def study_variants(study, start: int = 0, stop: int | None = None, sampler: Sampler | None = None):
-    """(lengths, crank) of variants ``start … stop − 1`` of ``study`` (see :func:`sample_variants`)."""
+    """(lengths, crank, geometry) of variants ``start … stop − 1`` of ``study``: lengths (n, n_links)
+    in ``mech.links`` order, crank radii (n,), geometry (n, g) of the perturbed coordinates in
+    :attr:`~explorer.study.Study.geometry_names` order ((n, 0) when the study moves none). Variant 0
+    is the nominal design, exactly."""
     sampler = sampler or study_sampler(study)
-    return apply_multipliers(study.mech, sampler.rows(start, stop), study.link_names, study.crank)
+    mech = study.mech
+    names = study.parameter_names
+    offsets = np.array([mech.parameter_kind(p) == "coordinate" for p in names], dtype=bool)
+    return apply_samples(mech, sampler.rows(start, stop, offsets), names)

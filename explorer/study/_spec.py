@@ -17,6 +17,7 @@ A study file::
     spread = 0.02                 # relative, in [0, 1): ±spread (uniform, lhs, sobol, oat, grid), sigma (normal)
     links = "all"                 # or a list of link names such as ["1-3", "2-6"]
     crank = true                  # perturb the crank radius too
+    parameters = ["2.x", "2.y"]   # any design parameters by name, or "all" (default: none; see below)
 
     [scene]
     vertices = ["7"]              # vertices whose paths are stored ("all" allowed); default: the foot
@@ -40,6 +41,17 @@ A study file::
 
     [output]
     path = "results/jansen-2pct.h5"   # default results/<name>.h5; relative to the working directory
+
+``[perturb] parameters`` names any design parameters of the mechanism
+(:meth:`~explorer.mechanism.Mechanism.parameters`): link lengths by link name (``"2-6"``), the crank
+radius ``"crank"`` and centre ``"crank.x"``, ``"crank.y"``, a ground pivot's coordinates
+``"2.x"``, ``"2.y"``, a body joint's coordinates in its body's frame ``"coupler.P.x"``; or
+``"all"`` for every one of them. What is perturbed is the union of ``links``, ``crank`` and
+``parameters``. ``links`` defaults to ``"all"`` and ``crank`` to true only when ``parameters`` is
+absent: with ``parameters`` the study perturbs exactly what it lists (plus any ``links`` / ``crank =
+true`` written beside it; ``links = []`` is allowed there). Lengths (links, the crank radius) vary
+relatively, coordinates by a distance: ±spread × the mechanism's size, its longest link or body span
+(see :mod:`explorer.study._sample`).
 
 Only ``study.name`` and ``study.mechanism`` are required; every other key has the default shown
 (``variants`` 10000, ``seed`` 0, ``metrics`` false). Every key is checked: an unknown key, a wrong
@@ -72,7 +84,7 @@ MAX_VARIANTS = 1_000_000_000
 
 _SECTIONS = {
     "study": ("name", "mechanism", "variants", "seed", "steps", "tolerance", "method"),
-    "perturb": ("method", "spread", "links", "crank"),
+    "perturb": ("method", "spread", "links", "crank", "parameters"),
     "scene": ("vertices", "velocities", "accelerations", "band", "metrics"),
     "walker": ("legs", "phases", "mirrored", "drag", "contact"),
     "screen": SCREEN_KEYS,
@@ -89,7 +101,11 @@ class Study:
 
     name, mechanism : as written in ``[study]``; ``mechanism_path`` is the resolved file (None for
         a built-in). variants, seed, steps, tolerance, method : ``[study]``.
-    perturb_method, spread, links, crank : ``[perturb]``; ``links`` is ``"all"`` or a tuple of names.
+    perturb_method, spread, links, crank, parameters : ``[perturb]``, resolved: ``links`` is ``"all"``
+        or a tuple of the perturbed link names (those named in ``parameters`` included), ``crank``
+        whether the crank radius is perturbed (``parameters`` naming "crank" included);
+        ``parameters`` is ``[perturb] parameters`` as written: ``"all"``, a tuple of names, or ``()``
+        when absent. :attr:`parameter_names` is the union, in ``mech.parameters()`` order.
     vertices : ``"all"`` or a tuple of vertex names; velocities, accelerations, band, metrics : ``[scene]``
         (``metrics`` is a bool or a tuple of names).
     output : the ``[output] path`` as written (relative paths resolve against the working directory
@@ -120,6 +136,7 @@ class Study:
     text: str
     compression: str = "lzf"
     mechanism_path: str | None = None
+    parameters: object = ()
     walker: Walker | None = None
     screen: Screen = field(default_factory=Screen)
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
@@ -142,14 +159,32 @@ class Study:
         return tuple(n for n in self.mech.link_names if n in chosen)
 
     @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Every perturbed design parameter, in ``mech.parameters()`` order: the links (``mech.links``
+        order), "crank" (the radius), then the coordinates (:attr:`geometry_names`). This is the column
+        order of the study's samples."""
+        names = self.mech.parameters()
+        if self.parameters == "all":
+            return tuple(names)
+        chosen = set(self.link_names) | ({"crank"} if self.crank else set()) | set(self.parameters)
+        return tuple(n for n in names if n in chosen)
+
+    @property
+    def geometry_names(self) -> tuple[str, ...]:
+        """The perturbed coordinate parameters (crank centre, ground pivots, body joints), in
+        ``mech.parameters()`` order: the columns of ``/variants/geometry``."""
+        mech = self.mech
+        return tuple(n for n in self.parameter_names if mech.parameter_kind(n) == "coordinate")
+
+    @property
     def n_series(self) -> int:
         """(N, steps, 2) datasets stored: every scene vertex's path, velocities, accelerations."""
         return len(self.vertex_names) * (1 + int(self.velocities) + int(self.accelerations))
 
     @property
     def n_parameters(self) -> int:
-        """Number of perturbed parameters k (links, plus one for the crank)."""
-        return len(self.link_names) + int(self.crank)
+        """Number of perturbed parameters k (links, the crank radius, coordinates)."""
+        return len(self.parameter_names)
 
     @property
     def n_variants(self) -> int:
@@ -160,11 +195,14 @@ class Study:
         """The study as a TOML-shaped nested dict, every default filled in (lists for tuples)."""
         def plain(v):
             return list(v) if isinstance(v, tuple) else v
+        perturb = {"method": self.perturb_method, "spread": self.spread, "links": plain(self.links),
+                   "crank": self.crank}
+        if self.parameters:  # only when given: a study without it keeps its fingerprint
+            perturb["parameters"] = plain(self.parameters)
         return {
             "study": {"name": self.name, "mechanism": self.mechanism, "variants": self.variants, "seed": self.seed,
                       "steps": self.steps, "tolerance": self.tolerance, "method": self.method},
-            "perturb": {"method": self.perturb_method, "spread": self.spread, "links": plain(self.links),
-                        "crank": self.crank},
+            "perturb": perturb,
             "scene": {"vertices": plain(self.vertices), "velocities": self.velocities,
                       "accelerations": self.accelerations, "band": self.band, "metrics": plain(self.metrics)},
             "walker": self.walker.as_dict() if self.walker is not None else {},
@@ -291,14 +329,28 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
     method = v.choice("study.method", st.get("method", "block"), SOLVE_METHODS)
 
     spread = v.number("perturb.spread", pe.get("spread", 0.02), 0.0, 1.0, "a number in [0, 1)", hi_open=True)
-    links = v.names("perturb.links", pe.get("links", "all"), mech.link_names, "link")
-    crank = v.boolean("perturb.crank", pe.get("crank", mech.crank is not None))
+    parameters = _parameters(v, pe, mech)
+    # links and crank default to "all" and true only without [perturb] parameters
+    links = v.names("perturb.links", pe.get("links", "all" if not parameters else []), mech.link_names, "link",
+                    empty_ok=bool(parameters))
+    crank = v.boolean("perturb.crank", pe.get("crank", mech.crank is not None and not parameters))
     if crank and mech.crank is None:
         raise UserError(f"{where(source, 'perturb.crank')}: mechanism {mech.name!r} is driven along a path; it has no "
                         f"crank radius to perturb (set crank = false)")
-    k = (len(mech.links) if links == "all" else len(links)) + int(crank)
+    # resolved: links and crank hold every perturbed link and the crank radius, parameters' included
+    if parameters == "all":
+        links, crank = "all", mech.crank is not None
+    elif parameters:
+        if links != "all":
+            named = set(links) | set(parameters)
+            links = tuple(n for n in mech.link_names if n in named)
+        crank = crank or "crank" in parameters
+    n_coord = sum(mech.parameter_kind(n) == "coordinate"
+                  for n in (mech.parameters() if parameters == "all" else parameters))
+    k = (len(mech.links) if links == "all" else len(links)) + int(crank) + n_coord
     if k == 0:
-        raise UserError(f"{where(source, 'perturb.links')}: nothing to perturb (give links or set crank = true)")
+        raise UserError(f"{where(source, 'perturb.links')}: nothing to perturb (give links or parameters, or set "
+                        f"crank = true)")
     n_total = variant_count(pmethod, variants, k)
     if n_total > MAX_VARIANTS:
         raise UserError(f"{where(source, 'study.variants')}: {pmethod} with {variants} levels over {k} parameters "
@@ -325,8 +377,23 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
                   method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
                   vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
                   metrics=metrics, output=out, source=source, text=text if text is not None else dumps_toml(data),
-                  mechanism_path=mech_path, _mech=mech, compression=compression, walker=walker, screen=screen)
+                  mechanism_path=mech_path, _mech=mech, compression=compression, walker=walker, screen=screen,
+                  parameters=parameters)
     return study
+
+
+def _parameters(v: "_Validator", pe: dict, mech: Mechanism):
+    """``[perturb] parameters``: ``"all"``, a tuple of design parameter names, or () when absent."""
+    if "parameters" not in pe:
+        return ()
+    value = pe["parameters"]
+    known = tuple(mech.parameters())
+    if mech.crank is None and isinstance(value, list):
+        for n in value:
+            if n in ("crank", "crank.x", "crank.y"):
+                raise UserError(f"{where(v.source, 'perturb.parameters')}: mechanism {mech.name!r} is driven along a "
+                                f"path; it has no crank, so no {n!r} to perturb (known: {', '.join(known)})")
+    return v.names("perturb.parameters", value, known, "design parameter")
 
 
 def _mechanism(source: str, name: str, base: Path | None) -> tuple[Mechanism, str | None]:
@@ -412,11 +479,12 @@ class _Validator:
             self.fail(key, "one of " + ", ".join(repr(o) for o in options), value)
         return value
 
-    def names(self, key, value, known, what):
-        """``"all"`` or a non-empty list of distinct names from ``known``; returns "all" or a tuple."""
+    def names(self, key, value, known, what, empty_ok: bool = False):
+        """``"all"`` or a non-empty (or, with ``empty_ok``, empty) list of distinct names from ``known``;
+        returns "all" or a tuple."""
         if value == "all":
             return "all"
-        if not isinstance(value, list) or not value:
+        if not isinstance(value, list) or not (value or empty_ok):
             self.fail(key, f'"all" or a non-empty list of {what} names', value)
         seen = []
         for n in value:

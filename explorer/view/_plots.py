@@ -122,7 +122,9 @@ def variant_row(results, variant: int) -> pd.Series:
 
 
 def variant_mechanism(results, variant) -> Mechanism:
-    """The mechanism of one variant of a results file: the nominal with that variant's lengths and crank.
+    """The mechanism of one variant of a results file: the nominal with every design parameter the
+    variant's row holds (lengths, crank radius, and the coordinates the study moved: crank centre,
+    ground pivots, body joints), through ``Mechanism.with_parameters``.
 
     Its guess is the nominal's configuration at θ = 0, so it assembles on the nominal's branch, as
     the study's batch solve did.
@@ -132,11 +134,14 @@ def variant_mechanism(results, variant) -> Mechanism:
     v = check_variant(results, variant)
     nominal = results.mechanism
     row = variant_row(results, v)
-    lengths = {name: float(row[name]) for name in nominal.link_names if name in row.index}
-    crank = float(row["crank"]) if "crank" in row.index and nominal.crank is not None else None
-    if not all(math.isfinite(x) and x > 0 for x in lengths.values()) or (crank is not None and not crank > 0):
+    values = {name: float(row[name]) for name in nominal.parameters() if name in row.index}
+    lengths = [x for name, x in values.items() if nominal.parameter_kind(name) == "length"]
+    coords = [x for name, x in values.items() if nominal.parameter_kind(name) == "coordinate"]
+    if not all(math.isfinite(x) and x > 0 for x in lengths):
         raise UserError(f"variant {v}: its lengths are not all finite and > 0 (status {row.get('status', '?')})")
-    mech = nominal.with_lengths(lengths, crank=crank)
+    if not all(math.isfinite(x) for x in coords):
+        raise UserError(f"variant {v}: its coordinates are not all finite (status {row.get('status', '?')})")
+    mech = nominal.with_parameters(values)
     P0, fail = assemble(nominal)
     if fail is None:
         from dataclasses import replace
@@ -434,15 +439,17 @@ def _robust_ylim(ax, *series) -> bool:
 def oat_sensitivity(results, metrics=None, relative: bool = True) -> pd.DataFrame:
     """Sensitivity table (parameters × metrics) of a one-at-a-time study.
 
-    Each ok variant that differs from the nominal (variant 0) in exactly one parameter (a link length
-    or the crank radius) is a sample of that parameter; the slope of the metric change against the
-    parameter change is fitted by least squares through the nominal. ``relative``: elasticity, % change
-    of the metric per +1 % of the parameter; otherwise the metric change per model unit of the
-    parameter. NaN where a parameter has no ok sample or the nominal metric is 0 or undefined.
+    Each ok variant that differs from the nominal (variant 0) in exactly one parameter (a link length,
+    the crank radius, or a coordinate the study moved such as "2.x") is a sample of that parameter;
+    the slope of the metric change against the parameter change is fitted by least squares through
+    the nominal. ``relative``: elasticity, % change of the metric per +1 % of the parameter (of the
+    mechanism's size for a coordinate, whose own value is no scale, as the study samples it);
+    otherwise the metric change per model unit of the parameter. NaN where a parameter has no ok
+    sample or the nominal metric is 0 or undefined.
     """
     df = results.frame()
     mech = results.mechanism
-    params = [n for n in mech.link_names if n in df.columns] + (["crank"] if "crank" in df.columns else [])
+    params = [n for n in mech.parameters() if n in df.columns]
     if metrics is None:
         metrics = [m for m in METRICS if m in df.columns]
     else:
@@ -455,8 +462,9 @@ def oat_sensitivity(results, metrics=None, relative: bool = True) -> pd.DataFram
     nom = nom.iloc[0]
     P = df[params].to_numpy(dtype=np.float64)
     P0 = nom[params].to_numpy(dtype=np.float64)
+    scale = np.array([mech.size if mech.parameter_kind(p) == "coordinate" else P0[j] for j, p in enumerate(params)])
     with np.errstate(invalid="ignore", divide="ignore"):
-        dP = (P - P0) / P0 if relative else P - P0
+        dP = (P - P0) / scale if relative else P - P0
         changed = np.abs(P - P0) > 1e-12 * np.maximum(np.abs(P0), 1.0)
     one = changed.sum(axis=1) == 1
     ok = ok_mask(df)
@@ -525,8 +533,13 @@ def plot_sensitivity(results, metrics=None, *, relative: bool = True, figsize=No
     ax.set_xticks(range(ncol), [f"{m}" for m in table.columns], rotation=35, ha="right")
     ax.set_yticks(range(nrow), [f"{p} (n={table.attrs['samples'].get(p, 0)})" for p in table.index])
     ax.set_xlabel("metric")
-    ax.set_ylabel("parameter (link, or crank radius)")
-    unit = "% change of metric per +1 % of parameter" if relative else "metric units per model unit of length"
+    coords = any(mech.parameter_kind(p) == "coordinate" for p in table.index)
+    ax.set_ylabel("parameter (link, crank radius" + (", coordinate)" if coords else ")"))
+    if relative:
+        unit = ("% change of metric per +1 % of parameter"
+                + (f" (coordinate: of the size {mech.size:g})" if coords else ""))
+    else:
+        unit = "metric units per model unit of the parameter"
     cb = fig.colorbar(im, ax=ax, shrink=0.9)
     cb.set_label(unit)
     spread = ""
