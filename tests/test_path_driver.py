@@ -57,6 +57,40 @@ def test_verbs_on_the_arm(arm_results, capsys, tmp_path):
     assert code == 0, err
     code, _, err = cli(capsys, "animate", "--mechanism", "arm", "--legs", "2", "-o", tmp_path / "b.gif")
     assert code == 2 and "needs a crank" in err
+    # a failed arm variant fails at a time, in seconds, and is not offered gait metrics
+    with explorer.open_results(arm_results) as r:
+        df = r.frame()
+    failed = df.index[df["status"] != "ok"]
+    if len(failed):
+        code, out, _ = cli(capsys, "show", arm_results, str(int(df.loc[failed[0], "variant"])))
+        t = float(df.loc[failed[0], "fail_theta"])
+        assert code == 0 and f"at t = {t:.6g} s" in out and "θ" not in out, out
+        assert "explorer metrics" not in out and "driven along a path" in out
+
+
+def test_the_shipped_arm_study_runs_at_360_samples(tmp_path):
+    """studies/arm.toml: 360 samples (a fold passed tangentially at t = 4.09 s; it used to end every
+    sweep there), base and links varied; a few variants through the CLI, each one the closed form."""
+    import tomllib
+    from pathlib import Path
+
+    import naive_mech as nm
+
+    d = tomllib.loads((Path(__file__).parent.parent / "studies" / "arm.toml").read_text())
+    assert d["study"]["steps"] == 360
+    d["study"]["variants"] = 20
+    out = tmp_path / "arm.h5"
+    explorer.run_study(d, output=out, progress=False)
+    with explorer.open_results(out) as r:
+        df = r.frame()
+        assert (df["status"] == "ok").sum() >= 5 and {"O.x", "O.y"} <= set(df.columns)
+        for i in df.index[df["status"] == "ok"][:5]:
+            row = df.loc[i]
+            tip = r.path(int(row["variant"]), "T") - [row["O.x"], row["O.y"]]
+            elbow = r.path(int(row["variant"]), "E") - [row["O.x"], row["O.y"]]
+            # the elbow is the two-link inverse kinematics of the tip about the moved base (elbow up)
+            ref = nm.two_link_elbow(tip[:, 0], tip[:, 1], row["upper"], row["fore"], +1)
+            assert np.max(np.abs(elbow - ref)) < 1e-7
 
 
 def test_no_crank_to_perturb_and_no_walker():

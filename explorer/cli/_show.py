@@ -118,7 +118,12 @@ def run(args) -> int:
         lines.append("status: not-run (the run was interrupted before this variant; finish it with --resume)")
     else:
         th = float(row["fail_theta"])
-        at = f" at θ = {th:.4f} rad ({math.degrees(th):.2f}°)" if math.isfinite(th) else ""
+        if not math.isfinite(th):
+            at = ""
+        elif mech.crank is None:  # a path driver fails at a time
+            at = f" at t = {th:.6g} s"
+        else:
+            at = f" at θ = {th:.4f} rad ({math.degrees(th):.2f}°)"
         vert = f", vertex {row['fail_vertex']}" if row["fail_vertex"] is not None else ""
         lines.append(f"status: failed ({status}){at}{vert}")
 
@@ -133,7 +138,8 @@ def run(args) -> int:
                                                  f"unless --include-screened"))
     lines.append("")
     if not metrics:
-        lines.append(f"no gait metrics stored; compute them with `explorer metrics {name}`")
+        lines.append("no gait metrics: the mechanism is driven along a path, not by a crank, so it has no gait"
+                     if mech.crank is None else f"no gait metrics stored; compute them with `explorer metrics {name}`")
         print("\n".join(lines))
         return 0
     n_ok = int(ok.sum())
