@@ -61,6 +61,18 @@ def design_start(P_init, fixed, fixed_pos):
 
 
 @njit(cache=True)
+def design_setup(topo, designs, i, P_init, crank):
+    """Design i's start (P_init with its own fixed vertices), crank centre and block table:
+    (P, cx, cy, table)."""
+    P = design_start(P_init, topo.fixed, designs.fixed[i])
+    cx = designs.center[i, 0]
+    cy = designs.center[i, 1]
+    tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, designs.dist[i],
+                      designs.uv[i], P, cx, cy, designs.scale[i], crank)
+    return P, cx, cy, tab
+
+
+@njit(cache=True)
 def _shortest(tab, L):
     """The shortest dyad length of a block table (the scale of the sweep's closing check); the
     shortest distance equation if there is no dyad."""
@@ -91,11 +103,7 @@ def fast_batch_jit(topo, drv, opts, P_init, signs, designs, outs):
         if not valid_lengths(L, scale):
             res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], opts.want_vel, opts.want_acc)
         else:
-            P = design_start(P_init, topo.fixed, designs.fixed[i])
-            cx = designs.center[i, 0]
-            cy = designs.center[i, 1]
-            tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, L,
-                              designs.uv[i], P, cx, cy, scale, crank)
+            P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank)
             res = fast_sweep(tab, topo, drv, opts, P, signs, cx, cy, scale, _shortest(tab, L), designs.tol[i],
                              outs.pos[i], outs.vel[i], outs.acc[i])
         outs.status[i], outs.fail_t[i], outs.fail_end[i], outs.fail_block[i], outs.iters[i] = res
@@ -116,11 +124,7 @@ def generic_batch_jit(topo, drv, opts, P_init, signs, designs, outs):
         if not valid_lengths(L, scale):
             res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], opts.want_vel, opts.want_acc)
         else:
-            P = design_start(P_init, topo.fixed, designs.fixed[i])
-            cx = designs.center[i, 0]
-            cy = designs.center[i, 1]
-            tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, L,
-                              designs.uv[i], P, cx, cy, scale, crank)
+            P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank)
             ctx = generic_context(opts.method, tab, topo.gen_vptr, topo.gen_verts, topo.gen_rptr, topo.gen_rows,
                                   topo.dist_a, topo.dist_b, topo.att_vpq, L, designs.uv[i], known, designs.fixed[i])
             shortest = np.inf

@@ -14,9 +14,8 @@ import numpy as np
 from numba import njit
 
 from ..plan import DYAD
-from ._batch import design_start, valid_lengths
+from ._batch import design_setup, valid_lengths
 from ._drive import CRANK, drive
-from ._step import block_table
 from ._sweep import REFINE_LEVELS, STATUS_ASSEMBLY, STATUS_INVALID, STATUS_OK
 
 
@@ -140,11 +139,7 @@ def closed_batch_jit(topo, drv, P_init, signs, designs, outs):
             _nan_rows(out_pos, 0, out_pos.shape[0])
             st, tf, te, bl = STATUS_INVALID, 0.0, np.nan, -1
         else:
-            P = design_start(P_init, topo.fixed, designs.fixed[i])
-            cx = designs.center[i, 0]
-            cy = designs.center[i, 1]
-            blocks = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, L,
-                                 designs.uv[i], P, cx, cy, scale, crank)
+            P, cx, cy, blocks = design_setup(topo, designs, i, P_init, crank)
             st, tf, te, bl = closed_cycle(blocks, topo.tip, drv.kind, drv.prm, drv.table, drv.params, drv.t_end,
                                           drv.closed, cx, cy, scale, signs, topo.out_idx, out_pos, P)
         outs.status[i] = st
