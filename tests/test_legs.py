@@ -165,3 +165,32 @@ def test_simulated_hoeken_foot_is_flat(cycles):
     """The solver's foot path shows the same straight stretch: samples 90 … 270 (θ = 90° … 270°)."""
     y = cycles["hoeken"].path("P")[90:271, 1]
     assert np.max(np.abs(y + 4.0)) < 0.0098
+
+
+@pytest.mark.parametrize("leg", ["hoeken", "klann"])
+def test_shipped_pivot_studies_run_end_to_end(leg, tmp_path):
+    """studies/<leg>-pivots.toml (every parameter varied, bodies included) runs, on 40 of its variants:
+    the frame carries each body joint and pivot as a column, and an ok variant's stored foot is the
+    re-solved design those columns describe (simulate of mech.with_parameters(row))."""
+    import tomllib
+    from pathlib import Path
+
+    import explorer
+
+    d = tomllib.loads((Path(__file__).parent.parent / "studies" / f"{leg}-pivots.toml").read_text())
+    assert d["perturb"]["parameters"] == "all"
+    d["study"]["variants"] = 40
+    out = tmp_path / f"{leg}.h5"
+    explorer.run_study(d, output=out, progress=False)
+    with explorer.open_results(out) as r:
+        df = r.frame()
+        mech = r.mechanism
+        coords = [n for n in mech.parameters() if mech.parameter_kind(n) == "coordinate"]
+        assert set(coords) <= set(df.columns)
+        ok = df.index[df["status"] == "ok"]
+        assert len(ok) >= 30
+        row = df.loc[ok[1]]
+        variant = mech.with_parameters({n: row[n] for n in mech.parameters()})
+        cyc = explorer.simulate(variant, d["study"]["steps"])
+        stored = r.path(int(row["variant"]), mech.foot)
+        assert np.max(np.abs(cyc.path(mech.foot) - stored)) < 1e-9 * mech.size
