@@ -65,3 +65,46 @@ def test_nothing_is_cached_inside_the_package(tmp_path):
     init, path = out.stdout.split()
     assert path.startswith(str(tmp_path / "explorer" / "numba-")), path
     assert not path.startswith(os.path.dirname(init))
+
+
+def test_the_background_warmup_compiles_what_a_study_calls(tmp_path):
+    """On an empty cache `explorer run` has a second process compile the metric kernels
+    (explorer.gait._warm) while it compiles the solver. That only helps if the warm-up compiles the
+    very signatures a study's chunk calls: after the warm-up alone, a fresh process computing a
+    chunk's metrics the way the runner does (views of a batch's outputs, int8 status, every metric)
+    must load every metric kernel from the cache and compile none."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    warm = subprocess.run([sys.executable, "-m", "explorer.gait._warm"], capture_output=True, text=True, env=env,
+                          timeout=300)
+    assert warm.returncode == 0, warm.stderr
+    code = ("import numpy as np, explorer\n"
+            "from explorer.gait import _metrics, _walker, compute_metrics\n"
+            "m = explorer.load_mechanism('jansen')\n"
+            "b = explorer.simulate_batch(m, np.repeat(m.lengths[None], 3, 0), None, 90, vertices=['7', '6'],\n"
+            "                            method='closed')\n"  # positions only: compiles no solver kernel worth waiting for
+            "p = b.paths['7']\n"
+            "v = np.gradient(p, 2 * np.pi / 90, axis=1)\n"
+            "compute_metrics(p, v, b.status, None, mechanism=m, lengths=np.repeat(m.lengths[None], 3, 0),\n"
+            "                crank=np.full(3, 15.0))\n"
+            "for f in (_metrics._foot_metrics_kernel, _metrics._crossings_kernel, _walker._walker_kernel):\n"
+            "    print(f.__name__, sum(f.stats.cache_hits.values()), sum(f.stats.cache_misses.values()))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    assert out.returncode == 0, out.stderr
+    rows = [line.split() for line in out.stdout.strip().splitlines()]
+    assert len(rows) == 3
+    for name, hits, misses in rows:
+        assert int(hits) >= 1 and int(misses) == 0, (name, hits, misses)
+
+
+def test_metrics_of_no_ok_row_are_nan_without_running_a_kernel():
+    """The runner's validation call (and a chunk that failed whole) has no ok row: every metric is
+    NaN, and no metric kernel runs, so none is compiled before the solver."""
+    import numpy as np
+
+    import explorer
+    from explorer.gait import compute_metrics
+    m = explorer.load_mechanism("jansen")
+    p = np.zeros((2, 36, 2))
+    out = compute_metrics(p, p, np.array([1, 3], dtype=np.int8), None, mechanism=m,
+                          lengths=np.repeat(m.lengths[None], 2, 0), crank=np.full(2, 15.0))
+    assert out and all(np.isnan(v).all() for v in out.values())

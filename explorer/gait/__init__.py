@@ -14,8 +14,10 @@ from ._screen import CHECKS, SCREEN_KEYS, Screen, screen_columns, screen_counts,
 from ._table import (DEFAULT_WEIGHTS, BAND_METRICS, BY_NAME, DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, LEG_METRICS, MECHANISM_METRICS,
                      METRICS, PATH_METRICS, SCREEN_METRICS, TABLE, UNITS, VELOCITY_METRICS, WALKER_METRICS, Metric)
 from ._walker import leg_samples
+from ._warm import start_kernel_warmup, stop_kernel_warmup
 
 __all__ = ["DEFAULT_WEIGHTS", "CHECKS", "SCREEN_KEYS", "Screen", "screen_columns", "screen_counts", "screen_from_dict", "BAND_METRICS", "BY_NAME", "DEFAULT_BAND", "DESCRIPTIONS", "DIRECTIONS", "FOOT_METRICS", "LEG_METRICS",
            "MECHANISM_METRICS", "METRICS", "Metric", "PATH_METRICS", "SCREEN_METRICS", "TABLE", "UNITS",
            "VELOCITY_METRICS", "WALKER_METRICS", "available_metrics", "check_band", "compute_metrics", "foot_headroom", "leg_samples",
-           "min_transmission_angle", "ok_mask", "screened_mask", "pareto_front", "rank", "select", "stance_indices"]
+           "min_transmission_angle", "ok_mask", "screened_mask", "pareto_front", "rank", "select", "stance_indices",
+           "start_kernel_warmup", "stop_kernel_warmup"]

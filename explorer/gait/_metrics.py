@@ -427,6 +427,9 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
     else:
         vel = np.zeros((N, 0, 2))
     cpaths = np.ascontiguousarray(paths)
+    # no ok row (the runner's validation call, a chunk that failed whole): every metric is NaN, and no
+    # kernel needs to run (or be compiled: a cold `explorer run` compiles them in parallel, see _warm)
+    run = N > 0 and bool(np.any(status == 0))
     result = {}
     # -- single-leg band metrics ----------------------------------------------------------------------
     if any(m in FOOT_METRICS for m in chosen):
@@ -435,7 +438,7 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
                                                  "stance_speed", "speed_ripple"))
         want_path = "width" in chosen or "height" in chosen
         want_vel = any(m in chosen for m in ("stance_speed", "speed_ripple", "max_speed"))
-        if N:
+        if run:
             parallel_rows(_foot_metrics_kernel, (band, want_path, want_stance, want_vel), (cpaths, vel, status, out))
         for m in FOOT_METRICS:
             result[m] = out[:, _INDEX[m]]
@@ -451,13 +454,13 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
             wvel = np.ascontiguousarray(np.asarray(velocities, dtype=np.float64))
             if wvel.shape != cpaths.shape:
                 raise UserError(f"velocities: expected shape {paths.shape} like paths, got {wvel.shape}")
-        out = walker_metrics(cpaths, wvel, status, r, walker)
+        out = walker_metrics(cpaths, wvel, status, r, walker) if run else np.full((N, len(WALKER_METRICS)), np.nan)
         for j, m in enumerate(WALKER_METRICS):
             result[m] = out[:, j]
     # -- the screen's inputs ----------------------------------------------------------------------------
     if "self_crossings" in chosen:
         out = np.full(N, np.nan)
-        if N:
+        if run:
             parallel_rows(_crossings_kernel, (), (cpaths, status, out))
         result["self_crossings"] = out
     if "foot_headroom" in chosen:

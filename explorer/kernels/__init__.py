@@ -1,6 +1,6 @@
 """Numba kernels and the public solvers over them: ``simulate`` (one design) and ``simulate_batch`` (N variants)."""
 
-from ._cache import guard_cache
+from ._cache import guard_cache, is_cached
 
 guard_cache()  # before any kernel is loaded from the on-disk cache
 
@@ -8,5 +8,5 @@ from ._rows import parallel_rows  # noqa: E402
 from ._simulate import (DEFAULT_TOLERANCE, METHODS, TOLERANCE_RANGE, STATUS_NAMES, Batch, Cycle, Failure, assemble,  # noqa: E402
                         plan_for, simulate, simulate_batch)
 
-__all__ = ["DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "parallel_rows",
+__all__ = ["is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "parallel_rows",
            "plan_for", "simulate", "simulate_batch"]

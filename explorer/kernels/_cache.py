@@ -192,3 +192,12 @@ def kernel_cache_path(dispatcher) -> str | None:
     impl = getattr(cache, "_impl", None)
     locator = getattr(impl, "_locator", None)
     return locator.get_cache_path() if locator is not None else None
+
+
+def is_cached(dispatcher) -> bool:
+    """True if Numba's on-disk cache holds an index for ``dispatcher`` (some signature of it is cached;
+    False where that cannot be told)."""
+    try:
+        return os.path.exists(dispatcher._cache._cache_file._index_path)
+    except AttributeError:  # Numba's private layout changed: say not cached, which only costs time
+        return False

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError, where
+from ..gait import start_kernel_warmup, stop_kernel_warmup
 from ..kernels import STATUS_NAMES, assemble
 from ..store._lock import OutputLock
 from ..store._write import FILE_STATUS_NAMES, ResultsWriter
@@ -100,9 +101,15 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
     t0 = time.perf_counter()
     study = load_study(study)
     out = results_path(study, output, resume, force, chunk_size=chunk_size)
-    validate_study(study)
-    with OutputLock(out):  # one run per output, from creation to the end
-        return _run_locked(study, out, resume, force, progress, chunk_size, t0)
+    # on an empty Numba cache, a second process compiles the metric kernels while this one compiles
+    # the solver (Numba compiles under one lock per process): 20.4 s -> see the README's cold start
+    warm = start_kernel_warmup() if metric_plan(study)[2] else None
+    try:
+        validate_study(study)
+        with OutputLock(out):  # one run per output, from creation to the end
+            return _run_locked(study, out, resume, force, progress, chunk_size, t0)
+    finally:
+        stop_kernel_warmup(warm)
 
 
 def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chunk_size, t0: float) -> RunSummary:
