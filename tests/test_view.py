@@ -436,3 +436,29 @@ def test_cli_errors_are_one_line_exit_2(results, tmp_path, capsys, argv, match):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("explorer: error:") and match in err and "\n" not in err
+
+
+def test_bodies_are_drawn_as_their_outline():
+    """A rigid body is drawn: Hoeken's collinear coupler as the bar B–P (its outermost joints), a
+    triangle as its three sides; links as before."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from explorer import load_mechanism, simulate
+    from explorer.view._draw import LegArtists, hull_order
+
+    assert hull_order([(0, 0), (2.5, 0), (5, 0)]) == [0, 2, 0]
+    assert hull_order([(0, 0), (1, 0), (0.5, 1), (0.5, 0.3)]) == [0, 1, 2, 0]  # the inner point is no corner
+    mech = load_mechanism("hoeken")
+    P = simulate(mech, 36).positions[5]
+    fig, ax = plt.subplots()
+    leg = LegArtists(ax, mech)
+    leg.update(P)
+    xy = np.column_stack(leg.links.get_data())
+    B, P_, C, D = (tuple(P[mech.vertex_index(v)]) for v in ("B", "P", "C", "D"))
+    # the drawn segments: consecutive finite points of the polyline (NaN breaks it)
+    pairs = {frozenset((tuple(xy[i]), tuple(xy[i + 1]))) for i in range(len(xy) - 1)
+             if np.isfinite(xy[i]).all() and np.isfinite(xy[i + 1]).all()}
+    assert pairs == {frozenset((D, C)), frozenset((B, P_))}  # the rocker, and the coupler bar there and back
+    plt.close(fig)

@@ -47,6 +47,28 @@ def mirror_velocity(V: np.ndarray) -> np.ndarray:
     return W
 
 
+def hull_order(points) -> list[int]:
+    """Indices of ``points`` (n, 2) around their convex hull, counter-clockwise, the first repeated at
+    the end (Andrew's monotone chain); for collinear points, the two outermost there and back."""
+    pts = np.asarray(points, dtype=np.float64)
+    order = sorted(range(len(pts)), key=lambda i: (pts[i, 0], pts[i, 1]))
+
+    def cross(o, a, b):
+        return (pts[a, 0] - pts[o, 0]) * (pts[b, 1] - pts[o, 1]) - (pts[a, 1] - pts[o, 1]) * (pts[b, 0] - pts[o, 0])
+
+    lower, upper = [], []
+    for i in order:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], i) <= 0:
+            lower.pop()
+        lower.append(i)
+    for i in reversed(order):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], i) <= 0:
+            upper.pop()
+        upper.append(i)
+    hull = lower[:-1] + upper[:-1]
+    return hull + hull[:1]
+
+
 class LegArtists:
     """The moving artists of one leg on ``ax``: create once, then :meth:`update` per frame.
 
@@ -78,8 +100,12 @@ class LegArtists:
         # a path driver has no crank arm: its "crank" artist stays empty
         self._center = np.array(mech.crank.center, dtype=np.float64) if mech.crank is not None else None
         nl = len(mech.links)
-        # one polyline with NaN breaks draws every link in a single artist
-        self._seg = np.full((3 * nl, 2), np.nan)
+        # each rigid body is drawn as the outline of its joints (its convex hull; a collinear body as
+        # the bar between its two outermost joints), closed, after the links
+        self._loops = [np.array([mech.vertex_index(b.joints[i]) for i in hull_order(b.points)], dtype=np.int64)
+                       for b in mech.bodies]
+        # one polyline with NaN breaks draws every link and body in a single artist
+        self._seg = np.full((3 * nl + sum(len(lp) + 1 for lp in self._loops), 2), np.nan)
         self._crank = np.empty((2, 2))
         (self.links,) = ax.plot([], [], "-", color=link_color, lw=linewidth, alpha=alpha, solid_capstyle="round",
                                 zorder=zorder, label=label)
@@ -115,8 +141,13 @@ class LegArtists:
             return
         self.set_visible(True)
         seg = self._seg
-        seg[0::3] = P[self._a]
-        seg[1::3] = P[self._b]
+        nl3 = 3 * len(self._a)
+        seg[0:nl3:3] = P[self._a]
+        seg[1:nl3:3] = P[self._b]
+        o = nl3
+        for lp in self._loops:
+            seg[o:o + len(lp)] = P[lp]
+            o += len(lp) + 1
         self.links.set_data(seg[:, 0], seg[:, 1])
         if self._center is not None:
             self._crank[0] = self._center
