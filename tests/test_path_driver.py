@@ -102,3 +102,12 @@ def test_no_crank_to_perturb_and_no_walker():
     z = np.zeros((1, 10, 2))
     with pytest.raises(UserError, match="driven along a path"):
         explorer.gait.compute_metrics(z, z, [0], ["stride"], mechanism=arm)
+
+
+def test_stored_samples_of_a_path_are_times(arm_results):
+    """/theta of a path-driven study holds the sample times t_k = T·k/(S−1) in seconds (it held crank
+    angles 2πk/S)."""
+    with explorer.open_results(arm_results) as r:
+        S = r.steps
+        np.testing.assert_allclose(r.file["theta"][...], 10.0 * np.arange(S) / (S - 1), rtol=0, atol=1e-12)
+        assert r.file["theta"].attrs["units"] == "s"

@@ -7,7 +7,7 @@ Layout (N variants, S = steps, readable with plain h5py)::
                            text), study_source, study_resolved (JSON, every default filled in),
                            study_fingerprint, mechanism (the mechanism's TOML text), mechanism_source,
                            n_variants, steps
-    /theta                 (S,) float64, rad: θ_k = 2πk/S
+    /theta                 (S,) float64, rad: θ_k = 2πk/S (a path driver: s, t_k = T·k/(S−1))
     /variants/lengths      (N, n_links) float64; attrs links (names, columns in order), link_ends,
                            nominal (n_links,), units
     /variants/crank        (N,) float64 crank radius; attr nominal

@@ -168,10 +168,14 @@ class ResultsWriter:
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S
 
-            theta = 2.0 * np.pi * np.arange(S) / S
-            d = f.create_dataset("theta", data=theta)
-            d.attrs["units"] = "rad"
-            d.attrs["description"] = "crank angle θ_k = 2πk/steps"
+            if mech.crank is not None:
+                d = f.create_dataset("theta", data=2.0 * np.pi * np.arange(S) / S)
+                d.attrs["units"] = "rad"
+                d.attrs["description"] = "crank angle θ_k = 2πk/steps"
+            else:  # a path driver's samples are times, t_k = T·k/(steps − 1)
+                d = f.create_dataset("theta", data=mech.path.duration * np.arange(S) / (S - 1))
+                d.attrs["units"] = "s"
+                d.attrs["description"] = "time along the driver's path, t_k = T·k/(steps − 1)"
 
             g = f.create_group("variants")
             d = g.create_dataset("lengths", shape=(N, len(mech.links)), dtype="f8", chunks=(rows, len(mech.links)),
