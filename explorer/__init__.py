@@ -24,6 +24,7 @@ _LAZY = {
     **dict.fromkeys(("Results", "open_results"), "store"),
     **dict.fromkeys(("RunSummary", "Study", "load_study", "recompute_metrics", "run_study", "run_study_dask",
                      "sample_variants"), "study"),
+    **dict.fromkeys(("sensitivity", "tolerance", "tolerance_summary"), "study"),
 }
 
 
@@ -49,4 +50,4 @@ __all__ = ["STATUS_NAMES", "Batch", "Crank", "Cycle", "Failure", "Grashof", "Lin
            "UserError", "builtin_mechanisms", "grashof", "load_mechanism", "make_plan", "simulate", "simulate_batch",
            "__version__",
            "Results", "RunSummary", "Study", "load_study", "open_results", "recompute_metrics", "run_study",
-           "run_study_dask", "sample_variants"]
+           "run_study_dask", "sample_variants", "sensitivity", "tolerance", "tolerance_summary"]

@@ -3,17 +3,24 @@
 ``load_study(path_or_dict)`` validates a study; ``sample_variants`` / ``Sampler`` generate its
 variants; ``run_study(study, output=..., resume=..., force=...)`` is what ``explorer run`` calls;
 ``run_study_dask(client, study, ...)`` runs it on a Dask cluster, one HDF5 shard per task;
-``recompute_metrics(path, band=...)`` redoes the gait metrics of a results file without re-solving.
+``recompute_metrics(path, band=...)`` redoes the gait metrics of a results file without re-solving;
+``sensitivity(path)`` and ``tolerance_summary(path)`` say which dimensions matter (SALib's global
+indices from the samples in a results file); ``tolerance(mechanism, target=0.99)`` finds the spread at
+which a share of the legs still walks, by bisection.
 """
 
 from ._dask import run_study_dask
 from ._metrics import recompute_metrics
 from ._run import RunSummary, Terminated, run_study
-from ._sample import BLOCK, Sampler, apply_multipliers, apply_samples, sample_variants, study_sampler, study_variants
-from ._spec import (MAX_VARIANTS, PERTURB_METHODS, SOLVE_METHODS, Study, builtin_studies, default_study_text,
-                    dumps_toml, load_study, study_from_dict, variant_count)
+from ._sample import (BLOCK, Sampler, apply_multipliers, apply_samples, saltelli_design, sample_variants,
+                      study_sampler, study_variants)
+from ._sensitivity import INDEX_METHODS, sensitivity, sensitivity_frame, summary_frame, tolerance_summary
+from ._spec import (MAX_VARIANTS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHODS, Study, builtin_studies,
+                    default_study_text, dumps_toml, load_study, study_from_dict, variant_count)
+from ._tolerance import ToleranceResult, tolerance
 
-__all__ = ["Terminated", "BLOCK", "MAX_VARIANTS", "PERTURB_METHODS", "SOLVE_METHODS", "RunSummary", "Sampler", "Study",
-           "apply_multipliers", "apply_samples", "builtin_studies", "default_study_text", "dumps_toml", "load_study",
-           "recompute_metrics", "run_study", "run_study_dask", "sample_variants", "study_from_dict", "study_sampler",
-           "study_variants", "variant_count"]
+__all__ = ["Terminated", "BLOCK", "INDEX_METHODS", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
+           "RunSummary", "Sampler", "Study", "ToleranceResult", "apply_multipliers", "apply_samples", "builtin_studies",
+           "default_study_text", "dumps_toml", "load_study", "recompute_metrics", "run_study", "run_study_dask",
+           "saltelli_design", "sample_variants", "sensitivity", "sensitivity_frame", "study_from_dict", "study_sampler",
+           "study_variants", "summary_frame", "tolerance", "tolerance_summary", "variant_count"]

@@ -21,6 +21,14 @@ The lines below give the multipliers 1 + δ; a coordinate's δ is the same draw 
 - ``lhs``: scipy.stats.qmc.LatinHypercube over the N − 1 non-nominal variants, mapped to ±spread.
 - ``sobol``: scrambled scipy.stats.qmc.Sobol points 0 … N − 2, mapped to ±spread. Its balance
   properties hold when N − 1 is a power of two (e.g. ``variants = 4097``).
+- ``saltelli``: Saltelli's scheme for Sobol indices, ``SALib.sample.sobol.sample`` with
+  ``calc_second_order=False`` (a scrambled Sobol sequence of dimension 2k seeded with ``seed``, as
+  SALib draws it), over [−1, 1] per parameter, mapped to ±spread. ``variants`` = N base points; the
+  study has N·(k + 2) + 1 variants: the nominal, then for base point j the k + 2 rows A_j,
+  AB_j^(1) … AB_j^(k) (A_j with column i taken from B_j), B_j, in SALib's order, so that the rows
+  1 … N·(k + 2) of a results file are exactly what ``SALib.analyze.sobol.analyze`` expects. Like
+  ``lhs`` it draws every point at once (N·(k + 2)·k floats; SALib fills them in a Python loop,
+  about a second per million numbers).
 - ``oat`` (one at a time): ``variants`` = L levels per parameter, evenly spaced in
   [1 − spread, 1 + spread] (``numpy.linspace``); N = 1 + k·L. Variant 1 + j·L + l has parameter j at
   level l and every other parameter nominal.
@@ -31,7 +39,8 @@ Everything is reproducible from (seed, method, spread) and the perturbed paramet
 methods draw in fixed blocks of :data:`BLOCK` variants, each from its own
 ``SeedSequence(seed, spawn_key=(block,))``, so any range of variants can be generated on its own,
 in bounded memory, and the result does not depend on how a run is chunked. Only ``lhs`` draws all
-N − 1 points at once (a Latin hypercube is stratified over all of them): N·k floats.
+N − 1 points at once (a Latin hypercube is stratified over all of them): N·k floats; and
+``saltelli`` (SALib builds its whole design at once).
 """
 
 from __future__ import annotations
@@ -65,8 +74,8 @@ class Sampler:
     1 + δ; ``rows(start, stop, offsets=mask)`` gives δ itself in the columns where ``mask`` is True
     (the coordinates), from the same draws.
 
-    method : one of uniform, normal, lhs, sobol, oat, grid; variants : the study's ``variants``
-    (N for random methods, levels per parameter for oat and grid); k : number of perturbed
+    method : one of uniform, normal, lhs, sobol, saltelli, oat, grid; variants : the study's ``variants``
+    (N for random methods, base points for saltelli, levels per parameter for oat and grid); k : number of perturbed
     parameters; spread : relative (see the module docstring); seed : integer ≥ 0.
     """
 
@@ -77,7 +86,7 @@ class Sampler:
             raise UserError(f"perturb: expected at least one perturbed parameter, got k = {k}")
         self.method, self.variants, self.k, self.spread, self.seed = method, int(variants), int(k), float(spread), int(seed)
         self.n_total = variant_count(method, self.variants, self.k)
-        self._lhs = None
+        self._lhs = None  # the whole design of lhs and saltelli, drawn on first use
         if method in ("oat", "grid"):
             self.levels = np.linspace(1.0 - self.spread, 1.0 + self.spread, self.variants)
             self.offset_levels = np.linspace(-self.spread, self.spread, self.variants)
@@ -123,6 +132,10 @@ class Sampler:
                 n = self.n_total - 1
                 self._lhs = _qmc_engine("LatinHypercube", self.k, self.seed).random(n) if n else np.empty((0, self.k))
             return base + s * (2.0 * self._lhs[a:b] - 1.0)
+        if m == "saltelli":
+            if self._lhs is None:
+                self._lhs = saltelli_design(self.variants, self.k, self.seed)
+            return base + s * self._lhs[a:b]
         # oat and grid: the levels of each column's kind (linspace of the multipliers or of the offsets)
         levels = [self.offset_levels if o else self.levels for o in off]
         p = np.arange(a, b)
@@ -136,6 +149,18 @@ class Sampler:
             return out
         idx = np.unravel_index(p, (L,) * self.k)  # grid
         return np.stack([levels[c][i] for c, i in enumerate(idx)], axis=1) if b > a else out
+
+
+def saltelli_design(n: int, k: int, seed: int) -> np.ndarray:
+    """Saltelli's design for first-order and total Sobol indices of k parameters: (n·(k + 2), k) points
+    in [−1, 1], from ``SALib.sample.sobol.sample`` (``calc_second_order=False``, scrambled, ``seed``).
+    SALib is imported here, on first use."""
+    from SALib.sample import sobol as salib_sobol
+    problem = {"num_vars": int(k), "names": [f"x{i}" for i in range(k)], "bounds": [[-1.0, 1.0]] * int(k)}
+    with warnings.catch_warnings():  # balance needs n a power of two: documented, not nagged
+        warnings.simplefilter("ignore", UserWarning)
+        return np.asarray(salib_sobol.sample(problem, int(n), calc_second_order=False, scramble=True, seed=int(seed)),
+                          dtype=np.float64)
 
 
 def apply_multipliers(mech: Mechanism, mult: np.ndarray, links=None, crank: bool = True) -> tuple[np.ndarray, np.ndarray]:

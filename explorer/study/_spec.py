@@ -6,15 +6,16 @@ A study file::
     name = "jansen-2pct"          # required; letters, digits, '.', '_', '-'
     mechanism = "jansen"          # required; built-in name or path to a mechanism .toml
     variants = 10000              # random methods: number of variants N (variant 0 = nominal);
-                                  # oat / grid: levels per parameter (see below)
+                                  # oat / grid: levels per parameter; saltelli: base samples N
+                                  # (N·(k + 2) + 1 variants; see below)
     seed = 1                      # integer ≥ 0
     steps = 360                   # crank samples per cycle (≥ 3)
     tolerance = 1e-11             # every solved position within tolerance x the longest link (1e-12 … 1e-6)
     method = "block"              # or "dense"
 
     [perturb]
-    method = "uniform"            # uniform | normal | lhs | sobol | oat | grid
-    spread = 0.02                 # relative, in [0, 1): ±spread (uniform, lhs, sobol, oat, grid), sigma (normal)
+    method = "uniform"            # uniform | normal | lhs | sobol | saltelli | oat | grid
+    spread = 0.02                 # relative, in [0, 1): ±spread (uniform, lhs, sobol, saltelli, oat, grid), sigma (normal)
     links = "all"                 # or a list of link names such as ["1-3", "2-6"]
     crank = true                  # perturb the crank radius too
     parameters = ["2.x", "2.y"]   # any design parameters by name, or "all" (default: none; see below)
@@ -54,7 +55,8 @@ relatively, coordinates by a distance: ±spread × the mechanism's size, its lon
 (see :mod:`explorer.study._sample`).
 
 Only ``study.name`` and ``study.mechanism`` are required; every other key has the default shown
-(``variants`` 10000, ``seed`` 0, ``metrics`` false). Every key is checked: an unknown key, a wrong
+(``variants`` 10000, 11 levels for oat and grid, 1024 base samples for saltelli; ``seed`` 0, ``metrics``
+false). Every key is checked: an unknown key, a wrong
 type or an out-of-range value raises :class:`~explorer.errors.UserError` with one line naming the
 file, the key and what is allowed.
 
@@ -77,7 +79,10 @@ from ..gait import SCREEN_KEYS, Screen, screen_from_dict
 from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
 from ..mechanism import Mechanism, Walker, builtin_mechanisms, load_mechanism, parse_toml, walker_from_dict
 
-PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "oat", "grid")
+PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "saltelli", "oat", "grid")
+#: Methods whose variants are a sample of the design space (global sensitivity indices apply):
+#: every method but the one-at-a-time and full-factorial designs.
+SAMPLED_METHODS = ("uniform", "normal", "lhs", "sobol", "saltelli")
 SOLVE_METHODS = ("block", "dense")
 #: Largest number of variants a study may ask for (all methods).
 MAX_VARIANTS = 1_000_000_000
@@ -234,8 +239,12 @@ def variant_count(method: str, variants: int, k: int) -> int:
 
     Random methods (uniform, normal, lhs, sobol): N = variants. ``oat``: N = 1 + k·variants (the
     nominal, then each parameter alone at ``variants`` levels). ``grid``: N = 1 + variants**k (the
-    nominal, then the full factorial).
+    nominal, then the full factorial). ``saltelli``: N = 1 + variants·(k + 2) (the nominal, then
+    Saltelli's scheme for first-order and total Sobol indices: for each of the ``variants`` base
+    points the rows A, AB_1 … AB_k, B).
     """
+    if method == "saltelli":
+        return 1 + variants * (k + 2)
     if method == "oat":
         return 1 + k * variants
     if method == "grid":
@@ -318,6 +327,10 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
     if pmethod in ("oat", "grid"):
         variants = v.integer("study.variants", st.get("variants", 11), 2, MAX_VARIANTS,
                              f"levels per parameter for perturb.method = {pmethod!r}")
+    elif pmethod == "saltelli":
+        variants = v.integer("study.variants", st.get("variants", 1024), 2, MAX_VARIANTS,
+                             "base samples N for perturb.method = 'saltelli' (N·(k + 2) + 1 variants; a power of "
+                             "two keeps the Sobol sequence balanced)")
     else:
         variants = v.integer("study.variants", st.get("variants", 10000), 1, MAX_VARIANTS)
     seed = v.integer("study.seed", st.get("seed", 0), 0, 2 ** 63 - 1)
@@ -353,7 +366,8 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
                         f"crank = true)")
     n_total = variant_count(pmethod, variants, k)
     if n_total > MAX_VARIANTS:
-        raise UserError(f"{where(source, 'study.variants')}: {pmethod} with {variants} levels over {k} parameters "
+        what = "base samples" if pmethod == "saltelli" else "levels"
+        raise UserError(f"{where(source, 'study.variants')}: {pmethod} with {variants} {what} over {k} parameters "
                         f"gives {n_total:,} variants; at most {MAX_VARIANTS:,} are allowed")
 
     vertices = v.names("scene.vertices", sc.get("vertices", [mech.foot]), mech.vertices, "vertex")
