@@ -12,16 +12,29 @@ Plots (each returns a :class:`matplotlib.figure.Figure`; save with :func:`save_f
 * ``plot_velocity(cycle_or_mechanism_or_results, variant=None)`` — dx/dθ, dy/dθ: analytic solid,
   central finite differences dashed on top.
 * ``plot_sensitivity(results)`` — a one-at-a-time study: change of each metric per link.
+* ``plot_indices(explorer.study.sensitivity(results))`` — global sensitivity indices of a sampled
+  study: one panel per output, bars with their intervals.
 
 Animation: ``animate(mechanism_or_cycle_or_results, "leg.mp4", cycles=2, frames=120, legs=1)``.
+
+Exports of one design (:mod:`explorer.view._export`): ``export_svg(mech, "parts.svg")`` and
+``export_dxf(mech, "parts.dxf")`` (its parts laid out for cutting, mm), ``export_csv(results, variant,
+"paths.csv")`` (its stored trajectories), ``mechanism_toml(mech)`` / ``export_toml(mech, "leg.toml")`` (a
+mechanism file that ``load_mechanism`` reads back), ``variant_design(results, variant)`` (the Mechanism
+of one variant, as written).
 """
 
 from ._animate import DEFAULT_FPS, FRAMES_PER_CYCLE, MOVIE_FORMATS, LinkageAnimation, Movie, animate, ffmpeg_exe
 from ._draw import FOOT_PATH_COLOR, LegArtists, draw_ground, draw_path, mirror_positions, mirror_velocity
+from ._export import (EXPORT_FORMATS, Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
+                      mechanism_toml, trajectory_frame, variant_design)
+from ._indices import plot_indices
 from ._plots import (FIGURE_FORMATS, central_differences, new_figure, oat_sensitivity, plot_scatter,
                      plot_sensitivity, plot_top, plot_velocity, save_figure, stance_indices, variant_mechanism)
 
 __all__ = ["DEFAULT_FPS", "FIGURE_FORMATS", "FOOT_PATH_COLOR", "FRAMES_PER_CYCLE", "MOVIE_FORMATS", "LegArtists",
            "LinkageAnimation", "Movie", "animate", "central_differences", "draw_ground", "draw_path", "ffmpeg_exe",
-           "mirror_positions", "mirror_velocity", "new_figure", "oat_sensitivity", "plot_scatter", "plot_sensitivity",
-           "plot_top", "plot_velocity", "save_figure", "stance_indices", "variant_mechanism"]
+           "mirror_positions", "mirror_velocity", "new_figure", "oat_sensitivity", "plot_indices", "plot_scatter",
+           "plot_sensitivity", "plot_top", "plot_velocity", "save_figure", "stance_indices", "variant_mechanism"]
+__all__ += ["EXPORT_FORMATS", "Sheet", "cut_sheet", "export_csv", "export_dxf", "export_svg", "export_toml",
+            "mechanism_toml", "trajectory_frame", "variant_design"]
