@@ -55,23 +55,13 @@ def _number(text, option: str) -> float:
     return v
 
 
-def _whole(text, option: str, lo: int) -> int:
-    from ..errors import UserError
-    try:
-        n = int(str(text).strip())
-    except ValueError:
-        n = lo - 1
-    if n < lo:
-        raise UserError(f"{option}: expected a whole number >= {lo}, got {text!r}")
-    return n
-
-
 def _pct(s: float) -> str:
     return "-" if not math.isfinite(s) else f"±{100 * s:.3g} %"
 
 
 def run(args) -> int:
     from ..errors import UserError
+    from ._sensitivity import _whole
     from ..study import tolerance
 
     if args.format not in FORMATS:
