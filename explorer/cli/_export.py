@@ -8,6 +8,8 @@ from pathlib import Path
 
 
 def register(sub) -> None:
+    from ._show import add_variant_arguments
+
     p = sub.add_parser(
         "export", help="export one variant: its parts for a laser cutter (SVG, DXF), its trajectories (CSV), or "
                        "its design as a mechanism file (TOML)",
@@ -21,10 +23,7 @@ def register(sub) -> None:
                     "exists) but not as csv (it has no full path). An existing PATH is never replaced without "
                     "--force.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
-    p.add_argument("variant", metavar="VARIANT", nargs="?", default=None,
-                   help="variant number, 0 to N-1 (0 = the nominal design); or give it as --variant N")
-    p.add_argument("--variant", dest="variant_opt", metavar="N", default=None,
-                   help="the variant, as `explorer show --variant` takes it")
+    add_variant_arguments(p, "as `explorer show --variant` takes it")
     p.add_argument("--format", dest="fmt", choices=("svg", "dxf", "csv", "toml"), default=None,
                    help="what to write (default: from the extension of -o)")
     p.add_argument("-o", "--output", metavar="PATH", required=True, help="the file to write")
@@ -58,16 +57,12 @@ def _format(args) -> str:
 def run(args) -> int:
     from ..errors import UserError
     from ..store import open_results
-    from ..store._write import FILE_STATUS_NAMES
+    from ..store import FILE_STATUS_NAMES
     from ..view._export import (check_export_path, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                                 variant_design)
-    from ._show import parse_variant
+    from ._show import chosen_variant, parse_variant
 
-    if args.variant is not None and args.variant_opt is not None and args.variant != args.variant_opt:
-        raise UserError(f"export: two different variants given ({args.variant} and --variant {args.variant_opt})")
-    chosen = args.variant if args.variant is not None else args.variant_opt
-    if chosen is None:
-        raise UserError("export: say which variant: explorer export RESULTS VARIANT --format FORMAT -o PATH")
+    chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format FORMAT -o PATH")
     fmt = _format(args)
     sheet_opts = {"scale": args.scale, "width": args.width, "hole": args.hole}
     if fmt in ("csv", "toml"):

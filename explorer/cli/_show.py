@@ -18,11 +18,27 @@ def register(sub) -> None:
                     "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
                     "buildability screen (and if not, why). Variant 0 is the nominal.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
+    add_variant_arguments(p, "as `explorer animate` and `explorer plot --velocity` take it")
+    p.set_defaults(func=run)
+
+
+def add_variant_arguments(p, how: str) -> None:
+    """The variant of a RESULTS file, given either as the positional VARIANT or as --variant N (``how``
+    says which other verbs take it that way); read back with :func:`chosen_variant`."""
     p.add_argument("variant", metavar="VARIANT", nargs="?", default=None,
                    help="variant number, 0 to N-1 (0 = the nominal design); or give it as --variant N")
-    p.add_argument("--variant", dest="variant_opt", metavar="N", default=None,
-                   help="the variant, as `explorer animate` and `explorer plot --velocity` take it")
-    p.set_defaults(func=run)
+    p.add_argument("--variant", dest="variant_opt", metavar="N", default=None, help=f"the variant, {how}")
+
+
+def chosen_variant(args, verb: str, usage: str) -> str:
+    """The variant text of :func:`add_variant_arguments` (UserError if both forms differ, or neither is given)."""
+    from ..errors import UserError
+    if args.variant is not None and args.variant_opt is not None and args.variant != args.variant_opt:
+        raise UserError(f"{verb}: two different variants given ({args.variant} and --variant {args.variant_opt})")
+    chosen = args.variant if args.variant is not None else args.variant_opt
+    if chosen is None:
+        raise UserError(f"{verb}: say which variant: {usage}")
+    return chosen
 
 
 def parse_variant(text, n: int, filename) -> int:
@@ -91,11 +107,7 @@ def run(args) -> int:
     from ..store import open_results
 
     from ..errors import UserError
-    if args.variant is not None and args.variant_opt is not None and args.variant != args.variant_opt:
-        raise UserError(f"show: two different variants given ({args.variant} and --variant {args.variant_opt})")
-    chosen = args.variant if args.variant is not None else args.variant_opt
-    if chosen is None:
-        raise UserError("show: say which variant: explorer show RESULTS VARIANT (or --variant N)")
+    chosen = chosen_variant(args, "show", "explorer show RESULTS VARIANT (or --variant N)")
     with open_results(args.results) as res:
         name, n = res.filename, res.n_variants
         v = parse_variant(chosen, n, name)
