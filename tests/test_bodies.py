@@ -182,6 +182,7 @@ def test_a_body_that_cannot_be_a_body_is_invalid_not_a_crash():
     (lambda d: d["bodies"][0].update(joints={"B": [0, 0]}), "bodies[0].joints", "two or more joints"),
     (lambda d: d["bodies"][0]["joints"].update(Q=[1, 1]), "bodies[0].joints.Q", "neither driven, fixed"),
     (lambda d: d["bodies"][0]["joints"].update(P=[2.5, 0.0]), "bodies[0].joints.P", "same point"),
+    (lambda d: d["bodies"][0]["joints"].update(P=[1e200, 0.0]), "bodies[0].joints.P", "up to 1e+09"),
     (lambda d: d["bodies"][0].update(name="a.b"), "bodies[0].name", "no '.'"),
     (lambda d: d["bodies"][0].update(colour="red"), "bodies[0].colour", "unknown key"),
     (lambda d: d["links"].append({"a": "B", "b": "P", "length": 5.0}), "bodies[0].joints", "over-constrained"),

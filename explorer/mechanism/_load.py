@@ -229,6 +229,10 @@ def _bodies(source: str, raw, known: set, fixed: dict, seen_pairs: dict, seen_na
                 if not d >= LENGTH_RANGE[0]:
                     raise UserError(f"{where(source, f'{key}.joints.{joints[a]}')}: joints {joints[b]} and {joints[a]} "
                                     f"sit at the same point of the body")
+                if not d <= LENGTH_RANGE[1]:
+                    raise UserError(f"{where(source, f'{key}.joints.{joints[a]}')}: joints {joints[b]} and {joints[a]} "
+                                    f"are {d:g} apart; a body's dimensions, like lengths, go up to "
+                                    f"{LENGTH_RANGE[1]:g} model units")
                 pair = frozenset((joints[a], joints[b]))
                 if pair in seen_pairs:
                     raise UserError(f"{where(source, f'{key}.joints')}: joints {joints[b]} and {joints[a]} are already "
