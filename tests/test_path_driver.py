@@ -111,3 +111,19 @@ def test_stored_samples_of_a_path_are_times(arm_results):
         S = r.steps
         np.testing.assert_allclose(r.file["theta"][...], 10.0 * np.arange(S) / (S - 1), rtol=0, atol=1e-12)
         assert r.file["theta"].attrs["units"] == "s"
+
+
+def test_velocity_plot_of_a_path_is_against_time(arm_results):
+    """plot --velocity of the arm: rates per second against time, finite differences over the sample
+    times (they used crank-angle spacing and wrapped around, 86 units off a 0.56 peak)."""
+    import re
+
+    import matplotlib
+    matplotlib.use("Agg")
+    from explorer.view import plot_velocity
+
+    fig = plot_velocity(explorer.open_results(arm_results), 0)
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "" and fig.axes[1].get_xlabel() == "time t (s)"
+    err, peak = map(float, re.search(r"= ([-\d.e+]+) \(peak \|dx/dt\| = ([-\d.e+]+)\)", ax.get_title()).groups())
+    assert err < 0.02 * peak, ax.get_title()

@@ -374,7 +374,8 @@ def plot_velocity(source, variant: int | None = None, *, vertex: str | None = No
     ``source`` is a Cycle (with or without velocities), a Mechanism (simulated at ``steps``), or
     results (then ``variant``, default 0 = the nominal). Analytic dV/dθ (the Jacobian solve) is the
     solid line; central finite differences of the positions, dashed, are drawn on top. The stance is
-    shaded. Units: model units per radian of crank.
+    shaded. Units: model units per radian of crank. A path-driven mechanism is plotted against time,
+    its rates per second, with finite differences over its sample times (no wrap-around, no stance).
     """
     theta, path, vel, mech, what, fail, vname = _velocity_source(source, variant, vertex, steps)
     if band is None:
@@ -382,37 +383,46 @@ def plot_velocity(source, variant: int | None = None, *, vertex: str | None = No
     finite = np.isfinite(path).all(axis=1)
     if not finite.any():
         raise UserError(f"{what}: nothing to plot: {fail or 'no finite positions'}")
-    cyclic = bool(finite.all())
+    timed = mech is not None and mech.crank is None  # a path driver: samples are times, rates per second
+    if timed:
+        S = len(path)
+        theta = mech.path.duration * np.arange(S) / (S - 1)  # t_k = T·k/(S−1), whatever the source stored
+    cyclic = bool(finite.all()) and not timed
     fd = central_differences(theta, path, cyclic=cyclic)
-    deg = np.degrees(theta)
+    x = theta if timed else np.degrees(theta)
+    d, unit = ("t", "s") if timed else ("θ", "rad")
     fig = new_figure(figsize, dpi)
     axes = fig.subplots(2, 1, sharex=True)
     stance = stance_indices(path, band) if cyclic else np.zeros(0, dtype=np.int64)
     S = len(theta)
     step = 360.0 / S
+    spacing = f"Δt = {theta[1] - theta[0]:.3g} s" if timed else f"Δθ = {step:.3g}°"
     for j, (ax, name) in enumerate(zip(axes, ("x", "y"))):
         for a, b in _segments_of(stance, S):
-            ax.axvspan(deg[a], deg[b - 1] + step if b < S else 360.0, color=STANCE_COLOR, alpha=0.12, lw=0,
+            ax.axvspan(x[a], x[b - 1] + step if b < S else 360.0, color=STANCE_COLOR, alpha=0.12, lw=0,
                        label="stance" if a == stance[0] else None)
-        ax.plot(deg, vel[:, j], "-", color="tab:blue", lw=2.6, zorder=2, label="analytic (Jacobian)")
-        ax.plot(deg, fd[:, j], "--", color="tab:orange", lw=1.6, zorder=3,
-                label=f"central finite differences (Δθ = {step:.3g}°)")
-        if not cyclic:
+        ax.plot(x, vel[:, j], "-", color="tab:blue", lw=2.6, zorder=2, label="analytic (Jacobian)")
+        ax.plot(x, fd[:, j], "--", color="tab:orange", lw=1.6, zorder=3, label=f"central finite differences ({spacing})")
+        if not finite.all():
             k = int(np.argmin(finite))
-            ax.axvline(deg[k], color="tab:red", lw=1.2, ls=":", label="failure")
+            ax.axvline(x[k], color="tab:red", lw=1.2, ls=":", label="failure")
         err = np.nanmax(np.abs(vel[:, j] - fd[:, j])) if np.isfinite(vel[:, j] - fd[:, j]).any() else float("nan")
         scale = np.nanmax(np.abs(vel[:, j])) if np.isfinite(vel[:, j]).any() else float("nan")
-        ax.set_title(f"d{name}/dθ: max |analytic − finite difference| = {err:.2e} "
-                     f"(peak |d{name}/dθ| = {scale:.3g})", fontsize="small")
+        ax.set_title(f"d{name}/d{d}: max |analytic − finite difference| = {err:.2e} "
+                     f"(peak |d{name}/d{d}| = {scale:.3g})", fontsize="small")
         clipped = _robust_ylim(ax, vel[:, j], fd[:, j])
-        ax.set_ylabel(f"d{name}/dθ (model units/rad)" + ("\n(clipped)" if clipped else ""))
+        ax.set_ylabel(f"d{name}/d{d} (model units/{unit})" + ("\n(clipped)" if clipped else ""))
         ax.grid(True, lw=0.4, alpha=0.5)
         ax.axhline(0.0, color="0.3", lw=0.6)
     axes[0].legend(loc="best", fontsize="small")
-    axes[1].set_xlabel("crank angle θ (deg)")
-    axes[1].set_xlim(0.0, 360.0)
-    axes[1].set_xticks(np.arange(0, 361, 60))
-    title = f"Foot velocity dF/dθ of {what}: analytic vs finite differences"
+    if timed:
+        axes[1].set_xlabel("time t (s)")
+        axes[1].set_xlim(0.0, float(theta[-1]))
+    else:
+        axes[1].set_xlabel("crank angle θ (deg)")
+        axes[1].set_xlim(0.0, 360.0)
+        axes[1].set_xticks(np.arange(0, 361, 60))
+    title = f"Foot velocity dF/d{d} of {what}: analytic vs finite differences"
     if fail:
         title += f"\nnot ok: {fail}"
     fig.suptitle(title, fontsize="medium")
