@@ -3,7 +3,15 @@
 Every mistake a user can make (a malformed file, an unknown key or vertex, a bad length, an
 unwritable path) raises :class:`UserError`. Its message is one line that names the file, the key
 and the offending value; the CLI prints it without a traceback and exits with code 2.
+
+Interrupts live here too (every layer needs them): :class:`Terminated` (SIGTERM, raised like
+Ctrl-C) and :func:`signals_held`, which defers both over a block that must not be cut.
 """
+
+import contextlib
+import signal
+import sys
+import threading
 
 
 class UserError(ValueError):
@@ -15,3 +23,35 @@ class UserError(ValueError):
 def where(source: str, key: str) -> str:
     """Format ``source: key`` for an error message (``source`` is a file path or ``builtin:NAME``)."""
     return f"{source}: {key}" if key else source
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that a run stops between commits and says how to resume
+    (``explorer`` exits 143 for it, 130 for Ctrl-C)."""
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Hold SIGINT and SIGTERM over a block that must not be cut: a results file being closed or the
+    commit thread stopped (a second Ctrl-C there used to interrupt a flush in progress and crash the
+    process), worker threads being started (``kernels.parallel_rows``). They are delivered
+    (raised) once the block has finished. Only the main thread can hold signals; elsewhere a no-op."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending = []
+    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+    def hold(signum, frame):
+        pending.append(signum)
+
+    for sig in old:
+        signal.signal(sig, hold)
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+    # an interrupt raised in the handled code takes precedence; one held here is not lost silently
+    if pending and sys.exc_info()[0] is None:
+        raise Terminated() if signal.SIGTERM in pending else KeyboardInterrupt()

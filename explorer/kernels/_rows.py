@@ -10,6 +10,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numba
 
+from ..errors import signals_held
+
 #: Blocks per thread: enough to balance slow (failing) variants, few enough that the dispatch of a
 #: block (tens of µs) stays far below its work (milliseconds).
 BLOCKS_PER_THREAD = 8
@@ -39,8 +41,16 @@ def parallel_rows(kernel, shared: tuple, rows: tuple, threads: int | None = None
 
     pool = ThreadPoolExecutor(max_workers=min(threads, -(-n // size)))
     try:
-        for _ in pool.map(block, range(0, n, size)):
-            pass
+        # a Ctrl-C landing while a submit starts a worker thread broke threading's own lock
+        # ("release unlocked lock", exit 1 instead of 130): the submits run with signals held, and
+        # one that arrived is raised right after them
+        with signals_held():
+            futures = [pool.submit(block, lo) for lo in range(0, n, size)]
+        for f in futures:
+            f.result()
     finally:
-        # on Ctrl-C or an error, blocks not yet started are dropped (running ones cannot be stopped)
-        pool.shutdown(wait=True, cancel_futures=True)
+        # on Ctrl-C or an error, blocks not yet started are dropped (running ones cannot be stopped);
+        # a second Ctrl-C while waiting for them would break the same lock: held (and, with the first
+        # already being raised, not raised again)
+        with signals_held():
+            pool.shutdown(wait=True, cancel_futures=True)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import UserError, where
+from ..errors import Terminated, UserError, signals_held, where
 from ..gait import start_kernel_warmup, stop_kernel_warmup
 from ..kernels import STATUS_NAMES, assemble
 from ..store._lock import OutputLock
@@ -233,37 +233,6 @@ def _size(n: int) -> str:
         if n >= scale:
             return f"{n / scale:,.1f} {unit}"
     return f"{n} bytes"
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised like Ctrl-C so that a run stops between commits and says how to resume
-    (``explorer`` exits 143 for it, 130 for Ctrl-C)."""
-
-
-@contextlib.contextmanager
-def signals_held():
-    """Hold SIGINT and SIGTERM while the file is being closed or the commit thread stopped: a second
-    Ctrl-C there used to interrupt a flush in progress and crash the process. They are delivered
-    (raised) once the block has finished. Only the main thread can hold signals; elsewhere a no-op."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    pending = []
-    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
-
-    def hold(signum, frame):
-        pending.append(signum)
-
-    for sig in old:
-        signal.signal(sig, hold)
-    try:
-        yield
-    finally:
-        for sig, handler in old.items():
-            signal.signal(sig, handler)
-    # an interrupt raised in the handled code takes precedence; one held here is not lost silently
-    if pending and sys.exc_info()[0] is None:
-        raise Terminated() if signal.SIGTERM in pending else KeyboardInterrupt()
 
 
 def _same_file(a: Path, b: Path) -> bool:
