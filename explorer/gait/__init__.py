@@ -8,6 +8,7 @@ variant; ``pareto_front(df, cols, directions)`` is the non-dominated mask. The e
 in :mod:`explorer.gait._walker` (the walker scene) and :mod:`explorer.gait._metrics` (single leg).
 """
 
+from ._filter import FilterError, evaluate_filter, filter_columns, parse_filter
 from ._metrics import DEFAULT_BAND, available_metrics, check_band, compute_metrics, foot_headroom, min_transmission_angle, stance_indices
 from ._rank import ok_mask, pareto_front, rank, screened_mask, select
 from ._screen import CHECKS, SCREEN_KEYS, Screen, screen_columns, screen_counts, screen_from_dict
@@ -16,7 +17,7 @@ from ._table import (DEFAULT_WEIGHTS, BAND_METRICS, BY_NAME, DESCRIPTIONS, DIREC
 from ._walker import leg_samples
 from ._warm import start_kernel_warmup, stop_kernel_warmup
 
-__all__ = ["DEFAULT_WEIGHTS", "CHECKS", "SCREEN_KEYS", "Screen", "screen_columns", "screen_counts", "screen_from_dict", "BAND_METRICS", "BY_NAME", "DEFAULT_BAND", "DESCRIPTIONS", "DIRECTIONS", "FOOT_METRICS", "LEG_METRICS",
+__all__ = ["FilterError", "evaluate_filter", "filter_columns", "parse_filter", "DEFAULT_WEIGHTS", "CHECKS", "SCREEN_KEYS", "Screen", "screen_columns", "screen_counts", "screen_from_dict", "BAND_METRICS", "BY_NAME", "DEFAULT_BAND", "DESCRIPTIONS", "DIRECTIONS", "FOOT_METRICS", "LEG_METRICS",
            "MECHANISM_METRICS", "METRICS", "Metric", "PATH_METRICS", "SCREEN_METRICS", "TABLE", "UNITS",
            "VELOCITY_METRICS", "WALKER_METRICS", "available_metrics", "check_band", "compute_metrics", "foot_headroom", "leg_samples",
            "min_transmission_angle", "ok_mask", "screened_mask", "pareto_front", "rank", "select", "stance_indices",

@@ -145,6 +145,18 @@ def _number(v) -> float:
         return math.inf if v > 0 else -math.inf
 
 
+def filter_columns(text: str) -> list:
+    """The column names filter ``text`` refers to, in the order they appear (repeats removed)."""
+    tree, names = parse_filter(text)
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            col = names.get(node.id, node.id)
+            if col not in out:
+                out.append(col)
+    return out
+
+
 def evaluate_filter(df, text: str) -> np.ndarray:
     """Boolean mask (len(df),) of the rows of ``df`` where filter ``text`` holds (see the module
     docstring for the grammar). NaN compares false. Raises FilterError for a filter outside the
