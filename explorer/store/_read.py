@@ -141,7 +141,7 @@ class Results:
         return counts
 
     # -- tables ----------------------------------------------------------------------------------------
-    def frame(self) -> "pd.DataFrame":
+    def frame(self, rows: tuple[int, int] | None = None) -> "pd.DataFrame":
         """One row per variant: ``variant``, one column per link length (by link name), ``crank``, one
         column per perturbed coordinate (named by its parameter, such as ``"2.x"`` or ``"crank.y"``),
         ``status`` (name; categorical), ``status_code``, ``fail_theta`` and ``fail_theta_end`` (rad,
@@ -150,39 +150,45 @@ class Results:
         crank-driven four-bar loop, for mechanisms that have one), then one column per
         ``/metrics/<name>``, then ``buildable`` (bool: ok and passing the buildability screen,
         :mod:`explorer.gait._screen`) and ``screen`` ("pass" or why not) when the file stores a
-        metric the screen reads."""
+        metric the screen reads. An optimisation's file adds ``generation`` after ``variant``.
+
+        rows : (a, b) for variants a … b − 1 only (default: every variant)."""
         import pandas as pd  # imported on use: it costs ~0.5 s at start-up
         f = self.file
-        N = self.n_variants
-        cols: dict = {"variant": np.arange(N, dtype=np.int64)}
-        L = f["variants/lengths"][...]
+        a, b = (0, self.n_variants) if rows is None else (int(rows[0]), int(rows[1]))
+        s = slice(a, b)
+        cols: dict = {"variant": np.arange(a, b, dtype=np.int64)}
+        for name, d in f["variants"].items():
+            if d.attrs.get("column", False):
+                cols[name] = d[s]
+        L = f["variants/lengths"][s]
         for j, name in enumerate(self.link_names):
             cols[name] = L[:, j]
-        cols["crank"] = f["variants/crank"][...]
+        cols["crank"] = f["variants/crank"][s]
         geometry = {}
         if self.geometry_names:
-            G = f["variants/geometry"][...]
+            G = f["variants/geometry"][s]
             geometry = {name: G[:, j] for j, name in enumerate(self.geometry_names)}
             cols.update(geometry)
-        codes = f["status"][...]
+        codes = f["status"][s]
         order = sorted(FILE_STATUS_NAMES, key=lambda c: (c < 0, c))
         cols["status"] = pd.Categorical.from_codes(_category_codes(codes, order),
                                                    categories=[FILE_STATUS_NAMES[c] for c in order])
         cols["status_code"] = codes
-        cols["fail_theta"] = f["fail_theta"][...]
+        cols["fail_theta"] = f["fail_theta"][s]
         if "fail_theta_end" in f:
-            cols["fail_theta_end"] = f["fail_theta_end"][...]
-        block = f["fail_block"][...]
+            cols["fail_theta_end"] = f["fail_theta_end"][s]
+        block = f["fail_block"][s]
         names = np.array([None] + [_text(s) for s in f["fail_block"].attrs["vertex"]], dtype=object)
         cols["fail_vertex"] = names[np.where(block >= 0, block + 1, 0)]
         if "iterations" in f:
-            cols["iterations"] = f["iterations"][...]
+            cols["iterations"] = f["iterations"][s]
         if fourbar_loops(self.mechanism):
             cols["grashof"], cols["grashof_margin"] = grashof_batch(self.mechanism, L, cols["crank"],
                                                                     geometry=geometry or None)
         for m in self.metric_names:
-            cols[m] = f["metrics"][m][...]
-        df = pd.DataFrame(cols)
+            cols[m] = f["metrics"][m][s]
+        df = pd.DataFrame(cols, index=pd.RangeIndex(a, b) if rows is not None else None)
         from ..gait import screen_columns
         screened = screen_columns(df, self.screen)
         if screened is not None:

@@ -130,19 +130,23 @@ class ResultsWriter:
 
     # -- opening ---------------------------------------------------------------------------------------
     @classmethod
-    def create(cls, path, study, rows: int | None = None) -> "ResultsWriter":
+    def create(cls, path, study, rows: int | None = None, columns: dict | None = None,
+               exact_rows: bool = False) -> "ResultsWriter":
         """Create ``path`` for ``study``, every dataset preallocated (replacing any file there).
 
         The file is built under a hidden temporary name next to ``path`` and renamed into place
         once it holds every dataset, so ``path`` never holds a half-created file.
 
-        rows : variants per study chunk (default from :func:`chunk_rows`).
+        rows : variants per study chunk (default from :func:`chunk_rows`; taken as given with
+        ``exact_rows``, as an optimiser's population).
+        columns : {name: ((N,) integer array, description)} known before any variant is solved (an
+        optimisation's ``generation``), stored as ``/variants/<name>`` and read as frame columns.
         """
         path = Path(path)
         mech = study.mech
         N, S = study.n_variants, study.steps
         vertices = study.vertex_names
-        rows = chunk_rows(N, S, study.n_series, rows)
+        rows = int(rows) if exact_rows else chunk_rows(N, S, study.n_series, rows)
         n_chunks = -(-N // rows)
         h = min(hdf5_rows(S), rows)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
@@ -201,6 +205,13 @@ class ResultsWriter:
                 d.attrs["description"] = ("perturbed coordinates (crank centre, ground pivots, body joints in their "
                                           "body's frame), one column per attr 'names'")
             g.attrs["perturbed"] = _strings(study.parameter_names)
+            for name, (values, description) in (columns or {}).items():
+                values = np.asarray(values)
+                if values.shape != (N,) or values.dtype.kind not in "iu":
+                    raise ValueError(f"column {name!r}: expected ({N},) integers, got {values.dtype} {values.shape}")
+                d = g.create_dataset(name, data=values.astype(np.int64), chunks=(rows,), **SCALAR_FILTERS)
+                d.attrs["description"] = description
+                d.attrs["column"] = True
 
             codes = sorted(FILE_STATUS_NAMES)
             d = f.create_dataset("status", shape=(N,), dtype="i1", chunks=(rows,), fillvalue=STATUS_NOT_RUN,
@@ -287,15 +298,25 @@ class ResultsWriter:
     def complete(self) -> bool:
         return bool(self.f.attrs["complete"])
 
-    def write_chunk(self, i: int, lengths, crank, batch, metrics: dict | None = None, geometry=None) -> None:
+    def write_chunk(self, i: int, lengths, crank, batch, metrics: dict | None = None, geometry=None,
+                    partial: bool = False) -> None:
         """Commit chunk ``i`` atomically: its rows of every dataset, flush, then ``done[i]``, flush.
 
         lengths (n, n_links), crank (n,), batch : the :class:`~explorer.kernels.Batch` of these n
         variants; metrics : optional {name: (n,) array}, stored under ``/metrics/<name>``;
         geometry : (n, g) perturbed coordinates, required when the file has ``/variants/geometry``
-        (columns in its ``names`` order).
+        (columns in its ``names`` order). partial : the n variants are the chunk's first n (an
+        optimiser's generation with fewer designs than its population); the rest keep status
+        "not-run". Pass n = 0 with ``batch=None`` to commit the chunk with no variant run.
         """
         a, b = self.chunk_range(i)
+        if partial:
+            if len(crank) > b - a:
+                raise ValueError(f"chunk {i}: at most {b - a} variants, got {len(crank)}")
+            b = a + len(crank)
+            if b == a:
+                self._commit(i)
+                return
         if len(crank) != b - a:
             raise ValueError(f"chunk {i}: expected {b - a} variants, got {len(crank)}")
         if self._geometry is not None:
@@ -319,9 +340,12 @@ class ResultsWriter:
                 g.create_dataset(name, shape=(self.n_variants,), dtype="f8", chunks=(self.chunk_rows,),
                                  fillvalue=np.nan, **SCALAR_FILTERS)
             g[name][a:b] = values
-        f.flush()
+        self._commit(i)
+
+    def _commit(self, i: int) -> None:
+        self.f.flush()
         self._done[i] = True
-        f.flush()
+        self.f.flush()
         self.done[i] = True
 
     def finish(self) -> None:
