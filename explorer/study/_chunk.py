@@ -39,9 +39,10 @@ def compute_study_metrics(study: Study, paths, velocities, status, lengths, cran
                            crank=crank, walker=study.walker, geometry=geometry_columns(study, geometry))
 
 
-def chunk_solver(study: Study):
-    """solve(a, b) → (lengths, crank, geometry, batch, metrics) for variants [a, b) of ``study``;
-    geometry is (n, g), the perturbed coordinates in ``study.geometry_names`` order ((n, 0) if none).
+def design_solver(study: Study):
+    """solve(lengths, crank, geometry) → (batch, metrics) for given designs of ``study``'s mechanism:
+    lengths (n, n_links) in ``mech.links`` order, crank radii (n,), geometry (n, g) of the coordinates
+    in ``study.geometry_names`` order. What a sampled study and an optimiser's generation both run.
 
     Solves only what the scene asks for: its vertices (plus the foot when metrics are asked for),
     velocities when stored or needed by a metric, accelerations when stored.
@@ -52,10 +53,8 @@ def chunk_solver(study: Study):
     if want_metrics and mech.foot not in vertices:
         vertices.append(mech.foot)
     velocities = study.velocities or metric_vel
-    sampler = study_sampler(study)
 
-    def solve(a: int, b: int):
-        lengths, crank, geometry = study_variants(study, a, b, sampler)
+    def solve(lengths, crank, geometry):
         radii = crank if mech.crank is not None else None  # a path driver has no crank radius (NaN column)
         moved = geometry_columns(study, geometry)
         extra = {"geometry": moved} if moved else {}  # only a study that moves coordinates passes them
@@ -67,6 +66,21 @@ def chunk_solver(study: Study):
         if want_metrics:
             metrics = compute_study_metrics(study, batch.paths[foot], batch.velocities.get(foot), batch.status,
                                             lengths, crank, geometry)
+        return batch, metrics
+
+    return solve
+
+
+def chunk_solver(study: Study):
+    """solve(a, b) → (lengths, crank, geometry, batch, metrics) for variants [a, b) of a sampled
+    ``study`` (:func:`design_solver` on its sampled designs); geometry is (n, g), the perturbed
+    coordinates in ``study.geometry_names`` order ((n, 0) if none)."""
+    sampler = study_sampler(study)
+    solve_designs = design_solver(study)
+
+    def solve(a: int, b: int):
+        lengths, crank, geometry = study_variants(study, a, b, sampler)
+        batch, metrics = solve_designs(lengths, crank, geometry)
         return lengths, crank, geometry, batch, metrics
 
     return solve
