@@ -1,11 +1,12 @@
-"""``explorer plot RESULTS (--top N --by METRIC | --scatter M1,M2 | --velocity VARIANT | --sensitivity) -o PATH``."""
+"""``explorer plot RESULTS (--top N --by METRIC | --scatter M1,M2 | --velocity VARIANT | --sensitivity | --front)
+-o PATH``."""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
-MODES = ("top", "scatter", "velocity", "sensitivity")
+MODES = ("top", "scatter", "velocity", "sensitivity", "front")
 
 
 def register(sub) -> None:
@@ -27,6 +28,10 @@ def register(sub) -> None:
                         "finite differences dashed on top")
     g.add_argument("--sensitivity", action="store_true",
                    help="one-at-a-time (oat) study: %% change of each metric per +1 %% of each link")
+    g.add_argument("--front", nargs="?", const="", default=None, metavar="X,Y",
+                   help="an optimisation (`explorer optimize`): how the Pareto front moved over the generations, "
+                        "in two of its objectives (default: the first two), or the best value per generation for "
+                        "one objective")
     p.add_argument("--by", metavar="METRIC", default=None,
                    help="metric to rank by for --top (default: the score of travel, bob, body_speed_ripple and "
                         "peak_torque, as `explorer rank`)")
@@ -53,11 +58,13 @@ def _mode(args) -> str:
         mode = "velocity"
     elif args.sensitivity:
         mode = "sensitivity"
+    elif args.front is not None:
+        mode = "front"
     elif args.top is not None or args.by is not None or args.weights is not None:
         mode = "top"
     else:
-        raise UserError("plot: say what to plot: --top N [--by METRIC], --scatter M1,M2, --velocity VARIANT "
-                        "or --sensitivity")
+        raise UserError("plot: say what to plot: --top N [--by METRIC], --scatter M1,M2, --velocity VARIANT, "
+                        "--sensitivity or --front")
     for opt, given in (("--by", args.by is not None), ("--weights", args.weights is not None),
                        ("--include-screened", args.include_screened and mode != "scatter")):
         if given and mode != "top":
@@ -103,6 +110,12 @@ def run(args) -> int:
             if v is None:
                 raise UserError("plot: --velocity needs a variant: --velocity --variant N (or --velocity N)")
             fig = plot_velocity(res, v)
+        elif mode == "front":
+            from ..view import plot_front
+            names = [s.strip() for s in args.front.split(",") if s.strip()]
+            if len(names) not in (0, 2):
+                raise UserError(f"--front: expected two objectives as X,Y (or nothing), got {args.front!r}")
+            fig = plot_front(res, *names)
         else:
             fig = plot_sensitivity(res)
         path = save_figure(fig, out, dpi=args.dpi)

@@ -3,6 +3,8 @@
 ``load_study(path_or_dict)`` validates a study; ``sample_variants`` / ``Sampler`` generate its
 variants; ``run_study(study, output=..., resume=..., force=...)`` is what ``explorer run`` calls;
 ``run_study_dask(client, study, ...)`` runs it on a Dask cluster, one HDF5 shard per task;
+``run_optimize(study, output=...)`` is what ``explorer optimize`` calls: a pymoo search over a
+study's ``[optimize]`` parameters, one batch solve per generation, into the same results layout;
 ``recompute_metrics(path, band=...)`` redoes the gait metrics of a results file without re-solving;
 ``sensitivity(path)`` and ``tolerance_summary(path)`` say which dimensions matter (SALib's global
 indices from the samples in a results file); ``tolerance(mechanism, target=0.99)`` finds the spread at
@@ -11,6 +13,8 @@ which a share of the legs still walks, by bisection.
 
 from ._dask import run_study_dask
 from ._metrics import recompute_metrics
+from ._objectives import ALGORITHMS, Optimize, feasible_mask, objective_matrix
+from ._optimize import OptimizeSummary, final_front, front_history, optimization_of, run_optimize
 from ._run import RunSummary, Terminated, run_study
 from ._sample import (BLOCK, Sampler, apply_multipliers, apply_samples, saltelli_design, sample_variants,
                       study_sampler, study_variants)
@@ -19,7 +23,8 @@ from ._spec import (MAX_VARIANTS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHOD
                     default_study_text, dumps_toml, load_study, study_from_dict, variant_count)
 from ._tolerance import ToleranceResult, tolerance
 
-__all__ = ["Terminated", "BLOCK", "INDEX_METHODS", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
+__all__ = ["ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
+           "run_optimize", "Terminated", "BLOCK", "INDEX_METHODS", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
            "RunSummary", "Sampler", "Study", "ToleranceResult", "apply_multipliers", "apply_samples", "builtin_studies",
            "default_study_text", "dumps_toml", "load_study", "recompute_metrics", "run_study", "run_study_dask",
            "saltelli_design", "sample_variants", "sensitivity", "sensitivity_frame", "study_from_dict", "study_sampler",

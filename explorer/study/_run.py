@@ -166,9 +166,13 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
                       resumed=resumed)
 
 
-def validate_study(study: Study) -> None:
-    """The checks every runner makes before touching a file: the nominal design assembles at the
+def validate_study(study: Study, optimizing: bool = False) -> None:
+    """The checks every runner makes before touching a file: the study is of the runner's kind
+    (sampled, or an ``[optimize]`` search when ``optimizing``), the nominal design assembles at the
     first sample, and the metrics and band the scene asks for are valid (UserError otherwise)."""
+    if study.optimize is not None and not optimizing:
+        raise UserError(f"{study.source}: has an [optimize] table; run it with `explorer optimize {study.source}` "
+                        f"(explorer run samples a [perturb] study)")
     mech = study.mech
     _, fail = assemble(mech)
     if fail is not None:

@@ -78,6 +78,7 @@ from ..errors import UserError, where
 from ..gait import SCREEN_KEYS, Screen, screen_from_dict
 from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
 from ..mechanism import Mechanism, Walker, builtin_mechanisms, load_mechanism, parse_toml, walker_from_dict
+from ._objectives import OPTIMIZE_KEYS, Optimize, parse_optimize
 
 PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "saltelli", "oat", "grid")
 #: Methods whose variants are a sample of the design space (global sensitivity indices apply):
@@ -94,6 +95,7 @@ _SECTIONS = {
     "walker": ("legs", "phases", "mirrored", "drag", "contact"),
     "screen": SCREEN_KEYS,
     "output": ("path", "compression"),
+    "optimize": OPTIMIZE_KEYS,
 }
 #: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
 COMPRESSIONS = ("lzf", "gzip", "none")
@@ -118,6 +120,10 @@ class Study:
     source : the file the study came from (``builtin:NAME`` or ``<dict>``); text : its TOML text.
     walker : the walker scene (:class:`~explorer.mechanism.Walker`: the study's ``[walker]`` over
         the mechanism's own), None for a path-driven mechanism. screen : the ``[screen]`` thresholds.
+    optimize : the ``[optimize]`` table (:class:`~explorer.study._objectives.Optimize`) of a study run by
+        ``explorer optimize``, else None. Its designs are the optimiser's: ``perturb_method`` is
+        ``"optimize"``, ``variants`` is population × generations and the perturbed parameters are the
+        searched ones.
     """
 
     name: str
@@ -144,6 +150,7 @@ class Study:
     parameters: object = ()
     walker: Walker | None = None
     screen: Screen = field(default_factory=Screen)
+    optimize: Optimize | None = None
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
 
     # -- derived -------------------------------------------------------------------------------
@@ -204,7 +211,7 @@ class Study:
                    "crank": self.crank}
         if self.parameters:  # only when given: a study without it keeps its fingerprint
             perturb["parameters"] = plain(self.parameters)
-        return {
+        out = {
             "study": {"name": self.name, "mechanism": self.mechanism, "variants": self.variants, "seed": self.seed,
                       "steps": self.steps, "tolerance": self.tolerance, "method": self.method},
             "perturb": perturb,
@@ -214,6 +221,11 @@ class Study:
             "screen": self.screen.as_dict(),
             "output": {"path": self.output, "compression": self.compression},
         }
+        if self.optimize is not None:  # the optimiser chooses the designs: no [perturb], no variants
+            del out["perturb"]
+            del out["study"]["variants"]
+            out["optimize"] = self.optimize.as_dict()
+        return out
 
     def fingerprint(self) -> str:
         """JSON of everything that decides the results (the output path and the screen excluded): the
@@ -323,6 +335,9 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
     mech_name = v.string("study.mechanism", st["mechanism"])
     mech, mech_path = _mechanism(source, mech_name, base)
 
+    opt_table = data.get("optimize")
+    if opt_table is not None:
+        return _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st, sc, ou, wa, scr)
     pmethod = v.choice("perturb.method", pe.get("method", "uniform"), PERTURB_METHODS)
     if pmethod in ("oat", "grid"):
         variants = v.integer("study.variants", st.get("variants", 11), 2, MAX_VARIANTS,
@@ -333,13 +348,7 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
                              "two keeps the Sobol sequence balanced)")
     else:
         variants = v.integer("study.variants", st.get("variants", 10000), 1, MAX_VARIANTS)
-    seed = v.integer("study.seed", st.get("seed", 0), 0, 2 ** 63 - 1)
-    steps = v.integer("study.steps", st.get("steps", 360), 3, 10_000_000)
-    lo, hi = TOLERANCE_RANGE
-    tolerance = v.number("study.tolerance", st.get("tolerance", DEFAULT_TOLERANCE), lo, hi,
-                         f"a number from {lo:g} to {hi:g}: the bound on every solved position's error relative to the "
-                         f"longest link (looser saves no time, tighter hits rounding)")
-    method = v.choice("study.method", st.get("method", "block"), SOLVE_METHODS)
+    seed, steps, tolerance, method = _solver_keys(v, st)
 
     spread = v.number("perturb.spread", pe.get("spread", 0.02), 0.0, 1.0, "a number in [0, 1)", hi_open=True)
     parameters = _parameters(v, pe, mech)
@@ -370,6 +379,15 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
         raise UserError(f"{where(source, 'study.variants')}: {pmethod} with {variants} {what} over {k} parameters "
                         f"gives {n_total:,} variants; at most {MAX_VARIANTS:,} are allowed")
 
+    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr)
+    return Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
+                 method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
+                 source=source, text=text if text is not None else dumps_toml(data), mechanism_path=mech_path,
+                 _mech=mech, parameters=parameters, **common)
+
+
+def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, sc, ou, wa, scr) -> dict:
+    """The Study fields of [scene], [walker], [screen] and [output], validated."""
     vertices = v.names("scene.vertices", sc.get("vertices", [mech.foot]), mech.vertices, "vertex")
     velocities = v.boolean("scene.velocities", sc.get("velocities", True))
     accelerations = v.boolean("scene.accelerations", sc.get("accelerations", False))
@@ -387,13 +405,47 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
     out = v.string("output.path", out)
     compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
 
-    study = Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
-                  method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
-                  vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
-                  metrics=metrics, output=out, source=source, text=text if text is not None else dumps_toml(data),
-                  mechanism_path=mech_path, _mech=mech, compression=compression, walker=walker, screen=screen,
-                  parameters=parameters)
-    return study
+    return dict(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
+                metrics=metrics, output=out, compression=compression, walker=walker, screen=screen)
+
+
+def _solver_keys(v: "_Validator", st: dict):
+    """[study] seed, steps, tolerance and method, validated."""
+    seed = v.integer("study.seed", st.get("seed", 0), 0, 2 ** 63 - 1)
+    steps = v.integer("study.steps", st.get("steps", 360), 3, 10_000_000)
+    lo, hi = TOLERANCE_RANGE
+    tolerance = v.number("study.tolerance", st.get("tolerance", DEFAULT_TOLERANCE), lo, hi,
+                         f"a number from {lo:g} to {hi:g}: the bound on every solved position's error relative to the "
+                         f"longest link (looser saves no time, tighter hits rounding)")
+    method = v.choice("study.method", st.get("method", "block"), SOLVE_METHODS)
+    return seed, steps, float(tolerance), method
+
+
+def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st, sc, ou, wa, scr) -> Study:
+    """A study with an [optimize] table: the designs are the optimiser's (see ``_objectives``)."""
+    if "perturb" in data:
+        raise UserError(f"{where(source, 'perturb')}: a study with [optimize] takes no [perturb] (the optimiser "
+                        f"chooses the designs; give the searched parameters in [optimize])")
+    if "variants" in st:
+        raise UserError(f"{where(source, 'study.variants')}: a study with [optimize] takes no variants (it evaluates "
+                        f"[optimize] population x generations designs)")
+    seed, steps, tolerance, method = _solver_keys(v, st)
+    known = _known_metrics() or ()
+    opt = parse_optimize(data["optimize"], source, mech, known, has_target=False)
+    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr)
+    from ..gait import CHECKS
+    from ._objectives import metrics_needed
+    needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check[1]))
+    metrics = common["metrics"]
+    if metrics is not True:  # compute what the search needs on top of what the scene asks for
+        metrics = tuple(dict.fromkeys((metrics or ()) + needed))
+    common["metrics"] = metrics
+    params = opt.parameters
+    links = tuple(n for n in mech.link_names if n in params)
+    return Study(name=name, mechanism=mech_name, variants=opt.evaluations, seed=seed, steps=steps,
+                 tolerance=tolerance, method=method, perturb_method="optimize", spread=0.0, links=links,
+                 crank="crank" in params, source=source, text=text if text is not None else dumps_toml(data),
+                 mechanism_path=mech_path, _mech=mech, parameters=params, optimize=opt, **common)
 
 
 def _parameters(v: "_Validator", pe: dict, mech: Mechanism):

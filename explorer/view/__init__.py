@@ -12,6 +12,8 @@ Plots (each returns a :class:`matplotlib.figure.Figure`; save with :func:`save_f
 * ``plot_velocity(cycle_or_mechanism_or_results, variant=None)`` — dx/dθ, dy/dθ: analytic solid,
   central finite differences dashed on top.
 * ``plot_sensitivity(results)`` — a one-at-a-time study: change of each metric per link.
+* ``plot_front(results)`` — an optimisation (``explorer optimize``): how its Pareto front (or best
+  design) moved over the generations.
 * ``plot_indices(explorer.study.sensitivity(results))`` — global sensitivity indices of a sampled
   study: one panel per output, bars with their intervals.
 
@@ -28,6 +30,7 @@ from ._animate import DEFAULT_FPS, FRAMES_PER_CYCLE, MOVIE_FORMATS, LinkageAnima
 from ._draw import FOOT_PATH_COLOR, LegArtists, draw_ground, draw_path, mirror_positions, mirror_velocity
 from ._export import (EXPORT_FORMATS, Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                       mechanism_toml, trajectory_frame, variant_design)
+from ._front import plot_front
 from ._indices import plot_indices
 from ._plots import (FIGURE_FORMATS, central_differences, new_figure, oat_sensitivity, plot_scatter,
                      plot_sensitivity, plot_top, plot_velocity, save_figure, stance_indices, variant_mechanism)
@@ -36,5 +39,6 @@ __all__ = ["DEFAULT_FPS", "FIGURE_FORMATS", "FOOT_PATH_COLOR", "FRAMES_PER_CYCLE
            "LinkageAnimation", "Movie", "animate", "central_differences", "draw_ground", "draw_path", "ffmpeg_exe",
            "mirror_positions", "mirror_velocity", "new_figure", "oat_sensitivity", "plot_indices", "plot_scatter",
            "plot_sensitivity", "plot_top", "plot_velocity", "save_figure", "stance_indices", "variant_mechanism"]
+__all__ += ["plot_front"]
 __all__ += ["EXPORT_FORMATS", "Sheet", "cut_sheet", "export_csv", "export_dxf", "export_svg", "export_toml",
             "mechanism_toml", "trajectory_frame", "variant_design"]

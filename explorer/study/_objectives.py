@@ -1,0 +1,257 @@
+"""What an optimisation searches and scores: the ``[optimize]`` table of a study file, and the
+objectives, constraints and feasibility of evaluated designs.
+
+A study file with an ``[optimize]`` table is run by ``explorer optimize`` (:mod:`._optimize`)::
+
+    [optimize]
+    algorithm = "nsga2"           # nsga2 | nsga3 (several objectives); de | ga | cmaes (one objective)
+    population = 40               # designs per generation
+    generations = 25              # or: evaluations = 1000 (rounded up to whole generations)
+    objectives = ["travel", "bob", "peak_torque"]   # metric names; each metric's direction (max or min)
+                                  # comes from the one table of metrics (`explorer metrics --list`)
+    constraints = ["clearance >= 1", "`1-3` < 16"]  # the --where filter language, over metrics and
+                                  # parameters; a design satisfies every one
+    screen = true                 # designs failing the buildability screen are infeasible (default true)
+    spread = 0.1                  # bounds of parameters given by name only (below)
+    parameters = ["1-3", "2-6", "crank.x"]          # the design parameters searched, ±spread around
+                                  # the nominal (lengths relatively, coordinates × the mechanism's size)
+
+    [optimize.bounds]             # or explicit bounds, model units; these override the spread
+    "1-3" = [13.0, 17.0]
+
+The seed is ``[study] seed``. ``[perturb]`` does not apply (the optimiser chooses the designs) and is
+refused beside ``[optimize]``.
+
+Feasibility. A design is *feasible* when it solved over the whole cycle (status ok), every objective
+is a number, it passes the buildability screen (unless ``screen = false``) and every constraint holds.
+Infeasible designs are handed to the algorithm with a positive constraint violation and never
+appear on a front (pymoo's constraint domination ranks any feasible design above any infeasible one).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import UserError, where
+from ..mechanism import Mechanism
+
+#: Algorithms ``[optimize] algorithm`` accepts (pymoo's implementations).
+ALGORITHMS = ("nsga2", "nsga3", "de", "ga", "cmaes")
+#: Algorithms that take exactly one objective.
+SINGLE_OBJECTIVE = ("de", "ga", "cmaes")
+#: Keys of the ``[optimize]`` table.
+OPTIMIZE_KEYS = ("algorithm", "population", "generations", "evaluations", "objectives", "constraints", "screen",
+                 "spread", "parameters", "bounds")
+#: What the objective of an infeasible design is set to (pymoo needs numbers; constraint domination
+#: ranks every feasible design first, so the value never decides anything).
+INFEASIBLE_VALUE = 1e30
+#: Most evaluations one optimisation may ask for (rows of its results file).
+MAX_EVALUATIONS = 10_000_000
+
+
+@dataclass(frozen=True)
+class Optimize:
+    """A validated ``[optimize]`` table (see the module docstring).
+
+    parameters : the searched design parameters, in ``mech.parameters()`` order; lower, upper : their
+    bounds (model units); objectives : metric names; directions : "max" or "min" per objective;
+    constraints : filter expressions; algorithm, population, generations; screen : whether the
+    buildability screen decides feasibility; spread : as written (bounds of parameters without
+    explicit ones).
+    """
+
+    parameters: tuple
+    lower: tuple
+    upper: tuple
+    objectives: tuple
+    directions: tuple
+    constraints: tuple
+    algorithm: str
+    population: int
+    generations: int
+    screen: bool = True
+    spread: float = 0.1
+
+    @property
+    def evaluations(self) -> int:
+        """Designs evaluated (rows of the results file): population × generations."""
+        return self.population * self.generations
+
+    def as_dict(self) -> dict:
+        return {"algorithm": self.algorithm, "population": self.population, "generations": self.generations,
+                "objectives": list(self.objectives), "constraints": list(self.constraints), "screen": self.screen,
+                "spread": self.spread, "parameters": list(self.parameters),
+                "bounds": {p: [lo, hi] for p, lo, hi in zip(self.parameters, self.lower, self.upper)}}
+
+
+def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has_target: bool) -> Optimize:
+    """Validate an ``[optimize]`` table against the mechanism ``mech``. ``known_metrics``: every metric
+    name; ``has_target``: whether the study gives a ``[target]`` path (needed by ``path_error``)."""
+    def key(k):
+        return where(source, f"optimize.{k}")
+
+    for k in table:
+        if k not in OPTIMIZE_KEYS:
+            raise UserError(f"{key(k)}: unknown key (allowed in [optimize]: {', '.join(OPTIMIZE_KEYS)})")
+    algorithm = table.get("algorithm", "nsga2")
+    if algorithm not in ALGORITHMS:
+        raise UserError(f"{key('algorithm')}: expected one of {', '.join(ALGORITHMS)}, got {algorithm!r}")
+    population = _integer(table.get("population", 40), key("population"), 4, 100_000)
+    if "generations" in table and "evaluations" in table:
+        raise UserError(f"{key('evaluations')}: give generations or evaluations, not both")
+    if "evaluations" in table:
+        evals = _integer(table["evaluations"], key("evaluations"), population, MAX_EVALUATIONS)
+        generations = -(-evals // population)
+    else:
+        generations = _integer(table.get("generations", 25), key("generations"), 1, MAX_EVALUATIONS)
+    if population * generations > MAX_EVALUATIONS:
+        raise UserError(f"{key('generations')}: {population} x {generations} = {population * generations:,} "
+                        f"evaluations; at most {MAX_EVALUATIONS:,}")
+
+    objectives = table.get("objectives")
+    if isinstance(objectives, str):
+        objectives = [objectives]
+    if not isinstance(objectives, list) or not objectives or not all(isinstance(o, str) for o in objectives):
+        raise UserError(f"{key('objectives')}: expected a non-empty list of metric names, got {objectives!r}")
+    from ..gait import DIRECTIONS
+    for o in objectives:
+        if o not in known_metrics:
+            raise UserError(f"{key('objectives')}: unknown metric {o!r} (known: {', '.join(known_metrics)})")
+        if objectives.count(o) > 1:
+            raise UserError(f"{key('objectives')}: {o!r} is listed twice")
+    if "path_error" in objectives and not has_target:
+        raise UserError(f"{key('objectives')}: 'path_error' needs a [target] table (the path to match)")
+    if algorithm in SINGLE_OBJECTIVE and len(objectives) != 1:
+        raise UserError(f"{key('objectives')}: algorithm {algorithm!r} takes one objective, got {len(objectives)} "
+                        f"({', '.join(objectives)}); use nsga2 or nsga3 for several")
+    directions = tuple(DIRECTIONS[o] for o in objectives)
+
+    constraints = table.get("constraints", [])
+    if isinstance(constraints, str):
+        constraints = [constraints]
+    if not isinstance(constraints, list) or not all(isinstance(c, str) and c.strip() for c in constraints):
+        raise UserError(f"{key('constraints')}: expected a list of filter expressions, got {constraints!r}")
+    from ..gait import FilterError, parse_filter
+    for c in constraints:
+        try:
+            parse_filter(c)
+        except FilterError as exc:
+            raise UserError(f"{key('constraints')}: {exc}") from None
+
+    screen = table.get("screen", True)
+    if not isinstance(screen, bool):
+        raise UserError(f"{key('screen')}: expected true or false, got {screen!r}")
+    spread = table.get("spread", 0.1)
+    if isinstance(spread, bool) or not isinstance(spread, (int, float)) or not 0.0 < spread < 1.0:
+        raise UserError(f"{key('spread')}: expected a number in (0, 1), got {spread!r}")
+
+    known = tuple(mech.parameters())
+    named = table.get("parameters", [])
+    if not isinstance(named, list) or not all(isinstance(p, str) for p in named):
+        raise UserError(f"{key('parameters')}: expected a list of design parameter names, got {named!r}")
+    bounds = table.get("bounds", {})
+    if not isinstance(bounds, dict):
+        raise UserError(f"{key('bounds')}: expected a table name = [low, high], got {bounds!r}")
+    for p in list(named) + list(bounds):
+        if p not in known:
+            k = "parameters" if p in named else f"bounds.{p}"
+            raise UserError(f"{key(k)}: unknown design parameter {p!r} (known: {', '.join(known)})")
+        if named.count(p) > 1:
+            raise UserError(f"{key('parameters')}: {p!r} is listed twice")
+    chosen = set(named) | set(bounds)
+    if not chosen:
+        raise UserError(f"{key('parameters')}: no design parameter to search (give parameters or [optimize.bounds])")
+    nominal = mech.parameters()
+    params, lower, upper = [], [], []
+    for p in known:
+        if p not in chosen:
+            continue
+        if p in bounds:
+            b = bounds[p]
+            if (not isinstance(b, list) or len(b) != 2
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in b)):
+                raise UserError(f"{key('bounds.' + p)}: expected [low, high] numbers, got {b!r}")
+            lo, hi = float(b[0]), float(b[1])
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+                raise UserError(f"{key('bounds.' + p)}: expected finite low < high, got {b!r}")
+            if mech.parameter_kind(p) == "length" and lo <= 0.0:
+                raise UserError(f"{key('bounds.' + p)}: a length's bounds must be positive, got {b!r}")
+        elif mech.parameter_kind(p) == "length":
+            lo, hi = nominal[p] * (1.0 - spread), nominal[p] * (1.0 + spread)
+        else:
+            lo, hi = nominal[p] - spread * mech.size, nominal[p] + spread * mech.size
+        params.append(p)
+        lower.append(lo)
+        upper.append(hi)
+    return Optimize(parameters=tuple(params), lower=tuple(lower), upper=tuple(upper), objectives=tuple(objectives),
+                    directions=directions, constraints=tuple(constraints), algorithm=algorithm, population=population,
+                    generations=generations, screen=screen, spread=float(spread))
+
+
+def _integer(value, key: str, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise UserError(f"{key}: expected a whole number from {lo:,} to {hi:,}, got {value!r}")
+    return int(value)
+
+
+def metrics_needed(opt: Optimize, screen_metrics) -> tuple:
+    """The metrics an optimisation must compute: its objectives, the metrics its constraints name, and
+    (with ``screen``) the metrics among ``screen_metrics``, the columns the buildability screen reads."""
+    from ..gait import METRICS, filter_columns
+    names = list(opt.objectives)
+    for c in opt.constraints:
+        names += [n for n in filter_columns(c) if n in METRICS]
+    if opt.screen:
+        names += [n for n in screen_metrics if n in METRICS]
+    out = []
+    for n in names:
+        if n not in out:
+            out.append(n)
+    return tuple(out)
+
+
+def objective_matrix(df, opt: Optimize, screen) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Objectives and constraint violations of evaluated designs, as pymoo minimises them.
+
+    df : the results frame of these designs (:meth:`explorer.store.Results.frame`: status, the
+    parameters, the metrics, ``buildable``). Returns F (n, n_obj): each objective, negated where it
+    is maximised, :data:`INFEASIBLE_VALUE` for infeasible designs; G (n, 2 + n_constraints) ≤ 0 where
+    satisfied: [not ok or an objective NaN, fails the screen, each constraint false] as 0 / 1; and
+    feasible (n,) bool.
+    """
+    n = len(df)
+    G = np.zeros((n, 2 + len(opt.constraints)))
+    ok = (df["status"].astype(str) == "ok").to_numpy()
+    F = np.empty((n, len(opt.objectives)))
+    for j, (name, direction) in enumerate(zip(opt.objectives, opt.directions)):
+        v = df[name].to_numpy(dtype=np.float64, na_value=np.nan)
+        F[:, j] = -v if direction == "max" else v
+    solved = ok & np.isfinite(F).all(axis=1)
+    G[:, 0] = np.where(solved, 0.0, 1.0)
+    if opt.screen and "buildable" in df.columns:
+        G[:, 1] = np.where(df["buildable"].to_numpy(dtype=bool), 0.0, 1.0)
+    from ..gait import evaluate_filter
+    for j, c in enumerate(opt.constraints):
+        G[:, 2 + j] = np.where(evaluate_filter(df, c), 0.0, 1.0)
+    feasible = (G <= 0.0).all(axis=1)
+    F[~feasible] = INFEASIBLE_VALUE
+    return F, G, feasible
+
+
+def feasible_mask(df, opt: Optimize, screen=None) -> np.ndarray:
+    """(len(df),) bool: the designs of a results frame that are feasible for ``opt``."""
+    return objective_matrix(df, opt, screen)[2]
+
+
+def optimize_from_dict(d: dict, mech: Mechanism) -> Optimize:
+    """Rebuild an :class:`Optimize` from its :meth:`Optimize.as_dict` (as stored in a results file)."""
+    params = tuple(d["parameters"])
+    from ..gait import DIRECTIONS
+    return Optimize(parameters=params, lower=tuple(float(d["bounds"][p][0]) for p in params),
+                    upper=tuple(float(d["bounds"][p][1]) for p in params), objectives=tuple(d["objectives"]),
+                    directions=tuple(DIRECTIONS[o] for o in d["objectives"]), constraints=tuple(d["constraints"]),
+                    algorithm=d["algorithm"], population=int(d["population"]), generations=int(d["generations"]),
+                    screen=bool(d["screen"]), spread=float(d["spread"]))

@@ -1,0 +1,465 @@
+"""``explorer optimize``: search a study's design parameters with pymoo, one batch solve per generation.
+
+Each generation is one call of the chunk runner (:func:`~._chunk.design_solver`, the same code that
+runs a sampled study's chunks, locally or on Dask) and one committed chunk of an ordinary results
+file: rows ``g·P … g·P + P − 1`` hold generation g (P = ``[optimize] population``), with a
+``generation`` column, so ``rank``, ``show``, ``plot``, ``animate`` and ``open_results(...).frame()``
+read an optimisation like any study.
+
+Objectives and feasibility (:func:`~._objectives.objective_matrix`) are computed from the rows as
+read back from the file, the same way for a fresh generation and for a committed one. That is what
+makes ``--resume`` exact: the algorithm is replayed from its seed, a committed generation is not
+solved again but read (its designs must be bitwise the ones the replay asks for, or the file is
+refused), and the run goes on from the first generation not committed: the final file equals an
+uninterrupted run's, whenever the previous run was stopped (kill -9 included: a chunk is committed
+atomically or not at all).
+
+A generation the algorithm fills with fewer designs than the population (CMA-ES's first: its start
+point alone) leaves the rest of its rows "not-run"; so does every generation after an algorithm that
+stops early (CMA-ES when its step size has collapsed). The summary says so.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import Terminated, UserError, signals_held
+from ..gait import pareto_front
+from ..store import Results
+from ..store._lock import OutputLock
+from ..store._write import ResultsWriter
+from ._chunk import design_solver
+from ._objectives import SINGLE_OBJECTIVE, objective_matrix
+from ._run import _counts, _state, results_path, validate_study
+from ._spec import Study, load_study
+
+
+@dataclass
+class OptimizeSummary:
+    """What :func:`run_optimize` did. ``os.fspath(summary)`` is the results path.
+
+    generations : generations in the file; ran : generations evaluated by this call (the rest were
+    read back on ``--resume``); evaluations : designs solved over the whole run; feasible : feasible
+    designs; front : the final Pareto front (or best design) as a DataFrame of variant, generation,
+    the parameters and the objectives; stopped_early : the generation after which the algorithm
+    stopped on its own (None if it ran every generation); wall_s : seconds this call took.
+    """
+
+    path: Path
+    name: str
+    algorithm: str
+    objectives: tuple
+    directions: tuple
+    generations: int
+    ran: int
+    evaluations: int
+    feasible: int
+    counts: dict
+    front: object
+    wall_s: float
+    stopped_early: int | None = None
+    resumed: bool = False
+    hypervolume: list = field(default_factory=list)
+    constraints: tuple = ()
+
+    def __fspath__(self) -> str:
+        return str(self.path)
+
+    def rank_command(self) -> str:
+        """The ``explorer rank`` command that lists the same designs from the file."""
+        objs = ",".join(self.objectives)
+        cmd = f"explorer rank {self.path} " + (f"--pareto {objs} --top 0" if len(self.objectives) > 1 else
+                                               f"--by {objs} --top 1")
+        if self.constraints:
+            where = " and ".join(f"({c})" for c in self.constraints)
+            cmd += f" --where '{where}'"
+        return cmd
+
+    def text(self) -> str:
+        objs = ", ".join(f"{o} ({d})" for o, d in zip(self.objectives, self.directions))
+        lines = [f"{self.name}: {self.algorithm}, {self.generations} generations, {self.evaluations:,} designs solved "
+                 f"({self.ran} generations {'resumed' if self.resumed else 'run'} here) → {self.path}",
+                 f"  objectives: {objs}",
+                 f"  feasible {self.feasible:,} of {self.evaluations:,}; statuses: "
+                 + ", ".join(f"{k} {n:,}" for k, n in self.counts.items() if n)]
+        if self.stopped_early is not None:
+            lines.append(f"  the algorithm stopped on its own after generation {self.stopped_early}; later rows are "
+                         f"not-run")
+        front = self.front
+        if front is None or len(front) == 0:
+            lines.append("  no feasible design")
+        else:
+            what = "best design" if len(self.objectives) == 1 else f"Pareto front: {len(front)} designs"
+            lines.append(f"  {what} ({self.rank_command()}):")
+            lines += ["    " + line for line in front.head(10).to_string(index=False).splitlines()]
+        lines.append(f"  wall {self.wall_s:.2f} s")
+        return "\n".join(lines)
+
+    __str__ = text
+
+
+# -- designs ------------------------------------------------------------------------------------------
+def designs_from_x(study: Study, X: np.ndarray):
+    """(lengths (n, n_links), crank (n,), geometry (n, g)) of designs X (n, k), one column per
+    ``study.optimize.parameters`` (values in model units, set exactly: the file stores X bitwise)."""
+    mech = study.mech
+    names = study.optimize.parameters
+    n = X.shape[0]
+    lengths = np.broadcast_to(mech.lengths, (n, len(mech.links))).copy()
+    crank = np.full(n, float(mech.crank.radius) if mech.crank is not None else np.nan)
+    nominal = mech.parameters()
+    geo = study.geometry_names
+    geometry = np.empty((n, len(geo)))
+    for c, name in enumerate(geo):
+        geometry[:, c] = nominal[name]
+    index = {p: i for i, p in enumerate(mech.link_names)}
+    for j, p in enumerate(names):
+        if p == "crank":
+            crank[:] = X[:, j]
+        elif p in index:
+            lengths[:, index[p]] = X[:, j]
+        else:
+            geometry[:, geo.index(p)] = X[:, j]
+    return lengths, crank, geometry
+
+
+def stored_x(df, study: Study) -> np.ndarray:
+    """The designs (n, k) of a results frame's rows, one column per searched parameter."""
+    return np.column_stack([df[p].to_numpy(dtype=np.float64) for p in study.optimize.parameters])
+
+
+def nominal_x(study: Study) -> np.ndarray:
+    """The nominal design's parameters (k,), clipped into the bounds."""
+    nominal = study.mech.parameters()
+    opt = study.optimize
+    x = np.array([nominal[p] for p in opt.parameters])
+    return np.clip(x, opt.lower, opt.upper)
+
+
+def _initial(study: Study) -> np.ndarray:
+    """The first generation of a population-based algorithm: the nominal design (when inside the
+    bounds), then a Latin hypercube over the bounds (scipy.stats.qmc, seeded by ``[study] seed``)."""
+    from scipy.stats import qmc
+    opt = study.optimize
+    lo, hi = np.array(opt.lower), np.array(opt.upper)
+    P = opt.population
+    nominal = np.array([study.mech.parameters()[p] for p in opt.parameters])
+    inside = bool(np.all((nominal >= lo) & (nominal <= hi)))
+    m = P - int(inside)
+    pts = qmc.LatinHypercube(d=len(lo), seed=np.random.default_rng(study.seed)).random(m)
+    X = lo + pts * (hi - lo)
+    return np.vstack([nominal[None, :], X]) if inside else X
+
+
+def _algorithm(study: Study):
+    """The pymoo algorithm of ``[optimize] algorithm``, configured for the study."""
+    opt = study.optimize
+    P = opt.population
+    name = opt.algorithm
+    if name == "nsga2":
+        from pymoo.algorithms.moo.nsga2 import NSGA2
+        return NSGA2(pop_size=P, sampling=_initial(study))
+    if name == "nsga3":
+        from pymoo.algorithms.moo.nsga3 import NSGA3
+        from pymoo.util.ref_dirs import get_reference_directions
+        M = len(opt.objectives)
+        p = 1
+        while math.comb(p + 1 + M - 1, M - 1) <= P:
+            p += 1
+        return NSGA3(ref_dirs=get_reference_directions("das-dennis", M, n_partitions=p), pop_size=P,
+                     sampling=_initial(study))
+    if name == "de":
+        from pymoo.algorithms.soo.nonconvex.de import DE
+        return DE(pop_size=P, sampling=_initial(study))
+    if name == "ga":
+        from pymoo.algorithms.soo.nonconvex.ga import GA
+        return GA(pop_size=P, sampling=_initial(study))
+    from pymoo.algorithms.soo.nonconvex.cmaes import CMAES
+    return CMAES(x0=nominal_x(study), sigma=0.25, popsize=P, tolfun=0.0, tolx=0.0)
+
+
+# -- evaluation: local or on Dask ----------------------------------------------------------------------
+def _local_evaluator(study: Study):
+    solve = design_solver(study)
+    return lambda lengths, crank, geometry: solve(lengths, crank, geometry)
+
+
+def _concat(parts):
+    """One (batch, metrics) from the (batch, metrics) of consecutive row ranges."""
+    import dataclasses
+    batches = [b for b, _ in parts]
+    first = batches[0]
+    joined = {}
+    for f in dataclasses.fields(first):
+        v = getattr(first, f.name)
+        if f.name == "theta":
+            joined[f.name] = v
+        elif isinstance(v, dict):
+            joined[f.name] = {k: np.concatenate([getattr(b, f.name)[k] for b in batches]) for k in v}
+        else:
+            joined[f.name] = np.concatenate([getattr(b, f.name) for b in batches])
+    metrics = None
+    if parts[0][1] is not None:
+        metrics = {k: np.concatenate([m[k] for _, m in parts]) for k in parts[0][1]}
+    return dataclasses.replace(first, **joined), metrics
+
+
+def _design_task(recipe, lengths, crank, geometry):
+    """A Dask task: solve some designs of a generation on one Numba thread."""
+    from ._dask import _one_thread
+    _one_thread()
+    study = recipe.study()
+    return design_solver(study)(lengths, crank, geometry)
+
+
+def _dask_evaluator(client, study: Study):
+    """Evaluate a generation by splitting its designs over the cluster's worker threads."""
+    from ._dask import _Recipe, _warm_everywhere, _worker_threads
+    recipe = _Recipe(study)
+    _warm_everywhere(client, recipe)
+    workers = max(1, _worker_threads(client))
+    [recipe_f] = client.scatter([recipe], broadcast=True)
+
+    def evaluate(lengths, crank, geometry):
+        n = len(crank)
+        cuts = np.linspace(0, n, min(n, workers) + 1).astype(int)
+        futures = [client.submit(_design_task, recipe_f, lengths[a:b], crank[a:b], geometry[a:b], pure=False)
+                   for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+        return _concat(client.gather(futures))
+
+    return evaluate
+
+
+# -- the run -----------------------------------------------------------------------------------------
+def run_optimize(study, output=None, resume: bool = False, force: bool = False, progress: bool = True,
+                 client=None) -> OptimizeSummary:
+    """Run the ``[optimize]`` search of a study into one HDF5 results file.
+
+    study : a study with an ``[optimize]`` table (path, dict or :class:`Study`). output, resume,
+    force, progress : as for :func:`~explorer.study.run_study` (``resume`` replays the algorithm
+    from its seed and solves only the generations not committed). client : a
+    ``dask.distributed.Client`` to evaluate each generation on (default: this process).
+
+    Returns an :class:`OptimizeSummary`. Raises :class:`~explorer.errors.UserError` for a study
+    without ``[optimize]``, an existing file without --force/--resume, or a file written by another
+    run.
+    """
+    t0 = time.perf_counter()
+    study = load_study(study)
+    if study.optimize is None:
+        raise UserError(f"{study.source}: no [optimize] table; `explorer optimize` needs one (see `explorer optimize "
+                        f"--help`), `explorer run` runs a sampled study")
+    opt = study.optimize
+    out = results_path(study, output, resume, force)
+    validate_study(study, optimizing=True)
+    with OutputLock(out):
+        resumed = False
+        if out.exists():
+            if resume:
+                writer = ResultsWriter.resume(out, study)
+                resumed = True
+            elif force:
+                writer = _create(out, study)
+            else:
+                state = _state(out)
+                raise UserError(f"{out}: results file exists ({state}); pass --force to overwrite it"
+                                + (" or --resume to finish it" if state != "complete" else ""))
+        else:
+            writer = _create(out, study)
+        try:
+            evaluate = _dask_evaluator(client, study) if client is not None else _local_evaluator(study)
+            ran, stopped, hv = _search(study, writer, out, evaluate, progress)
+            if not writer.complete:
+                writer.finish()
+            counts = _counts(writer)
+            df = Results(writer.f, out).frame()
+        finally:
+            with signals_held():
+                writer.close()
+    F, _, feasible = objective_matrix(df, opt, study.screen)
+    front = final_front(df, study)
+    return OptimizeSummary(out, study.name, opt.algorithm, opt.objectives, opt.directions, opt.generations, ran,
+                           int((df["status"].astype(str) != "not-run").sum()), int(feasible.sum()), counts, front,
+                           time.perf_counter() - t0, stopped, resumed, hv, opt.constraints)
+
+
+def _create(out: Path, study: Study) -> ResultsWriter:
+    opt = study.optimize
+    P = opt.population
+    generation = np.arange(study.n_variants, dtype=np.int64) // P
+    return ResultsWriter.create(out, study, P, exact_rows=True, columns={
+        "generation": (generation, f"optimiser generation (rows g*{P} … g*{P}+{P - 1}); the nominal design, "
+                                   f"when inside the bounds, is variant 0")})
+
+
+def final_front(df, study: Study):
+    """The feasible non-dominated designs of an optimisation's frame (the best one for a single
+    objective): variant, generation, the searched parameters and the objectives, best first."""
+    opt = study.optimize
+    F, _, feasible = objective_matrix(df, opt, study.screen)
+    cols = ["variant", "generation", *opt.parameters, *opt.objectives]
+    cols = list(dict.fromkeys(c for c in cols if c in df.columns))
+    ok = df[feasible]
+    if len(ok) == 0:
+        return ok[cols]
+    if len(opt.objectives) == 1:
+        best = int(np.argmin(F[feasible, 0]))
+        return ok.iloc[[best]][cols]
+    mask = pareto_front(ok, list(opt.objectives), dict(zip(opt.objectives, opt.directions)))
+    front = ok[mask]
+    first = opt.objectives[0]
+    return front.sort_values(first, ascending=opt.directions[0] == "min", kind="mergesort")[cols]
+
+
+def _search(study: Study, writer: ResultsWriter, out: Path, evaluate, progress: bool):
+    """Replay committed generations, evaluate the rest; returns (generations evaluated here,
+    generation after which the algorithm stopped on its own or None, hypervolume per generation)."""
+    from pymoo.core.evaluator import Evaluator
+    from pymoo.core.problem import Problem
+
+    opt = study.optimize
+    P, G = opt.population, opt.generations
+    results = Results(writer.f, out)
+    n_obj, n_con = len(opt.objectives), 2 + len(opt.constraints)
+    state = {"g": 0, "ran": 0}
+
+    def generation(X):
+        g = state["g"]
+        a, _ = writer.chunk_range(g)
+        m = X.shape[0]
+        if writer.done[g]:
+            df = results.frame(rows=(a, a + m))
+            if not np.array_equal(stored_x(df, study), X):
+                raise UserError(f"{out}: generation {g} in the file is not what this run's algorithm asks for (another "
+                                f"pymoo or numpy version?); start over with --force")
+        else:
+            lengths, crank, geometry = designs_from_x(study, X)
+            batch, metrics = evaluate(lengths, crank, geometry)
+            with signals_held():  # a commit is never cut in half by Ctrl-C (kill -9 leaves it uncommitted)
+                writer.write_chunk(g, lengths, crank, batch, metrics, geometry=geometry, partial=True)
+            state["ran"] += 1
+            df = results.frame(rows=(a, a + m))
+        return objective_matrix(df, opt, study.screen)
+
+    class _Study(Problem):
+        def __init__(self):
+            super().__init__(n_var=len(opt.parameters), n_obj=n_obj, n_ieq_constr=n_con, xl=np.array(opt.lower),
+                             xu=np.array(opt.upper))
+
+        def _evaluate(self, X, out_, *args, **kwargs):
+            F, Gc, _ = generation(np.asarray(X, dtype=np.float64))
+            out_["F"] = F
+            out_["G"] = Gc
+
+    problem = _Study()
+    algorithm = _algorithm(study)
+    algorithm.setup(problem, termination=("n_gen", G), seed=study.seed, verbose=False)
+    evaluator = Evaluator()
+    bar = _bar(progress, G, study.name)
+    hv = []
+    ref = None
+    t_start = time.perf_counter()
+    stopped = None
+    try:
+        while state["g"] < G:
+            if not algorithm.has_next():
+                stopped = state["g"] - 1
+                break
+            pop = algorithm.ask()
+            if len(pop) > P:
+                raise RuntimeError(f"{opt.algorithm} asked for {len(pop)} designs in one generation, more than the "
+                                   f"population {P}")
+            evaluator.eval(problem, pop)
+            algorithm.tell(infills=pop)
+            F = algorithm.opt.get("F") if algorithm.opt is not None else None
+            feas = algorithm.opt.get("feas") if algorithm.opt is not None else None
+            value, ref = _progress_value(F, feas, n_obj, opt.directions, ref)
+            hv.append(value)
+            state["g"] += 1
+            if bar is not None:
+                rate = state["g"] * P / max(time.perf_counter() - t_start, 1e-9)
+                label = "best" if n_obj == 1 else "hypervolume"
+                bar.set_postfix_str(f"{rate:,.0f} designs/s, {label} {value:.6g}", refresh=False)
+                bar.update(1)
+        # generations never asked for (an algorithm that stopped early) are committed empty: not-run rows
+        for g in range(state["g"], G):
+            if not writer.done[g]:
+                writer.write_chunk(g, np.empty((0, len(study.mech.links))), np.empty(0), None, partial=True)
+    except KeyboardInterrupt as exc:
+        done = int(writer.done.sum())
+        what = "terminated" if isinstance(exc, Terminated) else "interrupted"
+        raise type(exc)(f"{out}: {what} with {done} of {G} generations committed; run again with --resume to "
+                        f"finish it (the same final result)") from None
+    finally:
+        if bar is not None:
+            bar.close()
+    return state["ran"], stopped, hv
+
+
+def _progress_value(F, feas, n_obj: int, directions, ref):
+    """The progress bar's figure: the best objective (as the metric reads, not negated) for one
+    objective; for several, the hypervolume of the feasible optimum against a reference point fixed
+    at the first generation that has a feasible design (its worst values plus 10 % of their range)."""
+    if F is None or feas is None or not np.any(feas):
+        return float("nan"), ref
+    F = np.asarray(F)[np.asarray(feas).ravel()]
+    if n_obj == 1:
+        v = float(F[:, 0].min())
+        return (-v if directions[0] == "max" else v), ref
+    if ref is None:
+        span = F.max(axis=0) - F.min(axis=0)
+        ref = F.max(axis=0) + 0.1 * np.where(span > 0, span, np.maximum(np.abs(F.max(axis=0)), 1.0))
+    from pymoo.indicators.hv import HV
+    return float(HV(ref_point=ref)(F)), ref
+
+
+def _bar(progress: bool, total: int, name: str):
+    if not progress or not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, unit="gen", desc=name, file=sys.stderr, dynamic_ncols=True, leave=False)
+
+
+# -- reading an optimisation back ----------------------------------------------------------------------
+def optimization_of(results):
+    """The :class:`~._objectives.Optimize` of an optimisation's results file (an open
+    :class:`~explorer.store.Results`); UserError for a file of a sampled study."""
+    from ._objectives import optimize_from_dict
+    d = results.study.get("optimize") if isinstance(results.study, dict) else None
+    if not d:
+        raise UserError(f"{results.filename}: not an optimisation (its study has no [optimize] table); "
+                        f"`explorer optimize` writes one")
+    return optimize_from_dict(d, results.mechanism)
+
+
+def front_history(df, opt, screen=None, generations=None):
+    """How the front moved: for each generation g in ``generations`` (default: every one), the
+    feasible non-dominated designs among generations 0 … g. Returns a DataFrame of ``upto`` (g),
+    ``variant``, ``generation`` and the objectives; for one objective, the best design so far."""
+    import pandas as pd
+    F, _, feasible = objective_matrix(df, opt, screen)
+    gen = df["generation"].to_numpy()
+    last = int(gen.max()) if len(gen) else -1
+    generations = range(last + 1) if generations is None else generations
+    dirs = dict(zip(opt.objectives, opt.directions))
+    rows = []
+    for g in generations:
+        sel = df[feasible & (gen <= g)]
+        if len(sel) == 0:
+            continue
+        if len(opt.objectives) == 1:
+            Fs = F[feasible & (gen <= g), 0]
+            front = sel.iloc[[int(np.argmin(Fs))]]
+        else:
+            front = sel[pareto_front(sel, list(opt.objectives), dirs)]
+        part = front[["variant", "generation", *opt.objectives]].copy()
+        part.insert(0, "upto", g)
+        rows.append(part)
+    cols = ["upto", "variant", "generation", *opt.objectives]
+    return pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=cols)
