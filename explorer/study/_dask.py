@@ -109,7 +109,12 @@ def _warm(recipe: _Recipe, restore: bool = False) -> float:
     before = _one_thread()
     try:
         study = recipe.study()
-        _solver(study)(0, min(2, study.n_variants))
+        if study.optimize is not None:  # an optimiser's designs are not sampled: warm up on the nominal
+            from ._chunk import design_solver
+            from ._optimize import designs_from_x, nominal_x
+            design_solver(study)(*designs_from_x(study, np.vstack([nominal_x(study)] * 2)))
+        else:
+            _solver(study)(0, min(2, study.n_variants))
     finally:
         if restore and before is not None:
             import numba
