@@ -58,8 +58,9 @@ def dominates(a, b) -> bool:
     return bool(np.all(a <= b) and np.any(a < b))
 
 
-def test_objectives_constraints_and_front_as_documented(tmp_path):
-    study = write(tmp_path)
+@pytest.mark.parametrize("algorithm", ["nsga2", "nsga3"])
+def test_objectives_constraints_and_front_as_documented(tmp_path, algorithm):
+    study = write(tmp_path, algorithm=algorithm)
     summary = run_optimize(study, output=tmp_path / "o.h5", progress=False)
     with open_results(summary) as res:
         df = res.frame()
@@ -217,3 +218,11 @@ def test_rank_show_and_plot_front_work_on_an_optimisation(tmp_path):
         r = subprocess.run(explorer_cmd(*args), capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, (args, r.stderr)
     assert (tmp_path / "front.png").stat().st_size > 10_000
+
+
+def test_the_shipped_example_loads():
+    study = load_study(str(Path(__file__).parents[1] / "studies" / "jansen-optimize.toml"))
+    opt = study.optimize
+    assert opt.algorithm == "nsga2" and opt.objectives == ("travel", "bob", "peak_torque")
+    assert opt.directions == ("max", "min", "min") and study.n_variants == opt.population * opt.generations
+    assert len(opt.parameters) == 11 and set(("clearance", "foot_headroom")) <= set(study.metrics)
