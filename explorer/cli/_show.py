@@ -121,8 +121,12 @@ def run(args) -> int:
     row = df.iloc[v]
     ok = (df["status_code"] == 0).to_numpy()
 
-    lines = [f"{name}: variant {v} of {n:,}" + (" (the nominal design)" if v == 0 else "")
+    # variant 0 is the nominal of a sampled study; of an optimisation only when the nominal lies in its bounds
+    is_nominal = v == 0 and all(row[p] == nominal[p] for p in perturbed if p in row.index and p in nominal)
+    lines = [f"{name}: variant {v} of {n:,}" + (" (the nominal design)" if is_nominal else "")
              + f"; study {study.get('name', '?')!r}, mechanism {mech.name!r}, {res.steps} steps"]
+    if "generation" in df.columns:
+        lines.append(f"generation: {int(row['generation'])} of the optimisation (explorer optimize)")
     status = str(row["status"])
     if status == "ok":
         lines.append("status: ok")
