@@ -300,7 +300,7 @@ def foot_headroom(mech, paths, status=None, geometry=None) -> np.ndarray:
 
 
 # -- public ------------------------------------------------------------------------------------------
-def _available(mechanism, walker, crank) -> dict[str, str | None]:
+def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
     """{metric: None if it can be computed here, else why not}."""
     has_crank = mechanism is not None and mechanism.crank is not None
     out = {}
@@ -316,14 +316,16 @@ def _available(mechanism, walker, crank) -> dict[str, str | None]:
                    f"leg's closed foot path over a crank turn")
         elif m in CRANK_METRICS and mechanism is None and (walker is None or crank is None):
             why = "needs a crank-driven mechanism (mechanism=) or walker= and crank="
+        elif "target" in needs and target is None:
+            why = "needs a target path (a study's [target] table, or target=)"
         out[m] = why
     return out
 
 
-def available_metrics(mechanism=None) -> dict[str, str | None]:
+def available_metrics(mechanism=None, target=None) -> dict[str, str | None]:
     """{metric: None if :func:`compute_metrics` can compute it for ``mechanism`` (given its foot path
-    and velocities), else the one-line reason why not}, in METRICS order."""
-    return _available(mechanism, None, None)
+    and velocities, and ``target`` for path_error), else the one-line reason why not}, in METRICS order."""
+    return _available(mechanism, None, None, target)
 
 
 def _resolve_names(names, available: dict[str, str | None]) -> list[str]:
@@ -359,7 +361,8 @@ def check_band(band) -> float:
 
 
 def compute_metrics(paths, velocities=None, status=None, names=None, band: float = DEFAULT_BAND, *,
-                    mechanism=None, lengths=None, crank=None, walker=None, geometry=None) -> dict[str, np.ndarray]:
+                    mechanism=None, lengths=None, crank=None, walker=None, geometry=None,
+                    target=None) -> dict[str, np.ndarray]:
     """Metrics of N foot paths: the walker scene, the single-leg band metrics and the screen's inputs
     (definitions: :mod:`explorer.gait._walker` and this module's docstring; units and directions:
     :data:`explorer.gait.TABLE`).
@@ -394,6 +397,8 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
         {coordinate parameter name: (N,) values} of each variant's crank centre and ground pivots
         ("crank.x", "2.y", see ``Mechanism.parameters``; those not given keep the nominal's): read by
         foot_headroom and min_transmission_angle (the loops' ground links).
+    target : :class:`explorer.gait.Target`, optional
+        The target path of ``path_error`` (a study's ``[target]`` table: :func:`explorer.gait.load_target`).
 
     Returns
     -------
@@ -414,7 +419,7 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
         status = status.astype(np.int64, copy=False)
     band = check_band(band)
     geometry = _geometry(geometry, mechanism, N)
-    chosen = _resolve_names(names, _available(mechanism, walker, crank))
+    chosen = _resolve_names(names, _available(mechanism, walker, crank, target))
     need_vel = [m for m in chosen if m in VELOCITY_METRICS]
     if need_vel and velocities is None:
         raise UserError(f"metrics: {', '.join(need_vel)} need the foot velocities dF/dθ; pass velocities= "
@@ -463,6 +468,14 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
         if run:
             parallel_rows(_crossings_kernel, (), (cpaths, status, out))
         result["self_crossings"] = out
+    # -- path synthesis ---------------------------------------------------------------------------------
+    if "path_error" in chosen:
+        out = np.full(N, np.nan)
+        ok = np.flatnonzero(status == 0)
+        if run and len(ok):
+            v = None if velocities is None else np.asarray(velocities, dtype=np.float64)[ok]
+            out[ok] = target.error(cpaths[ok], velocity=v)
+        result["path_error"] = out
     if "foot_headroom" in chosen:
         result["foot_headroom"] = foot_headroom(mechanism, cpaths, status, geometry=geometry)
     if "min_transmission_angle" in chosen:

@@ -13,8 +13,11 @@ leg        single-leg metrics of one foot path with a stance *band* (``y ≤ y_m
            kept for comparison with published figures; those with ``band`` in ``needs`` depend on it.
 screen     what the buildability screen reads (:mod:`explorer.gait._screen`).
 
-``needs`` is a subset of {"velocity", "band", "mechanism", "crank", "walker"}: the foot velocities
-dF/dθ, the stance band, the mechanism and each variant's lengths, the crank radius, the walker spec.
+target     path synthesis: the foot path against a study's ``[target]`` points (:mod:`explorer.gait._path`).
+
+``needs`` is a subset of {"velocity", "band", "mechanism", "crank", "walker", "target"}: the foot
+velocities dF/dθ, the stance band, the mechanism and each variant's lengths, the crank radius, the
+walker spec, a target path.
 Every metric needs the foot path.
 """
 
@@ -83,6 +86,10 @@ TABLE: tuple[Metric, ...] = (
     _m("foot_headroom", "length", "max", "screen",
        "how far the foot's highest point stays below the crank axle and every ground pivot", "mechanism", "crank"),
     _m("self_crossings", "count", "min", "screen", "times the foot path crosses itself"),
+    # -- path synthesis ---------------------------------------------------------------------------------
+    _m("path_error", "length", "min", "target",
+       "RMS distance from the [target] points to their matches on the foot path (timed, closest or by arc "
+       "length), after the translation / rotation / scale the target lets the match ignore", "velocity", "target"),
 )
 
 BY_NAME: dict[str, Metric] = {m.name: m for m in TABLE}
@@ -100,6 +107,8 @@ WALKER_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "wal
 LEG_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "leg")
 #: What the buildability screen reads.
 SCREEN_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "screen")
+#: Metrics of path synthesis (they need a target path).
+TARGET_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "target")
 #: Metrics whose value depends on the stance band.
 BAND_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "band" in m.needs)
 #: Metrics that need the foot velocities dF/dθ.

@@ -36,7 +36,8 @@ def compute_study_metrics(study: Study, paths, velocities, status, lengths, cran
         return None
     from ..gait import compute_metrics
     return compute_metrics(paths, velocities, status, names, study.band, mechanism=study.mech, lengths=lengths,
-                           crank=crank, walker=study.walker, geometry=geometry_columns(study, geometry))
+                           crank=crank, walker=study.walker, geometry=geometry_columns(study, geometry),
+                           target=study.target)
 
 
 def design_solver(study: Study):

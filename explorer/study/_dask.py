@@ -63,13 +63,14 @@ class _Recipe:
         self.fields = tuple((f.name, getattr(study, f.name)) for f in fields(study) if f.name != "_mech")
         self.mechanism_text = study.mechanism_text()
         self.mechanism_source = study.mech.source
-        self.key = (study.fingerprint(), self.mechanism_text)
+        # everything the fields decide, as text (a field may hold arrays, which == does not compare)
+        self.key = (study.fingerprint(), json.dumps(study.as_dict(), sort_keys=True), self.mechanism_text)
 
     def __hash__(self):
         return hash(self.key)
 
     def __eq__(self, other):
-        return isinstance(other, _Recipe) and self.key == other.key and self.fields == other.fields
+        return isinstance(other, _Recipe) and self.key == other.key
 
     def study(self) -> Study:
         return _rebuild(self)

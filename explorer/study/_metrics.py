@@ -88,7 +88,7 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
     or a file that lacks the foot path or velocities the metrics need (named in the message).
     """
     from ..gait import (BAND_METRICS, DESCRIPTIONS, DIRECTIONS, METRICS, UNITS, VELOCITY_METRICS,
-                        available_metrics, check_band, compute_metrics)
+                        available_metrics, check_band, compute_metrics, load_target)
     from ..mechanism import mechanism_from_dict, walker_from_dict
 
     t0 = time.perf_counter()
@@ -129,7 +129,12 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
         if mech.crank is None:
             raise UserError(f"{p}: mechanism {mech.name!r} is driven along a path, not by a crank: gait metrics "
                             f"describe a leg's closed foot path over a crank turn, so there are none to compute")
-        why_not = available_metrics(mech)
+        try:
+            tspec = json.loads(_text(f.attrs["study_resolved"])).get("target")
+        except (KeyError, TypeError, ValueError):
+            tspec = None
+        target = load_target(tspec, source=f"{p} (study_resolved)") if tspec else None
+        why_not = available_metrics(mech, target)
         every = [m for m in METRICS if why_not[m] is None]
         if names is None:
             chosen = [m for m in METRICS if m in stored] or every
@@ -229,7 +234,8 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                 G = dgeom[a:b] if dgeom is not None else None
                 geometry = {n: G[:, j] for j, n in enumerate(gnames)} if G is not None else None
                 out = compute_metrics(paths, vel, status, compute, band, mechanism=mech,
-                                      lengths=dlen[a:b], crank=dcrank[a:b], walker=walker, geometry=geometry)
+                                      lengths=dlen[a:b], crank=dcrank[a:b], walker=walker, geometry=geometry,
+                                      target=target)
                 for d, m in zip(targets, compute):
                     d[a:b] = out[m]
                 if bar is not None:

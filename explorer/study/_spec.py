@@ -74,8 +74,10 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import UserError, where
-from ..gait import SCREEN_KEYS, Screen, screen_from_dict
+from ..gait import SCREEN_KEYS, TARGET_KEYS, Screen, Target, load_target, screen_from_dict
 from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
 from ..mechanism import Mechanism, Walker, builtin_mechanisms, load_mechanism, parse_toml, walker_from_dict
 from ._objectives import OPTIMIZE_KEYS, Optimize, parse_optimize
@@ -96,6 +98,7 @@ _SECTIONS = {
     "screen": SCREEN_KEYS,
     "output": ("path", "compression"),
     "optimize": OPTIMIZE_KEYS,
+    "target": TARGET_KEYS,
 }
 #: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
 COMPRESSIONS = ("lzf", "gzip", "none")
@@ -120,6 +123,8 @@ class Study:
     source : the file the study came from (``builtin:NAME`` or ``<dict>``); text : its TOML text.
     walker : the walker scene (:class:`~explorer.mechanism.Walker`: the study's ``[walker]`` over
         the mechanism's own), None for a path-driven mechanism. screen : the ``[screen]`` thresholds.
+    target : the ``[target]`` path (:class:`~explorer.gait.Target`) the ``path_error`` metric compares
+        the foot path with, else None.
     optimize : the ``[optimize]`` table (:class:`~explorer.study._objectives.Optimize`) of a study run by
         ``explorer optimize``, else None. Its designs are the optimiser's: ``perturb_method`` is
         ``"optimize"``, ``variants`` is population × generations and the perturbed parameters are the
@@ -151,6 +156,7 @@ class Study:
     walker: Walker | None = None
     screen: Screen = field(default_factory=Screen)
     optimize: Optimize | None = None
+    target: Target | None = None
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
 
     # -- derived -------------------------------------------------------------------------------
@@ -221,6 +227,11 @@ class Study:
             "screen": self.screen.as_dict(),
             "output": {"path": self.output, "compression": self.compression},
         }
+        if self.target is not None:  # the points themselves (a CSV's content), so a changed target changes the fingerprint
+            t = self.target
+            out["target"] = {"points": t.points.tolist(), "match": t.match, "ignore": list(t.ignore)}
+            if t.angles is not None:
+                out["target"]["angles_deg"] = np.degrees(t.angles).tolist()
         if self.optimize is not None:  # the optimiser chooses the designs: no [perturb], no variants
             del out["perturb"]
             del out["study"]["variants"]
@@ -337,7 +348,7 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
 
     opt_table = data.get("optimize")
     if opt_table is not None:
-        return _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st, sc, ou, wa, scr)
+        return _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st, sc, ou, wa, scr, base)
     pmethod = v.choice("perturb.method", pe.get("method", "uniform"), PERTURB_METHODS)
     if pmethod in ("oat", "grid"):
         variants = v.integer("study.variants", st.get("variants", 11), 2, MAX_VARIANTS,
@@ -379,15 +390,17 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
         raise UserError(f"{where(source, 'study.variants')}: {pmethod} with {variants} {what} over {k} parameters "
                         f"gives {n_total:,} variants; at most {MAX_VARIANTS:,} are allowed")
 
-    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr)
+    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base)
     return Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
                  method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
                  source=source, text=text if text is not None else dumps_toml(data), mechanism_path=mech_path,
                  _mech=mech, parameters=parameters, **common)
 
 
-def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, sc, ou, wa, scr) -> dict:
-    """The Study fields of [scene], [walker], [screen] and [output], validated."""
+def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, sc, ou, wa, scr, ta=None,
+                      base: Path | None = None) -> dict:
+    """The Study fields of [scene], [walker], [screen], [output] and [target], validated."""
+    target = load_target(ta, base, source=source, key="target") if ta is not None else None
     vertices = v.names("scene.vertices", sc.get("vertices", [mech.foot]), mech.vertices, "vertex")
     velocities = v.boolean("scene.velocities", sc.get("velocities", True))
     accelerations = v.boolean("scene.accelerations", sc.get("accelerations", False))
@@ -406,7 +419,7 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
     compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
 
     return dict(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
-                metrics=metrics, output=out, compression=compression, walker=walker, screen=screen)
+                metrics=metrics, output=out, compression=compression, walker=walker, screen=screen, target=target)
 
 
 def _solver_keys(v: "_Validator", st: dict):
@@ -421,7 +434,7 @@ def _solver_keys(v: "_Validator", st: dict):
     return seed, steps, float(tolerance), method
 
 
-def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st, sc, ou, wa, scr) -> Study:
+def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st, sc, ou, wa, scr, base) -> Study:
     """A study with an [optimize] table: the designs are the optimiser's (see ``_objectives``)."""
     if "perturb" in data:
         raise UserError(f"{where(source, 'perturb')}: a study with [optimize] takes no [perturb] (the optimiser "
@@ -431,8 +444,8 @@ def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st,
                         f"[optimize] population x generations designs)")
     seed, steps, tolerance, method = _solver_keys(v, st)
     known = _known_metrics() or ()
-    opt = parse_optimize(data["optimize"], source, mech, known, has_target=False)
-    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr)
+    opt = parse_optimize(data["optimize"], source, mech, known, has_target="target" in data)
+    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base)
     from ..gait import CHECKS
     from ._objectives import metrics_needed
     needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check[1]))
