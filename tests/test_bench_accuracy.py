@@ -90,6 +90,19 @@ def test_table_csv_and_plot(tiny_report, tmp_path):
     assert len(rows) == len(tiny_report.rows) and tuple(rows[0]) == COLUMNS
     png = plot(tiny_report, tmp_path / "a.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # read back: every number as written (NaN where it does not apply), the picture drawn again from it
+    from explorer.bench import read_csv
+    back = read_csv(path, {"mechanism": "jansen"})
+    assert len(back.rows) == len(tiny_report.rows)
+    for mine, theirs in zip(back.rows, tiny_report.rows):
+        for k in COLUMNS:
+            a, b = mine[k], theirs.get(k, "")
+            if isinstance(a, float) and math.isnan(a):
+                assert b in ("", None) or (isinstance(b, float) and math.isnan(b)), (k, b)
+            else:
+                assert a == b, (k, a, b)
+    assert back.meta["variants_assembled"] == max(r["variants"] for r in tiny_report.rows)
+    assert plot(back, tmp_path / "b.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_cli_bench_accuracy(tmp_path, capsys):

@@ -124,6 +124,6 @@ def test_velocity_plot_of_a_path_is_against_time(arm_results):
 
     fig = plot_velocity(explorer.open_results(arm_results), 0)
     ax = fig.axes[0]
-    assert ax.get_xlabel() == "" and fig.axes[1].get_xlabel() == "time t (s)"
-    err, peak = map(float, re.search(r"= ([-\d.e+]+) \(peak \|dx/dt\| = ([-\d.e+]+)\)", ax.get_title()).groups())
+    assert ax.get_xlabel() == "" and fig.axes[1].get_xlabel() == "time t [s]"
+    err, peak = map(float, re.search(r"= ([-\d.e+]+), peak \|dx/dt\| = ([-\d.e+]+)", ax.get_title()).groups())
     assert err < 0.02 * peak, ax.get_title()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import matplotlib.pyplot
 import numpy as np
@@ -377,6 +378,48 @@ def test_sensitivity_of_an_oat_study(oat, results):
     assert fig.axes[0].get_images()
     with pytest.raises(UserError, match="one-at-a-time"):
         plot_sensitivity(results)
+
+
+def _paren_depth(text: str) -> int:
+    depth = deepest = 0
+    for ch in text:
+        depth += ch == "("
+        deepest = max(deepest, depth)
+        depth -= ch == ")"
+    return deepest
+
+
+@pytest.mark.parametrize("kind", ["top", "scatter", "velocity", "sensitivity"])
+def test_plots_read_at_a_glance(results, oat, kind):
+    """Every title, axis label and legend entry lies inside the figure (nothing clipped), is at least 9 pt,
+    axis labels give their unit in brackets without nested parentheses, and a legend or colour bar says
+    what the colours mean."""
+    fig = {"top": lambda: plot_top(results, top=3), "scatter": lambda: plot_scatter(results, "travel", "bob"),
+           "velocity": lambda: plot_velocity(results, 0), "sensitivity": lambda: plot_sensitivity(oat)}[kind]()
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    W, H = fig.bbox.width, fig.bbox.height
+    texts = [t for t in (fig._suptitle,) if t is not None and t.get_text()]
+    for ax in fig.axes:
+        texts += [t for t in (ax.title, ax.xaxis.label, ax.yaxis.label) if t.get_text()]
+        if ax.get_legend() is not None:
+            texts += list(ax.get_legend().get_texts())
+        for label in (ax.get_xlabel(), ax.get_ylabel()):
+            assert _paren_depth(label) <= 1, label
+    assert len(texts) >= 3
+    for t in texts:
+        bb = t.get_window_extent(r)
+        assert bb.x0 >= -1 and bb.y0 >= -1 and bb.x1 <= W + 1 and bb.y1 <= H + 1, (t.get_text(), bb, W, H)
+        assert t.get_fontsize() >= 9, t.get_text()
+    if kind == "sensitivity":  # the colour bar says what a cell's number is
+        assert "% change of the metric" in fig.axes[1].get_ylabel()
+    else:
+        for ax in fig.axes:
+            for label in (ax.get_xlabel(), ax.get_ylabel()):
+                assert not label or re.search(r"\[[^\]]+\]", label), label  # "foot x [model units]"
+    says_colours = any(ax.get_legend() is not None for ax in fig.axes) or len(fig.axes) > 1  # legend or colour bar
+    assert says_colours
+    matplotlib.pyplot.close(fig)
 
 
 @pytest.mark.parametrize("ext, magic", [(".png", b"\x89PNG"), (".svg", b"<?xml"), (".pdf", b"%PDF")])

@@ -8,7 +8,7 @@ formulations and linear solvers as extra rows (:mod:`explorer.bench._seeds`). ``
 """
 
 from ._accuracy import (DEFAULT_STEPS, DEFAULT_TOLERANCES, AccuracyReport, accuracy_sweep, closed_form_reference,
-                        format_table, plot, write_csv)
+                        format_table, plot, read_csv, write_csv)
 
 __all__ = ["DEFAULT_STEPS", "DEFAULT_TOLERANCES", "AccuracyReport", "accuracy_sweep", "closed_form_reference",
-           "format_table", "plot", "write_csv"]
+           "format_table", "plot", "read_csv", "write_csv"]

@@ -391,15 +391,37 @@ def write_csv(report: AccuracyReport, path) -> Path:
     return path
 
 
+def read_csv(path, meta: dict | None = None) -> AccuracyReport:
+    """An :class:`AccuracyReport` read back from :func:`write_csv`'s file (to draw it again without running
+    the sweep). ``meta``: what the CSV does not hold (mechanism, spread, threads, …) for the plot's title;
+    ``variants_assembled`` defaults to the largest ``variants`` of its rows."""
+    ints = {"steps", "variants", "ok", "failed", "silent"}
+    rows = []
+    with Path(path).open(newline="") as fh:
+        for r in csv.DictReader(fh):
+            row = {}
+            for k, v in r.items():
+                if k in ("method", "note"):
+                    row[k] = v
+                elif k in ints:
+                    row[k] = int(float(v)) if v not in ("", "nan") else 0
+                else:
+                    row[k] = float(v) if v != "" else math.nan
+            rows.append(row)
+    meta = dict(meta or {})
+    meta.setdefault("variants_assembled", max((r["variants"] for r in rows), default=0))
+    return AccuracyReport(rows=rows, meta=meta)
+
+
 def plot(report: AccuracyReport, path) -> Path:
     """Three log-log panels: max foot-position error vs Newton tolerance at one step count (seed 001's
     RMSE-vs-tolerance figure), max foot-position error vs time per configuration, and median stride error
     vs time per design cycle (where coarse sampling shows). One colour per method, one marker per step
-    count; a method that never converged is named in the legend."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    count, each said once in the legends on the right; a method that never converged is named there.
+    Errors of exactly 0 (the closed form against itself) are drawn at 1e-16."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -407,38 +429,50 @@ def plot(report: AccuracyReport, path) -> Path:
     rows = report.rows
     methods = list(dict.fromkeys(r["method"] for r in rows))
     steps = sorted(set(r["steps"] for r in rows))
-    colours = {m: plt.cm.tab10(i % 10) for i, m in enumerate(methods)}
+    import matplotlib
+    tab10 = matplotlib.colormaps["tab10"]
+    colours = {m: tab10(i % 10) for i, m in enumerate(methods)}
     markers = dict(zip(steps, "os^Dvx*+"))
-    fig, axes = plt.subplots(1, 3, figsize=(19, 5.4))
+    title_size, label_size, tick_size, legend_size = 13, 12, 10.5, 10
+    fig = Figure(figsize=(17.5, 5.8), dpi=100, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, 3)
     # (a) error vs tolerance at the step count the seed rows ran at (or the largest common one)
     with_tol = [r for r in rows if not math.isnan(r["tolerance"])]
+
     def coverage(steps):
         return len({r["method"] for r in with_tol if r["steps"] == steps}), steps
 
     s_a = max({r["steps"] for r in with_tol}, key=coverage) if with_tol else None
     ax = axes[0]
+    never = []
     for m in methods:
         sel = sorted((r for r in with_tol if r["method"] == m and r["steps"] == s_a), key=lambda r: r["tolerance"])
         good = [r for r in sel if r["ok"] > 0]
         if sel and not good:
-            ax.plot([], [], color=colours[m], label=f"{m}: never converged")
+            never.append(m)
             continue
         if good:
-            ax.plot([r["tolerance"] for r in good], [max(r["foot_err_max"], floor) for r in good], marker="o", ms=4,
-                    color=colours[m], label=m)
+            ax.plot([r["tolerance"] for r in good], [max(r["foot_err_max"], floor) for r in good],
+                    marker=markers.get(s_a, "o"), ms=6, lw=1.8, color=colours[m])
     bounds = sorted({(r["tolerance"], r["foot_err_bound"]) for r in with_tol
                      if r["steps"] == s_a and r.get("foot_err_bound") == r.get("foot_err_bound")
                      and r.get("foot_err_bound") is not None})
     if bounds:  # what the tolerance promises for block and dense: tol × the longest link
-        ax.plot([b[0] for b in bounds], [b[1] for b in bounds], "k--", lw=1.2,
-                label="promised bound (block, dense): tol × longest link")
-    ax.set_title(f"max foot error vs Newton tolerance ({s_a} steps)", fontsize=10)
-    ax.set_xlabel("tolerance (position error / longest link; seed rows: closure residual, length units)")
-    ax.legend(fontsize=7)
+        ax.plot([b[0] for b in bounds], [b[1] for b in bounds], "k--", lw=1.4,
+                label="promised bound (block, dense):\ntolerance × longest link")
+    if any(r["method"].startswith("seed") for r in with_tol):
+        ax.plot([], [], " ", label="seed rows: the tolerance bounds\nthe closure residual [model units]")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=legend_size, loc="upper left")
+    ax.set_title(f"(a) max foot error vs Newton tolerance, {s_a} steps", fontsize=title_size)
+    ax.set_xlabel("Newton tolerance [position error / longest link]", fontsize=label_size)
+    ax.set_ylabel("max |foot − closed form| [model units]", fontsize=label_size)
     # (b), (c): every cell
-    for ax, key, per_cycle, title in ((axes[1], "foot_err_max", False, "max foot error vs time"),
-                                      (axes[2], "stride_err_median", True,
-                                       "median stride error vs the 14,400-step reference")):
+    for ax, key, per_cycle, title, ylabel in (
+            (axes[1], "foot_err_max", False, "(b) max foot error vs time", "max |foot − closed form| [model units]"),
+            (axes[2], "stride_err_median", True, "(c) median stride error vs time",
+             "median |stride − 14,400-step reference| [model units]")):
         for m in methods:
             for s in steps:
                 sel = [r for r in rows if r["method"] == m and r["steps"] == s and r["ok"] > 0]
@@ -446,21 +480,32 @@ def plot(report: AccuracyReport, path) -> Path:
                     continue
                 x = [r["us_per_config"] * (s / 1e3 if per_cycle else 1.0) for r in sel]
                 y = [max(r[key], floor) for r in sel]
-                ax.scatter(x, y, marker=markers.get(s, "o"), color=colours[m], s=22,
-                           label=f"{m}, {s} steps")
-        ax.set_title(title, fontsize=10)
-        ax.set_xlabel("ms per design cycle" if per_cycle else "µs per configuration (one crank angle of one design)")
+                ax.scatter(x, y, marker=markers.get(s, "o"), color=colours[m], s=42, alpha=0.85, lw=0)
+        ax.set_title(title, fontsize=title_size)
+        ax.set_xlabel("time per design cycle [ms]" if per_cycle else
+                      "time per configuration [µs], one crank angle of one design", fontsize=label_size)
+        ax.set_ylabel(ylabel, fontsize=label_size)
     for ax in axes:
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].set_ylabel("max |foot − closed form| (length units; 1e-16 = exact)")
-    axes[2].set_ylabel("median |stride − reference| (length units)")
-    axes[2].legend(fontsize=6, ncol=1, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        ax.grid(True, which="major", alpha=0.35)
+        ax.grid(True, which="minor", alpha=0.12)
+        ax.tick_params(labelsize=tick_size)
+    # what the colours and the markers mean, once, on the right
+    method_handles = [Line2D([], [], color=colours[m], marker="o", lw=0, ms=8,
+                             label=m + (": never converged" if m in never else "")) for m in methods]
+    step_handles = [Line2D([], [], color="0.3", marker=markers[s], lw=0, ms=8, label=f"{s} steps per cycle")
+                    for s in steps]
+    fig.legend(handles=method_handles, title="colour: method", fontsize=legend_size, title_fontsize=legend_size + 0.5,
+               loc="outside right upper", alignment="left", frameon=False)
+    fig.legend(handles=step_handles, title="marker: crank steps", fontsize=legend_size,
+               title_fontsize=legend_size + 0.5, loc="outside right lower", alignment="left", frameon=False)
     m = report.meta
-    fig.suptitle(f"accuracy vs time, {m['mechanism']}: {m['variants_assembled']} variants ±{100 * m['spread']:g} % "
-                 f"({m['threads']} threads)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    what = [f"{m['variants_assembled']:,} variants" if "variants_assembled" in m else None,
+            f"±{100 * m['spread']:g} %" if "spread" in m else None,
+            f"{m['threads']} threads" if "threads" in m else None]
+    fig.suptitle(f"What accuracy costs in time: {m.get('mechanism', 'the mechanism')}, "
+                 + ", ".join(w for w in what if w) + "; an error of exactly 0 is drawn at 1e-16",
+                 fontsize=title_size + 1)
+    fig.savefig(path, dpi=100)
     return path

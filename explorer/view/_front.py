@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..study import front_history, objective_matrix, optimization_of
-from ._plots import metric_label, new_figure
+from ._plots import LEGEND_SIZE, metric_label, new_figure, style_axes
 
 
 def plot_front(results, x: str | None = None, y: str | None = None, *, snapshots: int = 6, figsize=(7.0, 5.0),
@@ -40,8 +40,8 @@ def plot_front(results, x: str | None = None, y: str | None = None, *, snapshots
         ax.step(hist["upto"], hist[name], where="post", color="black", lw=2, label="best so far", zorder=2)
         ax.set_xlabel("generation")
         ax.set_ylabel(metric_label(name))
-        ax.set_title(f"{opt.algorithm}: best {name} ({opt.directions[0]}) over {last + 1} generations")
-        ax.legend(loc="best")
+        style_axes(ax, f"{opt.algorithm}: best {name}, {opt.directions[0]}imised, over {last + 1} generations")
+        ax.legend(loc="best", fontsize=LEGEND_SIZE)
         return fig
     names = list(opt.objectives)
     x = x or names[0]
@@ -71,6 +71,7 @@ def plot_front(results, x: str | None = None, y: str | None = None, *, snapshots
     ax.set_xlabel(metric_label(x))
     ax.set_ylabel(metric_label(y))
     extra = f"; also {', '.join(n for n in names if n not in (x, y))}" if len(names) > 2 else ""
-    ax.set_title(f"{opt.algorithm}: Pareto front over {last + 1} generations{extra}", fontsize=10)
-    ax.legend(loc="best", fontsize=8)
+    style_axes(ax, f"{opt.algorithm}: Pareto front over {last + 1} generations{extra}")
+    ax.legend(loc="best", fontsize=LEGEND_SIZE, title="colour: generation, light early, black final",
+              title_fontsize=LEGEND_SIZE)
     return fig

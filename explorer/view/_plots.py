@@ -35,7 +35,19 @@ from ._draw import STANCE_COLOR
 FIGURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 
 _UNIT_TEXT = {"length": "model units", "length/rad": "model units/rad", "length/turn": "model units per crank turn",
-              "1 (per W·crank)": "per weight × crank radius"}
+              "1 (per W·crank)": "per weight × crank radius", "1": "ratio", "1 (length/length)": "ratio"}
+
+#: Font sizes (points) of every plot: readable at a glance on a screen and in the README at 100-150 dpi.
+TITLE_SIZE, LABEL_SIZE, TICK_SIZE, LEGEND_SIZE = 13, 12, 10.5, 10
+
+
+def style_axes(ax, title: str | None = None, *, title_size: float = TITLE_SIZE) -> None:
+    """Label, tick and title sizes of one axes (the units go in square brackets in the labels)."""
+    ax.xaxis.label.set_size(LABEL_SIZE)
+    ax.yaxis.label.set_size(LABEL_SIZE)
+    ax.tick_params(labelsize=TICK_SIZE)
+    if title is not None:
+        ax.set_title(title, fontsize=title_size)
 
 
 # -- figures and files ---------------------------------------------------------------------------------
@@ -157,12 +169,13 @@ def _unit(metric: str) -> str:
 
 
 def metric_label(metric: str) -> str:
-    """Axis label of a metric: name, unit and which way is better."""
+    """Axis label of a metric: name, [unit], and which way is better, e.g. "travel [model units per crank
+    turn], higher is better" (no nested parentheses)."""
     u = _unit(metric)
     d = DIRECTIONS.get(metric)
     better = {"max": "higher is better", "min": "lower is better"}.get(d)
-    inner = "; ".join(x for x in (u, better) if x)
-    return f"{metric} ({inner})" if inner else metric
+    text = f"{metric} [{u}]" if u else metric
+    return f"{text}, {better}" if better else text
 
 
 def _check_metric(df: pd.DataFrame, metric: str) -> str:
@@ -209,9 +222,9 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     key = by if by is not None else "score"
     n_ok = int(ok_mask(df).sum())
     n_pool = n_ok - (0 if include_screened else int(screened_mask(df).sum()))
-    pool = f"{n_pool} ok" + ("" if include_screened or n_pool == n_ok else " buildable")
+    pool = f"{n_pool:,} ok" + ("" if include_screened or n_pool == n_ok else " buildable")
     if ranked.empty:
-        raise UserError(f"no ok variant to rank ({pool} of {len(df)}" + (f", filter {where!r}" if where else "") + ")")
+        raise UserError(f"no ok variant to rank ({pool} of {len(df):,}" + (f", filter {where!r}" if where else "") + ")")
     mech = results.mechanism
     vname = vertex if vertex is not None else mech.foot
     fig = new_figure(figsize, dpi)
@@ -238,10 +251,13 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     handles, labels = ax.get_legend_handles_labels()
     handles.append(Line2D([], [], color="0.3", lw=5, alpha=0.5))
     labels.append(f"band stance (y ≤ y_min + {band:g}·height)")
-    ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", frameon=False)
+    ranked_by = (f"colour: rank by {by}" if by is not None else "colour: rank by score (1 = best)")
+    ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=LEGEND_SIZE, frameon=False,
+              title=ranked_by, title_fontsize=LEGEND_SIZE, alignment="left")
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("x (model units)")
-    ax.set_ylabel("y (model units)")
+    what = "foot" if vname == mech.foot else f"vertex {vname}"
+    ax.set_xlabel(f"{what} x [model units]")
+    ax.set_ylabel(f"{what} y [model units]")
     ax.grid(True, lw=0.4, alpha=0.5)
     if by is not None:
         first = {"max": "highest", "min": "lowest"}.get(DIRECTIONS.get(by), "best")
@@ -250,8 +266,8 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
         w = weights if weights is not None else DEFAULT_WEIGHTS
         how = "by score of " + ", ".join(w)
     filt = f", where {where}" if where else ""
-    ax.set_title(f"{mech.name}: foot path of vertex {vname}, top {len(ranked)} of {pool} variants "
-                 f"{how}{filt}", fontsize="medium", wrap=True)
+    style_axes(ax, f"{mech.name}: foot path of vertex {vname}, top {len(ranked)} of {pool} variants\n"
+                   f"{how}{filt}")
     return fig
 
 
@@ -289,16 +305,16 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     fig = new_figure(figsize, dpi)
     ax = fig.add_subplot()
     if len(out):
-        ax.scatter(out[x], out[y], s=6, color="0.7", alpha=0.5, lw=0, rasterized=len(out) > 2000,
-                   label=f"screened out as unbuildable ({len(out)})", zorder=1)
+        ax.scatter(out[x], out[y], s=6, color="0.6", alpha=0.5, lw=0, rasterized=len(out) > 2000,
+                   label=f"screened out as unbuildable ({len(out):,})", zorder=1)
     label = "ok variants" if include_screened or "buildable" not in df.columns else "buildable variants"
     ax.scatter(ok[x], ok[y], s=7, color="tab:blue", alpha=0.45, lw=0, rasterized=len(ok) > 2000,
-               label=f"{label} ({len(ok)})", zorder=2)
+               label=f"{label} ({len(ok):,})", zorder=2)
     front = ok[pareto_front(ok, [x, y], directions)] if len(ok) else ok
     if len(front):
         f = front.sort_values([x, y])
         ax.plot(f[x], f[y], "-o", color="tab:orange", ms=5, lw=1.6, zorder=3,
-                label=f"Pareto front ({len(front)})")
+                label=f"Pareto front ({len(front):,}; {_front_directions(x, y, directions)})")
     nominal = df[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
     if len(nominal) and np.isfinite(float(nominal[x].iloc[0])) and np.isfinite(float(nominal[y].iloc[0])):
         ax.plot(nominal[x], nominal[y], "*", color="tab:red", ms=16, mec="black", mew=0.8, zorder=4,
@@ -306,11 +322,23 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     ax.set_xlabel(metric_label(x))
     ax.set_ylabel(metric_label(y))
     ax.grid(True, lw=0.4, alpha=0.5)
-    ax.legend(loc="best", fontsize="small")
+    leg = ax.legend(loc="best", fontsize=LEGEND_SIZE, framealpha=0.9)
+    for h in leg.legend_handles:  # the dots of the clouds, large enough to show their colour
+        if hasattr(h, "set_sizes"):
+            h.set_sizes([36.0])
+            h.set_alpha(0.9)
     n = len(df)
     filt = f", where {where}" if where else ""
-    ax.set_title(f"{mech.name}: {y} against {x}, {len(ok) + len(out)} ok of {n} variants{filt}", fontsize="medium")
+    style_axes(ax, f"{mech.name}: {y} against {x}, {len(ok) + len(out):,} ok of {n:,} variants{filt}")
     return fig
+
+
+def _front_directions(x: str, y: str, directions=None) -> str:
+    """"max travel, min bob": the directions the Pareto front is taken in."""
+    d = dict(DIRECTIONS)
+    if directions:
+        d.update(directions)
+    return ", ".join(f"{d.get(m, 'max')} {m}" for m in (x, y))
 
 
 # -- plot_velocity --------------------------------------------------------------------------------------
@@ -402,30 +430,30 @@ def plot_velocity(source, variant: int | None = None, *, vertex: str | None = No
             ax.axvspan(x[a], x[b - 1] + step if b < S else 360.0, color=STANCE_COLOR, alpha=0.12, lw=0,
                        label="stance" if a == stance[0] else None)
         ax.plot(x, vel[:, j], "-", color="tab:blue", lw=2.6, zorder=2, label="analytic (Jacobian)")
-        ax.plot(x, fd[:, j], "--", color="tab:orange", lw=1.6, zorder=3, label=f"central finite differences ({spacing})")
+        ax.plot(x, fd[:, j], "--", color="tab:orange", lw=1.6, zorder=3, label=f"central finite differences, {spacing}")
         if not finite.all():
             k = int(np.argmin(finite))
             ax.axvline(x[k], color="tab:red", lw=1.2, ls=":", label="failure")
         err = np.nanmax(np.abs(vel[:, j] - fd[:, j])) if np.isfinite(vel[:, j] - fd[:, j]).any() else float("nan")
         scale = np.nanmax(np.abs(vel[:, j])) if np.isfinite(vel[:, j]).any() else float("nan")
-        ax.set_title(f"d{name}/d{d}: max |analytic − finite difference| = {err:.2e} "
-                     f"(peak |d{name}/d{d}| = {scale:.3g})", fontsize="small")
         clipped = _robust_ylim(ax, vel[:, j], fd[:, j])
-        ax.set_ylabel(f"d{name}/d{d} (model units/{unit})" + ("\n(clipped)" if clipped else ""))
+        ax.set_ylabel(f"d{name}/d{d} [model units/{unit}]" + ("\nclipped" if clipped else ""))
+        style_axes(ax, f"d{name}/d{d}: max |analytic − finite difference| = {err:.2e}, "
+                       f"peak |d{name}/d{d}| = {scale:.3g}", title_size=LABEL_SIZE - 1)
         ax.grid(True, lw=0.4, alpha=0.5)
         ax.axhline(0.0, color="0.3", lw=0.6)
-    axes[0].legend(loc="best", fontsize="small")
+    axes[0].legend(loc="best", fontsize=LEGEND_SIZE, framealpha=0.9)
     if timed:
-        axes[1].set_xlabel("time t (s)")
+        axes[1].set_xlabel("time t [s]", fontsize=LABEL_SIZE)
         axes[1].set_xlim(0.0, float(theta[-1]))
     else:
-        axes[1].set_xlabel("crank angle θ (deg)")
+        axes[1].set_xlabel("crank angle θ [deg]", fontsize=LABEL_SIZE)
         axes[1].set_xlim(0.0, 360.0)
         axes[1].set_xticks(np.arange(0, 361, 60))
     title = f"Foot velocity dF/d{d} of {what}: analytic vs finite differences"
     if fail:
         title += f"\nnot ok: {fail}"
-    fig.suptitle(title, fontsize="medium")
+    fig.suptitle(title, fontsize=TITLE_SIZE)
     return fig
 
 
@@ -514,6 +542,17 @@ def oat_sensitivity(results, metrics=None, relative: bool = True) -> pd.DataFram
     return out
 
 
+def _cell_text(v: float) -> str:
+    """A heat-map cell: 3 significant digits, no exponent below 10,000."""
+    if not math.isfinite(v):
+        return "—"
+    if abs(v) >= 1e4:
+        return f"{v:.1e}"
+    if abs(v) >= 100:
+        return f"{v:.0f}"
+    return f"{v:.2g}"
+
+
 def plot_sensitivity(results, metrics=None, *, relative: bool = True, figsize=None, dpi: float = 100) -> Figure:
     """Heat map of a one-at-a-time (oat) study: the change of each metric per link (and the crank).
 
@@ -523,40 +562,49 @@ def plot_sensitivity(results, metrics=None, *, relative: bool = True, figsize=No
     """
     table = oat_sensitivity(results, metrics, relative)
     mech = results.mechanism
-    nrow, ncol = table.shape
+    params, mets = list(table.index), list(table.columns)
+    # metrics down, parameters across: a study has more metrics than parameters, and names read across
+    data = table.to_numpy(dtype=np.float64).T
+    nrow, ncol = data.shape
     if figsize is None:
-        figsize = (max(6.5, 1.0 * ncol + 3.0), max(4.5, 0.42 * nrow + 2.2))
+        figsize = (max(7.0, 0.82 * ncol + 4.2), max(4.8, 0.36 * nrow + 2.3))
     fig = new_figure(figsize, dpi)
     ax = fig.add_subplot()
-    data = table.to_numpy(dtype=np.float64)
-    vmax = np.nanmax(np.abs(data)) if np.isfinite(data).any() else 1.0
-    vmax = vmax if vmax > 0 else 1.0
+    finite = np.abs(data[np.isfinite(data)])
+    # the colours saturate at the 95th percentile of |value|, so one extreme cell does not wash out the rest
+    vmax = float(np.percentile(finite, 95)) if finite.size else 1.0
+    vmax = vmax if vmax > 0 else (float(finite.max()) if finite.size and finite.max() > 0 else 1.0)
     from matplotlib import colormaps
     cmap = colormaps["RdBu_r"].with_extremes(bad="0.85")
     im = ax.imshow(np.ma.masked_invalid(data), cmap=cmap, vmin=-vmax, vmax=vmax, aspect="auto")
     for i in range(nrow):
         for j in range(ncol):
             v = data[i, j]
-            txt = "—" if not math.isfinite(v) else f"{v:.2g}"
-            ax.text(j, i, txt, ha="center", va="center", fontsize=7,
+            ax.text(j, i, _cell_text(v), ha="center", va="center", fontsize=8.5,
                     color="white" if math.isfinite(v) and abs(v) > 0.6 * vmax else "black")
-    ax.set_xticks(range(ncol), [f"{m}" for m in table.columns], rotation=35, ha="right")
-    ax.set_yticks(range(nrow), [f"{p} (n={table.attrs['samples'].get(p, 0)})" for p in table.index])
-    ax.set_xlabel("metric")
-    coords = any(mech.parameter_kind(p) == "coordinate" for p in table.index)
-    ax.set_ylabel("parameter (link, crank radius" + (", coordinate)" if coords else ")"))
+    samples = table.attrs["samples"]
+    ax.set_xticks(range(ncol), [f"{p}\nn={samples.get(p, 0)}" for p in params], fontsize=TICK_SIZE)
+    ax.set_yticks(range(nrow), mets, fontsize=TICK_SIZE)
+    coords = any(mech.parameter_kind(p) == "coordinate" for p in params)
+    ax.set_xlabel("parameter changed: link, crank radius" + (" or coordinate" if coords else "")
+                  + "; n = ok samples", fontsize=LABEL_SIZE)
+    ax.set_ylabel("metric", fontsize=LABEL_SIZE)
     if relative:
-        unit = ("% change of metric per +1 % of parameter"
-                + (f" (coordinate: of the size {mech.size:g})" if coords else ""))
+        unit = "% change of the metric per +1 % of the parameter" + ("\ncoordinates: +1 % of the size "
+                                                                     f"{mech.size:g}" if coords else "")
     else:
         unit = "metric units per model unit of the parameter"
-    cb = fig.colorbar(im, ax=ax, shrink=0.9)
-    cb.set_label(unit)
+    extend = "both" if finite.size and finite.max() > vmax else "neither"
+    cb = fig.colorbar(im, ax=ax, shrink=0.9, extend=extend)
+    cb.set_label(unit + ("; colours saturate beyond ±" + _cell_text(vmax) if extend == "both" else ""),
+                 fontsize=LABEL_SIZE - 1)
+    cb.ax.tick_params(labelsize=TICK_SIZE)
     spread = ""
     try:
         spread = f", ±{100 * float(results.study['perturb']['spread']):g} %"
     except (AttributeError, KeyError, TypeError, ValueError):
         pass
-    ax.set_title(f"{mech.name}: one-at-a-time sensitivity{spread} ({'elasticity' if relative else 'slope'})",
-                 fontsize="medium")
+    ax.set_title(f"{mech.name}: one-at-a-time sensitivity{spread}, {'elasticity' if relative else 'slope'}; "
+                 f"red: the metric grows with the parameter, blue: it shrinks, grey: undefined",
+                 fontsize=TITLE_SIZE - 1, wrap=True)
     return fig
