@@ -17,6 +17,11 @@ Plots (each returns a :class:`matplotlib.figure.Figure`; save with :func:`save_f
 * ``plot_indices(explorer.study.sensitivity(results))`` — global sensitivity indices of a sampled
   study: one panel per output, bars with their intervals.
 
+Report: ``write_report(results, "report.html")`` — one self-contained interactive HTML page (plotly.js
+inlined, opens offline): linked parallel coordinates, a metric scatter with the Pareto front, foot paths,
+and the screened-out and failed designs by reason (:mod:`explorer.view._report`); ``report_html(results)``
+gives the page as a string.
+
 Animation: ``animate(mechanism_or_cycle_or_results, "leg.mp4", cycles=2, frames=120, legs=1)``.
 
 Exports of one design (:mod:`explorer.view._export`): ``export_svg(mech, "parts.svg")`` and
@@ -32,6 +37,7 @@ from ._export import (EXPORT_FORMATS, Sheet, cut_sheet, export_csv, export_dxf, 
                       mechanism_toml, trajectory_frame, variant_design)
 from ._front import plot_front
 from ._indices import plot_indices
+from ._report import Report, report_html, write_report
 from ._plots import (FIGURE_FORMATS, central_differences, new_figure, oat_sensitivity, plot_scatter,
                      plot_sensitivity, plot_top, plot_velocity, save_figure, stance_indices, variant_mechanism)
 
@@ -42,3 +48,4 @@ __all__ = ["DEFAULT_FPS", "FIGURE_FORMATS", "FOOT_PATH_COLOR", "FRAMES_PER_CYCLE
 __all__ += ["plot_front"]
 __all__ += ["EXPORT_FORMATS", "Sheet", "cut_sheet", "export_csv", "export_dxf", "export_svg", "export_toml",
             "mechanism_toml", "trajectory_frame", "variant_design"]
+__all__ += ["Report", "report_html", "write_report"]

@@ -1,0 +1,935 @@
+"""An interactive report of a results file: one self-contained HTML page (``explorer report``).
+
+The page holds plotly.js itself (inlined, ~4.8 MB; no CDN, it opens offline) and four linked views:
+
+* **parallel coordinates** (plotly ``parcoords``) over the rank, the varied design parameters, every
+  stored metric (in the order of :data:`explorer.gait.TABLE`, ↑ higher / ↓ lower is better), whether
+  the design passes the buildability screen, and whether it is picked in the scatter;
+* a **scatter** of any two metrics (two drop-downs; default travel against bob) with the **Pareto
+  front** of the selected buildable designs in the metrics' own directions and the nominal
+  (variant 0) starred;
+* the **foot paths** of the best-ranked selected designs (at most ``shown`` at once, default 50) over
+  the nominal's;
+* the **screened-out and failed designs counted by reason** (a design can fail several screen
+  checks: it counts under each), each reason viewable: its first designs' foot paths drawn in red
+  and its variant numbers listed.
+
+Brushing an axis of the parallel coordinates (its ``constraintrange``) selects the designs inside
+every brushed range; a box or lasso selection in the scatter brushes the "scatter pick" axis, so
+that both filter every view. The selected count is in the element ``#n-selected`` (``data-count``),
+the designs in the views in ``#n-designs``, the front's size in ``#n-front``.
+
+Size: the linked views hold every ok design (``status`` ok; failed ones have no metrics), one float32
+column per axis (base64 in the page), in the order of ``explorer rank`` (the default score over the
+buildable designs, then the screened-out ones by the same score). Above ``max_designs`` (default
+100,000) a seeded uniform sample of them is shown, and the page says so with the numbers; the counts
+by reason are always over every variant. The parallel coordinates draw at most ``pc_lines`` (default
+10,000) of the designs, a seeded random sample (1,000 where the browser draws WebGL in software, without
+a GPU; a menu on the page changes it); brushes, counts, the scatter and the front are over all of them.
+Foot paths are downsampled to ``points`` (default 60) per path and stored for the ``paths`` (default
+2,000) best-ranked designs, the nominal, and the first ``reason_paths`` (default 50) of each reason, as
+16-bit integers over their common bounding box. 10,000 Jansen variants make a 7.3 MB page, 100,000 a
+22 MB one (plotly.js itself is 4.8 MB of it).
+
+Open from a notebook: ``write_report(res, "report.html")`` then
+``IPython.display.IFrame("report.html", width="100%", height=1100)``; or
+:meth:`Report.iframe`.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+from ..gait import BY_NAME, CHECKS, DEFAULT_WEIGHTS, METRICS, rank
+
+#: Above this many ok designs the linked views show a seeded uniform sample of them.
+DEFAULT_MAX_DESIGNS = 100_000
+#: Foot paths stored for this many best-ranked designs.
+DEFAULT_PATHS = 2_000
+#: The parallel coordinates draw at most this many designs (a seeded sample; brushes count every design).
+DEFAULT_PC_LINES = 10_000
+#: ... and this many where the browser renders WebGL in software (no GPU: SwiftShader, llvmpipe), where
+#: every line costs milliseconds; the page offers the other counts.
+PC_LINES_SOFTWARE = 1_000
+#: Selected designs whose foot paths are drawn at once.
+DEFAULT_SHOWN = 50
+#: Samples kept per stored foot path (evenly spaced in crank angle).
+DEFAULT_POINTS = 60
+#: Foot paths stored per reason (screened-out check, failure status): its lowest variant numbers.
+DEFAULT_REASON_PATHS = 50
+#: Variant numbers listed per reason.
+REASON_LIST = 500
+
+_STATUS_TEXT = {
+    "assembly": "cannot assemble at some crank angle (or time along its path)",
+    "branch": "left its branch (a toggle crossed, or the mirror assembly)",
+    "no-convergence": "Newton did not converge, or a step could not be resolved",
+    "invalid": "a non-finite or non-positive length",
+    "not-run": "not run yet (an interrupted run: finish it with explorer run --resume)",
+}
+_CHECK_TEXT = {
+    "toggle": "a crank-driven four-bar loop comes within min_transmission_angle of toggle",
+    "foot above the frame": "the foot rises above the crank axle or a ground pivot",
+    "foot whip": "peak foot speed above max_foot_speed crank radii per radian",
+    "crossing path": "the foot path crosses itself",
+}
+_UNIT_TEXT = {"length": "model units", "length/turn": "model units per crank turn", "length/rad": "model units/rad",
+              "1": "ratio", "1 (length/length)": "ratio", "1 (per W·crank)": "per weight × crank radius"}
+
+
+@dataclass
+class Report:
+    """What :func:`write_report` wrote (or :func:`report_html` built).
+
+    path : the file (None for :func:`report_html`); bytes : its size; n_variants : every variant of
+    the results; n_ok : the ok ones; n_designs : the designs in the linked views (n_ok, or the sample);
+    sampled : whether they are a sample; n_paths : designs whose foot paths the page holds;
+    parameters, metrics : the axes; counts : {reason: number of variants} (the table of the page:
+    "ok, buildable", "screened out (any check)", "screened out: CHECK" …, "failed: STATUS" …).
+    """
+
+    path: Path | None
+    bytes: int
+    n_variants: int
+    n_ok: int
+    n_designs: int
+    sampled: bool
+    n_paths: int
+    parameters: list = field(default_factory=list)
+    metrics: list = field(default_factory=list)
+    counts: dict = field(default_factory=dict)
+
+    def iframe(self, width="100%", height: int = 1100):
+        """The written page in a notebook cell (``IPython.display.IFrame``; the file must be reachable
+        from the notebook's folder, as a relative path is)."""
+        if self.path is None:
+            raise UserError("report: nothing written; call write_report(results, PATH) first")
+        try:
+            from IPython.display import IFrame
+        except ImportError:
+            raise UserError("report: Report.iframe needs IPython (a notebook); open the file in a browser "
+                            "instead") from None
+        p = Path(os.path.relpath(self.path)) if self.path.is_absolute() else self.path
+        return IFrame(str(p), width=width, height=height)
+
+
+# -- the data ----------------------------------------------------------------------------------------
+def _ranked_ok(df):
+    """Positions (into ``df``) of the ok rows in report order: the buildable ones as ``explorer rank``
+    orders them (default score), then the screened-out ones by the same score; by variant where the
+    default score's metrics are not stored (then the second value is False)."""
+    from ..gait import ok_mask
+    ok = np.flatnonzero(ok_mask(df))
+    if not all(m in df.columns for m in DEFAULT_WEIGHTS):
+        return ok, False
+    pos = df.index.get_indexer(rank(df, top=None).index)
+    if "buildable" in df.columns:
+        screened = df[ok_mask(df) & ~df["buildable"].to_numpy(dtype=bool)]
+        if len(screened):
+            pos = np.r_[pos, df.index.get_indexer(rank(screened, top=None, include_screened=True).index)]
+    rest = np.setdiff1d(ok, pos)  # whatever rank() leaves out (it ranks NaN scores last) comes last, by variant
+    return np.r_[pos, rest].astype(np.int64), True
+
+
+def reason_masks(df, screen) -> dict:
+    """{reason: (n,) bool} over the rows of a results frame: "ok, buildable", "screened out (any
+    check)", "screened out: CHECK" per applied check of the buildability screen (a row may fail
+    several), "failed: STATUS" per failure status, "not run yet" (an interrupted run). Only reasons
+    with at least one row are listed, except "ok, buildable"."""
+    from ..gait import ok_mask
+    ok = ok_mask(df)
+    out = {}
+    checks = {}
+    for name, cols, value, fld, failed, _ in CHECKS:
+        if all(c in df.columns for c in cols):
+            with np.errstate(invalid="ignore", divide="ignore"):
+                checks[name] = np.asarray(failed(value(df), getattr(screen, fld)), dtype=bool) & ok
+    anyfail = np.zeros(len(df), dtype=bool)
+    for m in checks.values():
+        anyfail |= m
+    out["ok, buildable"] = ok & ~anyfail
+    if checks:
+        out["screened out (any check)"] = anyfail
+        for name, m in checks.items():
+            if m.any():
+                out[f"screened out: {name}"] = m
+    status = df["status"].astype(str).to_numpy()
+    for s in dict.fromkeys(status[~ok]):
+        out["not run yet" if s == "not-run" else f"failed: {s}"] = status == s
+    return out
+
+
+def _f32(a) -> np.ndarray:
+    return np.asarray(a, dtype=np.float64).astype(np.float32)
+
+
+def _b64(a: np.ndarray) -> str:
+    return base64.b64encode(np.ascontiguousarray(a).astype(a.dtype.newbyteorder("<")).tobytes()).decode("ascii")
+
+
+def read_foot_paths(res, variants, points: int = DEFAULT_POINTS, vertex: str | None = None) -> np.ndarray:
+    """Foot paths of ``variants`` (any order), downsampled to ``points`` evenly spaced samples:
+    (len(variants), points, 2) float64, model units (NaN where a failed variant has no position).
+
+    Reads the file chunk by chunk (each HDF5 chunk at most once), so scattered variants of a large
+    file cost one pass over the chunks that hold them."""
+    variants = np.asarray(variants, dtype=np.int64).reshape(-1)
+    vname = vertex if vertex is not None else (res.mechanism.foot if res.mechanism.foot in res.vertices
+                                               else res.vertices[0])
+    ds = res.file["paths"][vname]
+    S = ds.shape[1]
+    if res.mechanism.crank is not None:  # a turn: evenly spaced, the last sample comes back to the first
+        keep = np.unique(np.round(np.linspace(0, S, min(points, S), endpoint=False)).astype(np.int64) % S)
+    else:  # a path driver's samples run from its start to its end: keep both
+        keep = np.unique(np.round(np.linspace(0, S - 1, min(points, S))).astype(np.int64))
+    out = np.full((len(variants), len(keep), 2), np.nan)
+    if not len(variants):
+        return out
+    rows = ds.chunks[0] if ds.chunks else 4096
+    order = np.argsort(variants, kind="stable")
+    sv = variants[order]
+    starts = (sv // rows) * rows
+    for a in np.unique(starts):
+        sel = np.flatnonzero(starts == a)
+        block = ds[a:min(a + rows, ds.shape[0])]
+        out[order[sel]] = block[sv[sel] - a][:, keep]
+    return out
+
+
+def _quantize(paths: np.ndarray):
+    """(uint16 array, [x0, y0, sx, sy]): x = x0 + q·sx, y = y0 + q·sy; 65535 = no position."""
+    finite = np.isfinite(paths)
+    if not finite.any():
+        return np.full(paths.shape, 65535, dtype=np.uint16), [0.0, 0.0, 1.0, 1.0]
+    lo = np.array([np.nanmin(paths[..., 0]), np.nanmin(paths[..., 1])])
+    hi = np.array([np.nanmax(paths[..., 0]), np.nanmax(paths[..., 1])])
+    step = np.maximum(hi - lo, 1e-12) / 65534.0
+    with np.errstate(invalid="ignore"):
+        q = np.round((paths - lo) / step)
+    q = np.where(np.isfinite(q), q, 65535).astype(np.uint16)
+    return q, [float(lo[0]), float(lo[1]), float(step[0]), float(step[1])]
+
+
+def _unit_text(unit: str) -> str:
+    return _UNIT_TEXT.get(unit, unit)
+
+
+def _axis_label(m: str) -> str:
+    meta = BY_NAME.get(m)
+    if meta is None:
+        return m
+    arrow = {"max": " ↑", "min": " ↓"}.get(meta.direction, "")
+    return f"{m}{arrow}"
+
+
+def _title_label(m: str) -> str:
+    meta = BY_NAME.get(m)
+    if meta is None:
+        return m
+    better = {"max": "higher is better", "min": "lower is better"}[meta.direction]
+    return f"{m} [{_unit_text(meta.unit)}], {better}"
+
+
+def _check_count(name, value, minimum) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise UserError(f"report: {name}: expected a whole number >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, paths: int = DEFAULT_PATHS,
+                 shown: int = DEFAULT_SHOWN, points: int = DEFAULT_POINTS, reason_paths: int = DEFAULT_REASON_PATHS,
+                 seed: int = 0, x: str | None = None, y: str | None = None, title: str | None = None,
+                 pc_lines: int = DEFAULT_PC_LINES):
+    """(html text, :class:`Report` with path None) of an open results file; see :func:`write_report`."""
+    import plotly.graph_objects as go
+    import plotly.io as pio
+    from plotly.offline import get_plotlyjs
+
+    from .. import __version__
+    from ..gait import ok_mask
+
+    max_designs = _check_count("max_designs", max_designs, 1)
+    paths = _check_count("paths", paths, 0)
+    shown = _check_count("shown", shown, 0)
+    points = _check_count("points", points, 3)
+    reason_paths = _check_count("reason_paths", reason_paths, 0)
+    pc_lines = _check_count("pc_lines", pc_lines, 1)
+    df = res.frame()
+    N = len(df)
+    mech = res.mechanism
+    params = [p for p in res.perturbed if p in df.columns]
+    stored = [m for m in METRICS if m in df.columns] + [m for m in res.metric_names
+                                                          if m not in METRICS and m in df.columns]
+    if metrics is not None:
+        names = [s.strip() for s in metrics.split(",") if s.strip()] if isinstance(metrics, str) else list(metrics)
+        unknown = [m for m in names if m not in stored]
+        if unknown:
+            raise UserError(f"{res.filename}: metric {unknown[0]!r} is not stored "
+                            f"(stored: {', '.join(stored) or 'none'})")
+        stored = list(dict.fromkeys(names))
+    ok = ok_mask(df)
+    n_ok = int(ok.sum())
+    dropped = [m for m in stored if not np.isfinite(df.loc[ok, m].to_numpy(dtype=np.float64)).any()]
+    mets = [m for m in stored if m not in dropped]
+
+    order, by_score = _ranked_ok(df)
+    sampled = n_ok > max_designs
+    if sampled:
+        rng = np.random.default_rng(seed)
+        pick = np.sort(rng.choice(n_ok, size=max_designs, replace=False))
+        order = order[pick]
+    n = len(order)
+    rows = df.iloc[order]
+    variant = rows["variant"].to_numpy(dtype=np.int64) if "variant" in rows.columns else order.astype(np.int64)
+    buildable = rows["buildable"].to_numpy(dtype=bool) if "buildable" in rows.columns else np.ones(n, dtype=bool)
+    rank_col = (pick + 1) if sampled else np.arange(1, n + 1)  # place among every ok design
+
+    # -- x, y of the scatter -----------------------------------------------------------------------------
+    def _pair():
+        if len(mets) < 2:
+            return None, None
+        a = x if x is not None else ("travel" if "travel" in mets else mets[0])
+        b = y if y is not None else ("bob" if "bob" in mets and a != "bob" else next(m for m in mets if m != a))
+        for m in (a, b):
+            if m not in mets:
+                raise UserError(f"{res.filename}: scatter metric {m!r} is not among the report's metrics "
+                                f"({', '.join(mets) or 'none'})")
+        if a == b:
+            raise UserError(f"report: name two different metrics for the scatter, got {a!r} twice")
+        return a, b
+
+    sx, sy = _pair()
+
+    # -- the table of the views: one float32 column per axis, rows in rank order --------------------------
+    columns = []
+    table = []
+    dims = []
+
+    def add(key, label, kind, values, unit="", description="", **extra):
+        table.append(_f32(values))
+        dims.append(dict(label=label, values=[], **extra))
+        meta = BY_NAME.get(key)
+        columns.append({"key": key, "label": label, "kind": kind, "dim": len(dims) - 1,
+                        "unit": _unit_text(meta.unit) if meta else unit,
+                        "direction": meta.direction if meta else None,
+                        "description": meta.description if meta else description})
+
+    add("rank", "rank", "rank", rank_col, description="place in the ranking (1 = best; see above)")
+    if "generation" in rows.columns:  # an optimisation (explorer optimize): when each design was tried
+        add("generation", "generation", "generation", rows["generation"].to_numpy(dtype=np.float64),
+            description="the generation of the optimisation that tried the design (0 = the first)")
+    for p in params:
+        kind = mech.parameter_kind(p)
+        add(p, p, "parameter", rows[p].to_numpy(dtype=np.float64), unit="model units",
+            description=("crank radius" if p == "crank" else f"length of link {p}" if kind == "length"
+                         else f"coordinate {p}"))
+    for m in mets:
+        add(m, _axis_label(m), "metric", rows[m].to_numpy(dtype=np.float64))
+    add("buildable", "buildable", "flag", buildable.astype(np.float64), range=[0, 1], tickvals=[0, 1],
+        ticktext=["screened out", "yes"], description="passes the buildability screen (yes) or is screened out")
+    add("pick", "scatter pick", "flag", np.ones(n), range=[0, 1], tickvals=[0, 1], ticktext=["out", "in"],
+        description="inside the box or lasso drawn in the scatter (all in while none is drawn)")
+    # the parallel coordinates draw at most pc_lines designs: the first of a seeded random order of the rows
+    # (any prefix of it is a uniform sample: the page may draw fewer); brushes count every design
+    pc_order = np.random.default_rng(seed + 1).permutation(n)[:pc_lines].astype(np.int32)
+    pc = go.Figure(go.Parcoords(
+        dimensions=dims, labelangle=-40, labelside="top", labelfont=dict(size=12), tickfont=dict(size=10),
+        rangefont=dict(size=9),
+        line=dict(color=[], colorscale=[[0.0, "#08306b"], [0.35, "#2171b5"], [0.7, "#9ecae1"], [1.0, "#dde8f3"]],
+                  showscale=True,
+                  cmin=1, cmax=max(float(rank_col.max()) if n else 1.0, 2.0),
+                  colorbar=dict(title=dict(text="rank", side="right"), thickness=12, len=0.9))))
+    pc.update_layout(margin=dict(l=60, r=40, t=150, b=30), height=520, font=dict(size=12), paper_bgcolor="white")
+
+    # -- scatter (its points are filled in by the page's script from the table) ------------------------------
+    nominal = df[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
+    nominal_ok = len(nominal) and bool(ok_mask(nominal)[0])
+    nominal_values = {m: (float(nominal[m].iloc[0]) if nominal_ok and math.isfinite(float(nominal[m].iloc[0]))
+                          else None) for m in mets}
+    sc = go.Figure()
+    keep = dict(marker=dict(opacity=1.0))  # a box drawn in the scatter dims only the all-designs layer
+    if sx is not None:
+        sc.add_trace(go.Scattergl(x=[], y=[], mode="markers", name=f"every design in the page ({n:,})",
+                                  marker=dict(size=4, color="#d4d4d4"), hoverinfo="skip",
+                                  unselected=dict(marker=dict(opacity=1.0)),
+                                  selected=dict(marker=dict(color="#9a9a9a"))))
+        sc.add_trace(go.Scattergl(x=[], y=[], mode="markers", name="selected, screened out",
+                                  marker=dict(size=5, color="#9467bd", opacity=0.5), customdata=[], unselected=keep,
+                                  hovertemplate="variant %{customdata} (screened out)<br>%{x:.4g}, %{y:.4g}"
+                                                "<extra></extra>"))
+        sc.add_trace(go.Scattergl(x=[], y=[], mode="markers", name="selected, buildable",
+                                  marker=dict(size=5, color="#1f77b4", opacity=0.6), customdata=[], unselected=keep,
+                                  hovertemplate="variant %{customdata}<br>%{x:.4g}, %{y:.4g}<extra></extra>"))
+        sc.add_trace(go.Scatter(x=[], y=[], mode="lines+markers", name="Pareto front of the selected buildable",
+                                line=dict(color="#ff7f0e", width=2), marker=dict(size=7, color="#ff7f0e"),
+                                customdata=[], unselected=keep, hovertemplate="front: variant %{customdata}<br>%{x:.4g}, %{y:.4g}"
+                                                             "<extra></extra>"))
+        sc.add_trace(go.Scatter(x=[], y=[], mode="markers", name="nominal (variant 0)", unselected=keep,
+                                hovertemplate="nominal<br>%{x:.4g}, %{y:.4g}<extra></extra>",
+                                marker=dict(symbol="star", size=16, color="#d62728", line=dict(color="black", width=1))))
+        sc.update_layout(xaxis_title=_title_label(sx), yaxis_title=_title_label(sy))
+    sc.update_layout(dragmode="select", height=520, margin=dict(l=70, r=20, t=30, b=60), font=dict(size=13),
+                     legend=dict(orientation="h", yanchor="bottom", y=1.0, x=0, font=dict(size=11)),
+                     plot_bgcolor="white", paper_bgcolor="white", hovermode="closest")
+    sc.update_xaxes(showgrid=True, gridcolor="#e5e5e5", zeroline=False, linecolor="#444", mirror=True)
+    sc.update_yaxes(showgrid=True, gridcolor="#e5e5e5", zeroline=False, linecolor="#444", mirror=True)
+
+    # -- foot paths ------------------------------------------------------------------------------------------
+    masks = reason_masks(df, res.screen)
+    counts = {k: int(v.sum()) for k, v in masks.items()}
+    has_paths = bool(res.vertices)
+    n_paths = min(paths, n) if has_paths else 0
+    path_variants = [int(v) for v in variant[:n_paths]]
+    nominal_path = None
+    reasons = []
+    for key, m in masks.items():
+        if key == "ok, buildable":
+            continue
+        vs = df.loc[m, "variant"].to_numpy(dtype=np.int64) if "variant" in df.columns else np.flatnonzero(m)
+        kind, _, what = key.partition(": ")
+        text = (_CHECK_TEXT.get(what, "") if kind == "screened out" else
+                _STATUS_TEXT.get(what, "") if kind == "failed" else
+                _STATUS_TEXT["not-run"] if key == "not run yet" else
+                "fails at least one check of the buildability screen (each is counted below)")
+        entry = {"key": key, "count": int(m.sum()), "text": text, "variants": [int(v) for v in vs[:REASON_LIST]],
+                 "paths": [], "path_variants": []}
+        if has_paths:
+            take = [int(v) for v in vs[:reason_paths]]
+            entry["paths"] = list(range(len(path_variants), len(path_variants) + len(take)))
+            entry["path_variants"] = take
+            path_variants += take
+        reasons.append(entry)
+    if has_paths:
+        nominal_path = len(path_variants)
+        path_variants.append(0)
+    vname = None
+    blob, scale, npts = "", [0.0, 0.0, 1.0, 1.0], 0
+    if has_paths:
+        vname = mech.foot if mech.foot in res.vertices else res.vertices[0]
+        P = read_foot_paths(res, path_variants, points, vname)
+        npts = P.shape[1]
+        q, scale = _quantize(P)
+        blob = _b64(q)
+    nom_xy = P[nominal_path] if has_paths else np.zeros((0, 2))
+    loop = has_paths and mech.crank is not None and np.isfinite(nom_xy).all()  # a path driver's path is no loop
+    closed = np.vstack([nom_xy, nom_xy[:1]]) if loop else nom_xy
+    fp = go.Figure()
+    fp.add_trace(go.Scatter(x=closed[:, 0], y=closed[:, 1], mode="lines", name="nominal (variant 0)",
+                            line=dict(color="#555555", width=4), hoverinfo="name"))
+    fp.add_trace(go.Scatter(x=[], y=[], mode="lines", name=f"selected: the best {shown} by rank",
+                            line=dict(color="#1f77b4", width=1.2), opacity=0.75, customdata=[],
+                            hovertemplate="variant %{customdata}<extra>selected</extra>"))
+    fp.add_trace(go.Scatter(x=[], y=[], mode="lines", name="by reason (none chosen)",
+                            line=dict(color="#d62728", width=1.2), opacity=0.8, customdata=[],
+                            hovertemplate="variant %{customdata}<extra>reason</extra>"))
+    unit = "model units"
+    fp.update_layout(height=500, margin=dict(l=70, r=20, t=30, b=60), font=dict(size=13),
+                     legend=dict(orientation="h", yanchor="bottom", y=1.0, x=0, font=dict(size=11)),
+                     plot_bgcolor="white", paper_bgcolor="white",
+                     xaxis=dict(title=f"foot x [{unit}]", showgrid=True, gridcolor="#e5e5e5", zeroline=False,
+                                linecolor="#444", mirror=True),
+                     yaxis=dict(title=f"foot y [{unit}]", showgrid=True, gridcolor="#e5e5e5", zeroline=False,
+                                linecolor="#444", mirror=True, scaleanchor="x", scaleratio=1))
+
+    # -- the page's data ---------------------------------------------------------------------------------------
+    study = res.study.get("study", {}) if isinstance(res.study, dict) else {}
+    data = {
+        "n_variants": N, "n_ok": n_ok, "n_designs": n, "sampled": bool(sampled), "seed": int(seed),
+        "max_designs": max_designs, "columns": columns, "x": sx, "y": sy, "metrics": mets, "params": params,
+        "by_score": by_score, "variant": _b64(variant.astype(np.int32)),
+        "table": _b64(np.concatenate(table) if table else np.zeros(0, np.float32)),
+        "pc_order": _b64(pc_order), "pc_lines": min(pc_lines, n), "pc_lines_software": min(PC_LINES_SOFTWARE, n), "shown": shown, "n_paths": n_paths,
+        "points": npts, "paths": blob, "scale": scale, "nominal_path": nominal_path, "reasons": reasons,
+        "nominal": nominal_values, "foot": vname, "dropped": dropped, "closed": mech.crank is not None,
+    }
+    figs = {"parcoords": pc, "scatter": sc, "feet": fp}
+    fig_json = {k: pio.to_json(f, validate=False, engine="json") for k, f in figs.items()}
+
+    name = str(study.get("name", Path(str(res.filename)).stem))
+    page_title = title or f"{name}: explorer report"
+    tables = _reason_table(reasons, counts, N)
+    sample_note = ""
+    if sampled:
+        sample_note = (f"<p class='warn' id='sample-note'>This study has {n_ok:,} ok designs, more than the "
+                       f"{max_designs:,} this page shows: the views hold a uniform random sample of {n:,} of them "
+                       f"(seed {int(seed)}, in rank order; rank = place among all {n_ok:,}). The counts by reason "
+                       f"below are over all {N:,} variants. Use <code>--max-designs</code> to change the cap, or "
+                       f"<code>explorer rank --where</code> to narrow the study.</p>")
+    dropped_note = (f"<p class='note'>Not shown (no finite value on any ok design): {html.escape(', '.join(dropped))}."
+                    f"</p>" if dropped else "")
+    order_note = ("rank: the order of <code>explorer rank</code> (the default score of "
+                  + ", ".join(DEFAULT_WEIGHTS) + " over the buildable designs), the screened-out designs after them"
+                  if by_score else "rank: variant order (the default score's metrics are not stored)")
+    axes_rows = "".join(
+        f"<tr><td>{html.escape(c['label'])}</td><td>{html.escape(c['unit'] or '')}</td>"
+        f"<td>{ {'max': 'higher', 'min': 'lower'}.get(c['direction'], '')}</td>"
+        f"<td>{html.escape(c['description'])}</td></tr>" for c in columns)
+    created = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    no_scatter = "" if sx is not None else "<p class='warn'>Fewer than two metrics stored: no scatter.</p>"
+    no_paths = "" if has_paths else "<p class='warn'>This results file stores no paths: no foot paths to draw.</p>"
+    options = "".join(f"<option value='{html.escape(m)}'>{html.escape(_axis_label(m))}</option>" for m in mets)
+    fig_scripts = "\n".join(
+        f"<script type='application/json' id='fig-{k}'>{_script_safe(v)}</script>" for k, v in fig_json.items())
+    page = _TEMPLATE.format(
+        title=html.escape(page_title), plotlyjs=get_plotlyjs(), css=_CSS, js=_JS,
+        heading=html.escape(f"{name} — {mech.name}"),
+        meta=html.escape(f"{res.filename} · {N:,} variants × {res.steps} steps · {n_ok:,} ok · explorer {__version__} "
+                         f"· {created}"),
+        n_designs=n, n_designs_text=f"{n:,}", n_ok=f"{n_ok:,}", N=f"{N:,}", sample_note=sample_note + dropped_note,
+        order_note=order_note, options=options, reason_table=tables, axes_rows=axes_rows, no_scatter=no_scatter,
+        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data=_script_safe(json.dumps(data)),
+        figs=fig_scripts, results=html.escape(str(res.filename)), foot=html.escape(str(vname or "-")),
+        points=npts)
+    rep = Report(path=None, bytes=len(page.encode("utf-8")), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
+                 n_paths=n_paths, parameters=params, metrics=mets, counts=counts)
+    return page, rep
+
+
+def _script_safe(text: str) -> str:
+    """JSON text that can sit inside a <script> element (no "</script>", no "<!--")."""
+    return text.replace("</", "<\\/").replace("<!--", "<\\!--")
+
+
+def _reason_table(reasons, counts, N) -> str:
+    rows = [f"<tr data-reason='ok, buildable' data-count='{counts['ok, buildable']}'><td>ok, buildable</td>"
+            f"<td class='num'>{counts['ok, buildable']:,}</td><td>in the views above</td><td></td></tr>"]
+    for i, r in enumerate(reasons):
+        key = html.escape(r["key"], quote=True)
+        button = (f"<button class='show' data-i='{i}'>show</button>" if r["count"] else "")
+        sub = " class='sub'" if r["key"].startswith("screened out: ") else ""
+        rows.append(f"<tr data-reason='{key}' data-count='{r['count']}'{sub}><td>{html.escape(r['key'])}</td>"
+                    f"<td class='num'>{r['count']:,}</td><td>{html.escape(r['text'])}</td><td>{button}</td></tr>")
+    rows.append(f"<tr class='total'><td>every variant</td><td class='num'>{N:,}</td><td></td><td></td></tr>")
+    return "".join(rows)
+
+
+def report_html(results, **kw) -> str:
+    """The report page of ``results`` (an open results file or a path) as one HTML string (keyword
+    arguments as :func:`write_report`)."""
+    return _with_results(results, lambda res: build_report(res, **kw)[0])
+
+
+def _with_results(results, fn):
+    from ..store import open_results
+    if hasattr(results, "frame") and hasattr(results, "file"):
+        return fn(results)
+    with open_results(results) as res:
+        return fn(res)
+
+
+def write_report(results, path, *, force: bool = False, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS,
+                 paths: int = DEFAULT_PATHS, shown: int = DEFAULT_SHOWN, points: int = DEFAULT_POINTS,
+                 reason_paths: int = DEFAULT_REASON_PATHS, seed: int = 0, x: str | None = None, y: str | None = None,
+                 title: str | None = None, pc_lines: int = DEFAULT_PC_LINES) -> Report:
+    """Write the interactive report of ``results`` (an open results file, or a path to one) to ``path``
+    as one self-contained HTML file (plotly.js inlined; it opens offline). Returns a :class:`Report`.
+
+    metrics : the metric axes (names or "a,b,c"; default every stored metric, in table order);
+    max_designs : above this many ok designs, show a uniform sample of that many (seeded by ``seed``);
+    paths : store the foot paths of this many best-ranked designs; shown : draw at most this many
+    selected paths at once; points : samples per stored path; reason_paths : paths stored per reason
+    (screen check, failure status); x, y : the scatter's first pair (default travel, bob); title : the
+    page title; pc_lines : the parallel coordinates draw at most this many designs (a seeded sample;
+    brushes and counts are over every design in the page). An existing ``path`` is replaced only with ``force``; never the results file itself.
+    """
+    from ._export import _write, check_export_path
+    protect = [results] if not hasattr(results, "file") else [getattr(results, "filename", None)]
+    out = check_export_path(path, force, protect=[p for p in protect if p is not None])
+    page, rep = _with_results(results, lambda res: build_report(
+        res, metrics=metrics, max_designs=max_designs, paths=paths, shown=shown, points=points,
+        reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines))
+    _write(out, lambda tmp: tmp.write_text(page, encoding="utf-8"))
+    rep.path = out
+    rep.bytes = out.stat().st_size
+    return rep
+
+
+_CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0 18px 30px; color: #222; }
+h1 { font-size: 22px; margin: 14px 0 2px; } h2 { font-size: 16px; margin: 14px 0 6px; }
+.meta { color: #666; font-size: 13px; margin: 0 0 8px; }
+#summary { font-size: 15px; background: #f4f6f9; border-radius: 6px; padding: 8px 12px; margin: 8px 0; }
+#summary b { font-size: 17px; }
+#summary button, .controls button { margin-left: 12px; }
+.note { color: #555; font-size: 13px; margin: 4px 0; } .warn { background: #fff4e0; padding: 6px 10px; border-radius: 4px; }
+.row { display: flex; flex-wrap: wrap; gap: 16px; }
+.panel { flex: 1 1 560px; min-width: 420px; }
+.controls { font-size: 14px; margin: 4px 0; } .controls select { font-size: 14px; margin-right: 10px; }
+table { border-collapse: collapse; font-size: 13px; } td, th { padding: 3px 8px; border-bottom: 1px solid #e4e4e4; text-align: left; }
+td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
+tr.sub td:first-child { padding-left: 22px; } tr.total td { font-weight: bold; border-bottom: none; }
+tr.active { background: #fde8e8; }
+#reason-variants { font-size: 12px; color: #333; max-height: 140px; overflow: auto; margin-top: 6px; word-break: break-word; }
+details { margin: 10px 0; font-size: 13px; }
+code { background: #f1f1f1; padding: 0 3px; border-radius: 3px; }
+"""
+
+_TEMPLATE = """<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>{title}</title>
+<style>{css}</style>
+<script type="text/javascript">{plotlyjs}</script>
+</head>
+<body>
+<h1>{heading}</h1>
+<p class="meta">{meta}</p>
+<div id="summary"><b id="n-selected" data-count="{n_designs}">{n_designs_text}</b> selected of
+<b id="n-designs" data-count="{n_designs}">{n_designs_text}</b> designs in the views
+(the ok ones: {n_ok} of {N} variants) · <span id="n-front" data-count="0">0</span> on the Pareto front
+<button id="reset">clear every brush</button></div>
+{sample_note}
+<p class="note">Drag along an axis to brush it (drag again elsewhere on it to add a range, click a range to
+remove it); box- or lasso-select in the scatter to pick designs there. Every view shows what all brushes
+keep. {order_note}. ↑ higher is better, ↓ lower is better.</p>
+<p class="note" id="lines-note">The parallel coordinates draw <select id="pc-lines"></select> of the
+{n_designs_text} designs (a seeded random sample when fewer; every brush and count is over all of them, and the
+scatter draws them all).<span id="software-note"></span></p>
+<div id="parcoords"></div>
+<div class="row">
+ <div class="panel">
+  <h2>Two metrics, with the Pareto front of the selection</h2>
+  <div class="controls"><label>x <select id="x-metric">{options}</select></label>
+  <label>y <select id="y-metric">{options}</select></label></div>
+  {no_scatter}<div id="scatter"></div>
+ </div>
+ <div class="panel">
+  <h2>Foot paths (vertex {foot}) over the nominal's</h2>
+  <p class="note" id="feet-note"></p>
+  {no_paths}<div id="feet"></div>
+ </div>
+</div>
+<div class="row">
+ <div class="panel">
+  <h2>Best selected designs</h2>
+  <p class="note">Take one away: <code>explorer show {results} VARIANT</code>,
+  <code>explorer export {results} VARIANT -o leg.svg</code>.</p>
+  <table id="best"></table>
+ </div>
+ <div class="panel">
+  <h2>Screened out and failed, by reason</h2>
+  <p class="note">"show" draws the first of them (lowest variant numbers) in red in the foot-path view and lists
+  their variant numbers. A design can fail several checks of the screen: it counts under each.</p>
+  <table id="reasons"><tr><th>reason</th><th class="num">variants</th><th>what it means</th><th></th></tr>
+  {reason_table}</table>
+  <div id="reason-variants"></div>
+ </div>
+</div>
+<details><summary>What the axes mean</summary>
+<table><tr><th>axis</th><th>unit</th><th>better</th><th>meaning</th></tr>{axes_rows}</table>
+<p class="note">Values are stored as 32-bit floats; foot paths as {points} samples per turn
+(16-bit over their bounding box), for the {n_paths} best-ranked designs.</p></details>
+<script type="application/json" id="report-data">{data}</script>
+{figs}
+<script type="text/javascript">{js}</script>
+</body>
+</html>
+"""
+
+_JS = r"""
+(function () {
+'use strict';
+var T0 = performance.now();
+var D = JSON.parse(document.getElementById('report-data').textContent);
+function fig(id) { return JSON.parse(document.getElementById('fig-' + id).textContent); }
+function bytes(b64) {
+  var s = atob(b64), n = s.length, out = new Uint8Array(n);
+  for (var i = 0; i < n; i++) out[i] = s.charCodeAt(i);
+  return out.buffer;
+}
+function fmt(n) { return n.toLocaleString('en-US'); }
+var N = D.n_designs;
+var variant = new Int32Array(bytes(D.variant));
+var table = new Float32Array(bytes(D.table));
+var values = {}, dimOf = {}, colOf = {};
+D.columns.forEach(function (c, j) {
+  values[c.key] = table.subarray(j * N, (j + 1) * N); dimOf[c.key] = c.dim; colOf[c.key] = c;
+});
+var build = values['buildable'], pickDim = dimOf['pick'];
+var pick = new Float32Array(N); pick.fill(1);
+// the parallel coordinates draw the first `lines` rows of a seeded random order, worst rank first (the best on top)
+var pcOrder = new Int32Array(bytes(D.pc_order)), pcRows = null, lines = D.pc_lines;
+var renderer = '';
+try {  // a browser without a GPU draws WebGL in software, where each line costs: draw fewer by default
+  var gl = document.createElement('canvas').getContext('webgl');
+  var ext = gl && gl.getExtension('WEBGL_debug_renderer_info');
+  renderer = gl ? String(gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER)) : '';
+  var lose = gl && gl.getExtension('WEBGL_lose_context');
+  if (lose) lose.loseContext();
+} catch (e) { renderer = ''; }
+var software = /swiftshader|llvmpipe|softpipe|software/i.test(renderer);
+if (software) lines = D.pc_lines_software;
+function chooseRows(L) {
+  pcRows = Int32Array.from(pcOrder.subarray(0, L)).sort().reverse();
+}
+chooseRows(lines);
+function drawn(a) {
+  var out = new Float32Array(pcRows.length);
+  for (var i = 0; i < pcRows.length; i++) out[i] = a[pcRows[i]];
+  return out;
+}
+var PC = fig('parcoords'), SC = fig('scatter'), FP = fig('feet');
+D.columns.forEach(function (c) { PC.data[0].dimensions[c.dim].values = drawn(c.key === 'pick' ? pick : values[c.key]); });
+PC.data[0].line.color = drawn(values['rank']);
+var paths = D.paths ? new Uint16Array(bytes(D.paths)) : new Uint16Array(0), P = D.points;
+var xKey = D.x, yKey = D.y, reason = null;
+var gPC = document.getElementById('parcoords'), gSC = document.getElementById('scatter'),
+    gFP = document.getElementById('feet');
+var config = {responsive: true, displaylogo: false};
+
+function pathXY(j, closeIt) {  // path j of the blob: [xs, ys], null where it has no position
+  var xs = [], ys = [], s = D.scale, ok = true;
+  for (var k = 0; k < P; k++) {
+    var qx = paths[(j * P + k) * 2], qy = paths[(j * P + k) * 2 + 1];
+    if (qx === 65535 || qy === 65535) { xs.push(null); ys.push(null); ok = false; }
+    else { xs.push(s[0] + qx * s[2]); ys.push(s[1] + qy * s[3]); }
+  }
+  if (closeIt && D.closed && ok && P) { xs.push(xs[0]); ys.push(ys[0]); }  // a crank's path is a loop
+  return [xs, ys];
+}
+
+function ranges(cr) {  // a constraintrange as a list of [lo, hi]
+  if (!cr || !cr.length) return null;
+  if (typeof cr[0] === 'number') return [cr];
+  return cr;
+}
+
+function selectedMask() {  // every design inside every brushed range (over all N, drawn or not)
+  var dims = gPC.data[0].dimensions, act = [];
+  D.columns.forEach(function (c) {
+    var r = ranges(dims[c.dim].constraintrange);
+    if (r) act.push([c.key === 'pick' ? pick : values[c.key], r]);
+  });
+  var mask = new Uint8Array(N), count = 0;
+  for (var i = 0; i < N; i++) {
+    var keep = 1;
+    for (var a = 0; a < act.length && keep; a++) {
+      var v = act[a][0][i], rr = act[a][1], inside = 0;
+      for (var b = 0; b < rr.length; b++) if (v >= rr[b][0] && v <= rr[b][1]) { inside = 1; break; }
+      keep = inside;
+    }
+    mask[i] = keep; count += keep;
+  }
+  return [mask, count];
+}
+
+function better(key) { return colOf[key].direction === 'min' ? -1 : 1; }  // +1: higher is better
+
+function paretoFront(mask) {  // rows of the selected buildable designs that no other dominates in (x, y)
+  var X = values[xKey], Y = values[yKey], sx = better(xKey), sy = better(yKey), idx = [];
+  for (var i = 0; i < N; i++)
+    if (mask[i] && build[i] === 1 && isFinite(X[i]) && isFinite(Y[i])) idx.push(i);
+  idx.sort(function (a, b) { return (sx * X[b] - sx * X[a]) || (sy * Y[b] - sy * Y[a]) || (a - b); });
+  var front = [], best = -Infinity, g = 0;
+  while (g < idx.length) {  // groups of equal x, best x first; equal designs both stay
+    var h = g, gx = X[idx[g]];
+    while (h < idx.length && X[idx[h]] === gx) h++;
+    var yb = sy * Y[idx[g]];
+    if (yb > best) {
+      for (var k = g; k < h && sy * Y[idx[k]] === yb; k++) front.push(idx[k]);
+      best = yb;
+    }
+    g = h;
+  }
+  front.sort(function (a, b) { return X[a] - X[b] || Y[a] - Y[b]; });
+  return front;
+}
+
+function setCount(id, n) {
+  var el = document.getElementById(id);
+  el.textContent = fmt(n); el.setAttribute('data-count', String(n));
+}
+
+function bestTable(mask) {
+  var keys = [xKey, yKey].filter(function (k, i, a) { return k && a.indexOf(k) === i; });
+  var html = '<tr><th>variant</th><th class="num">rank</th>' + keys.map(function (k) {
+    return '<th class="num">' + k + '</th>'; }).join('') + '<th>buildable</th></tr>', shown = 0;
+  for (var i = 0; i < N && shown < 12; i++) {
+    if (!mask[i]) continue;
+    shown++;
+    html += '<tr><td>' + variant[i] + '</td><td class="num">' + fmt(values['rank'][i]) + '</td>';
+    keys.forEach(function (k) { html += '<td class="num">' + values[k][i].toPrecision(5) + '</td>'; });
+    html += '<td>' + (build[i] === 1 ? 'yes' : 'screened out') + '</td></tr>';
+  }
+  if (!shown) html += '<tr><td colspan="5">nothing selected</td></tr>';
+  document.getElementById('best').innerHTML = html;
+}
+
+function update() {
+  var mc = selectedMask(), mask = mc[0], p = [];
+  setCount('n-selected', mc[1]);
+  if (xKey && yKey) {
+    var X = values[xKey], Y = values[yKey];
+    var bx = [], by = [], bv = [], sx = [], sy = [], sv = [];
+    for (var i = 0; i < N; i++) {
+      if (!mask[i]) continue;
+      if (build[i] === 1) { bx.push(X[i]); by.push(Y[i]); bv.push(variant[i]); }
+      else { sx.push(X[i]); sy.push(Y[i]); sv.push(variant[i]); }
+    }
+    var front = paretoFront(mask);
+    setCount('n-front', front.length);
+    p.push(Plotly.restyle(gSC, {x: [sx, bx, front.map(function (i) { return X[i]; })],
+                                y: [sy, by, front.map(function (i) { return Y[i]; })],
+                                customdata: [sv, bv, front.map(function (i) { return variant[i]; })]}, [1, 2, 3]));
+  }
+  if (D.points) {
+    var fx = [], fy = [], fv = [], drawnPaths = 0, inSel = 0;
+    for (var r = 0; r < N; r++) {
+      if (!mask[r]) continue;
+      inSel++;
+      if (r >= D.n_paths || drawnPaths >= D.shown) continue;
+      var xy = pathXY(r, true);
+      fx = fx.concat(xy[0], [null]); fy = fy.concat(xy[1], [null]);
+      for (var k = 0; k <= xy[0].length; k++) fv.push(variant[r]);
+      drawnPaths++;
+    }
+    var note = 'Blue: the ' + fmt(drawnPaths) + ' best-ranked of the ' + fmt(inSel) + ' selected designs (at most ' +
+      D.shown + ' at once; this page holds the paths of the ' + fmt(D.n_paths) + ' best-ranked). Grey: the nominal.';
+    if (inSel && !drawnPaths) note = 'None of the ' + fmt(inSel) + ' selected designs is among the ' + fmt(D.n_paths) +
+      ' best-ranked whose paths this page holds (explorer report --paths N stores more).';
+    document.getElementById('feet-note').textContent = note;
+    p.push(Plotly.restyle(gFP, {x: [fx], y: [fy], customdata: [fv],
+                                name: ['selected: the ' + fmt(drawnPaths) + ' best by rank']}, [1]));
+  }
+  bestTable(mask);
+  return Promise.all(p);
+}
+
+function showReason(i) {  // draw (and list) the designs of reason i; again, or null, to clear
+  document.querySelectorAll('#reasons tr').forEach(function (tr) { tr.classList.remove('active'); });
+  var box = document.getElementById('reason-variants');
+  if (i === null || i === reason) {
+    reason = null; box.textContent = '';
+    if (D.points) return Plotly.restyle(gFP, {x: [[]], y: [[]], customdata: [[]], name: ['by reason (none chosen)']}, [2]);
+    return Promise.resolve();
+  }
+  reason = i;
+  var R = D.reasons[i];
+  document.querySelectorAll('#reasons tr')[i + 2].classList.add('active');
+  box.textContent = R.key + ': variants ' + R.variants.join(', ') +
+    (R.count > R.variants.length ? ', … (' + fmt(R.count - R.variants.length) + ' more)' : '');
+  if (!D.points) return Promise.resolve();
+  var fx = [], fy = [], fv = [];
+  R.paths.forEach(function (j, n) {
+    var xy = pathXY(j, true);
+    fx = fx.concat(xy[0], [null]); fy = fy.concat(xy[1], [null]);
+    for (var k = 0; k <= xy[0].length; k++) fv.push(R.path_variants[n]);
+  });
+  return Plotly.restyle(gFP, {x: [fx], y: [fy], customdata: [fv],
+    name: [R.key + ': the first ' + R.paths.length + ' of ' + fmt(R.count)]}, [2]);
+}
+
+function setPick(rows) {  // rows: null (no scatter pick) or a list of row numbers; filters through its axis
+  pick.fill(rows === null ? 1 : 0);
+  if (rows !== null) rows.forEach(function (r) { pick[r] = 1; });
+  var upd = {};
+  upd['dimensions[' + pickDim + '].values'] = [drawn(pick)];
+  upd['dimensions[' + pickDim + '].constraintrange'] = [rows === null ? null : [0.5, 1.5]];
+  return Plotly.restyle(gPC, upd, [0]);
+}
+
+function setLines(L) {  // draw L lines in the parallel coordinates; brushes are kept
+  chooseRows(L);
+  var upd = {'line.color': [drawn(values['rank'])]};
+  D.columns.forEach(function (c) {
+    upd['dimensions[' + c.dim + '].values'] = [drawn(c.key === 'pick' ? pick : values[c.key])];
+  });
+  return Plotly.restyle(gPC, upd, [0]);
+}
+
+function linesMenu() {
+  var sel = document.getElementById('pc-lines'), opts = [];
+  [300, 1000, 3000, 10000, 30000, 100000].forEach(function (k) { if (k < D.pc_lines) opts.push(k); });
+  opts.push(D.pc_lines);
+  if (opts.indexOf(lines) < 0) opts.push(lines);
+  opts.sort(function (a, b) { return a - b; });
+  sel.innerHTML = opts.map(function (k) {
+    return '<option value="' + k + '"' + (k === lines ? ' selected' : '') + '>' +
+      (k === N ? 'all ' + fmt(k) : fmt(k)) + '</option>'; }).join('');
+  sel.addEventListener('change', function () { lines = Number(sel.value); setLines(lines); });
+  if (software) document.getElementById('software-note').textContent = ' This browser draws WebGL in software (' +
+    renderer.match(/swiftshader|llvmpipe|softpipe|software/i)[0] + ', no GPU), where each line is slow to draw: ' +
+    'it starts with ' + fmt(lines) + '.';
+}
+
+function nominalXY() {
+  var nx = D.nominal[xKey], ny = D.nominal[yKey];
+  return (nx === null || ny === null || nx === undefined || ny === undefined) ? [[], []] : [[nx], [ny]];
+}
+
+function title(k) {
+  var m = colOf[k]; return k + ' [' + m.unit + '], ' + (m.direction === 'min' ? 'lower' : 'higher') + ' is better';
+}
+
+function setAxes() {  // new scatter axes: the scatter pick is cleared (it was drawn in the old ones)
+  xKey = document.getElementById('x-metric').value; yKey = document.getElementById('y-metric').value;
+  var nom = nominalXY();
+  return Plotly.update(gSC, {x: [values[xKey], nom[0]], y: [values[yKey], nom[1]], selectedpoints: [null, null]},
+                       {'xaxis.title.text': title(xKey), 'yaxis.title.text': title(yKey), 'xaxis.autorange': true,
+                        'yaxis.autorange': true, selections: []}, [0, 4])
+    .then(function () { return setPick(null); });
+}
+
+if (xKey && yKey) {
+  var nom = nominalXY();
+  SC.data[0].x = values[xKey]; SC.data[0].y = values[yKey];
+  SC.data[4].x = nom[0]; SC.data[4].y = nom[1];
+}
+var times = {script: Math.round(T0)}, t = performance.now();
+function lap(name) { var now = performance.now(); times[name] = Math.round(now - t); t = now; }
+lap('decode');
+var P0 = Plotly.newPlot(gPC, PC.data, PC.layout, config);
+lap('parcoords');
+var P1 = (xKey && yKey) ? Plotly.newPlot(gSC, SC.data, SC.layout, config) : Promise.resolve();
+lap('scatter');
+var P2 = D.points ? Plotly.newPlot(gFP, FP.data, FP.layout, config) : Promise.resolve();
+lap('feet');
+Promise.all([P0, P1, P2]).then(function () {
+  if (xKey && yKey) {
+    document.getElementById('x-metric').value = xKey; document.getElementById('y-metric').value = yKey;
+    document.getElementById('x-metric').addEventListener('change', setAxes);
+    document.getElementById('y-metric').addEventListener('change', setAxes);
+    gSC.on('plotly_selected', function (ev) {
+      if (!ev || !ev.points) return;
+      var rows = [];
+      ev.points.forEach(function (pt) { if (pt.curveNumber === 0) rows.push(pt.pointIndex); });
+      setPick(rows);
+    });
+    gSC.on('plotly_deselect', function () { setPick(null); });
+  } else {
+    document.querySelectorAll('.controls').forEach(function (e) { e.style.display = 'none'; });
+  }
+  linesMenu();
+  gPC.on('plotly_restyle', function () { update(); });
+  document.getElementById('reset').addEventListener('click', function () {
+    var upd = {};
+    D.columns.forEach(function (c) { upd['dimensions[' + c.dim + '].constraintrange'] = [null]; });
+    pick.fill(1); upd['dimensions[' + pickDim + '].values'] = [drawn(pick)];
+    if (xKey && yKey) Plotly.update(gSC, {selectedpoints: [null]}, {selections: []}, [0]);
+    Plotly.restyle(gPC, upd, [0]);
+  });
+  document.querySelectorAll('#reasons button.show').forEach(function (b) {
+    b.addEventListener('click', function () { showReason(Number(b.getAttribute('data-i'))); });
+  });
+  lap('plots');
+  return update();
+}).then(function () {
+  lap('update');
+  document.body.setAttribute('data-load-ms', String(Math.round(performance.now())));
+  document.body.setAttribute('data-ready', '1');
+}).catch(function (e) { console.error('explorer report: ' + (e && e.stack || e)); });
+window.explorerReport = {times: times, lines: function () { return pcRows.length; }, renderer: renderer,
+                         setLines: setLines, data: D, values: values, update: update, setPick: setPick, showReason: showReason};
+})();
+"""
