@@ -26,6 +26,11 @@ from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIG
 # Below this |sin| of the angle at the placed vertex a dyad is at a fold (its parents' distance at
 # the end of its range): both roots meet there, and keeping the branch means taking the mirror root.
 FOLD_SIN = 1e-2
+# Newton's second correction of a dyad is taken from its first step's Jacobian (``fast_step``) when that
+# Jacobian is within this relative distance of the new one (ρ); the correction's own error is then
+# below ρ / (1 − ρ) ≈ 1e-4 of its length, which is at most tol.
+SHORTCUT_RHO = 1e-4
+SHORTCUT_RHO2 = SHORTCUT_RHO * SHORTCUT_RHO
 
 
 @njit(cache=True, inline="always")
@@ -47,18 +52,144 @@ def dyad_fill(rec, v, a, b, d1, d2, qmin, qmax):
     rec.gap = 0 if (qmin >= 0.0 and lo < qmin and qmax < hi) else 1
 
 
+@njit(cache=True, forceinline=True)
+def place_dyad(checks, gap, h, c2, ax, ay, bx, by, vax, vay, vbx, vby, ax0, ay0, bx0, by0, vax0, vay0, vbx0, vby0,
+               x0, y0, vx0, vy0, wx0, wy0, da2, db2, hi2, lo2, lim2, sign, tol2, maxit):
+    """Place one dyad's vertex at a new driver position: the dyad arithmetic, in scalars, that
+    :func:`fast_step` and the code generated per topology (``_codegen``) both call, so both do the
+    same floating-point operations. (A function of scalars, typed once by Numba and inlined by LLVM at
+    each call site, ``forceinline``: Numba's own inlining would type its body again at every site,
+    seconds of compile time for a generated kernel; an ordinary call costs 10 % of the run time.)
+
+    checks: the step is not at the smallest size (run the gap and move checks); gap: the parents'
+    distance may leave the assembly range over the cycle (run the gap check); h, c2: the step and the
+    predictor's curvature coefficient (``_sweep``). (ax, ay), (bx, by), (vax, vay), (vbx, vby): the
+    parents' new positions and tangents; (ax0, ...), (vax0, ...): their previous ones; (x0, y0),
+    (vx0, vy0), (wx0, wy0): the vertex's previous position, tangent and the tangent before that; da2,
+    db2: squared distances to the parents; hi2, lo2, lim2: the block table's assembly limits and largest
+    move (``_inputs.BLOCK_DTYPE``); sign: the branch kept (0: none); tol2: Newton's stopping distance,
+    squared; maxit: its iteration limit.
+
+    Predicts the vertex from its previous position and tangents, runs Newton with a step limit until
+    a correction no longer than tol has been applied, checks assembly, the branch, a gap between
+    samples and the move, and solves for the tangent. Returns (code, iterations, x, y, vx, vy, ex, ey,
+    fx, fy, inv): the step code (``_blocks``' OK, INFEASIBLE, SIGN, NOCONV, SUSPECT), then, when OK,
+    the position and tangent, the vertex's offsets from its parents and 1/det (for accelerations).
+    """
+    nan = math.nan
+    gx = bx - ax
+    gy = by - ay
+    q1 = gx * gx + gy * gy
+    if q1 > hi2 or q1 < lo2:
+        return INFEASIBLE, 0, nan, nan, nan, nan, nan, nan, nan, nan, nan
+    if checks and gap:
+        # may the parents' distance leave the assembly range between the two samples?
+        ux = bx0 - ax0
+        uy = by0 - ay0
+        q0 = ux * ux + uy * uy
+        m0 = 2.0 * (ux * (vbx0 - vax0) + uy * (vby0 - vay0))
+        m1 = 2.0 * (gx * (vbx - vax) + gy * (vby - vay))
+        if gap_suspect(q0, m0, q1, m1, h, hi2, lo2):
+            return SUSPECT, 0, nan, nan, nan, nan, nan, nan, nan, nan, nan
+    mx = h * vx0 + c2 * (vx0 - wx0)
+    my = h * vy0 + c2 * (vy0 - wy0)
+    if checks and mx * mx + my * my > lim2:
+        return SUSPECT, 0, nan, nan, nan, nan, nan, nan, nan, nan, nan
+    px = x0 + mx
+    py = y0 + my
+    pxp = px
+    pyp = py
+    it = 0
+    while True:
+        ex = px - ax
+        ey = py - ay
+        fx = px - bx
+        fy = py - by
+        ra = ex * ex + ey * ey - da2
+        rb = fx * fx + fy * fy - db2
+        det = ex * fy - ey * fx
+        if abs(ra) <= ROUNDING * da2 and abs(rb) <= ROUNDING * db2:
+            break  # as exact as floating point allows (matters only next to a fold)
+        if it >= maxit or det == 0.0:
+            return NOCONV, it, nan, nan, nan, nan, nan, nan, nan, nan, nan
+        inv = 0.5 / det
+        dx = (ey * rb - ra * fy) * inv
+        dy = (fx * ra - ex * rb) * inv
+        n2 = dx * dx + dy * dy
+        full = n2 <= 4.0 * lim2
+        if not full:
+            sc = 2.0 * math.sqrt(lim2 / n2)
+            dx *= sc
+            dy *= sc
+        px += dx
+        py += dy
+        it += 1
+        # a correction this small leaves an error of order its square (Newton converges
+        # quadratically): keep it and stop, the position is within tol of the root
+        if n2 <= tol2:
+            break
+        if (full and it < maxit
+                and 2.0 * n2 * (ex * ex + ey * ey + fx * fx + fy * fy) <= SHORTCUT_RHO2 * det * det):
+            # The equations are quadratic with Hessian 2I, so after a full Newton step d the residuals
+            # are exactly (|d|², |d|²): the next correction needs no new residual, and with this
+            # step's Jacobian J (the new one is J + (1, 1)ᵀ dᵀ) no new division. Its error is at most
+            # ρ/(1 − ρ) of its length, ρ = ‖J⁻¹‖‖(1, 1)ᵀ dᵀ‖ (Frobenius norms), so it is taken only
+            # where ρ ≤ SHORTCUT_RHO; then it is as good as a Newton step, and one within tol stops
+            # Newton with the position within about tol · SHORTCUT_RHO + (its length)² / |p − a|
+            # of the root. Otherwise Newton goes on from there as usual.
+            cx = (ey - fy) * n2 * inv
+            cy = (fx - ex) * n2 * inv
+            px += cx
+            py += cy
+            it += 1
+            if cx * cx + cy * cy <= tol2:
+                break
+    ex = px - ax
+    ey = py - ay
+    fx = px - bx
+    fy = py - by
+    det = ex * fy - ey * fx
+    # det = cross(p − a, p − b) = cross(b − a, p − a): the orientation, i.e. the branch sign
+    if sign != 0.0 and (det > 0.0) != (sign > 0.0):
+        if abs(det) > FOLD_SIN * math.sqrt((ex * ex + ey * ey) * (fx * fx + fy * fy)):
+            return SIGN, it, nan, nan, nan, nan, nan, nan, nan, nan, nan
+        # at a fold the two roots meet and Newton may take either: the mirror image across the
+        # parents' line is the other exact root, the one on this dyad's branch
+        g2 = gx * gx + gy * gy
+        t = ((px - ax) * gx + (py - ay) * gy) / g2
+        px = 2.0 * (ax + t * gx) - px
+        py = 2.0 * (ay + t * gy) - py
+        ex = px - ax
+        ey = py - ay
+        fx = px - bx
+        fy = py - by
+        det = ex * fy - ey * fx
+    if det == 0.0:
+        return SIGN, it, nan, nan, nan, nan, nan, nan, nan, nan, nan
+    if checks:
+        mx = px - pxp
+        my = py - pyp
+        if mx * mx + my * my > lim2:
+            return SUSPECT, it, nan, nan, nan, nan, nan, nan, nan, nan, nan
+    inv = 1.0 / det
+    r1 = ex * vax + ey * vay
+    r2 = fx * vbx + fy * vby
+    vx = (r1 * fy - ey * r2) * inv
+    vy = (ex * r2 - fx * r1) * inv
+    return OK, it, px, py, vx, vy, ex, ey, fx, fy, inv
+
+
 @njit(cache=True, inline="always")
 def fast_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, checks):
     """Place every block of the block table ``ctx`` (DYAD and ATTACH rows) in order at the new driver
     position (already in P1). Returns (code, failing block or −1, iterations).
 
-    A dyad: predict its vertex from P0/V0/Vp, Newton with a step limit until a correction no longer
-    than ``tol`` (model units) has been applied, check assembly, the branch ``signs[k]``, a gap
-    between samples and the move; then the tangent (and second derivative). A body joint: the rigid
-    transform of its base pair, with its rates.
+    A dyad: :func:`place_dyad` (prediction, Newton, the checks, the tangent), then its second
+    derivative if asked. A body joint: the rigid transform of its base pair, with its rates.
     """
     iters = 0
     c2 = 0.5 * h * h / hp if hp != 0.0 else 0.0
+    tol2 = tol * tol
     for k in range(ctx.shape[0]):
         rec = ctx[k]
         v = rec.vertex
@@ -81,101 +212,16 @@ def fast_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
                 A1[v, 0] = A1[a, 0] + u * gx - w * gy
                 A1[v, 1] = A1[a, 1] + u * gy + w * gx
             continue
-        da2 = rec.da2
-        db2 = rec.db2
-        hi2 = rec.hi2
-        lo2 = rec.lo2
-        lim2 = rec.lim2
-        ax = P1[a, 0]
-        ay = P1[a, 1]
-        bx = P1[b, 0]
-        by = P1[b, 1]
-        gx = bx - ax
-        gy = by - ay
-        q1 = gx * gx + gy * gy
-        if q1 > hi2 or q1 < lo2:
-            return INFEASIBLE, k, iters
-        if checks and rec.gap != 0:
-            # may the parents' distance leave the assembly range between the two samples?
-            ux = P0[b, 0] - P0[a, 0]
-            uy = P0[b, 1] - P0[a, 1]
-            q0 = ux * ux + uy * uy
-            m0 = 2.0 * (ux * (V0[b, 0] - V0[a, 0]) + uy * (V0[b, 1] - V0[a, 1]))
-            m1 = 2.0 * (gx * (V1[b, 0] - V1[a, 0]) + gy * (V1[b, 1] - V1[a, 1]))
-            if gap_suspect(q0, m0, q1, m1, h, hi2, lo2):
-                return SUSPECT, k, iters
-        mx = h * V0[v, 0] + c2 * (V0[v, 0] - Vp[v, 0])
-        my = h * V0[v, 1] + c2 * (V0[v, 1] - Vp[v, 1])
-        if checks and mx * mx + my * my > lim2:
-            return SUSPECT, k, iters
-        px = P0[v, 0] + mx
-        py = P0[v, 1] + my
-        pxp = px
-        pyp = py
-        tol2 = tol * tol
-        it = 0
-        while True:
-            ex = px - ax
-            ey = py - ay
-            fx = px - bx
-            fy = py - by
-            ra = ex * ex + ey * ey - da2
-            rb = fx * fx + fy * fy - db2
-            det = ex * fy - ey * fx
-            if abs(ra) <= ROUNDING * da2 and abs(rb) <= ROUNDING * db2:
-                break  # as exact as floating point allows (matters only next to a fold)
-            if it >= maxit or det == 0.0:
-                return NOCONV, k, iters + it
-            inv = 0.5 / det
-            dx = (ey * rb - ra * fy) * inv
-            dy = (fx * ra - ex * rb) * inv
-            n2 = dx * dx + dy * dy
-            if n2 > 4.0 * lim2:
-                sc = 2.0 * math.sqrt(lim2 / n2)
-                dx *= sc
-                dy *= sc
-            px += dx
-            py += dy
-            it += 1
-            # a correction this small leaves an error of order its square (Newton converges
-            # quadratically): keep it and stop, the position is within tol of the root
-            if n2 <= tol2:
-                break
+        code, it, px, py, vx, vy, ex, ey, fx, fy, inv = place_dyad(
+            checks, rec.gap != 0, h, c2, P1[a, 0], P1[a, 1], P1[b, 0], P1[b, 1], V1[a, 0], V1[a, 1], V1[b, 0], V1[b, 1],
+            P0[a, 0], P0[a, 1], P0[b, 0], P0[b, 1], V0[a, 0], V0[a, 1], V0[b, 0], V0[b, 1],
+            P0[v, 0], P0[v, 1], V0[v, 0], V0[v, 1], Vp[v, 0], Vp[v, 1],
+            rec.da2, rec.db2, rec.hi2, rec.lo2, rec.lim2, signs[k], tol2, maxit)
         iters += it
-        ex = px - ax
-        ey = py - ay
-        fx = px - bx
-        fy = py - by
-        det = ex * fy - ey * fx
-        # det = cross(p − a, p − b) = cross(b − a, p − a): the orientation, i.e. the branch sign
-        if signs[k] != 0.0 and (det > 0.0) != (signs[k] > 0.0):
-            if abs(det) > FOLD_SIN * math.sqrt((ex * ex + ey * ey) * (fx * fx + fy * fy)):
-                return SIGN, k, iters
-            # at a fold the two roots meet and Newton may take either: the mirror image across the
-            # parents' line is the other exact root, the one on this dyad's branch
-            g2 = gx * gx + gy * gy
-            t = ((px - ax) * gx + (py - ay) * gy) / g2
-            px = 2.0 * (ax + t * gx) - px
-            py = 2.0 * (ay + t * gy) - py
-            ex = px - ax
-            ey = py - ay
-            fx = px - bx
-            fy = py - by
-            det = ex * fy - ey * fx
-        if det == 0.0:
-            return SIGN, k, iters
-        if checks:
-            mx = px - pxp
-            my = py - pyp
-            if mx * mx + my * my > lim2:
-                return SUSPECT, k, iters
+        if code != OK:
+            return code, k, iters
         P1[v, 0] = px
         P1[v, 1] = py
-        inv = 1.0 / det
-        r1 = ex * V1[a, 0] + ey * V1[a, 1]
-        r2 = fx * V1[b, 0] + fy * V1[b, 1]
-        vx = (r1 * fy - ey * r2) * inv
-        vy = (ex * r2 - fx * r1) * inv
         V1[v, 0] = vx
         V1[v, 1] = vy
         if want_acc:
