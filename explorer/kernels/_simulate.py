@@ -16,6 +16,7 @@ from ._closed import closed_batch_jit
 from ._design import designs as _designs
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
 from ._batch import fast_batch_jit, generic_batch_jit
+from ._codegen import kernel_for, supported
 from ._inputs import Drive, Options, Outputs, topology
 from ._rows import parallel_rows
 from ._step import BLOCK, DENSE, block_signs, block_table
@@ -399,7 +400,12 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
     else:
         opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations), bool(velocities),
                        bool(accelerations))
-        kernel = generic_batch_jit if (method == "dense" or general) else fast_batch_jit
+        if method == "dense" or general:
+            kernel = generic_batch_jit
+        elif supported(topo, opts):
+            kernel = kernel_for(topo, bool(velocities))  # this plan's code, generated (same results)
+        else:
+            kernel = fast_batch_jit
         parallel_rows(kernel, (topo, kdrv, opts, P0, sg), (des, outs))
     fbl = outs.fail_block
     if len(blocks):  # report the failing block by its index in the full plan
