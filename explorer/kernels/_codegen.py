@@ -101,6 +101,35 @@ _SWEEP = '''
                 t1 = 0.0
                 row = 0
             elif phase == 1:
+                # The common case in a loop of its own: whole steps forward, each accepted at its first
+                # try. The first step that needs more (refinement, or a failure) leaves it untaken and
+                # is taken below, whole and then halved, as _sweep.sweep takes every step.
+                while k < n_steps:
+                    h = (k + 1) * dt - k * dt
+                    if not abs(h) > 1.5 * dmin:
+                        break
+                    row = k + 1 if k + 1 < S else 0
+                    c2 = 0.5 * h * h / hp if hp != 0.0 else 0.0
+                    x{tip} = cx + scale * T[row, 0]
+                    y{tip} = cy + scale * T[row, 1]
+                    vx{tip} = scale * T[row, 2]
+                    vy{tip} = scale * T[row, 3]
+                    checks = True
+                    iters_before = iters
+                    code = 0
+                    blk = -1
+                    for _once in range(1):
+{fast_step}
+                    if code != 0:
+                        iters = iters_before
+                        break
+{fast_accept}
+                    hp = h
+                    if k + 1 < S:
+                        sample = k + 1
+                        reached = k + 2
+{fast_store}
+                    k += 1
                 if k >= n_steps:
                     break
                 t0 = k * dt
@@ -305,6 +334,8 @@ def source(topo, want_vel: bool) -> str:
             nan += [f"vel[k, {j}, 0] = np.nan", f"vel[k, {j}, 1] = np.nan"]
     gap = [f"gap = max(gap, abs(X{v} - F[{v}, 0]) + abs(Y{v} - F[{v}, 1]))" for v in placed]
     body = _SWEEP.format(tip=tip, step=_lines(step.splitlines(), 20), accept=_lines(accept, 20),
+                         fast_step=_lines(step.splitlines(), 24), fast_accept=_lines(accept, 20),
+                         fast_store=_lines(store, 24),
                          first=_lines(first, 16), restore=_lines(restore, 16), store=_lines(store, 16),
                          gap=_lines(gap, 12), nan=_lines(nan, 12))
     return _HEADER + _lines(init, 8) + "\n" + body
