@@ -8,10 +8,12 @@ layer re-optimises the whole sweep once more, about 2 s on a cold cache.)
 """
 
 
+import math
+
 import numpy as np
 from numba import njit
 
-from ..plan import DYAD
+from ..plan import DYAD, GENERAL
 from ._drive import CRANK
 from ._step import block_table, generic_context
 from ._sweep import STATUS_INVALID, fast_sweep, generic_sweep
@@ -61,14 +63,60 @@ def design_start(P_init, fixed, fixed_pos):
 
 
 @njit(cache=True)
-def design_setup(topo, designs, i, P_init, crank):
-    """Design i's start (P_init with its own fixed vertices), crank centre and block table:
-    (P, cx, cy, table)."""
+def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
+    """Place the driven vertex at (cx, cy) + scale * d[:2], then every block of the block table
+    ``tab`` in order by the closed form: a dyad's vertex at the intersection of the circles about its
+    parents on the side ``signs[j]`` (the branch: the sign of cross(b − a, p − a)), a body joint by
+    its body's rigid transform of its base pair. Writes P (n_vertices, 2) in place; returns the first
+    block it could not place (a dyad whose circles do not meet), or −1.
+
+    start: placing a design's start for Newton (the kernels' first sample): then it also stops,
+    leaving that vertex and the later ones where they were, at a coupled (GENERAL) block or a dyad
+    with no branch to keep (sign 0), which Newton places from there."""
+    P[tip, 0] = cx + scale * d[0]
+    P[tip, 1] = cy + scale * d[1]
+    for j in range(tab.shape[0]):
+        rec = tab[j]
+        if start and (rec.kind == GENERAL or (rec.kind == DYAD and signs[j] == 0.0)):
+            return j
+        a = rec.a
+        b = rec.b
+        gx = P[b, 0] - P[a, 0]
+        gy = P[b, 1] - P[a, 1]
+        if rec.kind == DYAD:
+            d2 = gx * gx + gy * gy
+            if d2 == 0.0:
+                return j
+            x = 0.5 * (rec.da2 - rec.db2 + d2) / d2  # along a→b, as a fraction of |a−b|
+            y2 = rec.da2 / d2 - x * x  # squared offset across, same units
+            if y2 < 0.0:
+                return j
+            y = math.sqrt(y2) if signs[j] > 0.0 else -math.sqrt(y2)
+        else:  # ATTACH: the body's rigid transform from its base pair (a, b)
+            x = rec.u
+            y = rec.v
+        P[rec.vertex, 0] = P[a, 0] + x * gx - y * gy
+        P[rec.vertex, 1] = P[a, 1] + x * gy + y * gx
+    return -1
+
+
+@njit(cache=True)
+def design_setup(topo, designs, i, P_init, crank, d0, signs):
+    """Design i's start, crank centre and block table: (P, cx, cy, table).
+
+    The start is the design assembled at the first sample (driver values d0, (6,)) on the nominal's
+    branch of every block (``signs``), by the closed form (:func:`place_closed`): Newton's first
+    solve then starts at the root it must keep, wherever the design's dimensions put it. (Started from
+    the nominal's configuration, a design far from it could converge to the mirror root and be
+    reported as a branch failure although it assembles on the nominal's branch.) Vertices the closed
+    form cannot place (beyond a coupled block, or where the design cannot assemble) keep the nominal's
+    positions, and Newton starts there; fixed vertices are the design's own."""
     P = design_start(P_init, topo.fixed, designs.fixed[i])
     cx = designs.center[i, 0]
     cy = designs.center[i, 1]
     tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, designs.dist[i],
                       designs.uv[i], P, cx, cy, designs.scale[i], crank)
+    place_closed(tab, topo.tip, cx, cy, designs.scale[i], d0, signs, P, True)
     return P, cx, cy, tab
 
 
@@ -103,7 +151,7 @@ def fast_batch_jit(topo, drv, opts, P_init, signs, designs, outs):
         if not valid_lengths(L, scale):
             res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], opts.want_vel, opts.want_acc)
         else:
-            P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank)
+            P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank, drv.table[0], signs)
             res = fast_sweep(tab, topo, drv, opts, P, signs, cx, cy, scale, _shortest(tab, L), designs.tol[i],
                              outs.pos[i], outs.vel[i], outs.acc[i])
         outs.status[i], outs.fail_t[i], outs.fail_end[i], outs.fail_block[i], outs.iters[i] = res
@@ -124,7 +172,7 @@ def generic_batch_jit(topo, drv, opts, P_init, signs, designs, outs):
         if not valid_lengths(L, scale):
             res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], opts.want_vel, opts.want_acc)
         else:
-            P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank)
+            P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank, drv.table[0], signs)
             ctx = generic_context(opts.method, tab, topo.gen_vptr, topo.gen_verts, topo.gen_rptr, topo.gen_rows,
                                   topo.dist_a, topo.dist_b, topo.att_vpq, L, designs.uv[i], known, designs.fixed[i])
             shortest = np.inf

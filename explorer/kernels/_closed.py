@@ -13,39 +13,9 @@ import math
 import numpy as np
 from numba import njit
 
-from ..plan import DYAD
-from ._batch import design_setup, valid_lengths
+from ._batch import design_setup, place_closed, valid_lengths
 from ._drive import CRANK, drive
 from ._sweep import REFINE_LEVELS, STATUS_ASSEMBLY, STATUS_INVALID, STATUS_OK
-
-
-@njit(cache=True)
-def _place(tab, tip, cx, cy, scale, d, signs, P):
-    """Place the driven vertex at (cx, cy) + scale * d[:2] and every block after it (``tab``: the
-    design's block table); returns the first dyad that cannot assemble, or −1."""
-    P[tip, 0] = cx + scale * d[0]
-    P[tip, 1] = cy + scale * d[1]
-    for j in range(tab.shape[0]):
-        rec = tab[j]
-        a = rec.a
-        b = rec.b
-        gx = P[b, 0] - P[a, 0]
-        gy = P[b, 1] - P[a, 1]
-        if rec.kind == DYAD:
-            d2 = gx * gx + gy * gy
-            if d2 == 0.0:
-                return j
-            x = 0.5 * (rec.da2 - rec.db2 + d2) / d2  # along a→b, as a fraction of |a−b|
-            y2 = rec.da2 / d2 - x * x  # squared offset across, same units
-            if y2 < 0.0:
-                return j
-            y = math.sqrt(y2) if signs[j] > 0.0 else -math.sqrt(y2)
-        else:  # ATTACH: the body's rigid transform from its base pair (a, b)
-            x = rec.u
-            y = rec.v
-        P[rec.vertex, 0] = P[a, 0] + x * gx - y * gy
-        P[rec.vertex, 1] = P[a, 1] + x * gy + y * gx
-    return -1
 
 
 @njit(cache=True)
@@ -57,7 +27,7 @@ def _limit(tab, tip, kind, prm, cx, cy, scale, signs, P, good, bad, dmin):
     while abs(bad - good) > dmin:
         mid = 0.5 * (good + bad)
         drive(kind, prm, mid, d)
-        j = _place(tab, tip, cx, cy, scale, d, signs, P)
+        j = place_closed(tab, tip, cx, cy, scale, d, signs, P, False)
         if j < 0:
             good = mid
         else:
@@ -65,7 +35,7 @@ def _limit(tab, tip, kind, prm, cx, cy, scale, signs, P, good, bad, dmin):
             blk = j
     if blk < 0:
         drive(kind, prm, bad, d)
-        blk = _place(tab, tip, cx, cy, scale, d, signs, P)
+        blk = place_closed(tab, tip, cx, cy, scale, d, signs, P, False)
     return bad, blk
 
 
@@ -93,7 +63,7 @@ def closed_cycle(blocks, tip, kind, prm, tab, params, t_end, closed, cx, cy, sca
     reached = S
     back = S
     for k in range(S):
-        j = _place(blocks, tip, cx, cy, scale, tab[k], signs, P)
+        j = place_closed(blocks, tip, cx, cy, scale, tab[k], signs, P, False)
         if j >= 0:
             status = STATUS_ASSEMBLY
             reached = k
@@ -112,7 +82,7 @@ def closed_cycle(blocks, tip, kind, prm, tab, params, t_end, closed, cx, cy, sca
         upper = t_end
         bad = reached
         for k in range(S - 1, reached, -1):
-            if _place(blocks, tip, cx, cy, scale, tab[k], signs, P) >= 0:
+            if place_closed(blocks, tip, cx, cy, scale, tab[k], signs, P, False) >= 0:
                 bad = k
                 break
             back = k
@@ -139,7 +109,7 @@ def closed_batch_jit(topo, drv, P_init, signs, designs, outs):
             _nan_rows(out_pos, 0, out_pos.shape[0])
             st, tf, te, bl = STATUS_INVALID, 0.0, np.nan, -1
         else:
-            P, cx, cy, blocks = design_setup(topo, designs, i, P_init, crank)
+            P, cx, cy, blocks = design_setup(topo, designs, i, P_init, crank, drv.table[0], signs)
             st, tf, te, bl = closed_cycle(blocks, topo.tip, drv.kind, drv.prm, drv.table, drv.params, drv.t_end,
                                           drv.closed, cx, cy, scale, signs, topo.out_idx, out_pos, P)
         outs.status[i] = st

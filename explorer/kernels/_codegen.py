@@ -74,7 +74,7 @@ def kernel(topo, drv, opts, P_init, signs, designs, outs):
             res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], False, False)
             outs.status[i], outs.fail_t[i], outs.fail_end[i], outs.fail_block[i], outs.iters[i] = res
             continue
-        P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank)
+        P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank, drv.table[0], signs)
         shortest = _shortest(tab, L)
         tol = designs.tol[i]
         tol2 = tol * tol

@@ -465,8 +465,11 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
     vertices : names whose paths are returned (default: the foot; "all" for every vertex). Blocks
         that neither place a requested vertex nor feed one are not solved (block and closed
         methods; "dense" solves everything).
-    Every variant starts its first Newton solve from the nominal design's configuration and must
-    keep the nominal's branch in every block; one that differs is flagged "branch", not mixed in.
+    Every variant keeps the nominal's branch in every block: it is assembled at the first sample on
+    that branch (each dyad's vertex on the nominal's side of its parents' line, each body joint by
+    its body's rigid transform, by the closed form; a coupled block by Newton from the nominal's
+    configuration), however far its dimensions are from the nominal's, then followed; one whose
+    branch changes on the way is flagged "branch", not mixed in.
     Returns a :class:`Batch`; rows with a length (or crank) that is not finite and within
     [1e-150, 1e150] (where squared lengths stay representable) get status "invalid". If the nominal
     design itself cannot be assembled at the start, there is no configuration or branch to start
