@@ -52,16 +52,28 @@ def evaluate(mech, problem, X, steps):
     return f
 
 
+def bounds(problem):
+    """(lo, hi), each (9,) in VARIABLES order: the problem's bounds, link lengths at least 1e-3."""
+    lo = np.array([max(problem.bounds[v][0], 1e-3) if v.startswith("r") and v not in ("rcx", "rcy")
+                   else problem.bounds[v][0] for v in VARIABLES])
+    hi = np.array([problem.bounds[v][1] for v in VARIABLES])
+    return lo, hi
+
+
+def template(problem):
+    """The mechanism every design is simulated from: a crank-rocker at the problem's scale, branch +1
+    (its branch is the one every design keeps)."""
+    R = bounds(problem)[1][0]
+    x = np.array([0.5, 1 / 6, 0.5, 5 / 12, 1 / 6, -1 / 6, 0.0, 0.0, 0.0]) * np.array([R] * 6 + [1, 1, 1])
+    return mechanism_from_dict(fourbar_mechanism_dict(*x), "bench_synthesis template")
+
+
 def run(problem, population, generations, seed, steps):
     from pymoo.algorithms.soo.nonconvex.de import DE
     from pymoo.core.evaluator import Evaluator
     from pymoo.core.problem import Problem
-    lo = np.array([max(problem.bounds[v][0], 1e-3) if v.startswith("r") and v not in ("rcx", "rcy")
-                   else problem.bounds[v][0] for v in VARIABLES])
-    hi = np.array([problem.bounds[v][1] for v in VARIABLES])
-    R = hi[0]  # a crank-rocker template at the problem's scale: its branch is the one every design keeps
-    template = np.array([0.5, 1 / 6, 0.5, 5 / 12, 1 / 6, -1 / 6, 0.0, 0.0, 0.0]) * np.array([R] * 6 + [1, 1, 1])
-    mech = mechanism_from_dict(fourbar_mechanism_dict(*template), "bench_synthesis template")
+    lo, hi = bounds(problem)
+    mech = template(problem)
 
     class P(Problem):
         def __init__(self):
