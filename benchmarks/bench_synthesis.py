@@ -101,14 +101,19 @@ def run(problem, population, generations, seed, steps):
     return float(best.F[0]), n, wall, best.X
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def arguments(description: str) -> argparse.ArgumentParser:
+    """The options every synthesis benchmark takes: the problem, the budget, the seed, the steps."""
+    ap = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--problem", default="all", choices=["all", *PROBLEMS])
     ap.add_argument("--population", type=int, default=100)
     ap.add_argument("--generations", type=int, default=300)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--steps", type=int, default=360)
-    a = ap.parse_args(argv)
+    return ap
+
+
+def main(argv=None):
+    a = arguments(__doc__).parse_args(argv)
     names = list(PROBLEMS) if a.problem == "all" else [a.problem]
     print(f"{'problem':<15} {'error (sum of squares)':>22} {'best known':>10} {'evaluations':>11} {'s':>7}  "
           f"source's budget")

@@ -79,7 +79,6 @@ between optimisers smaller than their seed-to-seed spread (not measured here) me
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -289,12 +288,7 @@ def feasible_counts(problem, n, seed, steps) -> tuple[int, int, int]:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--problem", default="all", choices=["all", *PROBLEMS])
-    ap.add_argument("--population", type=int, default=100)
-    ap.add_argument("--generations", type=int, default=300)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--steps", type=int, default=360)
+    ap = ours.arguments(__doc__)
     ap.add_argument("--threads", type=int, default=1, help="numba threads for explorer's kernel (default 1)")
     ap.add_argument("--pylinkage-sim", default="numba", choices=["numba", "python"],
                     help="pylinkage's Linkage.step_fast (numba, default) or Linkage.step (python)")

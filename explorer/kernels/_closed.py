@@ -8,8 +8,6 @@ cannot assemble, the limit is bisected between samples (to Δ/2**REFINE_LEVELS, 
 and, for a crank, the other end of the unreachable range is found from 2π going backward.
 """
 
-import math
-
 import numpy as np
 from numba import njit
 

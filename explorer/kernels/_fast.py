@@ -7,11 +7,14 @@
   coordinates in the frame of the base pair scaled by its length (``_design``). A rigid transform:
   no Newton, no branch (a body never mirrors), no way to fail; its rates follow by the same map.
 
-:func:`fast_step` is scalar code over the per-variant block table (``_inputs.BLOCK_DTYPE``: each
-block's kind, vertex, parents and squared lengths by name), both kinds written in its one loop. (A
-function per kind, inlined, measured 2x slower on the Jansen leg: Numba counts references to the six
-state arrays at every inlined call, atomically.) The generic step (``_step``) calls it on one
-block's row at a time.
+:func:`place_dyad` is the dyad's arithmetic (prediction, Newton, checks, tangent) on scalars, its one
+home: :func:`fast_step` and the kernels generated per topology (``_codegen``) both call it, so they
+do the same floating-point operations. :func:`fast_step` is scalar code over the per-variant block
+table (``_inputs.BLOCK_DTYPE``: each block's kind, vertex, parents and squared lengths by name), both
+kinds in its one loop. (A function per kind taking the state arrays, inlined by Numba, measured 2x
+slower on the Jansen leg: Numba counts references to the six state arrays at every inlined call,
+atomically; place_dyad takes scalars and is inlined by LLVM.) The generic step (``_step``) calls
+fast_step on one block's row at a time.
 """
 
 import math

@@ -16,8 +16,11 @@ GENERAL   couples several vertices (an Assur triad, a body that is part   ``_blo
           of a loop): Newton on the block's rows together                  block, branch = sign of det
 ========  ==============================================================  ===========================
 
-The two closed-form kinds share ``_fast.fast_step``'s one loop (a function per kind measured 2x
-slower, see there); the exact closed form (``_closed``) places them the same way.
+The dyad's arithmetic has one home, ``_fast.place_dyad``; the two closed-form kinds share
+``_fast.fast_step``'s one loop (a function per kind taking the state arrays measured 2x slower, see
+there), the exact closed form and every design's start place them by ``_batch.place_closed``, and
+the kernels generated per topology (``_codegen``, for plans of these two kinds) write each block out
+with the same arithmetic.
 
 Equations come in two forms. A *distance* equation |p_b − p_a| = d (a link, or a body's base pair)
 is one scalar row; an *attach* equation p_j = p_p + u (p_q − p_p) + v R(p_q − p_p) (R: a quarter
@@ -33,8 +36,11 @@ How to add a block kind
    filled in ``kernels._step.block_table``) and, for topology it needs beyond a row, a field of
    ``kernels._inputs.Topology`` (built in ``kernels._inputs.topology``).
 3. Write its kernel: a branch of ``kernels._fast.fast_step``'s loop if it is a closed form (and of
-   ``kernels._closed._place``), else a module like ``kernels._blocks`` called from
+   ``kernels._batch.place_closed``), else a module like ``kernels._blocks`` called from
    ``kernels._step._blocks_step`` (and its branch check in ``_check_dense`` / ``block_signs``).
+   Plans with the new kind run on these general kernels (``kernels._codegen.supported`` says no)
+   until ``_codegen`` writes it out too (a template beside ``_DYAD`` and ``_ATTACH``, checked bit
+   for bit against the general kernel in ``tests/test_codegen.py``).
 4. Test it against an independent reference in ``tests/`` (see ``tests/test_bodies.py``).
 """
 
