@@ -38,18 +38,57 @@ returns the opening of each stored page only:
   Neuroscience 2018, 5462563 (open access, PMC6236668): VERIFIED to reuse "three traditional path
   generation test problems"; which ones was not readable.
 
-The bodies of these papers (problem tables, variable limits, population sizes, generations, errors
-reached) were NOT reachable with the search tool. Therefore every number below other than the
-bibliographic data above is marked with what is known of it:
+The bodies of these three papers (problem tables, variable limits, population sizes, generations,
+errors reached) were NOT reachable: the stored copies (scribd, hindawi.com, pmc.ncbi.nlm.nih.gov
+PMC6236668, and later restatements such as Yao et al., Mech. Sci. 13 (2022) 79-87, Winyangkul et al.,
+Biomimetics 11 (2026) 160, Appl. Sci. 12 (2022) 7368) are searchable by their opening only. A second
+look-up (stored web pages, documentation, public code by meaning and by exact string) found two
+further kinds of source:
 
-* the six points on x = 20 and the five timed points with their crank angles are the values the issue
-  and the lead gave, which match the problems as they are widely reproduced; they are NOT verified
-  against the papers' text. The five timed points were checked for consistency instead: a four-bar
-  in this parametrisation passes through all five at their crank angles to within the 3-decimal
-  rounding of the data (see ``TIMED_FIVE.note``), so a best error of (nearly) 0 is attainable.
-* the variable limits are the ones commonly reproduced for these cases, NOT verified;
-* the budgets (population × generations) the sources used are NOT verified and left as None: quote
-  them only after checking the papers.
+* A later paper restating the vertical line: "Dynamic Ant Search" for four-bar path generation,
+  Proceedings of the ASME 2019 International Mechanical Engineering Congress and Exposition
+  (IMECE2019, Salt Lake City), paper IMECE2019-10262, read from the copy of the PDF kept in
+  https://github.com/OmarJItani/Mechanism-Synthesis-Using-Ant-Colony-Optimization (file
+  IMECE2019-10262.pdf; its text pulled out of the PDF here, so table cells run together and Greek
+  symbols are lost). Its case study II: "the synthesis problem of 6 target points arranged in a
+  vertical straight line without prescribed timing"; Table 3: "x id 20 20 20 20 20 20 / y id 20 25 30
+  35 40 45" -> the six points below are VERIFIED as restated there. Table 4 ("Parameter g d c f l x0
+  y0 ... Lower Limit 5 5 5 5 0 -60 -60 ... Upper Limit 60 60 60 60 85 60 60", two angle columns
+  unreadable): as far as the run-together cells can be read, ground, crank, coupler and rocker lengths
+  in [5, 60] and the crank pivot x0, y0 in [-60, 60], in that paper's own parametrisation (coupler
+  point by a length l in [0, 85] and an angle, not rcx, rcy). It compares with the DE of Mishra,
+  Naskar & Acharya (2012) and the ICA of Ebrahimi & Payvandy (MMT 85, 2015), cites neither Kunjur nor
+  Cabrera, and states no budget for its peers; its errors (Table 5: DE 0.0151, ICA 2.00E-03, its own
+  4.02E-05) are of a normalised error (its eq. 2), not the sum of squares used here.
+* Public code (not a published source; corroboration only): jmejia8/eca-four-bar-mechanisms,
+  ``tools.jl`` (commit 17e8869; "part of this code was taken from MATLAB code of Eric Valentin,
+  CIDETEC 2018") holds both problems: case 1 the six points (20, 20) ... (20, 45) with limits r1..r4
+  in [0, 60], rcx, rcy, x0, y0 in [-60, 60], θ0 and the six θ2 in [0, 2π]; case 2 the five points
+  "3 3; 2.759 3.363; 2.372 3.663; 1.890 3.862; 1.355 3.943" at θ2 = π/6, π/4, π/3, 10π/24, π/2. A MATLAB
+  objective in public code found by exact-string search (repository not named by the search tool;
+  "Caso de estudio 2: seguimiento de una trayectoria no alineada, con sincronización previa") has the
+  same points and angles (2π/12 ... 6π/12). Both FIX θ0 = 0, x0 = 0, y0 = 0 in case 2 and optimise
+  only r1..r4, rcx, rcy (the Julia file within r in [0, 50], rcx, rcy in [-50, 50]), and both require
+  r1 + r2 ≤ r3 + r4, r2 ≤ r3, r3 ≤ r4, r4 ≤ r1. Whether Cabrera 2002 fixes θ0, x0, y0 in that case is
+  NOT verified; :data:`TIMED_FIVE` keeps them free. Checked here: with θ0 = x0 = y0 = 0 least squares
+  reaches a four-bar through the five points at their angles with sum of squares 7.42e-7 (r1 3.670,
+  r2 1.998, r3 3.996, r4 2.705, rcx 1.672, rcy 1.680, branch +1, a Grashof crank-rocker inside the limits
+  below; it breaks the code's r3 ≤ r4), so the data fit that reading too.
+
+Therefore:
+
+* the six points on x = 20: VERIFIED as restated by IMECE2019-10262 (a later paper), not against
+  Kunjur & Krishnamurty or Cabrera 2002 themselves;
+* the five timed points and their crank angles: NOT verified against a paper; they match two public
+  code restatements exactly, and a four-bar passes through all five at their angles to within the
+  3-decimal rounding of the data (see ``TIMED_FIVE.note``), so a best error of (nearly) 0 is
+  attainable;
+* the variable limits: the vertical line's link limits [5, 60] and pivot limits [-60, 60] are
+  corroborated by IMECE2019-10262 Table 4 (its parametrisation); rcx, rcy and θ0 limits, and all of
+  the timed problem's limits, are NOT verified;
+* the budgets (population × generations or evaluations) of Kunjur 1997, Cabrera 2002 and the papers
+  that reuse them were found in no readable source and stay None: quote them only after reading the
+  papers' text.
 """
 
 from __future__ import annotations
@@ -123,7 +162,11 @@ VERTICAL_LINE = SynthesisProblem(
     evaluations=None,
     best_error=0.0,
     verified={"source": "Cabrera 2002 bibliographic data and abstract; Kunjur & Krishnamurty abstract only",
-              "points": False, "angles": "not applicable (no prescribed timing)", "bounds": False,
+              "points": "as restated by a later paper (IMECE2019-10262, case study II, Table 3), not "
+                        "against Kunjur 1997 or Cabrera 2002",
+              "angles": "not applicable (no prescribed timing)",
+              "bounds": "partly: r1..r4 in [5, 60] and x0, y0 in [-60, 60] match IMECE2019-10262 Table 4 "
+                        "(its own parametrisation); rcx, rcy, θ0 not verified",
               "budget": False,
               "best_error": "0 by counting: without timing the six crank angles are free too (15 unknowns, "
                             "12 equations), and the issue states it"},
@@ -146,9 +189,12 @@ TIMED_FIVE = SynthesisProblem(
     evaluations=None,
     best_error=0.0,
     verified={"source": "Cabrera 2002 bibliographic data and abstract (the case number is not verified)",
-              "points": "not against the paper; consistent with a four-bar to the data's rounding (below)",
-              "angles": "not against the paper; consistent with the points (below)",
-              "bounds": False, "budget": False,
+              "points": "not against the paper; match two public code restatements; consistent with a "
+                        "four-bar to the data's rounding (below)",
+              "angles": "not against the paper; match the same code restatements; consistent with the "
+                        "points (below)",
+              "bounds": "not verified; the code restatements fix θ0 = x0 = y0 = 0 (see the module docstring)",
+              "budget": False,
               "best_error": "≈ 0: a four-bar passes through the five points at their angles to the 3-decimal "
                             "rounding of the data (sum of squares 2.71e-7, found here)"},
     note=("Crank angles θ2 are from the ground link: explorer's crank angle is θ0 + θ2 (path_error's "
