@@ -84,6 +84,22 @@ def test_generated_kernel_is_used_for_dyad_and_body_plans_only(triad):
     assert len(list(folder.glob("explorer_gen_*.py"))) >= 2
 
 
+def test_threads_share_one_generated_kernel():
+    """Threads of one process (a Dask worker's) that ask for the same topology at once get one kernel,
+    imported once, and the same answers."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    mech = explorer.load_mechanism("hoeken")
+    L, crank = _batch(mech, 0.05, 8, seed=3)
+    _codegen._BY_TOPOLOGY.clear()
+    _codegen._LOADED.clear()
+    with ThreadPoolExecutor(4) as pool:
+        out = list(pool.map(lambda _: explorer.simulate_batch(mech, L, crank, 36, velocities=False), range(8)))
+    assert len(_codegen._BY_TOPOLOGY) == 1 and len(_codegen._LOADED) == 1
+    for b in out[1:]:
+        np.testing.assert_array_equal(b.paths[mech.foot], out[0].paths[mech.foot])
+
+
 def test_generated_source_names_every_block():
     mech = explorer.load_mechanism("klann")
     plan = _simulate.plan_for(mech)

@@ -32,6 +32,7 @@ import importlib.util
 import os
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -366,12 +367,23 @@ def _topology_key(topo, want_vel: bool) -> tuple:
 
 
 _BY_TOPOLOGY: dict = {}
+_LOCK = threading.Lock()  # threads of one process (a Dask worker's) generate and import a module once
 
 
 def kernel_for(topo, want_vel: bool):
     """The generated kernel for ``topo`` (written and imported once per process; Numba compiles it on
     its first call or loads it from its cache)."""
     tkey = _topology_key(topo, want_vel)
+    kernel = _BY_TOPOLOGY.get(tkey)
+    if kernel is not None:
+        return kernel
+    with _LOCK:
+        return _load(tkey, topo, want_vel)
+
+
+def _load(tkey, topo, want_vel: bool):
+    """kernel_for's slow path, under its lock: generate the source, write it if the cache folder does
+    not hold it yet, import it."""
     if tkey in _BY_TOPOLOGY:
         return _BY_TOPOLOGY[tkey]
     src = source(topo, want_vel)
