@@ -15,6 +15,7 @@ from numba import njit
 
 from ..plan import DYAD, GENERAL
 from ._drive import CRANK
+from ._fast import frame_point
 from ._step import block_table, generic_context
 from ._sweep import STATUS_INVALID, fast_sweep, generic_sweep
 
@@ -95,8 +96,7 @@ def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
         else:  # ATTACH: the body's rigid transform from its base pair (a, b)
             x = rec.u
             y = rec.v
-        P[rec.vertex, 0] = P[a, 0] + x * gx - y * gy
-        P[rec.vertex, 1] = P[a, 1] + x * gy + y * gx
+        P[rec.vertex, 0], P[rec.vertex, 1] = frame_point(x, y, P[a, 0], P[a, 1], P[b, 0], P[b, 1])
     return -1
 
 

@@ -29,7 +29,7 @@ from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIG
 # Below this |sin| of the angle at the placed vertex a dyad is at a fold (its parents' distance at
 # the end of its range): both roots meet there, and keeping the branch means taking the mirror root.
 FOLD_SIN = 1e-2
-# Newton's second correction of a dyad is taken from its first step's Jacobian (``fast_step``) when that
+# Newton's second correction of a dyad is taken from its first step's Jacobian (``place_dyad``) when that
 # Jacobian is within this relative distance of the new one (ρ); the correction's own error is then
 # below ρ / (1 − ρ) ≈ 1e-4 of its length, which is at most tol.
 SHORTCUT_RHO = 1e-4
@@ -53,6 +53,16 @@ def dyad_fill(rec, v, a, b, d1, d2, qmin, qmax):
     lo = rec.lo2 * (1.0 + GAP_MARGIN)
     hi = rec.hi2 * (1.0 - GAP_MARGIN)
     rec.gap = 0 if (qmin >= 0.0 and lo < qmin and qmax < hi) else 1
+
+
+@njit(cache=True, forceinline=True)
+def frame_point(u, w, ax, ay, bx, by):
+    """The point (u, w) of the frame of a → b: a + u (b − a) + w R(b − a), R a quarter turn
+    counter-clockwise. A body joint from its base pair (and, applied to tangents or second
+    derivatives, its rates); a dyad's vertex from its parents (``_batch.place_closed``)."""
+    gx = bx - ax
+    gy = by - ay
+    return ax + u * gx - w * gy, ay + u * gy + w * gx
 
 
 @njit(cache=True, forceinline=True)
@@ -201,19 +211,10 @@ def fast_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
         if rec.kind != DYAD:  # ATTACH (the fast step is given no GENERAL row)
             u = rec.u
             w = rec.v
-            gx = P1[b, 0] - P1[a, 0]
-            gy = P1[b, 1] - P1[a, 1]
-            P1[v, 0] = P1[a, 0] + u * gx - w * gy
-            P1[v, 1] = P1[a, 1] + u * gy + w * gx
-            gx = V1[b, 0] - V1[a, 0]
-            gy = V1[b, 1] - V1[a, 1]
-            V1[v, 0] = V1[a, 0] + u * gx - w * gy
-            V1[v, 1] = V1[a, 1] + u * gy + w * gx
+            P1[v, 0], P1[v, 1] = frame_point(u, w, P1[a, 0], P1[a, 1], P1[b, 0], P1[b, 1])
+            V1[v, 0], V1[v, 1] = frame_point(u, w, V1[a, 0], V1[a, 1], V1[b, 0], V1[b, 1])
             if want_acc:
-                gx = A1[b, 0] - A1[a, 0]
-                gy = A1[b, 1] - A1[a, 1]
-                A1[v, 0] = A1[a, 0] + u * gx - w * gy
-                A1[v, 1] = A1[a, 1] + u * gy + w * gx
+                A1[v, 0], A1[v, 1] = frame_point(u, w, A1[a, 0], A1[a, 1], A1[b, 0], A1[b, 1])
             continue
         code, it, px, py, vx, vy, ex, ey, fx, fy, inv = place_dyad(
             checks, rec.gap != 0, h, c2, P1[a, 0], P1[a, 1], P1[b, 0], P1[b, 1], V1[a, 0], V1[a, 1], V1[b, 0], V1[b, 1],
