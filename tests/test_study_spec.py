@@ -193,6 +193,22 @@ def test_malformed_files(tmp_path, text, words):
     assert str(info.value).startswith(str(p)) and words in str(info.value) and "\n" not in str(info.value)
 
 
+def test_a_mechanism_file_given_as_a_study_says_how_to_run_it(tmp_path, capsys):
+    """The README's exported leg.toml handed to `explorer run`: one line naming the file and the key a
+    study uses for it, exit 2, nothing written."""
+    from importlib import resources
+    mech = tmp_path / "leg.toml"
+    mech.write_text((resources.files("explorer.mechanism") / "builtin" / "fourbar.toml").read_text(encoding="utf-8"))
+    with pytest.raises(UserError) as info:
+        load_study(mech)
+    assert str(info.value).startswith(str(mech)) and "[study] mechanism" in str(info.value)
+    code = main(["run", str(mech), "-o", str(tmp_path / "out.h5")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert "mechanism file, not a study" in err
+    assert not (tmp_path / "out.h5").exists()
+
+
 def test_grid_too_large(tmp_path):
     d = with_value("perturb.method", "grid")
     d["study"]["variants"] = 100  # 100 ** 11 variants

@@ -325,6 +325,9 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
     """Validate a parsed study (the TOML shape) and build a :class:`Study`."""
     if not isinstance(data, dict):
         raise UserError(f"{source}: expected a table with [study], [perturb], [scene], [output], got {data!r}")
+    if "links" in data and "study" not in data:  # [[links]]: a mechanism file, not a study
+        raise UserError(f"{source}: this is a mechanism file, not a study: a study runs it with "
+                        f"[study] mechanism = {str(source)!r} (or see it: explorer animate --mechanism {source})")
     for sec, value in data.items():
         if sec not in _SECTIONS:
             raise UserError(f"{where(source, sec)}: unknown section (allowed: {', '.join(_SECTIONS)})")
