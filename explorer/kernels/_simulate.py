@@ -377,9 +377,13 @@ def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
                        topo.att_vpq, des.uv[0])
 
 
-def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max_iterations, P0, signs, blocks):
+KERNELS = ("auto", "general", "generated")
+
+
+def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max_iterations, P0, signs, blocks,
+         kernel="auto"):
     """Allocate the outputs and call the kernel for ``method`` on the plan restricted to ``blocks``;
-    ``des``: the variants' ``_inputs.Designs``."""
+    ``des``: the variants' ``_inputs.Designs``; ``kernel``: see :func:`simulate_batch`."""
     drv = _drive_for(mech.crank or mech.path, steps)
     N = des.scale.shape[0]
     k = len(out_idx)
@@ -400,13 +404,16 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
     else:
         opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations), bool(velocities),
                        bool(accelerations))
+        if kernel == "generated" and (method == "dense" or general or not supported(topo, opts)):
+            raise UserError("kernel 'generated': per-topology code is generated only for the block method on plans "
+                            "of dyads and rigid bodies, without accelerations; use kernel='auto' or 'general'")
         if method == "dense" or general:
-            kernel = generic_batch_jit
-        elif supported(topo, opts):
-            kernel = kernel_for(topo, bool(velocities))  # this plan's code, generated (same results)
+            fn = generic_batch_jit
+        elif kernel != "general" and supported(topo, opts):
+            fn = kernel_for(topo, bool(velocities))  # this plan's code, generated (same results)
         else:
-            kernel = fast_batch_jit
-        parallel_rows(kernel, (topo, kdrv, opts, P0, sg), (des, outs))
+            fn = fast_batch_jit
+        parallel_rows(fn, (topo, kdrv, opts, P0, sg), (des, outs))
     fbl = outs.fail_block
     if len(blocks):  # report the failing block by its index in the full plan
         fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
@@ -450,7 +457,7 @@ def _default_velocities(velocities, method: str) -> bool:
 def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, geometry=None, vertices=None,
                    velocities: bool | None = None,
                    accelerations: bool = False, tolerance: float = DEFAULT_TOLERANCE, method: str = "block",
-                   max_iterations: int = DEFAULT_MAX_ITERATIONS) -> Batch:
+                   max_iterations: int = DEFAULT_MAX_ITERATIONS, kernel: str = "auto") -> Batch:
     """Solve N variants of ``mech`` in parallel; only what is asked for is computed.
 
     lengths : (N, n_links) link lengths in ``mech.links`` order, or every design parameter by name
@@ -475,8 +482,13 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
     design itself cannot be assembled at the start, there is no configuration or branch to start
     from: every row fails as the nominal does (as :func:`simulate` reports it), with NaN paths.
     velocities : default yes, except with method "closed" (positions only).
+    kernel : "auto" (default: the per-topology generated code where it applies, else the array form),
+        "general" (always the array form of the sweep) or "generated" (the generated code; an error
+        where it does not apply). The results are the same bit for bit; the choice is for debugging.
     """
     _check_common(steps, tolerance, method, max_iterations)
+    if kernel not in KERNELS:
+        raise UserError(f"kernel: expected one of {', '.join(KERNELS)}, got {kernel!r}")
     velocities = _default_velocities(velocities, method)
     lengths, crank, geometry = _by_name(mech, lengths, crank, geometry)
     lengths = np.asarray(lengths, dtype=np.float64)
@@ -511,7 +523,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
         blocks = np.arange(plan.n_blocks) if method == "dense" else plan.needed_blocks(out_idx)
         des = _designs(mech, plan, lengths, scale, geometry, tolerance)
         pos, vel, acc, status, fth, fend, fbl, its = _run(mech, plan, des, steps, out_idx, velocities, accelerations,
-                                                          method, max_iterations, P0, signs, blocks)
+                                                          method, max_iterations, P0, signs, blocks, kernel)
     return Batch(
         theta=_drive_for(mech.crank or mech.path, steps).params,
         paths={v: pos[:, :, j] for j, v in enumerate(names)},
