@@ -37,7 +37,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from .._extras import require
     from ..study import load_study, run_optimize
+    require("pymoo", "explorer optimize")
     study = load_study(args.study)  # a bad study fails before a cluster is started
     if args.dask:
         from ..study._dask import _require_dask, dask_client

@@ -51,7 +51,9 @@ def run(args) -> int:
     from ..store import open_results
     from ..view._export import check_export_path
     from ..view._report import write_report
+    from .._extras import require
 
+    require("plotly", "explorer report")
     out = args.output if args.output is not None else f"{Path(args.results).stem}-report.html"
     if Path(out).suffix.lower() not in (".html", ".htm"):
         raise UserError(f"{out}: the report is an HTML page: name it .html")

@@ -168,7 +168,9 @@ def run(args) -> int:
     from ..store import open_results
     from ..study._sensitivity import INDEX_NAMES, sensitivity_frame, summary_frame, _from_results
     from ._rank import json_records
+    from .._extras import require
 
+    require("SALib", "explorer sensitivity")
     if args.format not in FORMATS:
         raise UserError(f"--format: expected one of {', '.join(FORMATS)}, got {args.format!r}")
     top = _whole(args.top, "--top", 0) if args.top is not None else 5

@@ -250,7 +250,9 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
     without ``[optimize]``, an existing file without --force/--resume, or a file written by another
     run.
     """
+    from .._extras import require
     t0 = time.perf_counter()
+    require("pymoo", "explorer optimize")  # before a results file is created
     study = load_study(study)
     if study.optimize is None:
         raise UserError(f"{study.source}: no [optimize] table; `explorer optimize` needs one (see `explorer optimize "

@@ -86,6 +86,8 @@ class Sampler:
             raise UserError(f"perturb: expected at least one perturbed parameter, got k = {k}")
         self.method, self.variants, self.k, self.spread, self.seed = method, int(variants), int(k), float(spread), int(seed)
         self.n_total = variant_count(method, self.variants, self.k)
+        if method == "saltelli":
+            _require_salib()  # say so before a results file is created
         self._lhs = None  # the whole design of lhs and saltelli, drawn on first use
         if method in ("oat", "grid"):
             self.levels = np.linspace(1.0 - self.spread, 1.0 + self.spread, self.variants)
@@ -151,10 +153,16 @@ class Sampler:
         return np.stack([levels[c][i] for c, i in enumerate(idx)], axis=1) if b > a else out
 
 
+def _require_salib():
+    from .._extras import require
+    require("SALib", 'perturb.method = "saltelli"')
+
+
 def saltelli_design(n: int, k: int, seed: int) -> np.ndarray:
     """Saltelli's design for first-order and total Sobol indices of k parameters: (n·(k + 2), k) points
     in [−1, 1], from ``SALib.sample.sobol.sample`` (``calc_second_order=False``, scrambled, ``seed``).
-    SALib is imported here, on first use."""
+    SALib is imported here, on first use (the ``sensitivity`` extra)."""
+    _require_salib()
     from SALib.sample import sobol as salib_sobol
     problem = {"num_vars": int(k), "names": [f"x{i}" for i in range(k)], "bounds": [[-1.0, 1.0]] * int(k)}
     with warnings.catch_warnings():  # balance needs n a power of two: documented, not nagged

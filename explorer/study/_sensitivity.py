@@ -280,6 +280,8 @@ def sensitivity(results, metrics=None, method: str | None = None, *, resamples: 
     the nominal and variants without a value are left out), ``method``, ``note`` (why a value is NaN).
     ``attrs`` hold the source, design, method, parameters, samples, resamples, seed and conf_level.
     """
+    from .._extras import require
+    require("SALib", "sensitivity analysis")  # before the results file is read
     df, params, design, source, stored = _read(results)
     return sensitivity_frame(df, params, design=design, metrics=metrics, method=method, resamples=resamples,
                              seed=seed, conf_level=conf_level, failures=failures, source=source, stored=stored)
@@ -294,7 +296,9 @@ def sensitivity_frame(df, parameters, *, design: str = "uniform", metrics=None, 
     the frame). Row 0 must be the nominal (variant 0); it is never analysed."""
     import pandas as pd
 
+    from .._extras import require
     from ..gait import METRICS
+    require("SALib", "sensitivity analysis")
     method = _check_design(design, method, source)
     if not 0.0 < float(conf_level) < 1.0:
         raise UserError(f"conf_level: expected a number in (0, 1), got {conf_level!r}")

@@ -67,11 +67,8 @@ class Movie:
 
 def ffmpeg_exe() -> str:
     """The ffmpeg binary shipped in the ``imageio-ffmpeg`` wheel (no system ffmpeg needed)."""
-    try:
-        import imageio_ffmpeg
-    except ImportError:
-        raise UserError("MP4 output needs the imageio-ffmpeg package (pip install imageio-ffmpeg), "
-                        "or write a .gif") from None
+    from .._extras import require
+    imageio_ffmpeg = require("imageio_ffmpeg", "an MP4 movie (explorer animate)", otherwise="write a .gif")
     try:
         return imageio_ffmpeg.get_ffmpeg_exe()
     except RuntimeError as exc:
@@ -474,7 +471,9 @@ def animate(source, out_path, cycles: float = 2, frames: int | None = None, legs
     drawn up to its failure angle with the failure in the title; one that cannot even be assembled
     raises UserError. Returns a :class:`Movie` (path, frames, fps, seconds, failure).
     """
-    check_output(out_path, MOVIE_FORMATS)  # fail before solving anything
+    p = check_output(out_path, MOVIE_FORMATS)  # fail before solving anything
+    if MOVIE_FORMATS[p.suffix.lower()] != "gif":
+        ffmpeg_exe()  # an .mp4 without the movie extra, too
     anim = LinkageAnimation(source, cycles=cycles, frames=frames, legs=legs, fps=fps, variant=variant, steps=steps,
                             dpi=dpi, figsize=figsize, arrow_scale=arrow_scale, walker=walker)
     return anim.write(out_path, progress=progress)

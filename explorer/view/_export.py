@@ -586,7 +586,8 @@ def dxf_document(sheet: Sheet):
     """The sheet as an ezdxf document (DXF R2010, units mm): each part's outline a closed LWPOLYLINE
     (arcs as bulges) and its holes CIRCLEs (in the part's joint order) on layer CUT, its label a TEXT on
     layer LABELS, the three in a DXF group whose description is the part's name."""
-    import ezdxf
+    from .._extras import require
+    ezdxf = require("ezdxf", "DXF export (explorer export --format dxf)")
     from ezdxf import units
 
     doc = ezdxf.new("R2010")
@@ -614,6 +615,8 @@ def dxf_document(sheet: Sheet):
 def export_dxf(mech: Mechanism, path, *, scale: float = 1.0, width: float | None = None,
                hole: float | None = None, force: bool = False) -> Path:
     """Write the cutting sheet of ``mech`` (:func:`cut_sheet`) as DXF to ``path``; returns the path."""
+    from .._extras import require
+    require("ezdxf", "DXF export (explorer export --format dxf)")  # before the path is checked
     p = check_export_path(path, force)
     doc = dxf_document(cut_sheet(mech, scale, width, hole))
     return _write(p, lambda tmp: doc.saveas(tmp))

@@ -251,6 +251,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
                  seed: int = 0, x: str | None = None, y: str | None = None, title: str | None = None,
                  pc_lines: int = DEFAULT_PC_LINES):
     """(html text, :class:`Report` with path None) of an open results file; see :func:`write_report`."""
+    from .._extras import require
+    require("plotly", "explorer report")
     import plotly.graph_objects as go
     import plotly.io as pio
     from plotly.offline import get_plotlyjs
@@ -542,7 +544,9 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
     page title; pc_lines : the parallel coordinates draw at most this many designs (a seeded sample;
     brushes and counts are over every design in the page). An existing ``path`` is replaced only with ``force``; never the results file itself.
     """
+    from .._extras import require
     from ._export import _write, check_export_path
+    require("plotly", "explorer report")  # before anything is read
     protect = [results] if not hasattr(results, "file") else [getattr(results, "filename", None)]
     out = check_export_path(path, force, protect=[p for p in protect if p is not None])
     page, rep = _with_results(results, lambda res: build_report(
