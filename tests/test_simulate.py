@@ -2,7 +2,7 @@
 
 References: sequential circle-circle intersections (closed form), a textbook dense Newton solve and
 seed 000's eq. 29-30 velocity solve in numpy, central finite differences, and the published nominal
-figures of /work/shared/reference. Nothing is compared with explorer's own earlier output.
+figures of tests/reference/ (a copy of the project's shared reference). Nothing is compared with explorer's own earlier output.
 """
 
 from __future__ import annotations
@@ -72,7 +72,6 @@ def test_nominal_published_figures(jansen_cycle):
     np.testing.assert_allclose(foot[0], [-43.1601, -91.7569], atol=1e-4)
 
 
-@pytest.mark.skipif(not REFERENCE_FOOT.is_file(), reason=f"{REFERENCE_FOOT} not present")
 def test_nominal_matches_shared_reference_csv(jansen_cycle):
     ref = np.loadtxt(REFERENCE_FOOT, delimiter=",", skiprows=1)
     assert ref.shape == (360, 3)
