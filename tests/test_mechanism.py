@@ -174,7 +174,7 @@ CASES = {
     "too-many-links": (append(EXTRA_LINK.format(a="B0", b="P", length=31.0)), "links", "degrees of freedom"),
     "unknown-top-key": (edit('name = "fb"', 'name = "fb"\ncolour = "red"'), "colour", "unknown key"),
     "unknown-crank-key": (edit("tip = \"A\"", "tip = \"A\"\nspeed = 2.0"), "crank.speed", "unknown key"),
-    "unknown-link-key": (edit("length = 30.0", "length = 30.0\nmass = 1.0"), "links[0].mass", "unknown key"),
+    "unknown-link-key": (edit("length = 30.0", "length = 30.0\ncolour = 1.0"), "links[0].colour", "unknown key"),
     "malformed-toml": (edit("radius = 10.0", "radius = = 10.0"), None, "TOML"),
     "unterminated-string": (edit('name = "fb"', 'name = "fb'), None, "TOML"),
     "fixed-to-fixed": (lambda t: edit("B0 = [30.0, 0.0]", "B0 = [30.0, 0.0]\nC0 = [40.0, 0.0]")(t)

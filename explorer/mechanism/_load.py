@@ -8,9 +8,12 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ._model import LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, PathDriver, Walker, _check_length
+from ._model import LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Walker, _check_length, _short
 
-_TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies"}
+_TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
+             "operating"}
+#: Keys of an [operating] table (in a study, or a mechanism file's default), see :class:`Operating`.
+OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation")
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
 WALKER_KEYS = ("legs", "phases", "mirrored", "drag", "contact")
 #: Most legs a walker may have.
@@ -18,9 +21,11 @@ MAX_LEGS = 64
 _DRIVER_KEYS = {"vertex", "path", "start", "end", "center", "radius", "start_angle", "end_angle", "points",
                 "duration", "timing"}
 _PATH_KEYS = {"line": {"start", "end"}, "arc": {"center", "radius", "start_angle", "end_angle"}, "points": {"points"}}
-_CRANK_KEYS = {"center", "radius", "tip"}
-_LINK_KEYS = {"a", "b", "length", "name"}
-_BODY_KEYS = {"name", "joints"}
+_CRANK_KEYS = {"center", "radius", "tip", "mass"}
+_LINK_KEYS = {"a", "b", "length", "name", "mass"}
+_BODY_KEYS = {"name", "joints", "mass", "centroid", "inertia"}
+#: Largest mass (kg) or inertia (kg·m²) accepted: beyond it the forces overflow long before any build.
+_MAX_MASS = 1e12
 
 
 def builtin_mechanisms() -> tuple[str, ...]:
@@ -173,7 +178,8 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
             raise UserError(f"{where(source, key)}: duplicate link {a}-{b} (already given as {seen_pairs[pair]!r})")
         seen_names.add(lname)
         seen_pairs[pair] = lname
-        links.append(Link(lname, a, b, length))
+        mass = _mass(source, f"{key}.mass", lt["mass"]) if "mass" in lt else None
+        links.append(Link(lname, a, b, length, mass))
 
     bodies = _bodies(source, data.get("bodies", []), known, fixed, seen_pairs, seen_names)
     foot = _string(source, "foot", data["foot"])
@@ -188,8 +194,18 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         if crank is None:
             raise UserError(f"{where(source, 'walker')}: a walker needs a crank; this mechanism is driven by a path")
         walker = walker_from_dict(data["walker"], source, "walker")
+    link_density = None
+    if "mass" in data:
+        mt = _table(source, "mass", data["mass"])
+        _unknown_keys(source, "mass.", mt, {"link_density"})
+        if "link_density" in mt:
+            link_density = _mass(source, "mass.link_density", mt["link_density"], "a density in kg per metre of link")
+    operating = operating_from_dict(data["operating"], source) if "operating" in data else None
+    if operating is not None and operating.load and crank is None:
+        raise UserError(f"{where(source, 'operating.load')}: a load is carried by a walker's contact foot; this "
+                        f"mechanism is driven by a path, got {_short(operating.load)}")
     mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
-                     walker, bodies)
+                     walker, bodies, link_density, operating)
     _check_parameter_names(mech)
     return mech
 
@@ -242,7 +258,19 @@ def _bodies(source: str, raw, known: set, fixed: dict, seen_pairs: dict, seen_na
         if n_fixed > 1:
             raise UserError(f"{where(source, f'{key}.joints')}: body {bname!r} has {n_fixed} fixed joints: it is the "
                             f"ground; list its joints under [fixed] instead")
-        out.append(Body(bname, tuple(joints), tuple(points)))
+        mass = _mass(source, f"{key}.mass", bt["mass"]) if "mass" in bt else 0.0
+        centroid = None
+        if "centroid" in bt:
+            centroid = _point(source, f"{key}.centroid", bt["centroid"])
+            span = max(math.dist(a, b) for a in points for b in points)
+            near = min(math.dist(centroid, p) for p in points)
+            if near > span:
+                raise UserError(f"{where(source, f'{key}.centroid')}: {list(centroid)} is {near:g} model units from the "
+                                f"nearest joint, farther than the body's own span ({span:g}): a centre of mass lies "
+                                f"within its body (coordinates in the body's frame, like its joints)")
+        inertia = _mass(source, f"{key}.inertia", bt["inertia"], "an inertia in kg·m² about the centroid") \
+            if "inertia" in bt else None
+        out.append(Body(bname, tuple(joints), tuple(points), mass, centroid, inertia))
     return tuple(out)
 
 
@@ -305,14 +333,54 @@ def walker_from_dict(table, source: str, key: str = "walker", base: Walker | Non
 def _crank(source: str, value) -> Crank:
     crank_t = _table(source, "crank", value)
     _unknown_keys(source, "crank.", crank_t, _CRANK_KEYS)
-    for k in sorted(_CRANK_KEYS):
+    for k in sorted(_CRANK_KEYS - {"mass"}):
         if k not in crank_t:
             raise UserError(f"{where(source, 'crank.' + k)}: missing required key")
     return Crank(
         center=_point(source, "crank.center", crank_t["center"]),
         radius=_check_length(source, "crank.radius", crank_t["radius"]),
         tip=_string(source, "crank.tip", crank_t["tip"]),
+        mass=_mass(source, "crank.mass", crank_t["mass"]) if "mass" in crank_t else None,
     )
+
+
+def _mass(source: str, key: str, value, what: str = "a mass in kg") -> float:
+    """A mass (kg), inertia (kg·m²) or density: a finite number > 0 (0 allowed: massless)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise UserError(f"{where(source, key)}: expected {what}, a number ≥ 0, got {_short(value)}")
+    v = float(value) if abs(value) < 1e300 else math.inf
+    if not math.isfinite(v) or v < 0 or v > _MAX_MASS:
+        raise UserError(f"{where(source, key)}: expected {what}, a finite number from 0 to {_MAX_MASS:g}, "
+                        f"got {_short(value)}")
+    return v
+
+
+def operating_from_dict(table, source: str, key: str = "operating", base: Operating | None = None) -> Operating:
+    """Validate an ``[operating]`` table (keys :data:`OPERATING_KEYS`) into an :class:`Operating`; keys
+    it leaves out keep ``base``'s values (the mechanism file's default), else the defaults."""
+    t = _table(source, key, table)
+    _unknown_keys(source, key + ".", t, set(OPERATING_KEYS))
+    base = base or Operating()
+    out = {}
+    rules = {  # key: (lowest, allow it, highest, what)
+        "unit": (0.0, False, 1e6, "metres per model unit, a number > 0 (0.01 for a mechanism in centimetres)"),
+        "rpm": (0.0, False, 1e6, "the crank speed in revolutions per minute, a number > 0"),
+        "gravity": (0.0, True, 1e4, "m/s² along −y, a number ≥ 0 (0 turns gravity off)"),
+        "load": (0.0, True, 1e9, "kg carried by the contact foot, a number ≥ 0"),
+        "speed_fluctuation": (0.0, False, 2.0, "the crank speed's allowed fluctuation (ω_max − ω_min)/ω_mean, "
+                              "a number in (0, 2]"),
+    }
+    for k, (lo, lo_ok, hi, what) in rules.items():
+        if k not in t:
+            continue
+        v = t[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what}, got {_short(v)}")
+        f = float(v) if abs(v) < 1e300 else math.inf
+        if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
+            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what} (at most {hi:g}), got {_short(v)}")
+        out[k] = f
+    return Operating(**{**{k: getattr(base, k) for k in OPERATING_KEYS}, **out})
 
 
 def _driver(source: str, value) -> PathDriver:

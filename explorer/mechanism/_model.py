@@ -28,6 +28,7 @@ class Link:
     a: str
     b: str
     length: float
+    mass: float | None = None  # kg, a uniform bar; None: the mechanism's ``link_density`` × length (or massless)
 
 
 @dataclass(frozen=True)
@@ -37,11 +38,18 @@ class Body:
     ``points[i]`` is joint ``joints[i]``'s position in the body's own frame (model units); only the
     shape matters, not where the frame is. Joints may be collinear (a coupler with its foot on the
     line through its two pins). A body turns and moves but never mirrors.
+
+    For the forces effect: ``mass`` (kg, default 0: massless), ``centroid`` (its centre of mass in the
+    body's frame, model units; default: the mean of its joints) and ``inertia`` (kg·m² about the
+    centroid; default: the mass shared equally among its joints, m/n·Σ|joint − centroid|²).
     """
 
     name: str
     joints: tuple[str, ...]
     points: tuple[tuple[float, float], ...]
+    mass: float = 0.0
+    centroid: tuple[float, float] | None = None
+    inertia: float | None = None
 
     @property
     def span(self) -> float:
@@ -61,6 +69,7 @@ class Crank:
     center: tuple[float, float]
     radius: float
     tip: str
+    mass: float | None = None  # kg, a uniform bar from the centre to the tip; None: link_density × radius (or 0)
 
 
 @dataclass(frozen=True)
@@ -124,6 +133,36 @@ class Walker:
                 "mirrored": list(self.mirrored), "drag": self.drag, "contact": self.contact}
 
 
+@dataclass(frozen=True)
+class Operating:
+    """How a built machine runs, for the forces effect (``[operating]`` in a study or a mechanism file).
+
+    unit : metres per model unit (0.01 for Jansen's numbers in centimetres); None if not given.
+    rpm : the crank's constant speed, revolutions per minute (> 0); None if not given.
+    gravity : m/s², acting along −y (0 turns it off; default 9.81).
+    load : kg carried by the walker's contact foot (the walker scene's lowest foot, with its drag;
+        default 0).
+    speed_fluctuation : the crank speed's allowed total fluctuation C_s = (ω_max − ω_min)/ω_mean that
+        sizes the flywheel (default 0.05, i.e. ±2.5 %).
+    """
+
+    unit: float | None = None
+    rpm: float | None = None
+    gravity: float = 9.81
+    load: float = 0.0
+    speed_fluctuation: float = 0.05
+
+    @property
+    def omega(self) -> float:
+        """The crank speed, rad/s."""
+        return float(self.rpm) * 2.0 * math.pi / 60.0
+
+    def as_dict(self) -> dict:
+        """The TOML shape (keys not given are left out)."""
+        return {k: v for k, v in (("unit", self.unit), ("rpm", self.rpm), ("gravity", self.gravity),
+                                  ("load", self.load), ("speed_fluctuation", self.speed_fluctuation)) if v is not None}
+
+
 def _frozen(d: Mapping[str, tuple[float, float]]) -> Mapping[str, tuple[float, float]]:
     return MappingProxyType({k: (float(v[0]), float(v[1])) for k, v in d.items()})
 
@@ -157,6 +196,11 @@ class Mechanism:
         default, :class:`Walker`).
     bodies : tuple[Body, ...]
         Rigid bodies with two or more joints (file order).
+    link_density : float or None
+        ``[mass] link_density``: kg per metre of link length, the mass of every link (and the crank)
+        that gives none of its own (None: such links are massless).
+    operating : Operating or None
+        The file's ``[operating]`` table: the default operating point for the forces effect.
 
     Design parameters
     -----------------
@@ -178,6 +222,8 @@ class Mechanism:
     path: PathDriver | None = None
     walker: Walker | None = None
     bodies: tuple[Body, ...] = ()
+    link_density: float | None = None
+    operating: Operating | None = None
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
