@@ -47,7 +47,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..kernels import parallel_rows
+from ..kernels import ground_contact, leg_feet, leg_samples, parallel_rows
 from ._runs import all_finite, longest_cyclic_run
 from ._table import WALKER_METRICS
 
@@ -56,30 +56,6 @@ _COL = {name: i for i, name in enumerate(WALKER_METRICS)}
 (_TRAVEL, _BOB, _RIPPLE, _PEAK, _TRIPPLE, _CLEAR, _SLIP, _CONTACT) = (
     _COL["travel"], _COL["bob"], _COL["body_speed_ripple"], _COL["peak_torque"], _COL["torque_ripple"],
     _COL["clearance"], _COL["slip"], _COL["contact_fraction"])
-
-
-def leg_samples(walker, S: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Where each leg reads the sampled foot: (base, frac, sign), each (L,).
-
-    Leg j at sample k reads the foot at fractional sample index u = sign_j·k + base_j + frac_j
-    (mod S), with base_j an integer and 0 ≤ frac_j < 1; sign_j = −1 for a mirrored leg.
-    """
-    L = walker.legs
-    base = np.empty(L, dtype=np.int64)
-    frac = np.empty(L, dtype=np.float64)
-    sign = np.empty(L, dtype=np.int64)
-    for j in range(L):
-        shift = walker.phases[j] * S / (2.0 * math.pi)
-        if walker.mirrored[j]:
-            u, s = S / 2.0 - shift, -1
-        else:
-            u, s = shift, 1
-        r = round(u)
-        if abs(u - r) < 1e-9:  # on the grid: read the sample itself, exactly
-            u = float(r)
-        b = math.floor(u)
-        base[j], frac[j], sign[j] = b % S, u - b, s
-    return base, frac, sign
 
 
 @njit(cache=True, nogil=True)
@@ -102,51 +78,16 @@ def _walker_kernel(base, frac, sign, mirrored, drag, contact, paths, vel, status
         if status[i] != 0 or not (r > 0.0) or not (all_finite(paths[i]) and all_finite(vel[i])):
             continue
         # -- every leg's foot height and velocity at every sample -------------------------------------
-        for j in range(L):
-            f = frac[j]
-            for k in range(S):
-                u0 = (sign[j] * k + base[j]) % S
-                if f == 0.0:
-                    y = paths[i, u0, 1]
-                    vx = vel[i, u0, 0]
-                    vy = vel[i, u0, 1]
-                else:
-                    u1 = (u0 + 1) % S
-                    # cubic Hermite on [θ_u0, θ_u0 + Δ] from the samples and their θ-derivatives
-                    f2 = f * f
-                    f3 = f2 * f
-                    h00 = 2.0 * f3 - 3.0 * f2 + 1.0
-                    h10 = f3 - 2.0 * f2 + f
-                    h01 = -2.0 * f3 + 3.0 * f2
-                    h11 = f3 - f2
-                    g00 = (6.0 * f2 - 6.0 * f) / d
-                    g10 = 3.0 * f2 - 4.0 * f + 1.0
-                    g01 = (-6.0 * f2 + 6.0 * f) / d
-                    g11 = 3.0 * f2 - 2.0 * f
-                    y = h00 * paths[i, u0, 1] + h10 * d * vel[i, u0, 1] + h01 * paths[i, u1, 1] + h11 * d * vel[i, u1, 1]
-                    vx = g00 * paths[i, u0, 0] + g10 * vel[i, u0, 0] + g01 * paths[i, u1, 0] + g11 * vel[i, u1, 0]
-                    vy = g00 * paths[i, u0, 1] + g10 * vel[i, u0, 1] + g01 * paths[i, u1, 1] + g11 * vel[i, u1, 1]
-                Y[j, k] = y
-                if mirrored[j]:  # reflected (x' → −x') and driven backwards (dα/dθ = −1)
-                    VX[j, k] = vx
-                    VY[j, k] = -vy
-                else:
-                    VX[j, k] = vx
-                    VY[j, k] = vy
+        leg_feet(base, frac, sign, mirrored, paths[i], vel[i], Y, VX, VY)
         # -- ground, contact leg, body motion ----------------------------------------------------------
         gmin = np.inf
         gmax = -np.inf
         sum_vx = 0.0
         sum_s = 0.0
+        ground_contact(Y, G, C)
         for k in range(S):
-            c = 0
-            g = Y[0, k]
-            for j in range(1, L):
-                if Y[j, k] < g:
-                    g = Y[j, k]
-                    c = j
-            G[k] = g
-            C[k] = c
+            c = C[k]
+            g = G[k]
             if g < gmin:
                 gmin = g
             if g > gmax:
