@@ -4,9 +4,11 @@ from ._cache import guard_cache, is_cached
 
 guard_cache()  # before any kernel is loaded from the on-disk cache
 
+from ._legs import ground_contact, leg_feet, leg_samples  # noqa: E402
 from ._rows import parallel_rows  # noqa: E402
 from ._simulate import (DEFAULT_TOLERANCE, METHODS, TOLERANCE_RANGE, STATUS_NAMES, Batch, Cycle, Failure, assemble,  # noqa: E402
                         plan_for, simulate, simulate_batch)
 
-__all__ = ["is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "parallel_rows",
+__all__ = ["is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "ground_contact", "leg_feet", "leg_samples",
+           "parallel_rows",
            "plan_for", "simulate", "simulate_batch"]

@@ -30,29 +30,14 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
     ``_batch.valid_lengths``).
     """
     N = lengths.shape[0]
-    nominal = mech.parameters()
-    geometry = dict(geometry or {})
-    for name in geometry:
-        if mech.parameter_kind(name) != "coordinate":
-            raise UserError(f"geometry: {name!r} is a length; pass it with the lengths (or the crank radii)")
-
-    def col(name):
-        if name in geometry:
-            c = np.asarray(geometry[name], dtype=np.float64).reshape(-1)
-            if c.shape[0] != N:
-                raise UserError(f"geometry: column {name!r} has {c.shape[0]} values for {N} variants")
-            return c
-        return np.full(N, nominal[name])
-
+    col = _columns(mech, geometry, N)
     n_links = len(mech.links)
     dist = np.empty((N, len(plan.link_a)))
     dist[:, :n_links] = lengths
     size = np.max(lengths, axis=1) if n_links else np.zeros(N)
-    points = []
+    points = body_points(mech, geometry, N)
     for bi, body in enumerate(mech.bodies):
-        pts = np.stack([np.stack([col(f"{body.name}.{j}.x"), col(f"{body.name}.{j}.y")], axis=-1)
-                        for j in body.joints], axis=1)  # (N, n_joints, 2)
-        points.append(pts)
+        pts = points[bi]
         p, q = plan.body_base[bi]
         dist[:, n_links + bi] = np.hypot(*(pts[:, q] - pts[:, p]).T)
         diff = pts[:, :, None, :] - pts[:, None, :, :]
@@ -87,3 +72,29 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
     dist[~ok] = np.nan
     return Designs(np.ascontiguousarray(dist), np.ascontiguousarray(uv), np.ascontiguousarray(fixed),
                    np.ascontiguousarray(center), np.ascontiguousarray(scale, dtype=np.float64), tol)
+
+
+def _columns(mech: Mechanism, geometry: dict | None, N: int):
+    """``col(name)``: the (N,) values of coordinate parameter ``name`` (from ``geometry``, else the nominal)."""
+    nominal = mech.parameters()
+    geometry = dict(geometry or {})
+    for name in geometry:
+        if mech.parameter_kind(name) != "coordinate":
+            raise UserError(f"geometry: {name!r} is a length; pass it with the lengths (or the crank radii)")
+
+    def col(name):
+        if name in geometry:
+            c = np.asarray(geometry[name], dtype=np.float64).reshape(-1)
+            if c.shape[0] != N:
+                raise UserError(f"geometry: column {name!r} has {c.shape[0]} values for {N} variants")
+            return c
+        return np.full(N, nominal[name])
+
+    return col
+
+
+def body_points(mech: Mechanism, geometry: dict | None, N: int) -> list[np.ndarray]:
+    """Each body's joints in its own frame for N variants: a list (one per body) of (N, n_joints, 2)."""
+    col = _columns(mech, geometry, N)
+    return [np.stack([np.stack([col(f"{b.name}.{j}.x"), col(f"{b.name}.{j}.y")], axis=-1) for j in b.joints], axis=1)
+            for b in mech.bodies]

@@ -9,11 +9,13 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import UserError, where
-from ..mechanism import Mechanism
+from ..mechanism import Mechanism, Operating, Walker, operating_from_dict
 from ..plan import ATTACH, DYAD, GENERAL, Plan, make_plan
 from ._blocks import solve_general
 from ._closed import closed_batch_jit
+from ._design import body_points
 from ._design import designs as _designs
+from ._forces import F_OK, force_metrics, solve_forces
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
 from ._batch import fast_batch_jit, generic_batch_jit
 from ._codegen import kernel_for, supported
@@ -30,6 +32,10 @@ STATUS_NAMES = {
     STATUS_NOCONV: "no-convergence",
     STATUS_INVALID: "invalid",
 }
+#: The forces effect's own failure: a Jacobian singular at a sample (a toggle), where the joint
+#: reactions and the motor torque are unbounded.
+STATUS_SINGULAR = 5
+STATUS_NAMES[STATUS_SINGULAR] = "singular"
 METHODS = ("block", "dense", "closed")
 #: Default tolerance: every solved position within 1e-11 × the design's longest link of the exact one
 #: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see the README's accuracy table).
@@ -45,7 +51,11 @@ _KIND_TEXT = {
     "branch": "left its branch (toggle crossed or mirrored assembly)",
     "no-convergence": "could not be solved (Newton did not converge, or a step could not be resolved)",
     "invalid": "has a non-finite or non-positive length",
+    "singular": "is at a toggle (its Jacobian is singular, the joint reactions unbounded)",
 }
+#: Variants solved at once when forces are asked for (every vertex's positions are needed; this
+#: bounds the memory they take: 1,024 × 360 steps × 7 vertices is 41 MB).
+FORCE_CHUNK = 1024
 
 
 @dataclass(frozen=True)
@@ -84,6 +94,9 @@ class Cycle:
     ok : True only if every sample solved on one branch (and a crank cycle closed on itself).
     failure : None, or a :class:`Failure`.
     iterations : total Newton iterations spent.
+    torque : (steps,) motor torque, N·m (``forces=True``; see :mod:`explorer.kernels._forces`), or None.
+    force_metrics : {metric: float} the forces effect's metrics in SI units (empty without forces).
+    member_forces : {(member, joint): (steps, 2)} each member's force on each of its pins, N.
     """
 
     mechanism: Mechanism
@@ -94,6 +107,18 @@ class Cycle:
     ok: bool
     failure: Failure | None
     iterations: int
+    torque: np.ndarray | None = None
+    joint_forces: dict | None = None
+    force_metrics: dict | None = None
+    member_forces: dict | None = None
+
+    def force(self, joint: str) -> np.ndarray:
+        """The reaction at ``joint`` at every sample, shape (steps, 2), N: the force its most heavily loaded
+        member puts on the pin (``forces=True``)."""
+        if self.joint_forces is None:
+            raise UserError("forces were not computed: call simulate(..., forces=True, operating={...})")
+        self.mechanism.vertex_index(joint)  # a one-line error naming the known joints
+        return self.joint_forces[str(joint)]
 
     def path(self, vertex: str) -> np.ndarray:
         """Positions of ``vertex`` at every sample, shape (steps, 2)."""
@@ -115,6 +140,7 @@ class Cycle:
         state = "ok" if self.ok else f"failed: {self.failure.message}" if self.failure is not None else "failed"
         extra = " + velocities" if self.velocities is not None else ""
         extra += " + accelerations" if self.accelerations is not None else ""
+        extra += " + forces" if self.torque is not None else ""
         return f"<Cycle {self.mechanism.name}: {len(self.theta)} steps, {self.positions.shape[1]} vertices{extra}; {state}>"
 
 
@@ -126,7 +152,8 @@ class Batch:
     dict vertex -> (N, steps, 2); status : (N,) int8 codes (see STATUS_NAMES); fail_theta : (N,)
     where it failed, NaN when ok; fail_theta_end : (N,) end of the unreachable crank range (see
     :class:`Failure`), NaN when not applicable; fail_block : (N,) plan block index, −1 when ok;
-    iterations : (N,) total Newton iterations.
+    iterations : (N,) total Newton iterations. With ``forces=True``: torque (N, steps) motor torque,
+    N·m; forces {joint: (N, steps, 2)} reactions, N; force_metrics {metric: (N,)} in SI units.
     """
 
     theta: np.ndarray
@@ -138,6 +165,9 @@ class Batch:
     fail_theta_end: np.ndarray
     fail_block: np.ndarray
     iterations: np.ndarray
+    torque: np.ndarray | None = None
+    forces: dict | None = None
+    force_metrics: dict | None = None
 
     def __repr__(self) -> str:
         n = len(self.status)
@@ -318,7 +348,8 @@ def _check_common(steps, tolerance, method, max_iterations):
 
 def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TOLERANCE, method: str = "block",
              velocities: bool | None = None, accelerations: bool = False,
-             max_iterations: int = DEFAULT_MAX_ITERATIONS) -> Cycle:
+             max_iterations: int = DEFAULT_MAX_ITERATIONS, forces: bool = False, operating=None,
+             walker: Walker | None = None) -> Cycle:
     """Solve ``mech`` at every sample of its driver: θ_k = 2πk/steps for a crank (k = 0 … steps−1),
     t_k = T·k/(steps−1) for a prescribed path of duration T.
 
@@ -333,9 +364,18 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
     asked for. The result is ok only if every sample solved on the
     branch chosen at the start (by the guess), no assembly gap hides between samples, and a crank
     cycle closes on itself.
+
+    forces : also the motor torque, every joint's reaction and the force metrics, in SI units, at the
+        ``operating`` point (a dict of ``[operating]`` keys or an :class:`~explorer.mechanism.Operating`;
+        keys not given come from the mechanism file's ``[operating]``; ``unit`` and ``rpm`` are
+        required), for the ``walker`` scene (default: the mechanism's own ``[walker]``, else one leg);
+        see :mod:`explorer.kernels._forces` for the model. A sample where a Jacobian is singular fails
+        the cycle as "singular".
     """
     _check_common(steps, tolerance, method, max_iterations)
     velocities = _default_velocities(velocities, method)
+    if forces:
+        operating, walker = force_setup(mech, operating, walker)
     plan = plan_for(mech)
     drv = _drive_for(mech.crank or mech.path, steps)
     nv = len(mech.vertices)
@@ -348,10 +388,47 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
     pos, vel, acc, status, fth, fend, fbl, its = _run(
         mech, plan, _nominal_design(mech, plan, tolerance), steps, np.arange(nv), velocities, accelerations, method,
         max_iterations, P0, signs, np.arange(plan.n_blocks))
+    extra = {}
+    if forces:
+        des = _nominal_design(mech, plan, tolerance)
+        fo = solve_forces(mech, plan, pos, status, des, mech.lengths[None, :], np.array([_scale(mech)]),
+                          body_points(mech, None, 1), operating, walker, mech.vertices, members=True)
+        _force_status(fo, status, fth, fbl, drv.params)
+        met = force_metrics(fo, operating, mech.vertices)
+        extra = dict(torque=fo.torque[0], joint_forces={j: f[0] for j, f in fo.joint_forces.items()},
+                     force_metrics={k: float(v[0]) for k, v in met.items()},
+                     member_forces={k: f[0] for k, f in fo.members.items()})
     st = int(status[0])
     failure = None if st == STATUS_OK else _failure(mech, plan, st, float(fth[0]), float(fend[0]), int(fbl[0]))
     return Cycle(mech, drv.params, pos[0], vel[0] if velocities else None, acc[0] if accelerations else None,
-                 st == STATUS_OK, failure, int(its[0]))
+                 st == STATUS_OK, failure, int(its[0]), **extra)
+
+
+def force_setup(mech: Mechanism, operating, walker) -> tuple[Operating, Walker]:
+    """The operating point (``operating``: None, a dict of ``[operating]`` keys or an Operating, over the
+    mechanism file's ``[operating]``) and walker scene (default: the mechanism's, else one leg) of the
+    forces effect; UserError unless the mechanism has a crank and ``unit`` and ``rpm`` are given."""
+    if mech.crank is None:
+        raise UserError(f"{where(mech.source, 'driver')}: forces are computed for crank-driven mechanisms (the motor "
+                        f"torque is the crank's); this one is driven by a path")
+    if isinstance(operating, Operating):
+        op = operating
+    else:
+        op = operating_from_dict(dict(operating or {}), "operating", "operating", base=mech.operating)
+    for k, what in (("unit", "metres per model unit, e.g. 0.01 for a mechanism in centimetres"),
+                    ("rpm", "the crank speed in revolutions per minute")):
+        if getattr(op, k) is None:
+            raise UserError(f"operating.{k}: forces need it ({what}); give it in the study's or the mechanism's "
+                            f"[operating] table")
+    return op, (walker or mech.walker or Walker(legs=1))
+
+
+def _force_status(fo, status, fth, fbl, params) -> None:
+    """Mark the rows whose forces failed (a singular Jacobian, or non-finite forces) "singular", in place."""
+    bad = (fo.code != F_OK) & (status == STATUS_OK)
+    status[bad] = STATUS_SINGULAR
+    fth[bad] = params[np.maximum(fo.sample[bad], 0)]
+    fbl[bad] = fo.block[bad]
 
 
 def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
@@ -457,7 +534,8 @@ def _default_velocities(velocities, method: str) -> bool:
 def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, geometry=None, vertices=None,
                    velocities: bool | None = None,
                    accelerations: bool = False, tolerance: float = DEFAULT_TOLERANCE, method: str = "block",
-                   max_iterations: int = DEFAULT_MAX_ITERATIONS, kernel: str = "auto") -> Batch:
+                   max_iterations: int = DEFAULT_MAX_ITERATIONS, kernel: str = "auto", forces: bool = False,
+                   operating=None, walker: Walker | None = None, force_joints=()) -> Batch:
     """Solve N variants of ``mech`` in parallel; only what is asked for is computed.
 
     lengths : (N, n_links) link lengths in ``mech.links`` order, or every design parameter by name
@@ -485,8 +563,16 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
     kernel : "auto" (default: the per-topology generated code where it applies, else the array form),
         "general" (always the array form of the sweep) or "generated" (the generated code; an error
         where it does not apply). The results are the same bit for bit; the choice is for debugging.
+    forces, operating, walker : as for :func:`simulate`; the Batch then holds ``torque`` (N, steps),
+        ``forces`` {joint: (N, steps, 2)} for the joints named in ``force_joints`` and
+        ``force_metrics`` {metric: (N,)}. Variants are solved ``FORCE_CHUNK`` at a time.
     """
     _check_common(steps, tolerance, method, max_iterations)
+    if forces:
+        operating, walker = force_setup(mech, operating, walker)
+        force_joints = [str(j) for j in ([force_joints] if isinstance(force_joints, str) else force_joints)]
+        for j in force_joints:
+            mech.vertex_index(j)
     if kernel not in KERNELS:
         raise UserError(f"kernel: expected one of {', '.join(KERNELS)}, got {kernel!r}")
     velocities = _default_velocities(velocities, method)
@@ -518,12 +604,22 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
         fth, fend = np.full(N, fail.theta), np.full(N, np.nan)
         fbl = np.full(N, -1 if fail.block is None else fail.block, dtype=np.int64)
         its = np.zeros(N, dtype=np.int64)
+        fo = met = None
+    elif forces:
+        pos, vel, acc, status, fth, fend, fbl, its, fo, met = _batch_forces(
+            mech, plan, lengths, scale, geometry, tolerance, steps, out_idx, velocities, accelerations, method,
+            max_iterations, P0, kernel, operating, walker, force_joints)
     else:
         signs = _signs(mech, plan, P0)
         blocks = np.arange(plan.n_blocks) if method == "dense" else plan.needed_blocks(out_idx)
         des = _designs(mech, plan, lengths, scale, geometry, tolerance)
         pos, vel, acc, status, fth, fend, fbl, its = _run(mech, plan, des, steps, out_idx, velocities, accelerations,
                                                           method, max_iterations, P0, signs, blocks, kernel)
+        fo = met = None
+    if forces and fo is None:  # no start: every row failed
+        N = lengths.shape[0]
+        fo = (np.full((N, steps), np.nan), {j: np.full((N, steps, 2), np.nan) for j in force_joints})
+        met = {}
     return Batch(
         theta=_drive_for(mech.crank or mech.path, steps).params,
         paths={v: pos[:, :, j] for j, v in enumerate(names)},
@@ -534,4 +630,49 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
         fail_theta_end=fend,
         fail_block=fbl,
         iterations=its,
+        torque=fo[0] if forces else None,
+        forces=fo[1] if forces else None,
+        force_metrics=met if forces else None,
     )
+
+
+def _batch_forces(mech, plan, lengths, scale, geometry, tolerance, steps, out_idx, velocities, accelerations, method,
+                  max_iterations, P0, kernel, operating, walker, force_joints):
+    """simulate_batch with forces: FORCE_CHUNK variants at a time, every vertex solved, then the forces
+    effect; returns the outputs for ``out_idx`` and (torque, {joint: forces}) and the force metrics."""
+    N, nv = lengths.shape[0], len(mech.vertices)
+    signs = _signs(mech, plan, P0)
+    blocks = np.arange(plan.n_blocks)
+    allv = np.arange(nv)
+    k = len(out_idx)
+    pos = np.empty((N, steps, k, 2))
+    vel = np.empty((N, steps if velocities else 0, k, 2))
+    acc = np.empty((N, steps if accelerations else 0, k, 2))
+    status, fth, fend = np.empty(N, dtype=np.int8), np.empty(N), np.empty(N)
+    fbl, its = np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64)
+    torque = np.empty((N, steps))
+    jf = {j: np.empty((N, steps, 2)) for j in force_joints}
+    met: dict = {}
+    params = _drive_for(mech.crank, steps).params
+    geometry = dict(geometry or {})
+    for lo in range(0, N, FORCE_CHUNK):
+        hi = min(N, lo + FORCE_CHUNK)
+        g = {n: np.asarray(c, dtype=np.float64).reshape(-1)[lo:hi] for n, c in geometry.items()}
+        des = _designs(mech, plan, lengths[lo:hi], scale[lo:hi], g, tolerance)
+        p, v, a, st, th, te, bl, it = _run(mech, plan, des, steps, allv, velocities, accelerations, method,
+                                           max_iterations, P0, signs, blocks, kernel)
+        fo = solve_forces(mech, plan, p, st, des, lengths[lo:hi], scale[lo:hi], body_points(mech, g, hi - lo),
+                          operating, walker, force_joints)
+        _force_status(fo, st, th, bl, params)
+        pos[lo:hi] = p[:, :, out_idx]
+        if velocities:
+            vel[lo:hi] = v[:, :, out_idx]
+        if accelerations:
+            acc[lo:hi] = a[:, :, out_idx]
+        status[lo:hi], fth[lo:hi], fend[lo:hi], fbl[lo:hi], its[lo:hi] = st, th, te, bl, it
+        torque[lo:hi] = fo.torque
+        for j in force_joints:
+            jf[j][lo:hi] = fo.joint_forces[j]
+        for name, col in force_metrics(fo, operating, mech.vertices).items():
+            met.setdefault(name, np.empty(N))[lo:hi] = col
+    return pos, vel, acc, status, fth, fend, fbl, its, (torque, jf), met

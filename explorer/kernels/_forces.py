@@ -1,0 +1,856 @@
+"""The forces effect: motor torque, joint reactions and frame forces from solved positions (inverse dynamics).
+
+Model (the contract)
+--------------------
+The crank turns at the constant speed ω = rpm·2π/60 (rad/s). Coordinates are every vertex's position
+(the vertex formulation of seed 000); the constraints are the plan's distance equations
+φ = ½(|p_b − p_a|² − d²) (links, then each body's base pair), its attach equations
+j − p − (u·I + w·R)(q − p) = 0 (a body joint from its base pair; R the quarter turn) and, outside
+the plan, the fixed vertices and the crank tip (prescribed). Masses enter through a constant mass
+matrix on those coordinates:
+
+* a link of mass m (a uniform bar) adds m/6·[[2, 1], [1, 2]] on its two ends and m·g/2 of weight
+  on each end (exact for a rigid uniform bar: its kinetic energy is m/6·(|ȧ|² + ȧ·ḃ + |ḃ|²));
+* a body of mass m, centroid G = p + (ū·I + w̄·R)(q − p) and inertia I_G about G is written on its
+  base pair (p, q) in natural coordinates: with g = q − p, J = (I_G + m|G − p|²)/|g|², the
+  generalised inertia forces are m·Āᵀ·p̈ + J·g̈ on q and m·a_G minus that on p, the weight
+  −m·g·(w̄, ū) on q and −m·g·(−w̄, 1 − ū) on p;
+* the crank (a uniform bar from centre to tip) turns at constant speed: it enters only the motor
+  torque (its weight's moment) and the bearing force.
+
+Velocities and accelerations come block by block in plan order from the positions (each block's
+constraint equations differentiated once and twice: linear solves with the block's Jacobian). The
+Lagrange equations Φ_qᵀ·λ = M·q̈ − Q are then solved for the multipliers block by block in *reverse*
+plan order (the Jacobian is block-lower-triangular, so its transpose is block-upper-triangular):
+each block's own Jacobian transposed, 2x2 for a dyad, the identity for a body joint. What is left on
+the fixed vertices is the frame's force on the mechanism; on the crank tip, the crank's force f on
+the tip pin, whence the motor torque τ = (tip − c) × f + m_c·g·(tip − c)_x / 2 (positive when the
+motor does positive work: along the crank's counter-clockwise turn).
+
+The force member m puts on pin v is f_{m→v} = Σ_{c∈m} (∂c/∂q_v)ᵀ·λ_c − (M^(m)·q̈ − Q^(m))_v; the
+frame, the crank and the ground (the load on the contact foot) are members too. A joint's reaction
+is the largest of its members' forces (the one that sets the pin's shear).
+
+Walker: the leg is replicated on one crankshaft (``_legs``); the load W = load·g rests on the
+contact foot (the lowest, ties to the lower leg) as the walker scene's force F = (u·drag·W, W), u
+the walking direction. Everything is linear in the load, so each sample of the base leg is solved
+for three right-hand sides (inertia and weight; a unit force on the foot along x; along y) and every
+leg at every crank angle is read off them: a plain leg at θ + φ_j, a mirrored leg as the mirror
+image of the base leg at π − θ − φ_j with the mirrored load, its torque negated (it is driven
+backwards). A phase between two samples is interpolated linearly. The motor torque, the frame force
+and the pin reactions are those of the whole walker; the stored joint forces are leg 0's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..plan import ATTACH, DYAD, Plan
+from ._legs import ground_contact, leg_feet, leg_samples
+
+#: force-effect status codes written to ``code`` (0 ok); the caller turns them into statuses
+F_OK, F_SINGULAR, F_NONFINITE = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class ForceTables:
+    """The plan as the forces kernel reads it (computed once per topology).
+
+    blk_kind (nb,) DYAD / ATTACH / GENERAL; blk_v (nb,) a dyad's vertex; blk_e (nb, 2) a dyad's two
+    distance rows (an attach block's attach row in column 0); blk_t (nb,) an attach block's attach row; blk_vp (nb+1,) / blk_verts: a general
+    block's vertices; blk_rp (nb+1,) / row_kind (0 distance, 1 attach), row_id, row_axis: its rows.
+    dist_a, dist_b (n_dist,), att (n_att, 3) (joint, p, q) vertex indices.
+    Incidences (one per member and pin): inc_vertex (K,); dinc (n_dist, 2) the incidence of each
+    distance row's a and b ends; ainc (n_att, 3) of each attach row's j, p, q; body_pq (n_bodies, 2)
+    base-pair vertices and body_inc (n_bodies, 2) their incidences; link_inc is dinc[:n_links];
+    tip_inc the crank's incidence at the tip; fixed (n_fixed,) and fixed_inc; foot, foot_inc (the
+    ground's incidence at the foot).
+    """
+
+    blk_kind: np.ndarray
+    blk_v: np.ndarray
+    blk_e: np.ndarray
+    blk_t: np.ndarray
+    blk_vp: np.ndarray
+    blk_verts: np.ndarray
+    blk_rp: np.ndarray
+    row_kind: np.ndarray
+    row_id: np.ndarray
+    row_axis: np.ndarray
+    dist_a: np.ndarray
+    dist_b: np.ndarray
+    att: np.ndarray
+    inc_vertex: np.ndarray
+    dinc: np.ndarray
+    ainc: np.ndarray
+    body_pq: np.ndarray
+    body_inc: np.ndarray
+    tip: int
+    tip_inc: int
+    fixed: np.ndarray
+    fixed_inc: np.ndarray
+    foot: int
+    foot_inc: int
+    inc_member: tuple  # (K,) member names, for people: link / body name, "crank", "frame", "ground"
+
+
+def force_tables(mech, plan: Plan) -> ForceTables:
+    """The :class:`ForceTables` of ``mech``'s plan."""
+    nl, nb = plan.n_links, len(mech.bodies)
+    inc: dict[tuple[str, int], int] = {}
+
+    def incidence(member: str, v: int) -> int:
+        return inc.setdefault((member, int(v)), len(inc))
+
+    n_dist = len(plan.link_a)
+    dinc = np.empty((n_dist, 2), dtype=np.int64)
+    for e in range(n_dist):
+        member = mech.links[e].name if e < nl else mech.bodies[e - nl].name
+        dinc[e] = incidence(member, plan.link_a[e]), incidence(member, plan.link_b[e])
+    ainc = np.empty((len(plan.attach), 3), dtype=np.int64)
+    for t, (j, p, q) in enumerate(plan.attach):
+        member = mech.bodies[plan.attach_body[t]].name
+        ainc[t] = incidence(member, j), incidence(member, p), incidence(member, q)
+    body_pq = np.empty((nb, 2), dtype=np.int64)
+    body_inc = np.empty((nb, 2), dtype=np.int64)
+    for bi, b in enumerate(mech.bodies):
+        pq = [mech.vertex_index(b.joints[k]) for k in plan.body_base[bi]]
+        body_pq[bi] = pq
+        body_inc[bi] = [incidence(b.name, v) for v in pq]
+    tip_inc = incidence("crank", plan.tip)
+    fixed = np.asarray(plan.fixed, dtype=np.int64)
+    fixed_inc = np.array([incidence("frame", v) for v in fixed], dtype=np.int64)
+    foot = mech.vertex_index(mech.foot)
+    foot_inc = incidence("ground", foot)
+    nblk = plan.n_blocks
+    blk_kind = np.array([b.kind for b in plan.blocks], dtype=np.int64)
+    blk_v = np.array([b.vertices[0] for b in plan.blocks], dtype=np.int64)
+    blk_e = np.full((nblk, 2), -1, dtype=np.int64)
+    blk_t = np.full(nblk, -1, dtype=np.int64)
+    vp, verts, rp, rk, rid, rax = [0], [], [0], [], [], []
+    for k, b in enumerate(plan.blocks):
+        if b.kind == DYAD:
+            blk_e[k] = b.links
+        elif b.kind == ATTACH:
+            blk_t[k] = b.attaches[0][0]
+            blk_e[k, 0] = b.attaches[0][0]
+        else:
+            verts += list(b.vertices)
+            for e in b.links:
+                rk.append(0), rid.append(e), rax.append(0)
+            for t, axis in b.attaches:
+                rk.append(1), rid.append(t), rax.append(axis)
+        vp.append(len(verts))
+        rp.append(len(rk))
+    i64 = lambda x: np.asarray(x, dtype=np.int64)  # noqa: E731
+    return ForceTables(blk_kind, blk_v, blk_e, blk_t, i64(vp), i64(verts), i64(rp), i64(rk), i64(rid), i64(rax),
+                       i64(plan.link_a), i64(plan.link_b), i64(plan.attach).reshape(-1, 3), i64([v for _, v in inc]),
+                       dinc, ainc, body_pq, body_inc, int(plan.tip), tip_inc, fixed, fixed_inc, foot, foot_inc,
+                       tuple(m for m, _ in inc))
+
+
+# -- small dense solves -------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _gauss(M, x, n, tol):
+    """Solve M[:n, :n] y = x[:n] in place (x ← y) by elimination with partial pivoting; False if a pivot
+    is below ``tol`` (singular)."""
+    for c in range(n):
+        p = c
+        best = abs(M[c, c])
+        for r in range(c + 1, n):
+            if abs(M[r, c]) > best:
+                best = abs(M[r, c])
+                p = r
+        if not (best > tol):
+            return False
+        if p != c:
+            for k in range(n):
+                t = M[c, k]
+                M[c, k] = M[p, k]
+                M[p, k] = t
+            t = x[c]
+            x[c] = x[p]
+            x[p] = t
+        for r in range(c + 1, n):
+            f = M[r, c] / M[c, c]
+            if f != 0.0:
+                for k in range(c, n):
+                    M[r, k] -= f * M[c, k]
+                x[r] -= f * x[c]
+    for c in range(n - 1, -1, -1):
+        s = x[c]
+        for k in range(c + 1, n):
+            s -= M[c, k] * x[k]
+        x[c] = s / M[c, c]
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _row_grad(kind, rid, axis, v, P, dist_a, dist_b, att, uv, out):
+    """out[:] = ∂c/∂q_v (2,) of constraint row (kind, rid, axis) with respect to vertex v's position."""
+    out[0] = 0.0
+    out[1] = 0.0
+    if kind == 0:
+        a = dist_a[rid]
+        b = dist_b[rid]
+        if v == b:
+            out[0] = P[b, 0] - P[a, 0]
+            out[1] = P[b, 1] - P[a, 1]
+        elif v == a:
+            out[0] = P[a, 0] - P[b, 0]
+            out[1] = P[a, 1] - P[b, 1]
+    else:
+        u = uv[rid, 0]
+        w = uv[rid, 1]
+        j = att[rid, 0]
+        p = att[rid, 1]
+        q = att[rid, 2]
+        # c = j − (I − A) p − A q, A = [[u, −w], [w, u]]
+        if v == j:
+            out[axis] = 1.0
+        if v == p:
+            if axis == 0:
+                out[0] -= 1.0 - u
+                out[1] -= w
+            else:
+                out[0] -= -w
+                out[1] -= 1.0 - u
+        if v == q:
+            if axis == 0:
+                out[0] -= u
+                out[1] -= -w
+            else:
+                out[0] -= w
+                out[1] -= u
+
+
+@njit(cache=True, nogil=True)
+def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv,
+                tip, cx, cy, P, V, A, loc, M, x, g, tol):
+    """Velocities V and accelerations A (nv, 2), per radian and per radian², of every vertex at one
+    sample from its positions P, block by block in plan order; fixed vertices still, the tip on its
+    circle about (cx, cy). Returns the first block whose Jacobian is singular, or −1."""
+    V[:, :] = 0.0
+    A[:, :] = 0.0
+    V[tip, 0] = -(P[tip, 1] - cy)
+    V[tip, 1] = P[tip, 0] - cx
+    A[tip, 0] = -(P[tip, 0] - cx)
+    A[tip, 1] = -(P[tip, 1] - cy)
+    for k in range(tb_kind.shape[0]):
+        kind = tb_kind[k]
+        if kind == 0:  # DYAD: c_i · (V_v − V_a_i) = 0, c_i · (A_v − A_a_i) + |V_v − V_a_i|² = 0
+            v = blk_v[k]
+            e1 = blk_e[k, 0]
+            e2 = blk_e[k, 1]
+            a1 = dist_a[e1] if dist_b[e1] == v else dist_b[e1]
+            a2 = dist_a[e2] if dist_b[e2] == v else dist_b[e2]
+            c1x = P[v, 0] - P[a1, 0]
+            c1y = P[v, 1] - P[a1, 1]
+            c2x = P[v, 0] - P[a2, 0]
+            c2y = P[v, 1] - P[a2, 1]
+            det = c1x * c2y - c1y * c2x
+            if not (abs(det) > tol * (abs(c1x * c2y) + abs(c1y * c2x))):
+                return k
+            r1 = c1x * V[a1, 0] + c1y * V[a1, 1]
+            r2 = c2x * V[a2, 0] + c2y * V[a2, 1]
+            V[v, 0] = (r1 * c2y - r2 * c1y) / det
+            V[v, 1] = (c1x * r2 - c2x * r1) / det
+            d1x = V[v, 0] - V[a1, 0]
+            d1y = V[v, 1] - V[a1, 1]
+            d2x = V[v, 0] - V[a2, 0]
+            d2y = V[v, 1] - V[a2, 1]
+            r1 = c1x * A[a1, 0] + c1y * A[a1, 1] - (d1x * d1x + d1y * d1y)
+            r2 = c2x * A[a2, 0] + c2y * A[a2, 1] - (d2x * d2x + d2y * d2y)
+            A[v, 0] = (r1 * c2y - r2 * c1y) / det
+            A[v, 1] = (c1x * r2 - c2x * r1) / det
+        elif kind == 1:  # ATTACH: j = p + A (q − p), linear
+            t = blk_e[k, 0]
+            j = att[t, 0]
+            p = att[t, 1]
+            q = att[t, 2]
+            u = uv[t, 0]
+            w = uv[t, 1]
+            gx = V[q, 0] - V[p, 0]
+            gy = V[q, 1] - V[p, 1]
+            V[j, 0] = V[p, 0] + u * gx - w * gy
+            V[j, 1] = V[p, 1] + u * gy + w * gx
+            gx = A[q, 0] - A[p, 0]
+            gy = A[q, 1] - A[p, 1]
+            A[j, 0] = A[p, 0] + u * gx - w * gy
+            A[j, 1] = A[p, 1] + u * gy + w * gx
+        else:  # GENERAL: J_bb x_b = −J_bk x_k (− the quadratic terms of the distance rows, for A)
+            v0 = blk_vp[k]
+            n = 2 * (blk_vp[k + 1] - v0)
+            for i in range(v0, blk_vp[k + 1]):
+                loc[blk_verts[i]] = i - v0
+            for which in range(2):
+                X = V if which == 0 else A
+                for r in range(n):
+                    kind_r = row_kind[blk_rp[k] + r]
+                    rid = row_id[blk_rp[k] + r]
+                    ax = row_axis[blk_rp[k] + r]
+                    for c in range(n):
+                        M[r, c] = 0.0
+                    s = 0.0
+                    for end in range(3):
+                        if kind_r == 0:
+                            if end == 2:
+                                break
+                            vv = dist_a[rid] if end == 0 else dist_b[rid]
+                        else:
+                            vv = att[rid, end]
+                        _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
+                        if loc[vv] >= 0:
+                            M[r, 2 * loc[vv]] += g[0]
+                            M[r, 2 * loc[vv] + 1] += g[1]
+                        else:
+                            s -= g[0] * X[vv, 0] + g[1] * X[vv, 1]
+                    if which == 1 and kind_r == 0:
+                        a = dist_a[rid]
+                        b = dist_b[rid]
+                        dx = V[b, 0] - V[a, 0]
+                        dy = V[b, 1] - V[a, 1]
+                        s -= dx * dx + dy * dy
+                    x[r] = s
+                if not _gauss(M, x, n, 0.0):
+                    for i in range(v0, blk_vp[k + 1]):
+                        loc[blk_verts[i]] = -1
+                    return k
+                for i in range(v0, blk_vp[k + 1]):
+                    X[blk_verts[i], 0] = x[2 * (i - v0)]
+                    X[blk_verts[i], 1] = x[2 * (i - v0) + 1]
+            for i in range(v0, blk_vp[k + 1]):
+                loc[blk_verts[i]] = -1
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att,
+               uv, dinc, ainc, P, R, F, loc, M, x, g, lam_d, lam_a):
+    """Solve Φ_qᵀ λ = R block by block in reverse plan order. R (nv, 2) comes holding M q̈ − Q (with the
+    members' own parts already written, negated, into the incidence forces F (K, 2)); it leaves holding
+    what the plan's constraints do not carry: the crank's force on the tip and the frame's on each fixed
+    vertex. Adds every row's (∂c/∂q_v)ᵀ λ to its member's incidence at v. Returns the first singular
+    block or −1."""
+    nblk = tb_kind.shape[0]
+    for k in range(nblk - 1, -1, -1):
+        kind = tb_kind[k]
+        if kind == 0:
+            v = blk_v[k]
+            e1 = blk_e[k, 0]
+            e2 = blk_e[k, 1]
+            a1 = dist_a[e1] if dist_b[e1] == v else dist_b[e1]
+            a2 = dist_a[e2] if dist_b[e2] == v else dist_b[e2]
+            c1x = P[v, 0] - P[a1, 0]
+            c1y = P[v, 1] - P[a1, 1]
+            c2x = P[v, 0] - P[a2, 0]
+            c2y = P[v, 1] - P[a2, 1]
+            det = c1x * c2y - c1y * c2x
+            if det == 0.0:
+                return k
+            rx = R[v, 0]
+            ry = R[v, 1]
+            l1 = (rx * c2y - ry * c2x) / det
+            l2 = (c1x * ry - c1y * rx) / det
+            lam_d[e1] = l1
+            lam_d[e2] = l2
+            R[v, 0] = 0.0
+            R[v, 1] = 0.0
+            R[a1, 0] += c1x * l1
+            R[a1, 1] += c1y * l1
+            R[a2, 0] += c2x * l2
+            R[a2, 1] += c2y * l2
+        elif kind == 1:
+            t = blk_e[k, 0]
+            j = att[t, 0]
+            p = att[t, 1]
+            q = att[t, 2]
+            u = uv[t, 0]
+            w = uv[t, 1]
+            lx = R[j, 0]
+            ly = R[j, 1]
+            lam_a[t, 0] = lx
+            lam_a[t, 1] = ly
+            R[j, 0] = 0.0
+            R[j, 1] = 0.0
+            # Aᵀ λ with A = [[u, −w], [w, u]]
+            atx = u * lx + w * ly
+            aty = -w * lx + u * ly
+            R[p, 0] += lx - atx
+            R[p, 1] += ly - aty
+            R[q, 0] += atx
+            R[q, 1] += aty
+        else:
+            v0 = blk_vp[k]
+            n = 2 * (blk_vp[k + 1] - v0)
+            for i in range(v0, blk_vp[k + 1]):
+                loc[blk_verts[i]] = i - v0
+            for r in range(n):
+                for c in range(n):
+                    M[c, r] = 0.0
+            for r in range(n):  # column r of the transposed block Jacobian
+                kind_r = row_kind[blk_rp[k] + r]
+                rid = row_id[blk_rp[k] + r]
+                ax = row_axis[blk_rp[k] + r]
+                for end in range(3):
+                    if kind_r == 0 and end == 2:
+                        break
+                    vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
+                    if loc[vv] >= 0:
+                        _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
+                        M[2 * loc[vv], r] += g[0]
+                        M[2 * loc[vv] + 1, r] += g[1]
+            for i in range(v0, blk_vp[k + 1]):
+                x[2 * (i - v0)] = R[blk_verts[i], 0]
+                x[2 * (i - v0) + 1] = R[blk_verts[i], 1]
+            ok = _gauss(M, x, n, 0.0)
+            if not ok:
+                for i in range(v0, blk_vp[k + 1]):
+                    loc[blk_verts[i]] = -1
+                return k
+            for i in range(v0, blk_vp[k + 1]):
+                R[blk_verts[i], 0] = 0.0
+                R[blk_verts[i], 1] = 0.0
+            for r in range(n):  # store the multipliers; push what the rows put on vertices outside the block
+                kind_r = row_kind[blk_rp[k] + r]
+                rid = row_id[blk_rp[k] + r]
+                ax = row_axis[blk_rp[k] + r]
+                if kind_r == 0:
+                    lam_d[rid] = x[r]
+                else:
+                    lam_a[rid, ax] = x[r]
+                for end in range(3):
+                    if kind_r == 0 and end == 2:
+                        break
+                    vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
+                    if loc[vv] < 0:
+                        _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
+                        R[vv, 0] -= g[0] * x[r]
+                        R[vv, 1] -= g[1] * x[r]
+            for i in range(v0, blk_vp[k + 1]):
+                loc[blk_verts[i]] = -1
+    # every row's pull on its member's pins: (∂c/∂q_v)ᵀ λ
+    for e in range(dist_a.shape[0]):
+        a = dist_a[e]
+        b = dist_b[e]
+        dx = (P[b, 0] - P[a, 0]) * lam_d[e]
+        dy = (P[b, 1] - P[a, 1]) * lam_d[e]
+        F[dinc[e, 1], 0] += dx
+        F[dinc[e, 1], 1] += dy
+        F[dinc[e, 0], 0] -= dx
+        F[dinc[e, 0], 1] -= dy
+    for t in range(att.shape[0]):
+        u = uv[t, 0]
+        w = uv[t, 1]
+        lx = lam_a[t, 0]
+        ly = lam_a[t, 1]
+        atx = u * lx + w * ly
+        aty = -w * lx + u * ly
+        F[ainc[t, 0], 0] += lx
+        F[ainc[t, 0], 1] += ly
+        F[ainc[t, 1], 0] -= lx - atx
+        F[ainc[t, 1], 1] -= ly - aty
+        F[ainc[t, 2], 0] -= atx
+        F[ainc[t, 2], 1] -= aty
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b,
+                   att, inc_vertex, dinc, ainc, body_pq, body_inc, body_mass, tip, tip_inc, fixed, fixed_inc, foot,
+                   foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight,
+                   P, status, uv, center, link_mass, body_cuv, body_J, crank_mass,
+                   torque, fsel, finc, pin_peak, shake_peak, travel, code, code_sample, code_block):
+    """Per variant i (rows last): positions P[i] (S, nv, 2), model units, of an ok variant (status 0)
+    → torque[i] (S,) N·m, fsel[i] (S, n_sel, 2) N (leg 0's reaction at each joint in ``sel``),
+    pin_peak[i] (nv,) N, shake_peak[i] N, travel[i] model units per turn, code[i] (F_OK, F_SINGULAR,
+    F_NONFINITE) with code_sample / code_block where it failed; finc[i] (S, K, 2) leg 0's force of every
+    member on every pin (incidence), when asked for (finc of shape (N, 0, K, 2) otherwise). Shared: the :class:`ForceTables`
+    arrays, body_mass (nb,) kg, sel (n_sel,), the walker's legs (base, frac, sign, mirrored), drag,
+    unit (m per model unit), omega (rad/s), gravity (m/s²), weight (N on the contact foot). Per row:
+    uv (n_att, 2), center (2,), link_mass (n_links,) kg, body_cuv (nb, 2) centroids in base-pair
+    coordinates, body_J (nb,) kg (the base-pair inertia, see the module), crank_mass kg."""
+    N = P.shape[0]
+    S = P.shape[1]
+    nv = P.shape[2]
+    K = inc_vertex.shape[0]
+    L = base.shape[0]
+    nl = link_mass.shape[1]
+    nb = body_pq.shape[0]
+    m = 2
+    for k in range(blk_kind.shape[0]):
+        if blk_kind[k] == 2:
+            m = max(m, 2 * (blk_vp[k + 1] - blk_vp[k]))
+    V = np.empty((S, nv, 2))
+    A = np.empty((S, nv, 2))
+    R = np.empty((nv, 2))
+    Fi = np.empty((S, 3, K, 2))
+    tau = np.empty((S, 3))
+    frame = np.empty((S, 3, 2))
+    loc = np.full(nv, -1, dtype=np.int64)
+    M = np.empty((m, m))
+    x = np.empty(m)
+    g = np.empty(2)
+    lam_d = np.empty(dist_a.shape[0])
+    lam_a = np.empty((att.shape[0], 2))
+    Y = np.empty((L, S))
+    VX = np.empty((L, S))
+    VY = np.empty((L, S))
+    G = np.empty(S)
+    C = np.empty(S, dtype=np.int64)
+    fm = np.empty(K)
+    d = 2.0 * math.pi / S
+    s2 = unit * omega * omega  # per radian² of crank, model units → m/s²
+    nrhs = 3 if weight > 0.0 else 1
+    for i in range(N):
+        code[i] = F_OK
+        code_sample[i] = -1
+        code_block[i] = -1
+        if status[i] != 0:
+            continue
+        Pi = P[i]
+        cx = center[i, 0]
+        cy = center[i, 1]
+        mc = crank_mass[i]
+        failed = False
+        # -- velocities and accelerations, block by block -------------------------------------------
+        for u in range(S):
+            blk = _kinematics(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
+                              dist_b, att, uv[i], tip, cx, cy, Pi[u], V[u], A[u], loc, M, x, g, 1e-13)
+            if blk >= 0:
+                code[i] = F_SINGULAR
+                code_sample[i] = u
+                code_block[i] = blk
+                failed = True
+                break
+        if failed:
+            continue
+        # -- which leg carries the load at each sample (the walker scene's contact convention) -----
+        leg_feet(base, frac, sign, mirrored, Pi[:, foot, :], V[:, foot, :], Y, VX, VY)
+        ground_contact(Y, G, C)
+        sum_vx = 0.0
+        for k in range(S):
+            sum_vx += VX[C[k], k]
+        travel[i] = abs(d * sum_vx)
+        walk = 0.0
+        if sum_vx < 0.0:
+            walk = 1.0
+        elif sum_vx > 0.0:
+            walk = -1.0
+        Fx = walk * drag * weight
+        Fy = weight
+        # -- the base leg at every sample: inertia and weight, then unit forces on the foot ---------
+        for u in range(S):
+            tx = Pi[u, tip, 0] - cx
+            ty = Pi[u, tip, 1] - cy
+            for rhs in range(nrhs):
+                R[:, :] = 0.0
+                Fu = Fi[u, rhs]
+                Fu[:, :] = 0.0
+                if rhs == 0:
+                    for e in range(nl):
+                        me = link_mass[i, e]
+                        if me > 0.0:
+                            a = dist_a[e]
+                            b = dist_b[e]
+                            for ax in range(2):
+                                aa = A[u, a, ax] * s2
+                                ab = A[u, b, ax] * s2
+                                da = me / 6.0 * (2.0 * aa + ab)
+                                db = me / 6.0 * (aa + 2.0 * ab)
+                                if ax == 1:
+                                    da += 0.5 * me * gravity
+                                    db += 0.5 * me * gravity
+                                R[a, ax] += da
+                                R[b, ax] += db
+                                Fu[dinc[e, 0], ax] -= da
+                                Fu[dinc[e, 1], ax] -= db
+                    for bi in range(nb):
+                        mb = body_mass[bi]
+                        Jb = body_J[i, bi]
+                        if mb > 0.0 or Jb > 0.0:
+                            p = body_pq[bi, 0]
+                            q = body_pq[bi, 1]
+                            ub = body_cuv[i, bi, 0]
+                            wb = body_cuv[i, bi, 1]
+                            apx = A[u, p, 0] * s2
+                            apy = A[u, p, 1] * s2
+                            agx = A[u, q, 0] * s2 - apx
+                            agy = A[u, q, 1] * s2 - apy
+                            aGx = apx + ub * agx - wb * agy
+                            aGy = apy + ub * agy + wb * agx
+                            fqx = mb * (ub * apx + wb * apy) + Jb * agx
+                            fqy = mb * (-wb * apx + ub * apy) + Jb * agy
+                            fpx = mb * aGx - fqx
+                            fpy = mb * aGy - fqy
+                            dqx = fqx + mb * gravity * wb
+                            dqy = fqy + mb * gravity * ub
+                            dpx = fpx - mb * gravity * wb
+                            dpy = fpy + mb * gravity * (1.0 - ub)
+                            R[p, 0] += dpx
+                            R[p, 1] += dpy
+                            R[q, 0] += dqx
+                            R[q, 1] += dqy
+                            Fu[body_inc[bi, 0], 0] -= dpx
+                            Fu[body_inc[bi, 0], 1] -= dpy
+                            Fu[body_inc[bi, 1], 0] -= dqx
+                            Fu[body_inc[bi, 1], 1] -= dqy
+                else:  # a unit force on the foot from the ground: an external generalised force
+                    R[foot, rhs - 1] -= 1.0
+                    Fu[foot_inc, rhs - 1] += 1.0
+                blk = _reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
+                                 dist_b, att, uv[i], dinc, ainc, Pi[u], R, Fu, loc, M, x, g, lam_d, lam_a)
+                if blk >= 0:
+                    code[i] = F_SINGULAR
+                    code_sample[i] = u
+                    code_block[i] = blk
+                    failed = True
+                    break
+                Fu[tip_inc, 0] += R[tip, 0]
+                Fu[tip_inc, 1] += R[tip, 1]
+                bx = R[tip, 0]
+                by = R[tip, 1]
+                t = (tx * R[tip, 1] - ty * R[tip, 0]) * unit
+                if rhs == 0:
+                    t += mc * gravity * tx * unit * 0.5
+                    bx += -mc * omega * omega * unit * tx * 0.5
+                    by += -mc * omega * omega * unit * ty * 0.5 + mc * gravity
+                tau[u, rhs] = t
+                frame[u, rhs, 0] = -bx
+                frame[u, rhs, 1] = -by
+                for f in range(fixed.shape[0]):
+                    Fu[fixed_inc[f], 0] += R[fixed[f], 0]
+                    Fu[fixed_inc[f], 1] += R[fixed[f], 1]
+                    frame[u, rhs, 0] -= R[fixed[f], 0]
+                    frame[u, rhs, 1] -= R[fixed[f], 1]
+            if failed:
+                break
+        if failed:
+            continue
+        # -- every leg at every crank angle --------------------------------------------------------
+        for v in range(nv):
+            pin_peak[i, v] = 0.0
+        shake = 0.0
+        for k in range(S):
+            ttot = 0.0
+            frx = 0.0
+            fry = 0.0
+            for j in range(L):
+                f = frac[j]
+                u0 = (sign[j] * k + base[j]) % S
+                u1 = (u0 + 1) % S
+                w0 = 1.0 - f
+                lx = 0.0
+                ly = 0.0
+                if C[k] == j and nrhs == 3:
+                    lx = -Fx if mirrored[j] else Fx
+                    ly = Fy
+                tj = w0 * (tau[u0, 0] + lx * tau[u0, 1] + ly * tau[u0, 2])
+                fjx = w0 * (frame[u0, 0, 0] + lx * frame[u0, 1, 0] + ly * frame[u0, 2, 0])
+                fjy = w0 * (frame[u0, 0, 1] + lx * frame[u0, 1, 1] + ly * frame[u0, 2, 1])
+                if f != 0.0:
+                    tj += f * (tau[u1, 0] + lx * tau[u1, 1] + ly * tau[u1, 2])
+                    fjx += f * (frame[u1, 0, 0] + lx * frame[u1, 1, 0] + ly * frame[u1, 2, 0])
+                    fjy += f * (frame[u1, 0, 1] + lx * frame[u1, 1, 1] + ly * frame[u1, 2, 1])
+                if mirrored[j]:
+                    ttot -= tj
+                    frx -= fjx
+                else:
+                    ttot += tj
+                    frx += fjx
+                fry += fjy
+                for kk in range(K):
+                    fx = w0 * (Fi[u0, 0, kk, 0] + lx * Fi[u0, 1, kk, 0] + ly * Fi[u0, 2, kk, 0])
+                    fy = w0 * (Fi[u0, 0, kk, 1] + lx * Fi[u0, 1, kk, 1] + ly * Fi[u0, 2, kk, 1])
+                    if f != 0.0:
+                        fx += f * (Fi[u1, 0, kk, 0] + lx * Fi[u1, 1, kk, 0] + ly * Fi[u1, 2, kk, 0])
+                        fy += f * (Fi[u1, 0, kk, 1] + lx * Fi[u1, 1, kk, 1] + ly * Fi[u1, 2, kk, 1])
+                    mag = math.sqrt(fx * fx + fy * fy)
+                    fm[kk] = mag
+                    v = inc_vertex[kk]
+                    if not (mag <= pin_peak[i, v]):
+                        pin_peak[i, v] = mag
+                    if j == 0 and finc.shape[1] > 0:
+                        finc[i, k, kk, 0] = -fx if mirrored[0] else fx
+                        finc[i, k, kk, 1] = fy
+                    if j == 0:
+                        for s_ in range(sel.shape[0]):
+                            if sel[s_] == v:
+                                # the member that loads this pin most, at this sample
+                                best = True
+                                for k2 in range(kk):
+                                    if inc_vertex[k2] == v and fm[k2] >= mag:
+                                        best = False
+                                if best:
+                                    fsel[i, k, s_, 0] = -fx if mirrored[0] else fx
+                                    fsel[i, k, s_, 1] = fy
+            torque[i, k] = ttot
+            sh = math.sqrt(frx * frx + fry * fry)
+            if not (sh <= shake):
+                shake = sh
+        shake_peak[i] = shake
+        ok = math.isfinite(shake)
+        for k in range(S):
+            if not math.isfinite(torque[i, k]):
+                ok = False
+        for v in range(nv):
+            if not math.isfinite(pin_peak[i, v]):
+                ok = False
+        if not ok:
+            code[i] = F_NONFINITE
+
+
+# -- the wrapper ------------------------------------------------------------------------------------
+_TABLES: dict = {}
+
+#: The metrics of the forces effect (SI units), in the order :func:`force_metrics` returns them;
+#: ``pin_force.<joint>`` follow for every joint. The metric table (``gait._table``) documents each.
+FORCE_METRICS = ("motor_torque_peak", "motor_torque_rms", "motor_power_peak", "energy_per_turn", "flywheel_inertia",
+                 "pin_force_max", "shaking_force_peak", "cost_of_transport")
+
+
+@dataclass(frozen=True)
+class Forces:
+    """The forces effect of N variants over S crank samples (SI units).
+
+    torque : (N, S) motor torque of the whole walker, N·m, positive when the motor does positive work.
+    joint_forces : {joint: (N, S, 2)} leg 0's reaction at that joint, N: the force its most heavily
+        loaded member puts on the pin (see the module's docstring).
+    pin_peak : (N, n_vertices) each joint's largest reaction over the legs and the turn, N.
+    shaking_peak : (N,) the largest resultant force the legs put on the frame, N.
+    travel : (N,) the walker's travel per crank turn, model units.
+    code, sample, block : (N,) F_OK / F_SINGULAR / F_NONFINITE, the crank sample and plan block where
+        the Jacobian was singular (−1 otherwise).
+    members : {(member, joint): (N, S, 2)} leg 0's force of each member (a link or body by name,
+        "crank", "frame", "ground") on each of its pins, N; empty unless asked for.
+    """
+
+    torque: np.ndarray
+    joint_forces: dict
+    pin_peak: np.ndarray
+    shaking_peak: np.ndarray
+    travel: np.ndarray
+    code: np.ndarray
+    sample: np.ndarray
+    block: np.ndarray
+    members: dict
+
+
+def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengths: np.ndarray, scale: np.ndarray,
+                 body_pts: list, operating, walker, joints=(), members: bool = False) -> Forces:
+    """The forces effect of N variants from their positions P (N, S, n_vertices, 2), model units.
+
+    status (N,) (only 0 = ok rows are computed); des: the variants' ``_inputs.Designs`` (uv, centre);
+    lengths (N, n_links) and scale (N,) crank radii, model units; body_pts: each body's joints in its
+    frame (N, n_joints, 2) (``_design.body_points``); operating: :class:`~explorer.mechanism.Operating`
+    with ``unit`` and ``rpm``; walker: :class:`~explorer.mechanism.Walker` (one leg: ``Walker(legs=1)``);
+    joints: names of the joints whose reactions are returned; members: also every member's force on
+    every pin (``Forces.members``).
+    """
+    from ._rows import parallel_rows
+
+    key = (id(plan), mech.foot, mech.vertices)
+    tb = _TABLES.get(key)
+    if tb is None or tb[0] is not plan:
+        tb = _TABLES[key] = (plan, force_tables(mech, plan))
+    tb = tb[1]
+    N, S, nv = P.shape[0], P.shape[1], P.shape[2]
+    unit = float(operating.unit)
+    nl = len(mech.links)
+    density = mech.link_density or 0.0
+    link_mass = np.empty((N, nl))
+    for e, lk in enumerate(mech.links):
+        link_mass[:, e] = lk.mass if lk.mass is not None else density * lengths[:, e] * unit
+    cm = mech.crank.mass
+    crank_mass = np.full(N, cm) if cm is not None else density * np.asarray(scale, dtype=np.float64) * unit
+    nb = len(mech.bodies)
+    body_mass = np.array([b.mass for b in mech.bodies], dtype=np.float64)
+    body_cuv = np.zeros((N, nb, 2))
+    body_J = np.zeros((N, nb))
+    for bi, b in enumerate(mech.bodies):
+        pts = body_pts[bi]  # (N, nj, 2)
+        G = np.broadcast_to(np.asarray(b.centroid, dtype=np.float64), (N, 2)) if b.centroid is not None \
+            else pts.mean(axis=1)
+        if b.inertia is not None:
+            IG = np.full(N, b.inertia)
+        else:  # the mass shared equally among the joints
+            IG = b.mass / pts.shape[1] * np.sum((pts - G[:, None, :]) ** 2, axis=(1, 2)) * unit ** 2
+        p, q = plan.body_base[bi]
+        e = pts[:, q] - pts[:, p]
+        w = G - pts[:, p]
+        e2 = np.sum(e * e, axis=1)
+        body_cuv[:, bi, 0] = np.sum(w * e, axis=1) / e2
+        body_cuv[:, bi, 1] = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / e2
+        body_J[:, bi] = (IG + b.mass * np.sum(w * w, axis=1) * unit ** 2) / (e2 * unit ** 2)
+    sel = np.array([mech.vertex_index(j) for j in joints], dtype=np.int64)
+    base, frac, sign = leg_samples(walker, S)
+    mirrored = np.array(walker.mirrored, dtype=np.bool_)
+    weight = float(operating.load) * float(operating.gravity)
+    torque = np.zeros((N, S))
+    fsel = np.zeros((N, S, len(sel), 2))
+    finc = np.zeros((N, S if members else 0, len(tb.inc_vertex), 2))
+    pin_peak = np.zeros((N, nv))
+    shake = np.zeros(N)
+    travel = np.zeros(N)
+    code = np.zeros(N, dtype=np.int64)
+    csample = np.full(N, -1, dtype=np.int64)
+    cblock = np.full(N, -1, dtype=np.int64)
+    shared = (tb.blk_kind, tb.blk_v, tb.blk_e, tb.blk_vp, tb.blk_verts, tb.blk_rp, tb.row_kind, tb.row_id, tb.row_axis,
+              tb.dist_a, tb.dist_b, tb.att, tb.inc_vertex, tb.dinc, tb.ainc, tb.body_pq, tb.body_inc, body_mass,
+              tb.tip, tb.tip_inc, tb.fixed, tb.fixed_inc, tb.foot, tb.foot_inc, sel, base, frac, sign, mirrored,
+              float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight)
+    rows = (np.ascontiguousarray(P), np.ascontiguousarray(status), des.uv, des.center, link_mass, body_cuv, body_J,
+            crank_mass, torque, fsel, finc, pin_peak, shake, travel, code, csample, cblock)
+    parallel_rows(_forces_kernel, shared, rows)
+    bad = (code != F_OK) | (status != 0)
+    torque[bad] = np.nan
+    fsel[bad] = np.nan
+    pin_peak[bad] = np.nan
+    shake[bad] = np.nan
+    travel[bad] = np.nan
+    member_forces = {}
+    if members:
+        finc[bad] = np.nan
+        member_forces = {(m, mech.vertices[v]): finc[:, :, k] for k, (m, v) in enumerate(zip(tb.inc_member,
+                                                                                               tb.inc_vertex))}
+    return Forces(torque, {j: fsel[:, :, k] for k, j in enumerate(joints)}, pin_peak, shake, travel, code, csample,
+                  cblock, member_forces)
+
+
+def force_metrics(forces: Forces, operating, vertices) -> dict:
+    """{metric: (N,)} in SI units: FORCE_METRICS then ``pin_force.<joint>`` for each of ``vertices``
+    (names, in order); ``cost_of_transport`` only with a load. NaN where the forces are not computed.
+
+    With τ_k the walker's motor torque at θ_k = 2πk/S, Δ = 2π/S and ω the crank speed:
+    motor_torque_peak = max |τ_k|; motor_torque_rms = √(mean τ_k²); motor_power_peak = max τ_k·ω (the
+    most power the motor delivers); energy_per_turn = Σ max(τ_k, 0)·Δ (J, the positive work per turn);
+    flywheel_inertia = ΔE / (C_s·ω²) with E_k = Σ_{m<k} (τ_m − mean τ)·Δ and ΔE = max E − min E;
+    pin_force_max = max over joints of pin_force.<joint>; shaking_force_peak; cost_of_transport =
+    energy_per_turn / (load·g·travel·unit).
+    """
+    tau = forces.torque
+    S = tau.shape[1]
+    d = 2.0 * math.pi / S
+    w = float(operating.omega)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = {
+            "motor_torque_peak": np.max(np.abs(tau), axis=1),
+            "motor_torque_rms": np.sqrt(np.mean(tau * tau, axis=1)),
+            "motor_power_peak": np.max(tau, axis=1) * w,
+        }
+        out["energy_per_turn"] = np.sum(np.maximum(tau, 0.0), axis=1) * d
+        E = np.concatenate([np.zeros((tau.shape[0], 1)), np.cumsum((tau - tau.mean(axis=1, keepdims=True)) * d,
+                                                                   axis=1)], axis=1)
+        out["flywheel_inertia"] = (E.max(axis=1) - E.min(axis=1)) / (float(operating.speed_fluctuation) * w * w)
+        out["pin_force_max"] = np.max(forces.pin_peak, axis=1)
+        out["shaking_force_peak"] = forces.shaking_peak.copy()
+        if operating.load * operating.gravity > 0:
+            out["cost_of_transport"] = out["energy_per_turn"] / (operating.load * operating.gravity * forces.travel
+                                                                 * float(operating.unit))
+        for k, v in enumerate(vertices):
+            out[f"pin_force.{v}"] = forces.pin_peak[:, k].copy()
+    return out
