@@ -14,7 +14,6 @@ the best known value.
 """
 
 import argparse
-import math
 import sys
 import time
 

@@ -3,7 +3,6 @@ thresholds applied by hand, and rank / plot --top / show applying it by default.
 
 from __future__ import annotations
 
-import math
 import re
 
 import numpy as np

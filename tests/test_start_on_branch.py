@@ -43,7 +43,7 @@ def test_far_designs_start_on_the_nominal_branch():
     mech = explorer.load_mechanism("fourbar")
     names = list(mech.link_names)
     nominal = explorer.simulate(mech, S, velocities=False)
-    A0n, B0n = np.array([0.0, 0.0]), np.array([30.0, 0.0])
+    B0n = np.array([30.0, 0.0])
     An, Bn, Pn = (nominal.path(v)[0] for v in ("A", "B", "P"))
     sB, sP = _side(An, B0n, Bn), _side(An, Bn, Pn)  # the nominal's branch of each dyad
 

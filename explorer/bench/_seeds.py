@@ -310,7 +310,7 @@ def seed_cycle(mode, l, radius, cx, cy, px, py, x0, c_sign, cth, sth, tol, maxit
     M = np.empty((8, 8))
     rhs = np.empty(8)
     dx = np.empty(8)
-    l13, l23, l34, l24, l45, l16, l26, l56, l57, l67 = l[0], l[1], l[2], l[3], l[4], l[5], l[6], l[7], l[8], l[9]
+    l13, l34, l26, l56, l57, l67 = l[0], l[2], l[6], l[7], l[8], l[9]  # the lengths the closed form needs
     out_pos[:, :, :] = np.nan
     if want_vel:
         out_vel[:, :] = np.nan

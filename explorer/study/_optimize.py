@@ -35,7 +35,7 @@ from ..store import Results
 from ..store._lock import OutputLock
 from ..store._write import ResultsWriter
 from ._chunk import design_solver
-from ._objectives import SINGLE_OBJECTIVE, objective_matrix
+from ._objectives import objective_matrix
 from ._run import _counts, _state, results_path, validate_study
 from ._spec import Study, load_study
 
