@@ -307,7 +307,10 @@ def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
     for m in METRICS:
         why = None
         needs = BY_NAME[m].needs
-        if "mechanism" in needs and mechanism is None:
+        if "forces" in needs:
+            why = ("comes from the forces effect: a study's [scene] forces = true with an [operating] table, or "
+                   "simulate_batch(..., forces=True, operating=...)")
+        elif "mechanism" in needs and mechanism is None:
             why = "needs the mechanism (mechanism=, lengths=, crank=)"
         elif m == "min_transmission_angle" and not fourbar_loops(mechanism):
             why = f"mechanism {mechanism.name!r} has no crank-driven four-bar loop"

@@ -14,11 +14,15 @@ leg        single-leg metrics of one foot path with a stance *band* (``y ≤ y_m
 screen     what the buildability screen reads (:mod:`explorer.gait._screen`).
 
 target     path synthesis: the foot path against a study's ``[target]`` points (:mod:`explorer.gait._path`).
+forces     what it takes to drive and hold the machine, in SI units, at the ``[operating]`` point (the
+           forces effect, :mod:`explorer.kernels._forces`, computed with the positions when a study's
+           ``[scene] forces = true``); ``pin_force.<joint>`` (N, each joint's peak reaction) follow
+           for every joint (see :func:`metric`).
 
 ``needs`` is a subset of {"velocity", "band", "mechanism", "crank", "walker", "target"}: the foot
 velocities dF/dθ, the stance band, the mechanism and each variant's lengths, the crank radius, the
 walker spec, a target path.
-Every metric needs the foot path.
+Every metric but the forces group needs the foot path; the forces group needs the forces effect.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from dataclasses import dataclass
 @dataclass(frozen=True)
 class Metric:
     """One metric: ``name``; ``unit`` ("length" = the model units of the link lengths); ``direction``
-    "max" (larger is better) or "min"; ``group`` (walker | leg | screen); ``description`` (one line);
+    "max" (larger is better) or "min"; ``group`` (walker | leg | screen | target | forces); ``description`` (one line);
     ``needs`` (see the module docstring)."""
 
     name: str
@@ -90,9 +94,39 @@ TABLE: tuple[Metric, ...] = (
     _m("path_error", "length", "min", "target",
        "RMS distance from the [target] points to their matches on the foot path (timed, closest or by arc "
        "length), after the translation / rotation / scale the target lets the match ignore", "velocity", "target"),
+    # -- the forces effect (SI units, at the [operating] point; the walker's whole crankshaft) -----------
+    _m("motor_torque_peak", "N·m", "min", "forces",
+       "largest |motor torque| over the turn, with the links' inertia and weight and the load on the contact foot",
+       "forces"),
+    _m("motor_torque_rms", "N·m", "min", "forces", "root mean square of the motor torque over the turn", "forces"),
+    _m("motor_power_peak", "W", "min", "forces", "largest power the motor delivers, max τ·ω", "forces"),
+    _m("energy_per_turn", "J", "min", "forces", "positive work the motor does per crank turn, Σ max(τ, 0)·Δθ",
+       "forces"),
+    _m("flywheel_inertia", "kg·m²", "min", "forces",
+       "flywheel that holds the crank speed within ±speed_fluctuation/2: ΔE / (C_s·ω²), ΔE the largest swing of "
+       "∫(τ − mean τ)dθ", "forces"),
+    _m("pin_force_max", "N", "min", "forces", "largest joint reaction over every joint, leg and crank angle",
+       "forces"),
+    _m("shaking_force_peak", "N", "min", "forces",
+       "largest resultant force the legs put on the frame (weight and load included)", "forces"),
+    _m("cost_of_transport", "1", "min", "forces",
+       "energy per turn / (load·g·travel in metres), with a load", "forces"),
 )
+#: Prefix of the per-joint reaction metrics, ``pin_force.<joint>`` (N): each joint's peak reaction.
+PIN_FORCE = "pin_force."
 
 BY_NAME: dict[str, Metric] = {m.name: m for m in TABLE}
+
+
+def metric(name: str) -> Metric | None:
+    """The table row of ``name``, ``pin_force.<joint>`` included; None if it names no metric."""
+    if name.startswith(PIN_FORCE) and len(name) > len(PIN_FORCE):
+        return Metric(name, "N", "min", "forces", f"largest reaction at joint {name[len(PIN_FORCE):]} over the legs "
+                      f"and the turn (the force its most heavily loaded member puts on the pin)", frozenset({"forces"}))
+    return BY_NAME.get(name)
+
+
+
 #: Every metric name, in storage/display order.
 METRICS: tuple[str, ...] = tuple(m.name for m in TABLE)
 #: Natural ranking direction of each metric: "max" = larger is better, "min" = smaller is better.
@@ -111,6 +145,8 @@ SCREEN_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "scr
 TARGET_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "target")
 #: Metrics whose value depends on the stance band.
 BAND_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "band" in m.needs)
+#: Metrics of the forces effect (``pin_force.<joint>`` follow them for every joint).
+FORCE_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "forces")
 #: Metrics that need the foot velocities dF/dθ.
 VELOCITY_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "velocity" in m.needs)
 #: Metrics that need the mechanism (and each variant's lengths), not only the foot path.

@@ -1,7 +1,7 @@
 """Mechanisms as data: the linkage graph, its TOML files, and the built-ins."""
 
-from ._load import WALKER_KEYS, builtin_mechanisms, load_mechanism, mechanism_from_dict, operating_from_dict, parse_toml, walker_from_dict
+from ._load import OPERATING_KEYS, WALKER_KEYS, builtin_mechanisms, load_mechanism, mechanism_from_dict, operating_from_dict, parse_toml, walker_from_dict
 from ._model import LENGTH_RANGE, Body, Crank, Link, Mechanism, Operating, PathDriver, Walker
 
-__all__ = ["LENGTH_RANGE", "WALKER_KEYS", "Body", "Crank", "Link", "Mechanism", "Operating", "PathDriver", "Walker", "builtin_mechanisms", "load_mechanism",
+__all__ = ["LENGTH_RANGE", "OPERATING_KEYS", "WALKER_KEYS", "Body", "Crank", "Link", "Mechanism", "Operating", "PathDriver", "Walker", "builtin_mechanisms", "load_mechanism",
            "mechanism_from_dict", "operating_from_dict", "parse_toml", "walker_from_dict"]

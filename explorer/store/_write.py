@@ -126,6 +126,8 @@ class ResultsWriter:
             self._scalars.append((f["fail_theta_end"], "fail_theta_end"))
         self._geometry = f["variants/geometry"] if "variants/geometry" in f else None
         self._series = [(f[g][v], g, v) for g in ("paths", "velocities", "accelerations") if g in f for v in f[g]]
+        self._torque = f["torque"] if "torque" in f else None
+        self._forces = [(f["forces"][j], j) for j in f["forces"]] if "forces" in f else []
         self._done = f["chunks/done"]
 
     # -- opening ---------------------------------------------------------------------------------------
@@ -244,6 +246,21 @@ class ResultsWriter:
                     d = g.create_dataset(v, shape=(N, S, 2), dtype="f8", chunks=(h, S, 2), fillvalue=np.nan,
                                          **SERIES_FILTERS[study.compression])
                     d.attrs["vertex"] = v
+            if getattr(study, "forces", False):
+                d = f.create_dataset("torque", shape=(N, S), dtype="f8", chunks=(h, S), fillvalue=np.nan,
+                                     **SERIES_FILTERS[study.compression])
+                d.attrs["units"] = "N·m"
+                d.attrs["description"] = ("motor torque of the walker's crankshaft at each crank angle, positive when "
+                                          "the motor does positive work (inertia, weight and the load included)")
+                d.attrs["operating"] = json.dumps(study.operating.as_dict())
+                g = f.create_group("forces", track_order=True)
+                g.attrs["units"] = "N"
+                g.attrs["description"] = ("leg 0's reaction at each joint: the force its most heavily loaded member "
+                                          "(a link, a body, the crank, the frame or the ground) puts on the pin")
+                for j in study.force_joints:
+                    d = g.create_dataset(j, shape=(N, S, 2), dtype="f8", chunks=(h, S, 2), fillvalue=np.nan,
+                                         **SERIES_FILTERS[study.compression])
+                    d.attrs["joint"] = j
             f.create_group("metrics", track_order=True)  # metrics in the order computed
 
             g = f.create_group("chunks")
@@ -334,11 +351,20 @@ class ResultsWriter:
             self._geometry[a:b] = geometry
         for d, group, v in self._series:
             d[a:b] = getattr(batch, group)[v]
+        if self._torque is not None:
+            self._torque[a:b] = batch.torque
+        for d, j in self._forces:
+            d[a:b] = batch.forces[j]
         for name, values in (metrics or {}).items():
             g = f["metrics"]
             if name not in g:
-                g.create_dataset(name, shape=(self.n_variants,), dtype="f8", chunks=(self.chunk_rows,),
-                                 fillvalue=np.nan, **SCALAR_FILTERS)
+                d = g.create_dataset(name, shape=(self.n_variants,), dtype="f8", chunks=(self.chunk_rows,),
+                                     fillvalue=np.nan, **SCALAR_FILTERS)
+                from ..gait import metric
+                row = metric(name)
+                if row is not None:  # self-describing from the first write, not only after a recompute
+                    d.attrs["units"] = row.unit
+                    d.attrs["description"] = row.description
             g[name][a:b] = values
         self._commit(i)
 

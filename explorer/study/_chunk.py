@@ -46,7 +46,8 @@ def design_solver(study: Study):
     in ``study.geometry_names`` order. What a sampled study and an optimiser's generation both run.
 
     Solves only what the scene asks for: its vertices (plus the foot when metrics are asked for),
-    velocities when stored or needed by a metric, accelerations when stored.
+    velocities when stored or needed by a metric, accelerations when stored, and the forces effect
+    (torque, the stored joints' reactions, the force metrics) with ``[scene] forces = true``.
     """
     mech = study.mech
     _, metric_vel, want_metrics = metric_plan(study)
@@ -59,6 +60,8 @@ def design_solver(study: Study):
         radii = crank if mech.crank is not None else None  # a path driver has no crank radius (NaN column)
         moved = geometry_columns(study, geometry)
         extra = {"geometry": moved} if moved else {}  # only a study that moves coordinates passes them
+        if study.forces:
+            extra.update(forces=True, operating=study.operating, walker=study.walker, force_joints=study.force_joints)
         batch = simulate_batch(mech, lengths, radii, study.steps, vertices=vertices, velocities=velocities,
                                accelerations=study.accelerations, tolerance=study.tolerance, method=study.method,
                                **extra)
@@ -67,6 +70,8 @@ def design_solver(study: Study):
         if want_metrics:
             metrics = compute_study_metrics(study, batch.paths[foot], batch.velocities.get(foot), batch.status,
                                             lengths, crank, geometry)
+        if study.forces:  # the forces effect's metrics, always with it
+            metrics = {**(metrics or {}), **batch.force_metrics}
         return batch, metrics
 
     return solve

@@ -79,7 +79,8 @@ import numpy as np
 from ..errors import UserError, where
 from ..gait import SCREEN_KEYS, TARGET_KEYS, Screen, Target, load_target, screen_from_dict
 from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
-from ..mechanism import Mechanism, Walker, builtin_mechanisms, load_mechanism, parse_toml, walker_from_dict
+from ..mechanism import (OPERATING_KEYS, Mechanism, Operating, Walker, builtin_mechanisms, load_mechanism,
+                         operating_from_dict, parse_toml, walker_from_dict)
 from ._objectives import OPTIMIZE_KEYS, Optimize, parse_optimize
 
 PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "saltelli", "oat", "grid")
@@ -93,8 +94,9 @@ MAX_VARIANTS = 1_000_000_000
 _SECTIONS = {
     "study": ("name", "mechanism", "variants", "seed", "steps", "tolerance", "method"),
     "perturb": ("method", "spread", "links", "crank", "parameters"),
-    "scene": ("vertices", "velocities", "accelerations", "band", "metrics"),
+    "scene": ("vertices", "velocities", "accelerations", "band", "metrics", "forces", "force_joints"),
     "walker": ("legs", "phases", "mirrored", "drag", "contact"),
+    "operating": OPERATING_KEYS,
     "screen": SCREEN_KEYS,
     "output": ("path", "compression"),
     "optimize": OPTIMIZE_KEYS,
@@ -125,6 +127,10 @@ class Study:
         the mechanism's own), None for a path-driven mechanism. screen : the ``[screen]`` thresholds.
     target : the ``[target]`` path (:class:`~explorer.gait.Target`) the ``path_error`` metric compares
         the foot path with, else None.
+    forces, force_joints : ``[scene] forces`` (the forces effect: motor torque, joint reactions and their
+        metrics, ``/torque``) and the joints whose reactions are stored (``/forces/<joint>``).
+    operating : the operating point (:class:`~explorer.mechanism.Operating`: the study's ``[operating]``
+        over the mechanism's own), None when neither gives one.
     optimize : the ``[optimize]`` table (:class:`~explorer.study._objectives.Optimize`) of a study run by
         ``explorer optimize``, else None. Its designs are the optimiser's: ``perturb_method`` is
         ``"optimize"``, ``variants`` is population × generations and the perturbed parameters are the
@@ -157,6 +163,9 @@ class Study:
     screen: Screen = field(default_factory=Screen)
     optimize: Optimize | None = None
     target: Target | None = None
+    forces: bool = False
+    force_joints: tuple = ()
+    operating: Operating | None = None
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
 
     # -- derived -------------------------------------------------------------------------------
@@ -227,6 +236,11 @@ class Study:
             "screen": self.screen.as_dict(),
             "output": {"path": self.output, "compression": self.compression},
         }
+        if self.forces:  # only when on: a study without forces keeps its fingerprint
+            out["scene"]["forces"] = True
+            out["scene"]["force_joints"] = list(self.force_joints)
+        if self.operating is not None:
+            out["operating"] = self.operating.as_dict()
         if self.target is not None:  # the points themselves (a CSV's content), so a changed target changes the fingerprint
             t = self.target
             out["target"] = {"points": t.points.tolist(), "match": t.match, "ignore": list(t.ignore)}
@@ -393,7 +407,8 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
         raise UserError(f"{where(source, 'study.variants')}: {pmethod} with {variants} {what} over {k} parameters "
                         f"gives {n_total:,} variants; at most {MAX_VARIANTS:,} are allowed")
 
-    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base)
+    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base,
+                               data.get("operating"))
     return Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
                  method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
                  source=source, text=text if text is not None else dumps_toml(data), mechanism_path=mech_path,
@@ -401,7 +416,7 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
 
 
 def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, sc, ou, wa, scr, ta=None,
-                      base: Path | None = None) -> dict:
+                      base: Path | None = None, op=None) -> dict:
     """The Study fields of [scene], [walker], [screen], [output] and [target], validated."""
     target = load_target(ta, base, source=source, key="target") if ta is not None else None
     vertices = v.names("scene.vertices", sc.get("vertices", [mech.foot]), mech.vertices, "vertex")
@@ -416,13 +431,37 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
     elif wa:
         raise UserError(f"{where(source, 'walker')}: mechanism {mech.name!r} is driven along a path; a walker needs a crank")
     screen = screen_from_dict(scr, source, "screen")
+    forces = v.boolean("scene.forces", sc.get("forces", False))
+    force_joints = ()
+    if "force_joints" in sc:
+        force_joints = v.names("scene.force_joints", sc["force_joints"], mech.vertices, "joint", empty_ok=True)
+        force_joints = tuple(mech.vertices) if force_joints == "all" else tuple(force_joints)
+        if force_joints and not forces:
+            raise UserError(f"{where(source, 'scene.force_joints')}: joint reactions are stored only with "
+                            f"[scene] forces = true")
+    operating = mech.operating
+    if op is not None:
+        operating = operating_from_dict(op, source, "operating", base=mech.operating)
+    if forces:
+        if mech.crank is None:
+            raise UserError(f"{where(source, 'scene.forces')}: mechanism {mech.name!r} is driven along a path; the "
+                            f"forces effect gives a crank's motor torque")
+        for k, what in (("unit", "metres per model unit, e.g. 0.01 for a mechanism in centimetres"),
+                        ("rpm", "the crank speed in revolutions per minute")):
+            if operating is None or getattr(operating, k) is None:
+                raise UserError(f"{where(source, 'operating.' + k)}: [scene] forces = true needs it ({what}), in the "
+                                f"study's [operating] table or the mechanism's")
+    elif operating is not None and operating.load and mech.crank is None:
+        raise UserError(f"{where(source, 'operating.load')}: a load rides on a walker's contact foot; mechanism "
+                        f"{mech.name!r} is driven along a path")
 
     out = ou.get("path", f"results/{name}.h5")
     out = v.string("output.path", out)
     compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
 
     return dict(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
-                metrics=metrics, output=out, compression=compression, walker=walker, screen=screen, target=target)
+                metrics=metrics, output=out, compression=compression, walker=walker, screen=screen, target=target,
+                forces=forces, force_joints=force_joints, operating=operating)
 
 
 def _solver_keys(v: "_Validator", st: dict):
@@ -448,7 +487,8 @@ def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st,
     seed, steps, tolerance, method = _solver_keys(v, st)
     known = _known_metrics() or ()
     opt = parse_optimize(data["optimize"], source, mech, known, has_target="target" in data)
-    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base)
+    common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base,
+                               data.get("operating"))
     from ..gait import CHECKS
     from ._objectives import metrics_needed
     needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check[1]))
