@@ -103,7 +103,7 @@ def parameter_lines(mech, row, nominal: dict, perturbed) -> list[str]:
 def run(args) -> int:
     import numpy as np
 
-    from ..gait import DIRECTIONS, METRICS, UNITS
+    from ..gait import METRICS, metric
     from ..store import open_results
 
     from ..errors import UserError
@@ -118,6 +118,7 @@ def run(args) -> int:
         study = res.study.get("study", {})
         band = res.band
         metrics = list(res.metric_names)
+        res_operating = res.study.get("operating") if res.study.get("scene", {}).get("forces") else None
     row = df.iloc[v]
     ok = (df["status_code"] == 0).to_numpy()
 
@@ -164,7 +165,8 @@ def run(args) -> int:
     for m in order:
         values = df[m].to_numpy(dtype=np.float64)
         x = values[v]
-        direction = DIRECTIONS.get(m)
+        info = metric(m)
+        direction = info.direction if info is not None else None
         if status != "ok":
             text, rank = "-", "- (variant failed)" if status != "not-run" else "- (not run)"
         elif not math.isfinite(x):
@@ -177,7 +179,12 @@ def run(args) -> int:
             else:
                 how = "higher is better" if direction == "max" else "lower is better"
                 rank = f"rank {r[0]:,} of {r[1]:,} ({how})"
-        rows.append((m, text, UNITS.get(m, ""), rank))
+        rows.append((m, text, info.unit if info is not None else "", rank))
     lines += _table(rows, (False, True, False, False))
+    op = res_operating
+    if op:
+        lines.append("")
+        lines.append("forces at the operating point: " + ", ".join(f"{k} = {val:g}" for k, val in op.items())
+                     + " (unit: metres per model unit; rpm: crank speed; gravity m/s²; load kg on the contact foot)")
     print("\n".join(lines))
     return 0

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import UserError
 from ._filter import evaluate_filter
-from ._table import DEFAULT_WEIGHTS, DIRECTIONS, METRICS
+from ._table import DEFAULT_WEIGHTS, DIRECTIONS, METRICS, metric
 
 if TYPE_CHECKING:  # pandas is imported where it is used: it costs ~0.4 s, and `explorer run` never needs it
     import pandas as pd
@@ -57,6 +57,8 @@ def _direction(col: str, override) -> str:
         return "min" if bool(override) else "max"
     if col in DIRECTIONS:
         return DIRECTIONS[col]
+    if metric(col) is not None:  # pin_force.<joint>
+        return metric(col).direction
     raise UserError(f"{col!r} has no natural direction; say which is better with ascending= "
                     f"(True: smaller is better)")
 
