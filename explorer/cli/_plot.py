@@ -12,9 +12,9 @@ MODES = ("top", "scatter", "velocity", "sensitivity", "front")
 def register(sub) -> None:
     p = sub.add_parser(
         "plot", help="plot a results file: best foot paths, two metrics with the Pareto front, foot velocity, "
-                     "or one-at-a-time sensitivity",
+                     "one-at-a-time sensitivity, an optimisation's front, or motor torque and joint reactions",
         description="Draw one picture of a results file and write it as PNG, SVG or PDF (by the extension of "
-                    "-o). Exactly one of --top/--by, --scatter, --velocity, --sensitivity. Lengths are in the "
+                    "-o). Exactly one of --top/--by, --scatter, --velocity, --sensitivity, --front, --forces. Lengths are in the "
                     "model units of the link lengths; rates are per radian of crank.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     g = p.add_mutually_exclusive_group()
@@ -32,6 +32,10 @@ def register(sub) -> None:
                    help="an optimisation (`explorer optimize`): how the Pareto front moved over the generations, "
                         "in two of its objectives (default: the first two), or the best value per generation for "
                         "one objective")
+    g.add_argument("--forces", action="store_true",
+                   help="a study run with [scene] forces = true: the motor torque of one variant (--variant N, "
+                        "default 0 = nominal) over the turn with its mean and flywheel energy, and its stored joint "
+                        "reactions, in N·m and N")
     p.add_argument("--by", metavar="METRIC", default=None,
                    help="metric to rank by for --top (default: the score of travel, bob, body_speed_ripple and "
                         "peak_torque, as `explorer rank`)")
@@ -45,7 +49,7 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", metavar="PATH", default=None,
                    help="output .png, .svg or .pdf (default: RESULTS-<mode>.png in the working directory)")
     p.add_argument("--variant", type=int, metavar="N", default=None,
-                   help="with --velocity: the variant (as in `explorer show --variant` and `explorer animate`)")
+                   help="with --velocity or --forces: the variant (as in `explorer show --variant` and `explorer animate`)")
     p.add_argument("--dpi", type=float, default=150, help="resolution of PNG output (default: 150)")
     p.set_defaults(func=run)
 
@@ -60,19 +64,21 @@ def _mode(args) -> str:
         mode = "sensitivity"
     elif args.front is not None:
         mode = "front"
+    elif args.forces:
+        mode = "forces"
     elif args.top is not None or args.by is not None or args.weights is not None:
         mode = "top"
     else:
         raise UserError("plot: say what to plot: --top N [--by METRIC], --scatter M1,M2, --velocity VARIANT, "
-                        "--sensitivity or --front")
+                        "--sensitivity, --front or --forces")
     for opt, given in (("--by", args.by is not None), ("--weights", args.weights is not None),
                        ("--include-screened", args.include_screened and mode != "scatter")):
         if given and mode != "top":
             raise UserError(f"plot: {opt} goes with --top, not with --{mode}")
     if args.by is not None and args.weights is not None:
         raise UserError("plot: --by and --weights exclude each other: pick one way to rank")
-    if args.variant is not None and mode != "velocity":
-        raise UserError(f"plot: --variant goes with --velocity, not with --{mode}")
+    if args.variant is not None and mode not in ("velocity", "forces"):
+        raise UserError(f"plot: --variant goes with --velocity or --forces, not with --{mode}")
     if args.where is not None and mode not in ("top", "scatter"):
         raise UserError(f"plot: --where goes with --top or --scatter, not with --{mode}")
     return mode
@@ -116,6 +122,9 @@ def run(args) -> int:
             if len(names) not in (0, 2):
                 raise UserError(f"--front: expected two objectives as X,Y (or nothing), got {args.front!r}")
             fig = plot_front(res, *names)
+        elif mode == "forces":
+            from ..view import plot_forces
+            fig = plot_forces(res, 0 if args.variant is None else args.variant)
         else:
             fig = plot_sensitivity(res)
         path = save_figure(fig, out, dpi=args.dpi)

@@ -302,6 +302,35 @@ class Results:
         """d²V/dθ² of ``vertex`` for one variant, shape (steps, 2), model units per rad²."""
         return self._series("accelerations", variant, vertex)
 
+    def torque(self, variant: int) -> np.ndarray:
+        """Motor torque of one variant at every crank angle, shape (steps,), N·m (a study with
+        ``[scene] forces = true``; positive when the motor does positive work)."""
+        if "torque" not in self.file:
+            raise UserError(f"{self.filename}: no motor torque stored: run the study with [scene] forces = true "
+                            f"and an [operating] table")
+        v = self._check_variant(variant)
+        return self.file["torque"][v]
+
+    @property
+    def force_joints(self) -> tuple[str, ...]:
+        """Joints whose reactions are stored (``[scene] force_joints``)."""
+        return tuple(self.file["forces"].keys()) if "forces" in self.file else ()
+
+    def force(self, variant: int, joint: str) -> np.ndarray:
+        """Leg 0's reaction at ``joint`` for one variant, shape (steps, 2), N: the force the joint's most heavily
+        loaded member puts on its pin."""
+        if joint not in self.force_joints:
+            raise UserError(f"{self.filename}: no reaction stored for joint {joint!r} (stored: "
+                            f"{', '.join(self.force_joints) or 'none; list joints in [scene] force_joints'})")
+        v = self._check_variant(variant)
+        return self.file["forces"][joint][v]
+
+    def _check_variant(self, variant) -> int:
+        n = self.n_variants
+        if isinstance(variant, bool) or not isinstance(variant, (int, np.integer)) or not 0 <= variant < n:
+            raise UserError(f"{self.filename}: variant must be an integer from 0 to {n - 1}, got {variant!r}")
+        return int(variant)
+
     # -- lifetime --------------------------------------------------------------------------------------
     def close(self) -> None:
         if self.file.id.valid:

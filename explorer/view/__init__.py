@@ -9,6 +9,7 @@ Plots (each returns a :class:`matplotlib.figure.Figure`; save with :func:`save_f
 * ``plot_top(results, top=5)`` — the best buildable variants' foot paths over the nominal (the
   ranking of ``explorer rank``: by default the walker score, or ``by=METRIC``).
 * ``plot_scatter(results, "travel", "bob")`` — two metrics, Pareto front, nominal marked.
+* ``plot_forces(results, variant=0)`` — motor torque with its mean and flywheel energy, joint reactions.
 * ``plot_velocity(cycle_or_mechanism_or_results, variant=None)`` — dx/dθ, dy/dθ: analytic solid,
   central finite differences dashed on top.
 * ``plot_sensitivity(results)`` — a one-at-a-time study: change of each metric per link.
@@ -39,12 +40,12 @@ from ._front import plot_front
 from ._indices import plot_indices
 from ._report import Report, report_html, write_report
 from ._plots import (FIGURE_FORMATS, central_differences, new_figure, oat_sensitivity, plot_scatter,
-                     plot_sensitivity, plot_top, plot_velocity, save_figure, stance_indices, variant_mechanism)
+                     plot_forces, plot_sensitivity, plot_top, plot_velocity, save_figure, stance_indices, variant_mechanism)
 
 __all__ = ["DEFAULT_FPS", "FIGURE_FORMATS", "FOOT_PATH_COLOR", "FRAMES_PER_CYCLE", "MOVIE_FORMATS", "LegArtists",
            "LinkageAnimation", "Movie", "animate", "central_differences", "draw_ground", "draw_path", "ffmpeg_exe",
            "mirror_positions", "mirror_velocity", "new_figure", "oat_sensitivity", "plot_indices", "plot_scatter",
-           "plot_sensitivity", "plot_top", "plot_velocity", "save_figure", "stance_indices", "variant_mechanism"]
+           "plot_forces", "plot_sensitivity", "plot_top", "plot_velocity", "save_figure", "stance_indices", "variant_mechanism"]
 __all__ += ["plot_front"]
 __all__ += ["EXPORT_FORMATS", "Sheet", "cut_sheet", "export_csv", "export_dxf", "export_svg", "export_toml",
             "mechanism_toml", "trajectory_frame", "variant_design"]

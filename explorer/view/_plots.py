@@ -608,3 +608,58 @@ def plot_sensitivity(results, metrics=None, *, relative: bool = True, figsize=No
                  f"red: the metric grows with the parameter, blue: it shrinks, grey: undefined",
                  fontsize=TITLE_SIZE - 1, wrap=True)
     return fig
+
+
+def plot_forces(results, variant: int = 0, *, figsize=(8.0, 7.0), dpi: float = 100) -> Figure:
+    """The forces effect of one variant of a study run with ``[scene] forces = true``: the motor torque
+    over the crank turn (N·m) with its mean and the band the flywheel (``flywheel_inertia``) holds the
+    speed in, and below it the magnitude of each stored joint reaction (N, ``[scene] force_joints``).
+    """
+    v = check_variant(results, variant)
+    tau = np.asarray(results.torque(v), dtype=np.float64)
+    if not np.isfinite(tau).all():
+        raise UserError(f"{results.filename}: variant {v} has no forces (it failed: {variant_row(results, v)['status']})")
+    op = results.study.get("operating", {})
+    S = tau.shape[0]
+    x = 360.0 * np.arange(S) / S
+    fig = new_figure(figsize, dpi)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    mean = float(tau.mean())
+    ax1.plot(x, tau, color="tab:blue", lw=2.0, label="motor torque τ(θ)")
+    ax1.axhline(mean, color="tab:green", lw=1.2, ls="--", label=f"mean {mean:.4g} N·m")
+    # the flywheel's band: with I = ΔE/(C_s ω²) the speed stays within ±C_s/2 of its mean
+    cs = float(op.get("speed_fluctuation", 0.05))
+    row = variant_row(results, v)
+    if "flywheel_inertia" in row.index and np.isfinite(row["flywheel_inertia"]):
+        E = np.concatenate([[0.0], np.cumsum((tau - mean) * 2.0 * np.pi / S)])[:-1]
+        ax1.text(0.01, 0.97, f"flywheel {row['flywheel_inertia']:.3g} kg·m² holds ω within ±{100 * cs / 2:g} %: "
+                             f"ΔE = {E.max() - E.min():.3g} J", transform=ax1.transAxes, va="top",
+                 fontsize=LEGEND_SIZE)
+        ax1b = ax1.twinx()
+        ax1b.plot(x, E, color="tab:purple", lw=1.0, ls=":", label="∫(τ − mean)dθ")
+        ax1b.set_ylabel("energy excess E(θ) [J]", fontsize=LABEL_SIZE - 1, color="tab:purple")
+    ax1.set_ylabel("torque [N·m]", fontsize=LABEL_SIZE)
+    ax1.grid(True, lw=0.4, alpha=0.5)
+    ax1.axhline(0.0, color="0.3", lw=0.6)
+    ax1.legend(loc="lower right", fontsize=LEGEND_SIZE, framealpha=0.9)
+    style_axes(ax1, f"motor torque: peak |τ| {np.max(np.abs(tau)):.4g} N·m, rms {np.sqrt(np.mean(tau ** 2)):.4g} N·m",
+               title_size=LABEL_SIZE)
+    joints = results.force_joints
+    for j, c in zip(joints, _cmap(len(joints))):
+        f = np.asarray(results.force(v, j))
+        ax2.plot(x, np.hypot(f[:, 0], f[:, 1]), color=c, lw=1.6, label=f"joint {j}")
+    if not joints:
+        ax2.text(0.5, 0.5, "no joint reactions stored: list joints in [scene] force_joints", ha="center",
+                 va="center", transform=ax2.transAxes)
+    else:
+        ax2.legend(loc="best", fontsize=LEGEND_SIZE, framealpha=0.9, ncol=2)
+    ax2.set_ylabel("|reaction| [N]", fontsize=LABEL_SIZE)
+    ax2.set_xlabel("crank angle θ [deg]", fontsize=LABEL_SIZE)
+    ax2.set_xlim(0.0, 360.0)
+    ax2.set_xticks(np.arange(0, 361, 60))
+    ax2.grid(True, lw=0.4, alpha=0.5)
+    style_axes(ax2, "joint reactions of leg 0 (the force of each joint's most loaded member on its pin)",
+               title_size=LABEL_SIZE)
+    opt = ", ".join(f"{k} {op[k]:g}" for k in ("rpm", "load", "gravity", "unit") if k in op)
+    fig.suptitle(f"Forces of variant {v} of {results.filename.name} ({opt})", fontsize=TITLE_SIZE)
+    return fig
