@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,14 +21,23 @@ import pytest
 import explorer
 from explorer.kernels import _codegen, _simulate
 from explorer.kernels._fast import place_dyad
+from explorer.kernels._sweep import STATUS_NOCONV
 
-#: each leg with a spread at which some of its designs turn and some fail (the arm's path never fails here)
+#: each leg with a spread at which some of its designs turn and some fail
 LEGS = {"jansen": 0.25, "klann": 0.12, "hoeken": 0.4, "strider": 0.12, "fourbar": 0.4, "arm": 0.25}
-
-
-def _general_only(monkeypatch):
-    """Make simulate_batch take the general kernel (fast_batch_jit) for every plan."""
-    monkeypatch.setattr(_simulate, "supported", lambda *a: False)
+#: at least this many of the 400 designs compared in each regime (about half of what the data hold), so
+#: that the bit-for-bit test cannot pass having checked nothing. "swept back": crank cycles that failed
+#: and were swept backward from θ = 0 (Hoeken's failures all fail at the start; the arm has no crank).
+MINIMUM = {
+    "jansen": {"ok": 40, "failed": 150, "swept back": 70},
+    "klann": {"ok": 150, "failed": 40, "swept back": 10},
+    "hoeken": {"ok": 150, "failed": 20},
+    "strider": {"ok": 150, "failed": 30, "swept back": 30},
+    "fourbar": {"ok": 150, "failed": 30, "swept back": 10},
+    "arm": {"ok": 100, "failed": 100},
+}
+for _least in MINIMUM.values():
+    _least.update({"ok, more iterations than the least": 20, "solved samples": 100 * 180})
 
 
 def _batch(mech, spread, n, seed, steps=180):
@@ -39,23 +49,32 @@ def _batch(mech, spread, n, seed, steps=180):
     return L, crank
 
 
+def test_every_built_in_leg_is_checked():
+    builtin = Path(explorer.__file__).parent / "mechanism" / "builtin"
+    assert set(LEGS) == {p.stem for p in builtin.glob("*.toml")}
+
+
+@pytest.mark.parametrize("velocities", [True, False])
 @pytest.mark.parametrize("name", LEGS)
-def test_generated_kernel_equals_the_general_sweep_bit_for_bit(name, monkeypatch):
+def test_generated_kernel_equals_the_general_sweep_bit_for_bit(name, velocities):
     mech = explorer.load_mechanism(name)
-    L, crank = _batch(mech, LEGS[name], 400, seed=7)
-    kw = dict(vertices="all", velocities=True)
+    n = 400
+    L, crank = _batch(mech, LEGS[name], n, seed=7)
+    kw = dict(vertices="all", velocities=velocities)
     if name == "jansen":  # the fixed pivot moves too (a constant of the generated code, per design)
         rng = np.random.default_rng(8)
-        kw["geometry"] = {"2.x": -38.0 + rng.uniform(-1, 1, 400), "2.y": -7.8 + rng.uniform(-1, 1, 400)}
+        kw["geometry"] = {"2.x": -38.0 + rng.uniform(-1, 1, n), "2.y": -7.8 + rng.uniform(-1, 1, n)}
     _codegen._BY_TOPOLOGY.clear()
-    gen = explorer.simulate_batch(mech, L, crank, 180, **kw)
+    gen = explorer.simulate_batch(mech, L, crank, 180, kernel="generated", **kw)
     assert len(_codegen._BY_TOPOLOGY) == 1, "the generated kernel was not used"
-    _general_only(monkeypatch)
-    ref = explorer.simulate_batch(mech, L, crank, 180, **kw)
-    # the perturbations exercise more than clean cycles: some designs fail
-    assert (ref.status == 0).any()
-    if name != "arm":
-        assert (ref.status != 0).any(), "expected some failures"
+    ref = explorer.simulate_batch(mech, L, crank, 180, kernel="general", **kw)
+    # What was compared: every design, and enough of them in each regime that the test cannot pass
+    # having checked nothing: clean cycles, failures, crank cycles swept backward after a failure, and
+    # clean cycles whose Newton counts differ (refined steps or extra iterations).
+    counts = _regimes(mech, ref)
+    assert counts["designs"] == n and len(ref.paths) == len(mech.vertices)
+    for regime, least in MINIMUM[name].items():
+        assert counts[regime] >= least, (regime, counts)
     np.testing.assert_array_equal(gen.status, ref.status)
     np.testing.assert_array_equal(gen.iterations, ref.iterations)
     np.testing.assert_array_equal(gen.fail_block, ref.fail_block)
@@ -63,7 +82,59 @@ def test_generated_kernel_equals_the_general_sweep_bit_for_bit(name, monkeypatch
     np.testing.assert_array_equal(gen.fail_theta_end, ref.fail_theta_end)
     for v in ref.paths:
         np.testing.assert_array_equal(gen.paths[v], ref.paths[v])
-        np.testing.assert_array_equal(gen.velocities[v], ref.velocities[v])
+        if velocities:
+            np.testing.assert_array_equal(gen.velocities[v], ref.velocities[v])
+    assert bool(gen.velocities) == bool(ref.velocities) == velocities
+
+
+def _assert_same(gen, ref):
+    for field in ("status", "iterations", "fail_block", "fail_theta", "fail_theta_end"):
+        np.testing.assert_array_equal(getattr(gen, field), getattr(ref, field), err_msg=field)
+    for v in ref.paths:
+        np.testing.assert_array_equal(gen.paths[v], ref.paths[v], err_msg=v)
+        np.testing.assert_array_equal(gen.velocities[v], ref.velocities[v], err_msg=v)
+
+
+@pytest.mark.parametrize("name", LEGS)
+def test_generated_kernel_equals_the_general_sweep_where_steps_are_refined_and_newton_gives_up(name):
+    """Five samples per cycle (every step refined, many down to the smallest size) and Newton allowed
+    two iterations (no-convergence failures): the paths the clean data above do not take."""
+    mech = explorer.load_mechanism(name)
+    L, crank = _batch(mech, 0.1 if name == "jansen" else LEGS[name], 200, seed=3)
+    kw = dict(vertices="all", velocities=True)
+    noconv = 0
+    for steps, maxit in ((5, 50), (36, 2)):
+        gen = explorer.simulate_batch(mech, L, crank, steps, kernel="generated", max_iterations=maxit, **kw)
+        ref = explorer.simulate_batch(mech, L, crank, steps, kernel="general", max_iterations=maxit, **kw)
+        _assert_same(gen, ref)
+        assert (ref.status == 0).sum() >= 50
+        noconv += int((ref.status == STATUS_NOCONV).sum())
+    if name != "hoeken":  # Hoeken's dyad converges in two
+        assert noconv >= 5
+
+
+def _regimes(mech, b) -> dict:
+    clean = b.status == 0
+    return {"designs": b.status.shape[0], "ok": int(clean.sum()), "failed": int((~clean).sum()),
+            "swept back": int(np.isfinite(b.fail_theta_end).sum()),
+            "ok, more iterations than the least": int((b.iterations[clean] > b.iterations[clean].min()).sum()),
+            "solved samples": int(np.isfinite(b.paths[mech.foot]).all(axis=2).sum())}
+
+
+def test_kernel_choice():
+    """kernel="auto" takes the generated kernel where it applies, "general" never does, "generated"
+    where it does not apply is an error; an unknown choice is an error."""
+    mech = explorer.load_mechanism("jansen")
+    one = mech.lengths[None]
+    _codegen._BY_TOPOLOGY.clear()
+    explorer.simulate_batch(mech, one, None, 36, kernel="general")
+    assert not _codegen._BY_TOPOLOGY
+    explorer.simulate_batch(mech, one, None, 36)
+    assert len(_codegen._BY_TOPOLOGY) == 1
+    with pytest.raises(explorer.UserError, match="kernel"):
+        explorer.simulate_batch(mech, one, None, 36, kernel="fast")
+    with pytest.raises(explorer.UserError, match="generated"):
+        explorer.simulate_batch(mech, one, None, 36, accelerations=True, kernel="generated")
 
 
 def test_generated_kernel_is_used_for_dyad_and_body_plans_only(triad):

@@ -1,0 +1,112 @@
+"""The sweep written once (``explorer.kernels._sweep_template``) and its two renderings.
+
+* The committed array form (``_sweep_array.py``) is the template rendered in the array dialect, text
+  for text: editing one without re-rendering fails here.
+* Every hole of the template is filled by both dialects, every section decided by both; a hole whose
+  targets or arguments differ from the table, or an unknown section, is refused.
+* The template itself is never run.
+
+That both renderings give the same results bit for bit is tests/test_codegen.py's.
+"""
+
+from __future__ import annotations
+
+import ast
+
+import numpy as np
+import pytest
+
+import explorer
+from explorer.kernels import _codegen, _simulate, _sweep, _sweep_template
+from explorer.kernels._sweep_template import HOLES, SECTIONS, render
+
+
+def test_committed_array_form_is_the_template_rendered():
+    fresh = _sweep.array_module_source()
+    committed = _sweep._ARRAY_MODULE.read_text(encoding="utf-8")
+    assert committed == fresh, (
+        "explorer/kernels/_sweep_array.py differs from the sweep template rendered in the array dialect: "
+        "edit _sweep_template.sweep or _sweep.ARRAY, then run "
+        "python -c \"from explorer.kernels import _sweep; _sweep.write_array_module()\"")
+
+
+def test_array_form_is_what_the_kernels_run():
+    from explorer.kernels import _sweep_array
+
+    assert _sweep.sweep is _sweep_array.sweep
+    for jitted in (_sweep.fast_sweep, _sweep.generic_sweep):
+        assert jitted.py_func.__code__ is _sweep_array.sweep.__code__
+
+
+def _holes_in_template() -> tuple[set, set]:
+    lines, _ = _sweep_template._template()
+    holes = {m.group("name") for ln in lines if (m := _sweep_template._HOLE.match(ln))}
+    sections = {m.group("name") for ln in lines if (m := _sweep_template._SECTION.match(ln))}
+    return holes, sections
+
+
+def _hoeken_topology(want_vel=True):
+    mech = explorer.load_mechanism("hoeken")  # a dyad and a body joint
+    captured = {}
+    real = _simulate.kernel_for
+
+    def spy(topo, want_vel):
+        captured["topo"] = topo
+        return real(topo, want_vel)
+
+    _simulate.kernel_for = spy
+    try:
+        explorer.simulate_batch(mech, mech.lengths[None], None, 12, vertices="all", velocities=want_vel)
+    finally:
+        _simulate.kernel_for = real
+    return captured["topo"]
+
+
+def test_both_dialects_fill_every_hole_and_decide_every_section():
+    holes, sections = _holes_in_template()
+    assert holes == set(HOLES) and sections == set(SECTIONS)
+    scalar = _codegen.scalar_dialect(_hoeken_topology(), True)
+    for dialect, decided in ((_sweep.ARRAY, _sweep.ARRAY_SECTIONS), (scalar, _codegen.SCALAR_SECTIONS)):
+        assert set(dialect) == set(HOLES)
+        assert set(decided) == set(SECTIONS)
+
+
+@pytest.mark.parametrize("want_vel", [True, False])
+def test_scalar_form_is_valid_python_without_holes(want_vel):
+    src = _codegen.source(_hoeken_topology(want_vel), want_vel)
+    tree = ast.parse(src)
+    names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+    assert "hole" not in names and "step" not in names
+    assert ("out_vel" in src.split("out_vel = outs.vel[i]", 1)[1]) == want_vel
+    # the loop of whole steps is kept in the scalar form, dropped in the array form
+    assert "iters_before" in src
+    assert "iters_before" not in _sweep.array_module_source()
+
+
+def _rendered_with(monkeypatch, old, new):
+    lines, first = _sweep_template._template()
+    edited = [ln.replace(old, new) for ln in lines]
+    assert edited != lines
+    monkeypatch.setattr(_sweep_template, "_template", lambda: (edited, first))
+    return render(_sweep.ARRAY, _sweep.ARRAY_SECTIONS)
+
+
+def test_a_hole_that_changes_meaning_is_refused(monkeypatch):
+    with pytest.raises(ValueError, match="does not match"):
+        _rendered_with(monkeypatch, "hole.store(sample)", "hole.store(k)")
+
+
+def test_an_unknown_section_is_refused(monkeypatch):
+    with pytest.raises(ValueError, match="unknown section"):
+        _rendered_with(monkeypatch, "if hole.whole_steps():", "if hole.fast_steps():")
+
+
+def test_a_hole_inside_an_expression_is_refused(monkeypatch):
+    with pytest.raises(ValueError, match="statement of its own"):
+        _rendered_with(monkeypatch, "hole.accept()", "x = 1 + hole.accept()")
+
+
+def test_the_template_is_never_run():
+    with pytest.raises(RuntimeError, match="rendered"):
+        _sweep_template.sweep(None, None, None, None, np.zeros((1, 2)), None, 0.0, 0.0, 1.0, 1.0, 1e-9,
+                              None, None, None)
