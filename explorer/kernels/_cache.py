@@ -1,10 +1,13 @@
 """Numba's on-disk cache of explorer's kernels, keyed by the kernels' code.
 
 Numba checks only the source file that defines a cached function, not the files of the functions it
-calls or inlines, so after an upgrade that changes ``_dyads.py`` alone the cached sweep in
-``_sweep.py`` would still run the old step. Instead of deleting cache files, every explorer kernel is
+calls or inlines or the globals it freezes in as constants, so after an upgrade that changes
+``_fast.py`` alone (the dyad's arithmetic) the cached sweep in ``_sweep_array.py`` would still run the old
+step, and one that renumbers the block kinds in ``plan/_kinds.py`` would leave every cached kernel
+comparing against the old numbers. Instead of deleting cache files, every explorer kernel is
 cached in a folder named after a hash of the code of every module that defines or feeds a kernel
-(``explorer/kernels``, ``explorer/gait``, ``explorer/bench``): changed code, a new folder, a fresh
+(:data:`KERNEL_PACKAGES`: ``explorer/kernels``, ``explorer/plan``, ``explorer/gait``,
+``explorer/bench``): changed code, a new folder, a fresh
 compile; a changed docstring or comment leaves the hash alone (it is taken over the syntax tree,
 docstrings removed), so it costs at most the recompile of the functions in that one file (Numba's own
 check). The folder is ``$NUMBA_CACHE_DIR/explorer-<hash>`` when that variable is set, else the user's
@@ -29,8 +32,9 @@ import shutil
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parents[1]      # explorer/
-#: Subpackages whose modules define kernels or code the kernels inline.
-KERNEL_PACKAGES = ("kernels", "gait", "bench")
+#: Subpackages whose modules define kernels, code the kernels inline, or constants frozen into their
+#: machine code (``plan``: the block kinds).
+KERNEL_PACKAGES = ("kernels", "plan", "gait", "bench")
 
 
 def _strip_docstrings(tree: ast.AST) -> ast.AST:
@@ -70,8 +74,9 @@ def _user_cache() -> Path:
 
 
 def _key() -> str:
-    """source_key of the kernel sources, memoised against a hash of their raw bytes (parsing 22 files
-    costs ~0.15 s; hashing their bytes ~1 ms): the syntax trees are parsed only after a file changed."""
+    """source_key of the kernel sources, memoised against a hash of their raw bytes (parsing the three
+    dozen files costs ~0.3 s; hashing their bytes ~1 ms): the syntax trees are parsed only after a file
+    changed."""
     texts = kernel_sources()
     raw = hashlib.sha1("\0".join(f"{n}\0{t}" for n, t in texts).encode()).hexdigest()
     memo = _user_cache() / "kernel-key.txt"
