@@ -44,13 +44,23 @@ and the pin reactions are those of the whole walker; the stored joint forces are
 from __future__ import annotations
 
 import math
+import types
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from ..plan import ATTACH, DYAD, Plan
+from ..plan import ATTACH, DYAD, GENERAL, Plan
 from ._legs import ground_contact, leg_feet, leg_samples
+
+# The general-block solver the kinematics / reactions call (``_kin_general`` / ``_rea_general``); the
+# copies jitted by :func:`_specialise` bind it, or bind a stub for plans without general blocks, so that
+# the common dyad-and-body plans compile without it (measured: the reachable call made the whole
+# dyad loop 2-4x slower).
+general = None
+# The kinematics and reactions the forces kernel calls; bound in the specialised copies.
+kinematics = None
+reactions = None
 
 #: force-effect status codes written to ``code`` (0 ok); the caller turns them into statuses
 F_OK, F_SINGULAR, F_NONFINITE = 0, 1, 2
@@ -229,6 +239,55 @@ def _row_grad(kind, rid, axis, v, P, dist_a, dist_b, att, uv, out):
 
 
 @njit(cache=True, nogil=True)
+def _kin_general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, V, A, loc, M, x,
+                 g):
+    """Velocities and accelerations of general block k's vertices (see :func:`_kinematics`); False if its
+    Jacobian is singular."""
+    v0 = blk_vp[k]
+    n = 2 * (blk_vp[k + 1] - v0)
+    for i in range(v0, blk_vp[k + 1]):
+        loc[blk_verts[i]] = i - v0
+    for which in range(2):
+        X = V if which == 0 else A
+        for r in range(n):
+            kind_r = row_kind[blk_rp[k] + r]
+            rid = row_id[blk_rp[k] + r]
+            ax = row_axis[blk_rp[k] + r]
+            for c in range(n):
+                M[r, c] = 0.0
+            s = 0.0
+            for end in range(3):
+                if kind_r == 0:
+                    if end == 2:
+                        break
+                    vv = dist_a[rid] if end == 0 else dist_b[rid]
+                else:
+                    vv = att[rid, end]
+                _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
+                if loc[vv] >= 0:
+                    M[r, 2 * loc[vv]] += g[0]
+                    M[r, 2 * loc[vv] + 1] += g[1]
+                else:
+                    s -= g[0] * X[vv, 0] + g[1] * X[vv, 1]
+            if which == 1 and kind_r == 0:
+                a = dist_a[rid]
+                b = dist_b[rid]
+                dx = V[b, 0] - V[a, 0]
+                dy = V[b, 1] - V[a, 1]
+                s -= dx * dx + dy * dy
+            x[r] = s
+        if not _gauss(M, x, n, 0.0):
+            for i in range(v0, blk_vp[k + 1]):
+                loc[blk_verts[i]] = -1
+            return False
+        for i in range(v0, blk_vp[k + 1]):
+            X[blk_verts[i], 0] = x[2 * (i - v0)]
+            X[blk_verts[i], 1] = x[2 * (i - v0) + 1]
+    for i in range(v0, blk_vp[k + 1]):
+        loc[blk_verts[i]] = -1
+    return True
+
+
 def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv,
                 tip, cx, cy, P, V, A, loc, M, x, g, tol):
     """Velocities V and accelerations A (nv, 2), per radian and per radian², of every vertex at one
@@ -283,52 +342,67 @@ def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_
             A[j, 0] = A[p, 0] + u * gx - w * gy
             A[j, 1] = A[p, 1] + u * gy + w * gx
         else:  # GENERAL: J_bb x_b = −J_bk x_k (− the quadratic terms of the distance rows, for A)
-            v0 = blk_vp[k]
-            n = 2 * (blk_vp[k + 1] - v0)
-            for i in range(v0, blk_vp[k + 1]):
-                loc[blk_verts[i]] = i - v0
-            for which in range(2):
-                X = V if which == 0 else A
-                for r in range(n):
-                    kind_r = row_kind[blk_rp[k] + r]
-                    rid = row_id[blk_rp[k] + r]
-                    ax = row_axis[blk_rp[k] + r]
-                    for c in range(n):
-                        M[r, c] = 0.0
-                    s = 0.0
-                    for end in range(3):
-                        if kind_r == 0:
-                            if end == 2:
-                                break
-                            vv = dist_a[rid] if end == 0 else dist_b[rid]
-                        else:
-                            vv = att[rid, end]
-                        _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
-                        if loc[vv] >= 0:
-                            M[r, 2 * loc[vv]] += g[0]
-                            M[r, 2 * loc[vv] + 1] += g[1]
-                        else:
-                            s -= g[0] * X[vv, 0] + g[1] * X[vv, 1]
-                    if which == 1 and kind_r == 0:
-                        a = dist_a[rid]
-                        b = dist_b[rid]
-                        dx = V[b, 0] - V[a, 0]
-                        dy = V[b, 1] - V[a, 1]
-                        s -= dx * dx + dy * dy
-                    x[r] = s
-                if not _gauss(M, x, n, 0.0):
-                    for i in range(v0, blk_vp[k + 1]):
-                        loc[blk_verts[i]] = -1
-                    return k
-                for i in range(v0, blk_vp[k + 1]):
-                    X[blk_verts[i], 0] = x[2 * (i - v0)]
-                    X[blk_verts[i], 1] = x[2 * (i - v0) + 1]
-            for i in range(v0, blk_vp[k + 1]):
-                loc[blk_verts[i]] = -1
+            if not general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, V,
+                                A, loc, M, x, g):
+                return k
     return -1
 
 
 @njit(cache=True, nogil=True)
+def _rea_general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, R, loc, M, x, g,
+                 lam_d, lam_a):
+    """The multipliers of general block k (see :func:`_reactions`); False if its Jacobian is singular."""
+    v0 = blk_vp[k]
+    n = 2 * (blk_vp[k + 1] - v0)
+    for i in range(v0, blk_vp[k + 1]):
+        loc[blk_verts[i]] = i - v0
+    for r in range(n):
+        for c in range(n):
+            M[c, r] = 0.0
+    for r in range(n):  # column r of the transposed block Jacobian
+        kind_r = row_kind[blk_rp[k] + r]
+        rid = row_id[blk_rp[k] + r]
+        ax = row_axis[blk_rp[k] + r]
+        for end in range(3):
+            if kind_r == 0 and end == 2:
+                break
+            vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
+            if loc[vv] >= 0:
+                _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
+                M[2 * loc[vv], r] += g[0]
+                M[2 * loc[vv] + 1, r] += g[1]
+    for i in range(v0, blk_vp[k + 1]):
+        x[2 * (i - v0)] = R[blk_verts[i], 0]
+        x[2 * (i - v0) + 1] = R[blk_verts[i], 1]
+    ok = _gauss(M, x, n, 0.0)
+    if not ok:
+        for i in range(v0, blk_vp[k + 1]):
+            loc[blk_verts[i]] = -1
+        return False
+    for i in range(v0, blk_vp[k + 1]):
+        R[blk_verts[i], 0] = 0.0
+        R[blk_verts[i], 1] = 0.0
+    for r in range(n):  # store the multipliers; push what the rows put on vertices outside the block
+        kind_r = row_kind[blk_rp[k] + r]
+        rid = row_id[blk_rp[k] + r]
+        ax = row_axis[blk_rp[k] + r]
+        if kind_r == 0:
+            lam_d[rid] = x[r]
+        else:
+            lam_a[rid, ax] = x[r]
+        for end in range(3):
+            if kind_r == 0 and end == 2:
+                break
+            vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
+            if loc[vv] < 0:
+                _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
+                R[vv, 0] -= g[0] * x[r]
+                R[vv, 1] -= g[1] * x[r]
+    for i in range(v0, blk_vp[k + 1]):
+        loc[blk_verts[i]] = -1
+    return True
+
+
 def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att,
                uv, dinc, ainc, P, R, F, loc, M, x, g, lam_d, lam_a):
     """Solve Φ_qᵀ λ = R block by block in reverse plan order. R (nv, 2) comes holding M q̈ − Q (with the
@@ -385,54 +459,9 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_i
             R[q, 0] += atx
             R[q, 1] += aty
         else:
-            v0 = blk_vp[k]
-            n = 2 * (blk_vp[k + 1] - v0)
-            for i in range(v0, blk_vp[k + 1]):
-                loc[blk_verts[i]] = i - v0
-            for r in range(n):
-                for c in range(n):
-                    M[c, r] = 0.0
-            for r in range(n):  # column r of the transposed block Jacobian
-                kind_r = row_kind[blk_rp[k] + r]
-                rid = row_id[blk_rp[k] + r]
-                ax = row_axis[blk_rp[k] + r]
-                for end in range(3):
-                    if kind_r == 0 and end == 2:
-                        break
-                    vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
-                    if loc[vv] >= 0:
-                        _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
-                        M[2 * loc[vv], r] += g[0]
-                        M[2 * loc[vv] + 1, r] += g[1]
-            for i in range(v0, blk_vp[k + 1]):
-                x[2 * (i - v0)] = R[blk_verts[i], 0]
-                x[2 * (i - v0) + 1] = R[blk_verts[i], 1]
-            ok = _gauss(M, x, n, 0.0)
-            if not ok:
-                for i in range(v0, blk_vp[k + 1]):
-                    loc[blk_verts[i]] = -1
+            if not general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, R,
+                           loc, M, x, g, lam_d, lam_a):
                 return k
-            for i in range(v0, blk_vp[k + 1]):
-                R[blk_verts[i], 0] = 0.0
-                R[blk_verts[i], 1] = 0.0
-            for r in range(n):  # store the multipliers; push what the rows put on vertices outside the block
-                kind_r = row_kind[blk_rp[k] + r]
-                rid = row_id[blk_rp[k] + r]
-                ax = row_axis[blk_rp[k] + r]
-                if kind_r == 0:
-                    lam_d[rid] = x[r]
-                else:
-                    lam_a[rid, ax] = x[r]
-                for end in range(3):
-                    if kind_r == 0 and end == 2:
-                        break
-                    vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
-                    if loc[vv] < 0:
-                        _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
-                        R[vv, 0] -= g[0] * x[r]
-                        R[vv, 1] -= g[1] * x[r]
-            for i in range(v0, blk_vp[k + 1]):
-                loc[blk_verts[i]] = -1
     # every row's pull on its member's pins: (∂c/∂q_v)ᵀ λ
     for e in range(dist_a.shape[0]):
         a = dist_a[e]
@@ -459,7 +488,6 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_i
     return -1
 
 
-@njit(cache=True, nogil=True)
 def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b,
                    att, inc_vertex, dinc, ainc, body_pq, body_inc, body_mass, tip, tip_inc, fixed, fixed_inc, foot,
                    foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight,
@@ -503,6 +531,13 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
     G = np.empty(S)
     C = np.empty(S, dtype=np.int64)
     fm = np.empty(K)
+    vis_free = np.empty(S, dtype=np.bool_)
+    vis_plain = np.empty(S, dtype=np.bool_)
+    vis_mirr = np.empty(S, dtype=np.bool_)
+    grid = True
+    for j in range(L):
+        if frac[j] != 0.0:
+            grid = False
     d = 2.0 * math.pi / S
     s2 = unit * omega * omega  # per radian² of crank, model units → m/s²
     nrhs = 3 if weight > 0.0 else 1
@@ -519,7 +554,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
         failed = False
         # -- velocities and accelerations, block by block -------------------------------------------
         for u in range(S):
-            blk = _kinematics(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
+            blk = kinematics(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
                               dist_b, att, uv[i], tip, cx, cy, Pi[u], V[u], A[u], loc, M, x, g, 1e-13)
             if blk >= 0:
                 code[i] = F_SINGULAR
@@ -543,11 +578,38 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
             walk = -1.0
         Fx = walk * drag * weight
         Fy = weight
+        # which samples of the base leg some leg reads while it carries the load (only those need the
+        # unit-force right-hand sides), and in which states every sample is read: free, loaded plain,
+        # loaded mirrored
+        for u in range(S):
+            vis_free[u] = False
+            vis_plain[u] = False
+            vis_mirr[u] = False
+        for k in range(S):
+            for j in range(L):
+                u0 = (sign[j] * k + base[j]) % S
+                loaded = C[k] == j and nrhs == 3
+                for uu in range(2):
+                    if uu == 1 and frac[j] == 0.0:
+                        break
+                    ux = (u0 + uu) % S
+                    if not loaded:
+                        vis_free[ux] = True
+                    elif mirrored[j]:
+                        vis_mirr[ux] = True
+                    else:
+                        vis_plain[ux] = True
         # -- the base leg at every sample: inertia and weight, then unit forces on the foot ---------
         for u in range(S):
             tx = Pi[u, tip, 0] - cx
             ty = Pi[u, tip, 1] - cy
             for rhs in range(nrhs):
+                if rhs > 0 and not (vis_plain[u] or vis_mirr[u]):
+                    tau[u, rhs] = 0.0
+                    frame[u, rhs, 0] = 0.0
+                    frame[u, rhs, 1] = 0.0
+                    Fi[u, rhs, :, :] = 0.0
+                    continue
                 R[:, :] = 0.0
                 Fu = Fi[u, rhs]
                 Fu[:, :] = 0.0
@@ -602,7 +664,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                 else:  # a unit force on the foot from the ground: an external generalised force
                     R[foot, rhs - 1] -= 1.0
                     Fu[foot_inc, rhs - 1] += 1.0
-                blk = _reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
+                blk = reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
                                  dist_b, att, uv[i], dinc, ainc, Pi[u], R, Fu, loc, M, x, g, lam_d, lam_a)
                 if blk >= 0:
                     code[i] = F_SINGULAR
@@ -634,6 +696,34 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
         # -- every leg at every crank angle --------------------------------------------------------
         for v in range(nv):
             pin_peak[i, v] = 0.0
+        if grid:  # each leg reads whole samples: every pin's peak over the states each sample is read in
+            for u in range(S):
+                for st_ in range(3):
+                    if st_ == 0:
+                        if not vis_free[u]:
+                            continue
+                        lx = 0.0
+                        ly = 0.0
+                    elif st_ == 1:
+                        if not vis_plain[u]:
+                            continue
+                        lx = Fx
+                        ly = Fy
+                    else:
+                        if not vis_mirr[u]:
+                            continue
+                        lx = -Fx
+                        ly = Fy
+                    for kk in range(K):
+                        fx = Fi[u, 0, kk, 0]
+                        fy = Fi[u, 0, kk, 1]
+                        if st_ > 0:
+                            fx += lx * Fi[u, 1, kk, 0] + ly * Fi[u, 2, kk, 0]
+                            fy += lx * Fi[u, 1, kk, 1] + ly * Fi[u, 2, kk, 1]
+                        mag = math.sqrt(fx * fx + fy * fy)
+                        v = inc_vertex[kk]
+                        if not (mag <= pin_peak[i, v]):
+                            pin_peak[i, v] = mag
         shake = 0.0
         for k in range(S):
             ttot = 0.0
@@ -663,6 +753,8 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                     ttot += tj
                     frx += fjx
                 fry += fjy
+                if grid and not (j == 0 and (sel.shape[0] > 0 or finc.shape[1] > 0)):
+                    continue
                 for kk in range(K):
                     fx = w0 * (Fi[u0, 0, kk, 0] + lx * Fi[u0, 1, kk, 0] + ly * Fi[u0, 2, kk, 0])
                     fy = w0 * (Fi[u0, 0, kk, 1] + lx * Fi[u0, 1, kk, 1] + ly * Fi[u0, 2, kk, 1])
@@ -672,7 +764,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                     mag = math.sqrt(fx * fx + fy * fy)
                     fm[kk] = mag
                     v = inc_vertex[kk]
-                    if not (mag <= pin_peak[i, v]):
+                    if not grid and not (mag <= pin_peak[i, v]):
                         pin_peak[i, v] = mag
                     if j == 0 and finc.shape[1] > 0:
                         finc[i, k, kk, 0] = -fx if mirrored[0] else fx
@@ -702,6 +794,30 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                 ok = False
         if not ok:
             code[i] = F_NONFINITE
+
+
+@njit(cache=True, nogil=True)
+def _no_general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, X, loc, M, x, g,
+                *rest):
+    return False
+
+
+def _specialise(fn, name: str, **bind):
+    """A jitted copy of ``fn`` (its own name, so it caches) with globals rebound."""
+    env = dict(fn.__globals__, **bind)
+    copy = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
+    copy.__qualname__ = f"{fn.__name__}_{name}"
+    copy.__doc__ = fn.__doc__
+    return njit(cache=True, nogil=True)(copy)
+
+
+_kin_fast = _specialise(_kinematics, "fast", general=_no_general)
+_kin_any = _specialise(_kinematics, "any", general=_kin_general)
+_rea_fast = _specialise(_reactions, "fast", general=_no_general)
+_rea_any = _specialise(_reactions, "any", general=_rea_general)
+#: the kernel for plans of dyads and body joints only, and the one for plans with general blocks
+forces_fast = _specialise(_forces_kernel, "fast", kinematics=_kin_fast, reactions=_rea_fast)
+forces_any = _specialise(_forces_kernel, "any", kinematics=_kin_any, reactions=_rea_any)
 
 
 # -- the wrapper ------------------------------------------------------------------------------------
@@ -805,7 +921,8 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
               float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight)
     rows = (np.ascontiguousarray(P), np.ascontiguousarray(status), des.uv, des.center, link_mass, body_cuv, body_J,
             crank_mass, torque, fsel, finc, pin_peak, shake, travel, code, csample, cblock)
-    parallel_rows(_forces_kernel, shared, rows)
+    kernel = forces_any if np.any(tb.blk_kind == GENERAL) else forces_fast
+    parallel_rows(kernel, shared, rows)
     bad = (code != F_OK) | (status != 0)
     torque[bad] = np.nan
     fsel[bad] = np.nan
