@@ -516,9 +516,11 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
     V = np.empty((S, nv, 2))
     A = np.empty((S, nv, 2))
     R = np.empty((nv, 2))
-    Fi = np.empty((S, 3, K, 2))
-    tau = np.empty((S, 3))
-    frame = np.empty((S, 3, 2))
+    # zeros: without a load only the first right-hand side is ever written, and the others are read
+    # with weight 0 (0 × uninitialised memory could be NaN)
+    Fi = np.zeros((S, 3, K, 2))
+    tau = np.zeros((S, 3))
+    frame = np.zeros((S, 3, 2))
     loc = np.full(nv, -1, dtype=np.int64)
     M = np.empty((m, m))
     x = np.empty(m)
@@ -696,6 +698,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
         # -- every leg at every crank angle --------------------------------------------------------
         for v in range(nv):
             pin_peak[i, v] = 0.0
+        first_bad = -1
         if grid:  # each leg reads whole samples: every pin's peak over the states each sample is read in
             for u in range(S):
                 for st_ in range(3):
@@ -724,6 +727,8 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                         v = inc_vertex[kk]
                         if not (mag <= pin_peak[i, v]):
                             pin_peak[i, v] = mag
+                            if not math.isfinite(mag) and first_bad < 0:
+                                first_bad = u
         shake = 0.0
         for k in range(S):
             ttot = 0.0
@@ -764,6 +769,8 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                     mag = math.sqrt(fx * fx + fy * fy)
                     fm[kk] = mag
                     v = inc_vertex[kk]
+                    if not math.isfinite(mag) and first_bad < 0:
+                        first_bad = k
                     if not grid and not (mag <= pin_peak[i, v]):
                         pin_peak[i, v] = mag
                     if j == 0 and finc.shape[1] > 0:
@@ -785,15 +792,14 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
             if not (sh <= shake):
                 shake = sh
         shake_peak[i] = shake
-        ok = math.isfinite(shake)
         for k in range(S):
-            if not math.isfinite(torque[i, k]):
-                ok = False
-        for v in range(nv):
-            if not math.isfinite(pin_peak[i, v]):
-                ok = False
-        if not ok:
+            if not math.isfinite(torque[i, k]) and first_bad < 0:
+                first_bad = k
+        if first_bad < 0 and not math.isfinite(shake):
+            first_bad = 0
+        if first_bad >= 0:  # forces that overflowed: a near-singular sample
             code[i] = F_NONFINITE
+            code_sample[i] = first_bad
 
 
 @njit(cache=True, nogil=True)

@@ -51,7 +51,7 @@ _KIND_TEXT = {
     "branch": "left its branch (toggle crossed or mirrored assembly)",
     "no-convergence": "could not be solved (Newton did not converge, or a step could not be resolved)",
     "invalid": "has a non-finite or non-positive length",
-    "singular": "is at a toggle (its Jacobian is singular, the joint reactions unbounded)",
+    "singular": "is at or too near a toggle for its forces (a singular Jacobian: the joint reactions are unbounded)",
 }
 #: Variants solved at once when forces are asked for (every vertex's positions are needed; this
 #: bounds the memory they take: 1,024 × 360 steps × 7 vertices is 41 MB).
