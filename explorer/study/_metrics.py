@@ -136,8 +136,8 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
         target = load_target(tspec, source=f"{p} (study_resolved)") if tspec else None
         why_not = available_metrics(mech, target)
         every = [m for m in METRICS if why_not[m] is None]
-        if names is None:
-            chosen = [m for m in METRICS if m in stored] or every
+        if names is None:  # the force metrics stay as the run computed them (they need every vertex solved)
+            chosen = [m for m in METRICS if m in stored and why_not[m] is None] or every
         elif names is True:
             chosen = every
         else:
