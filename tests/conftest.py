@@ -41,3 +41,27 @@ def jansen_cycle(jansen):
 @pytest.fixture(scope="session")
 def thetas360():
     return 2.0 * np.pi * np.arange(360) / 360
+
+
+#: Slow tests marked here rather than in their file (files another change owns; move the mark into the
+#: file with @pytest.mark.slow when it is next edited). Node ids without parameters.
+SLOW_ELSEWHERE = {
+    "test_codegen.py::test_generated_kernel_equals_the_general_sweep_bit_for_bit",
+    "test_codegen.py::test_threads_share_one_generated_kernel",
+    "test_sweep_template.py::test_scalar_form_is_valid_python_without_holes",
+}
+
+
+@pytest.hookimpl(tryfirst=True)  # before -k and -m deselect anything
+def pytest_collection_modifyitems(config, items):
+    """Mark :data:`SLOW_ELSEWHERE` slow; fail loudly when one no longer names a collected test."""
+    seen = set()
+    for item in items:
+        key = f"{item.path.name}::{item.originalname}"
+        if key in SLOW_ELSEWHERE:
+            item.add_marker(pytest.mark.slow)
+            seen.add(key)
+    files = {item.path.name for item in items}
+    stale = {k for k in SLOW_ELSEWHERE - seen if k.split("::")[0] in files}
+    if stale:
+        raise pytest.UsageError(f"tests/conftest.py SLOW_ELSEWHERE names tests that do not exist: {sorted(stale)}")

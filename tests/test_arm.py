@@ -109,6 +109,7 @@ def test_many_samples_pass_the_fold(timing, steps):
     assert err[at_fold].max(initial=0.0) <= 1e-7
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("elbow", [+1, -1])
 def test_fold_on_a_sample_keeps_the_elbow(elbow):
     """Linear timing with 31 samples puts a sample on the fold (t = 10/3 s, x = 0): the arm is fully
@@ -211,6 +212,7 @@ def test_target_out_of_reach_from_the_start_fails_at_t0():
     assert np.isnan(c.positions).all()
 
 
+@pytest.mark.slow
 def test_batch_of_arms_fails_at_the_analytic_times():
     """simulate_batch on the path-driven arm: per-variant link lengths, failure times where the line
     leaves the annulus L1 − L2 ≤ |T| ≤ L1 + L2."""

@@ -43,6 +43,7 @@ def test_reference_matches_the_kernel_closed_form_and_finite_differences():
     np.testing.assert_allclose(v[i], fd, rtol=0, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_sweep_rows_and_honest_errors(tiny_report):
     rep = tiny_report
     assert rep.meta["variants_drawn"] == 24 and 0 < rep.meta["variants_assembled"] <= 24
@@ -81,6 +82,7 @@ def test_sweep_rows_and_honest_errors(tiny_report):
     assert all(r["ok"] == 0 and "NOTHING CONVERGED" in r["note"] and math.isnan(r["foot_err_max"]) for r in gsj)
 
 
+@pytest.mark.slow
 def test_table_csv_and_plot(tiny_report, tmp_path):
     text = format_table(tiny_report)
     assert "seed001-sequential" in text and "NOTHING CONVERGED" in text and "foot err" in text
@@ -105,6 +107,7 @@ def test_table_csv_and_plot(tiny_report, tmp_path):
     assert plot(back, tmp_path / "b.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_cli_bench_accuracy(tmp_path, capsys):
     code = main(["bench", "accuracy", "--variants", "10", "--tolerances", "1e-6", "--steps", "36",
                  "--dense-variants", "3", "--seed-rows", "seed001-full-GE", "--seed-variants", "3",

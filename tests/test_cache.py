@@ -7,6 +7,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from explorer.kernels._cache import KEY, kernel_cache_path, source_key
 
 CODE = '''"""A kernel module."""
@@ -67,6 +69,7 @@ def test_nothing_is_cached_inside_the_package(tmp_path):
     assert not path.startswith(os.path.dirname(init))
 
 
+@pytest.mark.slow
 def test_the_background_warmup_compiles_what_a_study_calls(tmp_path):
     """On an empty cache `explorer run` has a second process compile the metric kernels
     (explorer.gait._warm) while it compiles the solver. That only helps if the warm-up compiles the

@@ -57,6 +57,7 @@ def test_entry_point_installed():
     assert out.returncode == 0 and "--resume" in out.stdout and "--force" in out.stdout
 
 
+@pytest.mark.slow
 def test_run_summary_and_refusals(tmp_path):
     study = write_study(tmp_path)
     r = run_cli("run", study, cwd=tmp_path)
@@ -85,6 +86,7 @@ def test_run_summary_and_refusals(tmp_path):
     assert info.value.code == 2
 
 
+@pytest.mark.slow
 def test_output_option_and_unwritable_path(tmp_path):
     study = write_study(tmp_path)
     r = run_cli("run", study, "-o", "sub/dir/o.h5", "--quiet", cwd=tmp_path)
@@ -94,6 +96,7 @@ def test_output_option_and_unwritable_path(tmp_path):
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "cannot create the results file" in r.stderr
 
 
+@pytest.mark.slow
 def test_default_study_runs_with_no_argument(tmp_path):
     """The README's main job: `explorer run` in an empty folder writes results/jansen-2pct.h5."""
     r = run_cli("run", cwd=tmp_path, timeout=600)
@@ -135,6 +138,7 @@ def _kill_after_first_chunk(study: Path, out: Path, chunk: int) -> bool:
             proc.wait()
 
 
+@pytest.mark.slow
 def test_kill_9_then_resume_is_identical_to_an_uninterrupted_run(tmp_path):
     study = write_study(tmp_path, variants=6400, steps=90)
     out = tmp_path / "killed.h5"

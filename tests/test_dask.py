@@ -112,6 +112,7 @@ def _disarm() -> None:
 
 
 # -- the proof ---------------------------------------------------------------------------------------
+@pytest.mark.slow
 @needs_dask
 def test_stitched_equals_single_process(client, reference, tmp_path):
     import numba
@@ -147,6 +148,7 @@ def test_stitched_equals_single_process(client, reference, tmp_path):
     assert run_study(STUDY, output=out, resume=True, progress=False).already_complete
 
 
+@pytest.mark.slow
 @needs_dask
 def test_worker_killed_mid_study_still_completes(client, reference, tmp_path):
     """The worker running shard 1 dies (os._exit) the first time; the nanny restarts it, the
@@ -169,6 +171,7 @@ def test_worker_killed_mid_study_still_completes(client, reference, tmp_path):
     assert_same_results(out, reference)
 
 
+@pytest.mark.slow
 @needs_dask
 def test_failed_shard_then_resume(client, reference, tmp_path):
     """A shard that fails for good stops the run with a --resume hint; the resume runs only the
@@ -199,6 +202,7 @@ def test_failed_shard_then_resume(client, reference, tmp_path):
     assert_same_results(out, reference)
 
 
+@pytest.mark.slow
 @needs_dask
 def test_relocated_folder_opens(client, reference, tmp_path, monkeypatch):
     from explorer.study import run_study_dask
@@ -216,6 +220,7 @@ def test_relocated_folder_opens(client, reference, tmp_path, monkeypatch):
         open_results(alone)
 
 
+@pytest.mark.slow
 @needs_dask
 def test_cli_connects_to_a_scheduler(client, reference, tmp_path, capsys):
     out = tmp_path / "cli.h5"
@@ -275,6 +280,7 @@ OPT_STUDY = {"study": {"name": "dk-opt", "mechanism": "jansen", "seed": 2, "step
              "scene": {"velocities": False}}
 
 
+@pytest.mark.slow
 @needs_dask
 def test_optimize_on_dask_equals_single_process(client, tmp_path):
     """explorer optimize --dask: each generation split over the workers; the file is the local run's, bit

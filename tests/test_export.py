@@ -257,6 +257,7 @@ def inside(point, polygon) -> bool:
     return hit
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, scale, v", [("jansen", 1.0, None), ("hoeken", 20.0, None), ("hoeken", 20.0, 0),
                                             ("klann", 10.0, None), ("strider", 8.0, None), ("arm", 25.0, None)])
 def test_svg_parts_holes_and_outlines(studies, name, scale, v, tmp_path, capsys):

@@ -200,6 +200,7 @@ def test_closed_method_reports_the_reachable_range():
     assert c.failure.theta_end is not None and c.failure.theta_end == pytest.approx(back, abs=LIMIT_ATOL)
 
 
+@pytest.mark.slow
 def test_non_grashof_batch_reports_the_same_range(fourbar):
     """simulate_batch on the built-in topology: Grashof rows ok and equal to the closed form,
     triple-rocker rows fail with kind assembly and the analytic reachable range.

@@ -142,6 +142,7 @@ def test_classification_matches_brute_force(crank, coupler, rocker, ground):
        ground=st.floats(15.0, 40.0), sigma=st.sampled_from([-1, 1]))
 # found by hypothesis: θ4 = π exactly at a sample (the reference's half-angle formula is 0/0 there), and a
 # sample on the fold itself (the joint fixed only to sqrt(rounding) there, for every method)
+@pytest.mark.slow
 @example(crank=10.0, coupler=10.0, rocker=30.0, ground=40.0, sigma=-1)
 @example(crank=9.0, coupler=10.0, rocker=31.0, ground=40.0, sigma=-1)
 def test_crank_rockers_turn_and_triple_rockers_fail(crank, coupler, rocker, ground, sigma):
@@ -176,6 +177,7 @@ def test_crank_rockers_turn_and_triple_rockers_fail(crank, coupler, rocker, grou
         assert np.isnan(c.path("B")[~reach]).all()
 
 
+@pytest.mark.slow
 def test_random_batch_crank_rockers_ok_triple_rockers_assembly(fourbar):
     """A random batch on the built-in topology (ground 30): status ok exactly for the variants whose
     crank turns fully by the brute-force rule, "assembly" (1) for the others, at the analytic limits."""

@@ -347,6 +347,7 @@ def population():
     return L, r, onset, last, worst
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["block", "dense"])
 def test_population_verdicts_match_the_truth(population, method):
     """±2 % variants at 90 steps: ok exactly when the closed form assembles all round; otherwise
@@ -445,6 +446,7 @@ def test_failure_range_inside_one_step_minimal(method):
 
 
 # -- coarse steps ----------------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["block", "dense"])
 @pytest.mark.parametrize("steps", [4, 12, 24])
 def test_coarse_steps_never_jump_branch_silently(population, method, steps):
@@ -633,6 +635,7 @@ def wild():
     return L, r, onset
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["block", "dense", "closed"])
 def test_enormous_perturbations_stay_honest(wild, method):
     """±50 % on every link and the crank: most designs cannot be built. No exception; every status a

@@ -167,6 +167,7 @@ def test_simulated_hoeken_foot_is_flat(cycles):
     assert np.max(np.abs(y + 4.0)) < 0.0098
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("leg", ["hoeken", "klann"])
 def test_shipped_pivot_studies_run_end_to_end(leg, tmp_path):
     """studies/<leg>-pivots.toml (every parameter varied, bodies included) runs, on 40 of its variants:

@@ -122,6 +122,7 @@ def test_single_objective_algorithms_and_early_stop_accounting(tmp_path):
         assert len(s.front) == 1 and s.front["bob"].iloc[0] == ok["bob"].min()
 
 
+@pytest.mark.slow
 def test_kill_9_then_resume_equals_an_uninterrupted_run(tmp_path):
     study = write(tmp_path, population=16, generations=40)
     out = tmp_path / "killed.h5"
@@ -164,6 +165,7 @@ def test_kill_9_then_resume_equals_an_uninterrupted_run(tmp_path):
             assert a[n][...].tobytes() == b[n][...].tobytes(), n
 
 
+@pytest.mark.slow
 def test_resume_refuses_a_changed_study_and_overwrite_needs_force(tmp_path):
     study = write(tmp_path, generations=2)
     out = tmp_path / "o.h5"
@@ -179,6 +181,7 @@ def test_resume_refuses_a_changed_study_and_overwrite_needs_force(tmp_path):
     assert out.read_bytes() == before  # nothing already written is lost
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("edit, key", [
     (('algorithm = "nsga2"', 'algorithm = "pso"'), "optimize.algorithm"),
     (('objectives = ["travel", "bob"]', 'objectives = ["travel", "speed"]'), "optimize.objectives"),
@@ -210,6 +213,7 @@ def test_run_refuses_an_optimize_study_and_optimize_a_sampled_one(tmp_path):
     assert not (tmp_path / "x.h5").exists() and not (tmp_path / "y.h5").exists()
 
 
+@pytest.mark.slow
 def test_rank_show_and_plot_front_work_on_an_optimisation(tmp_path):
     out = tmp_path / "o.h5"
     run_optimize(write(tmp_path), output=out, progress=False)
@@ -228,6 +232,7 @@ def test_the_shipped_example_loads():
     assert len(opt.parameters) == 11 and set(("clearance", "foot_headroom")) <= set(study.metrics)
 
 
+@pytest.mark.slow
 def test_path_synthesis_recovers_a_known_fourbar(tmp_path):
     """A target made by a known four-bar (three dimensions moved off the nominal), matched at its crank
     angles: CMA-ES from the nominal recovers the dimensions to 1e-6 and the path to 1e-6."""

@@ -82,6 +82,7 @@ def chord_bound(S):
 # closest
 # ---------------------------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_closest_concentric_circles_exact():
     S, r1 = 360, 2.0
     th = 2 * np.pi * np.arange(S) / S

@@ -71,6 +71,7 @@ def test_jansen_needed_blocks(jansen):
     assert list(plan.needed_blocks([jansen.vertex_index("5")])) == sorted(owner[v] for v in "3456")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_plan_does_not_depend_on_file_order(jansen, seed):
     """Shuffle the links and the guesses: still five dyads, in a valid order, and the same motion."""

@@ -14,6 +14,9 @@ import pytest
 import explorer
 import naive
 
+# the default study itself, 10,000 variants: the whole module is the slow loop
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def default(tmp_path_factory):

@@ -250,6 +250,7 @@ def test_recompute_adds_metrics_to_a_bare_file(tmp_path):
             np.testing.assert_array_equal(fa[m].to_numpy(), fb[m].to_numpy())
 
 
+@pytest.mark.slow
 def test_recompute_refusals(fresh, tmp_path):
     # an incomplete file (an interrupted run): finish it first
     inc = tmp_path / "inc.h5"

@@ -176,6 +176,7 @@ def test_rbd_fast_of_a_linear_model_uniform_and_lhs(uniform_file, tmp_path):
     assert np.all(np.abs(value - S1) <= conf), (value, conf, S1)
 
 
+@pytest.mark.slow
 def test_delta_and_pawn_rank_a_linear_model(uniform_file):
     for method, indices in (("delta", ("delta", "S1")), ("pawn", ("pawn",))):
         ind = sensitivity(uniform_file, metrics=["travel"], method=method, resamples=4, failures=False)
@@ -186,6 +187,7 @@ def test_delta_and_pawn_rank_a_linear_model(uniform_file):
             assert np.isfinite(conf).all() and (conf > 0).all()
 
 
+@pytest.mark.slow
 def test_failed_variants_are_dropped_from_metric_indices(leg_file):
     with open_results(leg_file) as r:
         df = r.frame()
@@ -204,6 +206,7 @@ def test_failed_variants_are_dropped_from_metric_indices(leg_file):
 
 
 # -- the tolerance summary against a direct count ---------------------------------------------------------
+@pytest.mark.slow
 def test_tolerance_summary_counts(leg_file):
     summary = tolerance_summary(leg_file, metrics=["travel", "bob"])
     with open_results(leg_file) as r:
@@ -271,6 +274,7 @@ def test_cli_csv_goes_through_the_same_function(uniform_file, capsys):
     assert np.array_equal(table["value"].to_numpy(), api["value"].to_numpy(), equal_nan=True)
 
 
+@pytest.mark.slow
 def test_cli_table_json_summary_and_plot(leg_file, saltelli_file, tmp_path, capsys):
     code, out, err = run_cli(["sensitivity", leg_file, "--metrics", "travel"], capsys)
     assert code == 0, err

@@ -14,6 +14,7 @@ branch failure: 25 of the designs below that turn were.)
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import explorer
 
@@ -39,6 +40,7 @@ def _circles(a, b, ra, rb, side):
     return p, slack
 
 
+@pytest.mark.slow
 def test_far_designs_start_on_the_nominal_branch():
     mech = explorer.load_mechanism("fourbar")
     names = list(mech.link_names)

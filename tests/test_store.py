@@ -138,6 +138,7 @@ def test_frame_picks_up_metrics_datasets(results_file, tmp_path):
         assert np.array_equal(r.frame()["stride"].to_numpy(), np.arange(45.0))
 
 
+@pytest.mark.slow
 def test_metrics_from_the_study(tmp_path):
     from explorer.gait import METRICS
     assert {"width", "height"} <= set(METRICS)  # an assertion, not a skip: a lost metric is a regression

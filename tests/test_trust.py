@@ -241,6 +241,7 @@ def _start_and_signal(tmp_path, out, signals, gap):
     return proc.returncode, err, study
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("signals,gap,code", [(("INT", "INT"), 0.0, 130), (("INT", "INT"), 0.03, 130),
                                              (("TERM",), 0.0, 143)])
 def test_interrupts_stop_cleanly_and_resume(tmp_path, capsys, signals, gap, code):
@@ -268,6 +269,7 @@ def test_one_way_to_name_a_variant(results, capsys, tmp_path):
     assert code == 2 and "--variant goes with --velocity" in err
 
 
+@pytest.mark.slow
 def test_a_disk_that_fills_mid_run_is_one_line_and_resumable(tmp_path):
     """On a 5 MB tmpfs (where the test can mount one), with the size check bypassed so the disk fills
     while chunks are committed: one line, exit 2, no crash, and the committed chunks resume."""
@@ -319,6 +321,7 @@ def test_corrupt_headers_give_one_line(results, capsys, tmp_path):
             assert code == 0 or (err.count("\n") == 1 and err.startswith("explorer: error: ")), (k, err)
 
 
+@pytest.mark.slow
 def test_simulate_batch_takes_parameters_by_name():
     """A frame with its columns in any order is the design it names (it used to be read by position)."""
     import pandas as pd

@@ -228,6 +228,7 @@ def test_animate_a_results_variant(results, tmp_path):
         animate(results, tmp_path / "z.gif", variant=len(df), frames=4)
 
 
+@pytest.mark.slow
 def test_animate_from_a_cycle_without_velocities(jansen, tmp_path):
     cyc = explorer.simulate(jansen, 60, velocities=False)
     anim = LinkageAnimation(cyc, cycles=1, frames=5, dpi=DPI)
@@ -389,6 +390,7 @@ def _paren_depth(text: str) -> int:
     return deepest
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["top", "scatter", "velocity", "sensitivity"])
 def test_plots_read_at_a_glance(results, oat, kind):
     """Every title, axis label and legend entry lies inside the figure (nothing clipped), is at least 9 pt,
@@ -437,6 +439,7 @@ def test_save_figure_errors(jansen_cycle, tmp_path):
 
 
 # -- command line --------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_cli_plot_and_animate(results, oat, tmp_path, capsys):
     r, o = str(results.filename), str(oat.filename)
     for argv in (["plot", r, "--top", "2", "--by", "stride"], ["plot", r, "--scatter", "stride,duty"],
