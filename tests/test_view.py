@@ -139,7 +139,7 @@ def test_gif_foot_marker_follows_the_cycle(jansen, jansen_cycle, tmp_path):
 
 
 def test_mp4_frame_count_size_and_path_pixels(jansen, tmp_path):
-    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    import imageio_ffmpeg  # the test extra installs it (explorer[movie]): missing is a failure, not a skip
     anim = LinkageAnimation(jansen, cycles=2, frames=10, dpi=DPI)
     movie = anim.write(tmp_path / "leg.mp4")
     n, secs = imageio_ffmpeg.count_frames_and_secs(str(movie.path))
