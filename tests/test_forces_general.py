@@ -77,3 +77,28 @@ def test_triad_massless_has_no_torque_and_balanced_pins():
     assert c.ok
     np.testing.assert_array_equal(c.torque, 0.0)
     assert c.force_metrics["pin_force_max"] == 0.0
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann"])
+def test_forces_path_velocities_and_accelerations_match_finite_differences(name):
+    """With forces on, a batch's velocities and accelerations come from the forces' own block solves:
+    they are the θ-derivatives of the positions (fourth-order periodic central differences at 3,600
+    steps: truncation ~h⁴, rounding ~1e-16/h² of the positions)."""
+    mech = explorer.load_mechanism(name)
+    rng = np.random.default_rng(7)
+    L = mech.lengths * (1 + rng.uniform(-0.01, 0.01, (6, len(mech.links))))
+    S = 3600
+    b = explorer.simulate_batch(mech, L, None, S, vertices="all", velocities=True, accelerations=True, forces=True,
+                                operating={"unit": 0.01, "rpm": 30})
+    ok = b.status == 0
+    assert ok.sum() >= 4
+    h = 2 * math.pi / S
+    for v in mech.vertices:
+        P, V, A = b.paths[v][ok], b.velocities[v][ok], b.accelerations[v][ok]
+        x = np.moveaxis(P, 1, 0)  # fourth-order periodic central differences
+        p1, m1, p2, m2 = (np.roll(x, -1, 0), np.roll(x, 1, 0), np.roll(x, -2, 0), np.roll(x, 2, 0))
+        dP = (-p2 + 8 * p1 - 8 * m1 + m2) / (12 * h)
+        ddP = (-p2 + 16 * p1 - 30 * x + 16 * m1 - m2) / (12 * h * h)
+        r = mech.crank.radius  # the tip's speed per radian and acceleration per radian²: the scale
+        np.testing.assert_allclose(V, np.moveaxis(dP, 0, 1), rtol=0, atol=1e-6 * r)
+        np.testing.assert_allclose(A, np.moveaxis(ddP, 0, 1), rtol=0, atol=1e-4 * r)

@@ -293,8 +293,11 @@ def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_
     """Velocities V and accelerations A (nv, 2), per radian and per radian², of every vertex at one
     sample from its positions P, block by block in plan order; fixed vertices still, the tip on its
     circle about (cx, cy). Returns the first block whose Jacobian is singular, or −1."""
-    V[:, :] = 0.0
-    A[:, :] = 0.0
+    for v in range(V.shape[0]):  # loops, not slices: a slice is a view, a reference count to update
+        V[v, 0] = 0.0
+        V[v, 1] = 0.0
+        A[v, 0] = 0.0
+        A[v, 1] = 0.0
     V[tip, 0] = -(P[tip, 1] - cy)
     V[tip, 1] = P[tip, 0] - cx
     A[tip, 0] = -(P[tip, 0] - cx)
@@ -490,14 +493,16 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_i
 
 def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b,
                    att, inc_vertex, dinc, ainc, body_pq, body_inc, body_mass, tip, tip_inc, fixed, fixed_inc, foot,
-                   foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight,
+                   foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight, out_idx,
                    P, status, uv, center, link_mass, body_cuv, body_J, crank_mass,
-                   torque, fsel, finc, pin_peak, shake_peak, travel, code, code_sample, code_block):
+                   torque, fsel, finc, vout, aout, pin_peak, shake_peak, travel, code, code_sample, code_block):
     """Per variant i (rows last): positions P[i] (S, nv, 2), model units, of an ok variant (status 0)
     → torque[i] (S,) N·m, fsel[i] (S, n_sel, 2) N (leg 0's reaction at each joint in ``sel``),
     pin_peak[i] (nv,) N, shake_peak[i] N, travel[i] model units per turn, code[i] (F_OK, F_SINGULAR,
     F_NONFINITE) with code_sample / code_block where it failed; finc[i] (S, K, 2) leg 0's force of every
-    member on every pin (incidence), when asked for (finc of shape (N, 0, K, 2) otherwise). Shared: the :class:`ForceTables`
+    member on every pin (incidence), when asked for (finc of shape (N, 0, K, 2) otherwise); vout[i],
+    aout[i] (S, n_out, 2) the velocities (per radian) and accelerations (per radian²) of the vertices
+    ``out_idx``, when asked for (second axis 0 otherwise). Shared: the :class:`ForceTables`
     arrays, body_mass (nb,) kg, sel (n_sel,), the walker's legs (base, frac, sign, mirrored), drag,
     unit (m per model unit), omega (rad/s), gravity (m/s²), weight (N on the contact foot). Per row:
     uv (n_att, 2), center (2,), link_mass (n_links,) kg, body_cuv (nb, 2) centroids in base-pair
@@ -516,6 +521,14 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
     V = np.empty((S, nv, 2))
     A = np.empty((S, nv, 2))
     R = np.empty((nv, 2))
+    # per-sample scratch: the block functions work on these rather than on views of the big arrays
+    # (every view is a reference-count update, atomic and shared between threads: measured 2x slower
+    # on two threads than on one)
+    Pu = np.empty((nv, 2))
+    Vu = np.empty((nv, 2))
+    Au = np.empty((nv, 2))
+    Fu = np.empty((K, 2))
+    uvi = np.empty((att.shape[0], 2))
     # zeros: without a load only the first right-hand side is ever written, and the others are read
     # with weight 0 (0 × uninitialised memory could be NaN)
     Fi = np.zeros((S, 3, K, 2))
@@ -550,14 +563,33 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
         if status[i] != 0:
             continue
         Pi = P[i]
+        for t in range(att.shape[0]):
+            uvi[t, 0] = uv[i, t, 0]
+            uvi[t, 1] = uv[i, t, 1]
         cx = center[i, 0]
         cy = center[i, 1]
         mc = crank_mass[i]
         failed = False
         # -- velocities and accelerations, block by block -------------------------------------------
         for u in range(S):
+            for v in range(nv):
+                Pu[v, 0] = Pi[u, v, 0]
+                Pu[v, 1] = Pi[u, v, 1]
             blk = kinematics(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
-                              dist_b, att, uv[i], tip, cx, cy, Pi[u], V[u], A[u], loc, M, x, g, 1e-13)
+                             dist_b, att, uvi, tip, cx, cy, Pu, Vu, Au, loc, M, x, g, 1e-13)
+            for v in range(nv):
+                V[u, v, 0] = Vu[v, 0]
+                V[u, v, 1] = Vu[v, 1]
+                A[u, v, 0] = Au[v, 0]
+                A[u, v, 1] = Au[v, 1]
+            if vout.shape[1] > 0:
+                for o in range(out_idx.shape[0]):
+                    vout[i, u, o, 0] = Vu[out_idx[o], 0]
+                    vout[i, u, o, 1] = Vu[out_idx[o], 1]
+            if aout.shape[1] > 0:
+                for o in range(out_idx.shape[0]):
+                    aout[i, u, o, 0] = Au[out_idx[o], 0]
+                    aout[i, u, o, 1] = Au[out_idx[o], 1]
             if blk >= 0:
                 code[i] = F_SINGULAR
                 code_sample[i] = u
@@ -605,16 +637,24 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
         for u in range(S):
             tx = Pi[u, tip, 0] - cx
             ty = Pi[u, tip, 1] - cy
+            for v in range(nv):
+                Pu[v, 0] = Pi[u, v, 0]
+                Pu[v, 1] = Pi[u, v, 1]
             for rhs in range(nrhs):
                 if rhs > 0 and not (vis_plain[u] or vis_mirr[u]):
                     tau[u, rhs] = 0.0
                     frame[u, rhs, 0] = 0.0
                     frame[u, rhs, 1] = 0.0
-                    Fi[u, rhs, :, :] = 0.0
+                    for kk in range(K):
+                        Fi[u, rhs, kk, 0] = 0.0
+                        Fi[u, rhs, kk, 1] = 0.0
                     continue
-                R[:, :] = 0.0
-                Fu = Fi[u, rhs]
-                Fu[:, :] = 0.0
+                for v in range(nv):
+                    R[v, 0] = 0.0
+                    R[v, 1] = 0.0
+                for kk in range(K):
+                    Fu[kk, 0] = 0.0
+                    Fu[kk, 1] = 0.0
                 if rhs == 0:
                     for e in range(nl):
                         me = link_mass[i, e]
@@ -667,7 +707,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                     R[foot, rhs - 1] -= 1.0
                     Fu[foot_inc, rhs - 1] += 1.0
                 blk = reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
-                                 dist_b, att, uv[i], dinc, ainc, Pi[u], R, Fu, loc, M, x, g, lam_d, lam_a)
+                                dist_b, att, uvi, dinc, ainc, Pu, R, Fu, loc, M, x, g, lam_d, lam_a)
                 if blk >= 0:
                     code[i] = F_SINGULAR
                     code_sample[i] = u
@@ -691,6 +731,9 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                     Fu[fixed_inc[f], 1] += R[fixed[f], 1]
                     frame[u, rhs, 0] -= R[fixed[f], 0]
                     frame[u, rhs, 1] -= R[fixed[f], 1]
+                for kk in range(K):
+                    Fi[u, rhs, kk, 0] = Fu[kk, 0]
+                    Fi[u, rhs, kk, 1] = Fu[kk, 1]
             if failed:
                 break
         if failed:
@@ -717,18 +760,22 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                             continue
                         lx = -Fx
                         ly = Fy
+                    poison = 0.0  # 0, or NaN once a force is not finite (inf·0 and NaN·0 are NaN)
                     for kk in range(K):
                         fx = Fi[u, 0, kk, 0]
                         fy = Fi[u, 0, kk, 1]
                         if st_ > 0:
                             fx += lx * Fi[u, 1, kk, 0] + ly * Fi[u, 2, kk, 0]
                             fy += lx * Fi[u, 1, kk, 1] + ly * Fi[u, 2, kk, 1]
-                        mag = math.sqrt(fx * fx + fy * fy)
+                        mag2 = fx * fx + fy * fy  # squared: one square root per joint at the end
+                        poison += mag2 * 0.0
                         v = inc_vertex[kk]
-                        if not (mag <= pin_peak[i, v]):
-                            pin_peak[i, v] = mag
-                            if not math.isfinite(mag) and first_bad < 0:
-                                first_bad = u
+                        if mag2 > pin_peak[i, v]:
+                            pin_peak[i, v] = mag2
+                    if poison != 0.0 and first_bad < 0:
+                        first_bad = u
+            for v in range(nv):
+                pin_peak[i, v] = math.sqrt(pin_peak[i, v])
         shake = 0.0
         for k in range(S):
             ttot = 0.0
@@ -808,18 +855,18 @@ def _no_general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a
     return False
 
 
-def _specialise(fn, name: str, **bind):
+def _specialise(fn, name: str, inline: str = "never", **bind):
     """A jitted copy of ``fn`` (its own name, so it caches) with globals rebound."""
     env = dict(fn.__globals__, **bind)
     copy = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
     copy.__qualname__ = f"{fn.__name__}_{name}"
     copy.__doc__ = fn.__doc__
-    return njit(cache=True, nogil=True)(copy)
+    return njit(cache=True, nogil=True, inline=inline)(copy)
 
 
-_kin_fast = _specialise(_kinematics, "fast", general=_no_general)
+_kin_fast = _specialise(_kinematics, "fast", "always", general=_no_general)
 _kin_any = _specialise(_kinematics, "any", general=_kin_general)
-_rea_fast = _specialise(_reactions, "fast", general=_no_general)
+_rea_fast = _specialise(_reactions, "fast", "always", general=_no_general)
 _rea_any = _specialise(_reactions, "any", general=_rea_general)
 #: the kernel for plans of dyads and body joints only, and the one for plans with general blocks
 forces_fast = _specialise(_forces_kernel, "fast", kinematics=_kin_fast, reactions=_rea_fast)
@@ -849,6 +896,7 @@ class Forces:
         the Jacobian was singular (−1 otherwise).
     members : {(member, joint): (N, S, 2)} leg 0's force of each member (a link or body by name,
         "crank", "frame", "ground") on each of its pins, N; empty unless asked for.
+    velocities, accelerations : (N, S, n_out, 2) of the vertices asked for (see :func:`solve_forces`).
     """
 
     torque: np.ndarray
@@ -860,10 +908,13 @@ class Forces:
     sample: np.ndarray
     block: np.ndarray
     members: dict
+    velocities: np.ndarray | None = None
+    accelerations: np.ndarray | None = None
 
 
 def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengths: np.ndarray, scale: np.ndarray,
-                 body_pts: list, operating, walker, joints=(), members: bool = False) -> Forces:
+                 body_pts: list, operating, walker, joints=(), members: bool = False, out_idx=None,
+                 velocities: bool = False, accelerations: bool = False) -> Forces:
     """The forces effect of N variants from their positions P (N, S, n_vertices, 2), model units.
 
     status (N,) (only 0 = ok rows are computed); des: the variants' ``_inputs.Designs`` (uv, centre);
@@ -871,7 +922,9 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
     frame (N, n_joints, 2) (``_design.body_points``); operating: :class:`~explorer.mechanism.Operating`
     with ``unit`` and ``rpm``; walker: :class:`~explorer.mechanism.Walker` (one leg: ``Walker(legs=1)``);
     joints: names of the joints whose reactions are returned; members: also every member's force on
-    every pin (``Forces.members``).
+    every pin (``Forces.members``); velocities, accelerations: also those of the vertices ``out_idx``
+    (per radian and per radian², ``Forces.velocities`` / ``accelerations`` (N, S, n_out, 2)), from
+    the same block-by-block linear solves the forces use.
     """
     from ._rows import parallel_rows
 
@@ -915,6 +968,9 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
     torque = np.zeros((N, S))
     fsel = np.zeros((N, S, len(sel), 2))
     finc = np.zeros((N, S if members else 0, len(tb.inc_vertex), 2))
+    out_idx = np.zeros(0, dtype=np.int64) if out_idx is None else np.asarray(out_idx, dtype=np.int64)
+    vout = np.full((N, S if velocities else 0, len(out_idx), 2), np.nan)
+    aout = np.full((N, S if accelerations else 0, len(out_idx), 2), np.nan)
     pin_peak = np.zeros((N, nv))
     shake = np.zeros(N)
     travel = np.zeros(N)
@@ -924,9 +980,9 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
     shared = (tb.blk_kind, tb.blk_v, tb.blk_e, tb.blk_vp, tb.blk_verts, tb.blk_rp, tb.row_kind, tb.row_id, tb.row_axis,
               tb.dist_a, tb.dist_b, tb.att, tb.inc_vertex, tb.dinc, tb.ainc, tb.body_pq, tb.body_inc, body_mass,
               tb.tip, tb.tip_inc, tb.fixed, tb.fixed_inc, tb.foot, tb.foot_inc, sel, base, frac, sign, mirrored,
-              float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight)
+              float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight, out_idx)
     rows = (np.ascontiguousarray(P), np.ascontiguousarray(status), des.uv, des.center, link_mass, body_cuv, body_J,
-            crank_mass, torque, fsel, finc, pin_peak, shake, travel, code, csample, cblock)
+            crank_mass, torque, fsel, finc, vout, aout, pin_peak, shake, travel, code, csample, cblock)
     kernel = forces_any if np.any(tb.blk_kind == GENERAL) else forces_fast
     parallel_rows(kernel, shared, rows)
     bad = (code != F_OK) | (status != 0)
@@ -941,7 +997,7 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
         member_forces = {(m, mech.vertices[v]): finc[:, :, k] for k, (m, v) in enumerate(zip(tb.inc_member,
                                                                                                tb.inc_vertex))}
     return Forces(torque, {j: fsel[:, :, k] for k, j in enumerate(joints)}, pin_peak, shake, travel, code, csample,
-                  cblock, member_forces)
+                  cblock, member_forces, vout, aout)
 
 
 def force_metrics(forces: Forces, operating, vertices) -> dict:

@@ -659,16 +659,19 @@ def _batch_forces(mech, plan, lengths, scale, geometry, tolerance, steps, out_id
         hi = min(N, lo + FORCE_CHUNK)
         g = {n: np.asarray(c, dtype=np.float64).reshape(-1)[lo:hi] for n, c in geometry.items()}
         des = _designs(mech, plan, lengths[lo:hi], scale[lo:hi], g, tolerance)
-        p, v, a, st, th, te, bl, it = _run(mech, plan, des, steps, allv, velocities, accelerations, method,
-                                           max_iterations, P0, signs, blocks, kernel)
+        # positions only from the sweep: the forces' own block-by-block solves give the velocities
+        # and accelerations (the same linear systems), so the sweep need not carry them for every vertex
+        p, _, _, st, th, te, bl, it = _run(mech, plan, des, steps, allv, False, False, method, max_iterations, P0,
+                                           signs, blocks, kernel)
         fo = solve_forces(mech, plan, p, st, des, lengths[lo:hi], scale[lo:hi], body_points(mech, g, hi - lo),
-                          operating, walker, force_joints)
+                          operating, walker, force_joints, out_idx=out_idx, velocities=velocities,
+                          accelerations=accelerations)
         _force_status(fo, st, th, bl, params)
         pos[lo:hi] = p[:, :, out_idx]
         if velocities:
-            vel[lo:hi] = v[:, :, out_idx]
+            vel[lo:hi] = fo.velocities
         if accelerations:
-            acc[lo:hi] = a[:, :, out_idx]
+            acc[lo:hi] = fo.accelerations
         status[lo:hi], fth[lo:hi], fend[lo:hi], fbl[lo:hi], its[lo:hi] = st, th, te, bl, it
         torque[lo:hi] = fo.torque
         for j in force_joints:
