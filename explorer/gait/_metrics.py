@@ -73,6 +73,10 @@ DEFAULT_BAND = 0.01
 
 _INDEX = {name: i for i, name in enumerate(FOOT_METRICS)}
 _N_FOOT = len(FOOT_METRICS)
+# the foot kernel's columns, by name (reordering the table cannot mislabel a result)
+(_WIDTH, _HEIGHT, _STRIDE, _DUTY, _FLATNESS, _STANCE_RMS, _STANCE_SPEED, _SPEED_RIPPLE, _MAX_SPEED) = (
+    _INDEX["width"], _INDEX["height"], _INDEX["stride"], _INDEX["duty"], _INDEX["flatness"],
+    _INDEX["stance_rms_line"], _INDEX["stance_speed"], _INDEX["speed_ripple"], _INDEX["max_speed"])
 
 
 # -- the kernel --------------------------------------------------------------------------------------
@@ -128,8 +132,8 @@ def _foot_metrics_kernel(band, want_path, want_stance, want_vel, paths, vel, sta
                 ymax = y
         path_ok = finite
         if path_ok and want_path:
-            out[i, 0] = xmax - xmin
-            out[i, 1] = ymax - ymin
+            out[i, _WIDTH] = xmax - xmin
+            out[i, _HEIGHT] = ymax - ymin
         start = 0
         n = 0
         if path_ok and want_stance:
@@ -162,10 +166,10 @@ def _foot_metrics_kernel(band, want_path, want_stance, want_vel, paths, vel, sta
                 sxy += dx * dy
                 syy += dy * dy
             stride = sxmax - sxmin
-            out[i, 2] = stride
-            out[i, 3] = n / S
+            out[i, _STRIDE] = stride
+            out[i, _DUTY] = n / S
             if stride > 0.0:
-                out[i, 4] = math.sqrt(syy / n) / stride
+                out[i, _FLATNESS] = math.sqrt(syy / n) / stride
             if sxx > 0.0:
                 b = sxy / sxx
                 sse = 0.0
@@ -173,7 +177,7 @@ def _foot_metrics_kernel(band, want_path, want_stance, want_vel, paths, vel, sta
                     k = (start + j) % S
                     e = (paths[i, k, 1] - my) - b * (paths[i, k, 0] - mx)
                     sse += e * e
-                out[i, 5] = math.sqrt(sse / n / (1.0 + b * b))
+                out[i, _STANCE_RMS] = math.sqrt(sse / n / (1.0 + b * b))
         if want_vel and path_ok:
             vmax = -np.inf
             vok = True
@@ -185,7 +189,7 @@ def _foot_metrics_kernel(band, want_path, want_stance, want_vel, paths, vel, sta
                 if s > vmax:
                     vmax = s
             if vok:
-                out[i, 8] = vmax
+                out[i, _MAX_SPEED] = vmax
                 if want_stance:
                     ss = 0.0
                     for j in range(n):
@@ -197,9 +201,9 @@ def _foot_metrics_kernel(band, want_path, want_stance, want_vel, paths, vel, sta
                         k = (start + j) % S
                         d = math.hypot(vel[i, k, 0], vel[i, k, 1]) - ms
                         var += d * d
-                    out[i, 6] = ms
+                    out[i, _STANCE_SPEED] = ms
                     if ms > 0.0:
-                        out[i, 7] = math.sqrt(var / n) / ms
+                        out[i, _SPEED_RIPPLE] = math.sqrt(var / n) / ms
 
 
 @njit(cache=True, nogil=True)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -58,19 +59,34 @@ def _whip(df):
         return _column("max_speed")(df) / _column("crank")(df)
 
 
-#: (name, columns it reads, value(frame) -> (n,), threshold field, fails(value, threshold), reason), in
-#: report order. A reason starts with the check's name.
+class Check(NamedTuple):
+    """One check of the screen: ``name`` (its reason starts with it); ``inputs``, the frame columns it
+    reads (metrics, and "crank"); ``value(frame) -> (n,)``; ``field``, its threshold in
+    :class:`Screen` (and the ``[screen]`` key); ``fails(value, threshold) -> (n,) bool``;
+    ``reason(value, threshold) -> str``, one line for a variant it removes."""
+
+    name: str
+    inputs: tuple
+    value: Callable
+    field: str
+    fails: Callable
+    reason: Callable
+
+
+#: The screen's checks, in report order (the one home of what each reads and says).
 CHECKS = (
-    ("toggle", ("min_transmission_angle",), _column("min_transmission_angle"), "min_transmission_angle",
-     lambda v, t: ~(v >= t), lambda v, t: f"toggle: min transmission angle {v:.3g}° < {t:g}°"),
-    ("foot above the frame", ("foot_headroom",), _column("foot_headroom"), "min_foot_headroom",
-     lambda v, t: ~(v >= t), lambda v, t: f"foot above the frame: headroom {v:.4g} < {t:g}"),
-    ("foot whip", ("max_speed", "crank"), _whip, "max_foot_speed",
-     lambda v, t: ~(v <= t), lambda v, t: f"foot whip: peak foot speed {v:.3g} crank radii/rad > {t:g}"),
-    ("crossing path", ("self_crossings",), _column("self_crossings"), "max_self_crossings",
-     lambda v, t: ~(v <= t), lambda v, t: f"crossing path: the foot path crosses itself {v:.0f}×"),
+    Check("toggle", ("min_transmission_angle",), _column("min_transmission_angle"), "min_transmission_angle",
+          lambda v, t: ~(v >= t), lambda v, t: f"toggle: min transmission angle {v:.3g}° < {t:g}°"),
+    Check("foot above the frame", ("foot_headroom",), _column("foot_headroom"), "min_foot_headroom",
+          lambda v, t: ~(v >= t), lambda v, t: f"foot above the frame: headroom {v:.4g} < {t:g}"),
+    Check("foot whip", ("max_speed", "crank"), _whip, "max_foot_speed",
+          lambda v, t: ~(v <= t), lambda v, t: f"foot whip: peak foot speed {v:.3g} crank radii/rad > {t:g}"),
+    Check("crossing path", ("self_crossings",), _column("self_crossings"), "max_self_crossings",
+          lambda v, t: ~(v <= t), lambda v, t: f"crossing path: the foot path crosses itself {v:.0f}×"),
 )
-SCREEN_KEYS = tuple(c[3] for c in CHECKS)
+#: The metrics the screen reads (its checks' inputs that are metrics), in check order.
+SCREEN_INPUTS = tuple(dict.fromkeys(col for c in CHECKS for col in c.inputs if col != "crank"))
+SCREEN_KEYS = tuple(c.field for c in CHECKS)
 
 
 def screen_from_dict(table, source: str, key: str = "screen") -> Screen:
@@ -103,7 +119,7 @@ def _evaluate(df, screen: Screen | None):
     from ._rank import ok_mask
 
     screen = screen if screen is not None else Screen()
-    applied = [c for c in CHECKS if all(col in df.columns for col in c[1])]
+    applied = [c for c in CHECKS if all(col in df.columns for col in c.inputs)]
     ok = ok_mask(df)
     values, fails = [], []
     for _, _, value, field, failed, _ in applied:
@@ -140,7 +156,7 @@ def screen_columns(df, screen: Screen | None = None):
                 parts.append(f"{name}: {cols[0]} is undefined" if not math.isfinite(v[i])
                              else text(float(v[i]), getattr(screen, field)))
         reasons[i] = "; ".join(parts)
-    return ok & ~bad, reasons, [c[0] for c in applied]
+    return ok & ~bad, reasons, [c.name for c in applied]
 
 
 def screen_counts(df, screen: Screen | None = None) -> dict:
@@ -154,5 +170,5 @@ def screen_counts(df, screen: Screen | None = None) -> dict:
     removed = np.zeros(len(df), dtype=bool)
     for f in fails:
         removed |= f
-    return {"removed": int(removed.sum()), "checks": {c[0]: int(f.sum()) for c, f in zip(applied, fails)},
-            "applied": [c[0] for c in applied]}
+    return {"removed": int(removed.sum()), "checks": {c.name: int(f.sum()) for c, f in zip(applied, fails)},
+            "applied": [c.name for c in applied]}

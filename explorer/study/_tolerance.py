@@ -37,14 +37,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
+from ..gait import SCREEN_INPUTS as _SCREEN_INPUTS
 
 #: The search never goes beyond ±50 % (lengths from half to one and a half times the nominal).
 MAX_SPREAD = 0.5
 #: ... nor below this (a spread that small is machining noise).
 MIN_SPREAD = 1e-6
 CRITERIA = ("assembles", "buildable")
-#: The metrics the buildability screen reads (computed for ``criterion = "buildable"``).
-SCREEN_INPUTS = ["min_transmission_angle", "foot_headroom", "max_speed", "self_crossings"]
+#: The metrics the buildability screen reads (computed for ``criterion = "buildable"``): its checks' own
+#: inputs (``explorer.gait.CHECKS``), so a new check needs no edit here.
+SCREEN_INPUTS = list(_SCREEN_INPUTS)
 
 
 @dataclass
