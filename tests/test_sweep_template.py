@@ -110,3 +110,17 @@ def test_the_template_is_never_run():
     with pytest.raises(RuntimeError, match="rendered"):
         _sweep_template.sweep(None, None, None, None, np.zeros((1, 2)), None, 0.0, 0.0, 1.0, 1.0, 1e-9,
                               None, None, None)
+
+
+def test_the_hole_marker_answers_introspection_as_an_ordinary_object():
+    assert not hasattr(_sweep_template.hole, "__wrapped__")
+
+
+def test_kernel_cache_key_covers_the_plan():
+    """The block kinds (``plan``) are constants frozen into the kernels' machine code (and into the
+    generated sources): a change there must key a fresh cache folder."""
+    from explorer.kernels._cache import kernel_sources
+
+    names = {name for name, _ in kernel_sources()}
+    for module in ("plan/_kinds.py", "kernels/_sweep_template.py", "kernels/_sweep_array.py", "kernels/_fast.py"):
+        assert module in names

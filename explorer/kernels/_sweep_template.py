@@ -93,6 +93,8 @@ class _Hole:
     """The marker of the template's holes; the template is rendered, never run."""
 
     def __getattr__(self, name):
+        if name.startswith("__"):  # what introspection asks (hasattr, copy, inspect): an ordinary object's answer
+            raise AttributeError(name)
         raise RuntimeError(f"hole.{name}: the sweep template is rendered (_sweep_template.render), not run")
 
 
