@@ -54,6 +54,7 @@ metric's unit and direction is in the one table, :mod:`explorer.gait._table`.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -442,54 +443,100 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
     # no ok row (the runner's validation call, a chunk that failed whole): every metric is NaN, and no
     # kernel needs to run (or be compiled: a cold `explorer run` compiles them in parallel, see _warm)
     run = N > 0 and bool(np.any(status == 0))
+    ctx = _Context(cpaths, vel, velocities, status, band, mechanism, lengths, crank, walker, geometry, target, run, N)
     result = {}
-    # -- single-leg band metrics ----------------------------------------------------------------------
-    if any(m in FOOT_METRICS for m in chosen):
-        out = np.full((N, _N_FOOT), np.nan)
-        want_stance = any(m in chosen for m in ("stride", "duty", "flatness", "stance_rms_line",
-                                                 "stance_speed", "speed_ripple"))
-        want_path = "width" in chosen or "height" in chosen
-        want_vel = any(m in chosen for m in ("stance_speed", "speed_ripple", "max_speed"))
-        if run:
-            parallel_rows(_foot_metrics_kernel, (band, want_path, want_stance, want_vel), (cpaths, vel, status, out))
-        for m in FOOT_METRICS:
-            result[m] = out[:, _INDEX[m]]
-    # -- the walker -------------------------------------------------------------------------------------
-    if any(m in WALKER_METRICS for m in chosen):
-        if walker is None:
-            from ..mechanism import Walker
-            walker = mechanism.walker if mechanism is not None and mechanism.walker is not None else Walker()
-        r = _per_variant(crank, N, mechanism.crank.radius if mechanism is not None else None, "crank")
-        if velocities is None:  # only bob, clearance and contact_fraction were asked for
-            wvel = np.zeros_like(cpaths)
-        else:
-            wvel = np.ascontiguousarray(np.asarray(velocities, dtype=np.float64))
-            if wvel.shape != cpaths.shape:
-                raise UserError(f"velocities: expected shape {paths.shape} like paths, got {wvel.shape}")
-        out = walker_metrics(cpaths, wvel, status, r, walker) if run else np.full((N, len(WALKER_METRICS)), np.nan)
-        for j, m in enumerate(WALKER_METRICS):
-            result[m] = out[:, j]
-    # -- the screen's inputs ----------------------------------------------------------------------------
-    if "self_crossings" in chosen:
-        out = np.full(N, np.nan)
-        if run:
-            parallel_rows(_crossings_kernel, (), (cpaths, status, out))
-        result["self_crossings"] = out
-    # -- path synthesis ---------------------------------------------------------------------------------
-    if "path_error" in chosen:
-        out = np.full(N, np.nan)
-        ok = np.flatnonzero(status == 0)
-        if run and len(ok):
-            v = None if velocities is None else np.asarray(velocities, dtype=np.float64)[ok]
-            out[ok] = target.error(cpaths[ok], velocity=v)
-        result["path_error"] = out
-    if "foot_headroom" in chosen:
-        result["foot_headroom"] = foot_headroom(mechanism, cpaths, status, geometry=geometry)
-    if "min_transmission_angle" in chosen:
-        result["min_transmission_angle"] = min_transmission_angle(mechanism, lengths, crank, status=status, n=N,
-                                                                  geometry=geometry)
+    for group, compute in GROUPS.items():  # each group's kernel, for the metrics asked of it
+        wanted = [m for m in chosen if BY_NAME[m].group == group]
+        if wanted:
+            result.update(compute(ctx, wanted))
     return {m: np.array(result[m], dtype=np.float64) for m in chosen}
 
+
+
+class _Context(NamedTuple):
+    """What a metric group's kernel reads: cpaths (N, S, 2) contiguous foot paths; vel (N, S, 2) the
+    velocities when a requested metric needs them, else (N, 0, 2); velocities as given (or None);
+    status (N,) int64; band; mechanism, lengths, crank, walker, geometry, target as given to
+    :func:`compute_metrics`; run: some row is ok (else every metric is NaN and no kernel runs); N."""
+
+    cpaths: np.ndarray
+    vel: np.ndarray
+    velocities: object
+    status: np.ndarray
+    band: float
+    mechanism: object
+    lengths: object
+    crank: object
+    walker: object
+    geometry: object
+    target: object
+    run: bool
+    N: int
+
+
+def _leg_group(ctx: _Context, wanted: list[str]) -> dict:
+    """The single-leg band metrics (one pass of the foot kernel)."""
+    N = ctx.N
+    out = np.full((N, _N_FOOT), np.nan)
+    want_stance = any(m in wanted for m in ("stride", "duty", "flatness", "stance_rms_line", "stance_speed",
+                                            "speed_ripple"))
+    want_path = "width" in wanted or "height" in wanted
+    want_vel = any(m in wanted for m in ("stance_speed", "speed_ripple", "max_speed"))
+    if ctx.run:
+        parallel_rows(_foot_metrics_kernel, (ctx.band, want_path, want_stance, want_vel),
+                      (ctx.cpaths, ctx.vel, ctx.status, out))
+    return {m: out[:, _INDEX[m]] for m in FOOT_METRICS}
+
+
+def _walker_group(ctx: _Context, wanted: list[str]) -> dict:
+    """The walker scene's metrics (one pass of the walker kernel)."""
+    N, mechanism, walker = ctx.N, ctx.mechanism, ctx.walker
+    if walker is None:
+        from ..mechanism import Walker
+        walker = mechanism.walker if mechanism is not None and mechanism.walker is not None else Walker()
+    r = _per_variant(ctx.crank, N, mechanism.crank.radius if mechanism is not None else None, "crank")
+    if ctx.velocities is None:  # only bob, clearance and contact_fraction were asked for
+        wvel = np.zeros_like(ctx.cpaths)
+    else:
+        wvel = np.ascontiguousarray(np.asarray(ctx.velocities, dtype=np.float64))
+        if wvel.shape != ctx.cpaths.shape:
+            raise UserError(f"velocities: expected shape {ctx.cpaths.shape} like paths, got {wvel.shape}")
+    out = walker_metrics(ctx.cpaths, wvel, ctx.status, r, walker) if ctx.run else np.full((N, len(WALKER_METRICS)),
+                                                                                             np.nan)
+    return {m: out[:, j] for j, m in enumerate(WALKER_METRICS)}
+
+
+def _screen_group(ctx: _Context, wanted: list[str]) -> dict:
+    """The screen's inputs: each its own computation."""
+    result = {}
+    if "self_crossings" in wanted:
+        out = np.full(ctx.N, np.nan)
+        if ctx.run:
+            parallel_rows(_crossings_kernel, (), (ctx.cpaths, ctx.status, out))
+        result["self_crossings"] = out
+    if "foot_headroom" in wanted:
+        result["foot_headroom"] = foot_headroom(ctx.mechanism, ctx.cpaths, ctx.status, geometry=ctx.geometry)
+    if "min_transmission_angle" in wanted:
+        result["min_transmission_angle"] = min_transmission_angle(ctx.mechanism, ctx.lengths, ctx.crank,
+                                                                  status=ctx.status, n=ctx.N, geometry=ctx.geometry)
+    return result
+
+
+def _target_group(ctx: _Context, wanted: list[str]) -> dict:
+    """Path synthesis: the foot path against the target."""
+    out = np.full(ctx.N, np.nan)
+    ok = np.flatnonzero(ctx.status == 0)
+    if ctx.run and len(ok):
+        v = None if ctx.velocities is None else np.asarray(ctx.velocities, dtype=np.float64)[ok]
+        out[ok] = ctx.target.error(ctx.cpaths[ok], velocity=v)
+    return {"path_error": out}
+
+
+#: The metric groups of :data:`TABLE` computed from a foot path, each by its kernel: group -> compute(ctx,
+#: wanted names) -> {name: (N,)}. A new metric is a row of the table and its column in its group's kernel;
+#: a new group is a row here. (The ``forces`` group comes from the forces effect of the kernels,
+#: ``simulate_batch(..., forces=True)``, which needs every vertex: :func:`_available` says so.)
+GROUPS = {"leg": _leg_group, "walker": _walker_group, "screen": _screen_group, "target": _target_group}
 
 def _geometry(geometry, mechanism, N: int) -> dict | None:
     """``geometry`` checked: {coordinate parameter name of ``mechanism``: (N,) float64}, or None."""

@@ -2,8 +2,10 @@
 
 Every other list of metric names (``METRICS``, ``DIRECTIONS``, ``UNITS``, the band metrics, the walker
 metrics …) is derived from :data:`TABLE`. Adding a metric means adding one row here and computing it in
-the kernel of its group (``leg`` and ``screen``: :mod:`explorer.gait._metrics`; ``walker``:
-:mod:`explorer.gait._walker`); storage, ranking, ``show`` and the plots pick it up from the table.
+the kernel of its group (the registry ``explorer.gait._metrics.GROUPS``: ``leg`` and ``screen`` in
+:mod:`explorer.gait._metrics`, ``walker`` in :mod:`explorer.gait._walker`, ``target`` in
+:mod:`explorer.gait._path`; ``forces`` in :mod:`explorer.kernels._forces`), which writes its columns by
+name; storage, ranking, ``show`` and the plots pick it up from the table.
 
 Groups
 ------
@@ -42,6 +44,11 @@ class Metric:
     group: str
     description: str
     needs: frozenset = frozenset()
+
+    @property
+    def better(self) -> str:
+        """"higher is better" or "lower is better", as the tables print it."""
+        return "higher is better" if self.direction == "max" else "lower is better"
 
 
 def _m(name, unit, direction, group, description, *needs) -> Metric:
