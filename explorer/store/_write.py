@@ -42,7 +42,6 @@ from __future__ import annotations
 import json
 import math
 import os
-from datetime import datetime, timezone
 from pathlib import Path
 
 import h5py
@@ -50,6 +49,9 @@ import numpy as np
 
 from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
+from ._datasets import SCALAR_FILTERS, SERIES_FILTERS, create_dataset, create_group, metric_attrs, now
+
+__all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
 
 FORMAT = "explorer-results"
 FORMAT_VERSION = 1
@@ -57,16 +59,11 @@ FORMAT_VERSION = 1
 STATUS_NOT_RUN = -1
 #: Every status code that can appear in ``/status``: the kernels' codes plus ``-1: not-run``.
 FILE_STATUS_NAMES = {**{int(k): v for k, v in STATUS_NAMES.items()}, STATUS_NOT_RUN: "not-run"}
-#: Filters of the (N, steps, 2) datasets by the study's ``[output] compression``; the default, lzf,
-#: chosen by measurement (see the module docstring). On the default study (10,000 x 360 foot paths and
-#: velocities, 2 cores) "none" writes 118 MB in 0.9 s end to end and "lzf" 99 MB in 3.0 s.
-#: Every chunked dataset also carries a Fletcher-32 checksum per chunk (in every h5py build): a
-#: corrupted chunk is a read error, never a number.
-SERIES_FILTERS = {"lzf": {"compression": "lzf", "shuffle": True, "fletcher32": True},
-                  "gzip": {"compression": "gzip", "compression_opts": 1, "shuffle": True, "fletcher32": True},
-                  "none": {"fletcher32": True}}
-#: Filters of the small per-variant datasets.
-SCALAR_FILTERS = {"compression": "lzf", "fletcher32": True}
+#: Filters of the (N, steps, 2) datasets by the study's ``[output] compression`` (the default, lzf, chosen
+#: by measurement: see the module docstring; on the default study, 10,000 x 360 foot paths and velocities on
+#: 2 cores, "none" writes 118 MB in 0.9 s end to end and "lzf" 99 MB in 3.0 s), and of the small per-variant
+#: datasets: defined beside the dataset table, :mod:`explorer.store._datasets`.
+#: (re-exported here for older imports)
 #: Target size of one HDF5 chunk of a path-like dataset, bytes.
 HDF5_CHUNK_BYTES = 1 << 20
 #: Default variants per study chunk (a multiple of the HDF5 chunk rows; see ``chunk_rows``).
@@ -163,7 +160,7 @@ class ResultsWriter:
             f.attrs["format"] = FORMAT
             f.attrs["format_version"] = FORMAT_VERSION
             f.attrs["explorer_version"] = _version()
-            f.attrs["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+            f.attrs["created"] = now()
             f.attrs["complete"] = False
             f.attrs["study"] = study.text
             f.attrs["study_source"] = study.source
@@ -173,100 +170,65 @@ class ResultsWriter:
             f.attrs["mechanism_source"] = mech.source
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S
+            moved = study.geometry_names
+            dims = {"N": N, "S": S, "links": len(mech.links), "k": len(moved), "chunks": n_chunks}
+
+            def make(name, **kw):  # every dataset from its row of the dataset table
+                return create_dataset(f, name, dims, rows=rows, series_rows=h, compression=study.compression, **kw)
 
             if mech.crank is not None:
-                d = f.create_dataset("theta", data=2.0 * np.pi * np.arange(S) / S)
-                d.attrs["units"] = "rad"
-                d.attrs["description"] = "crank angle θ_k = 2πk/steps"
+                make("theta", data=2.0 * np.pi * np.arange(S) / S)
             else:  # a path driver's samples are times, t_k = T·k/(steps − 1)
-                d = f.create_dataset("theta", data=mech.path.duration * np.arange(S) / (S - 1))
-                d.attrs["units"] = "s"
-                d.attrs["description"] = "time along the driver's path, t_k = T·k/(steps − 1)"
+                make("theta", data=mech.path.duration * np.arange(S) / (S - 1), attrs={
+                    "units": "s", "description": "time along the driver's path, t_k = T·k/(steps − 1)"})
 
-            g = f.create_group("variants")
-            d = g.create_dataset("lengths", shape=(N, len(mech.links)), dtype="f8", chunks=(rows, len(mech.links)),
-                                 fillvalue=np.nan, **SCALAR_FILTERS)
-            d.attrs["links"] = _strings(mech.link_names)
-            d.attrs["link_ends"] = _strings(f"{l.a}-{l.b}" for l in mech.links)
-            d.attrs["nominal"] = mech.lengths
-            d.attrs["units"] = "model units"
-            d = g.create_dataset("crank", shape=(N,), dtype="f8", chunks=(rows,), fillvalue=np.nan, **SCALAR_FILTERS)
-            d.attrs["nominal"] = float(mech.crank.radius) if mech.crank is not None else np.nan
-            d.attrs["units"] = "model units"
-            if mech.crank is None:
-                d.attrs["description"] = "no crank: the mechanism is driven along a path (NaN)"
-            moved = study.geometry_names
+            g = create_group(f, "variants", track_order=False)
+            make("variants/lengths", attrs={"links": _strings(mech.link_names),
+                                            "link_ends": _strings(f"{l.a}-{l.b}" for l in mech.links),
+                                            "nominal": mech.lengths})
+            make("variants/crank", attrs={
+                "nominal": float(mech.crank.radius) if mech.crank is not None else np.nan,
+                **({} if mech.crank is not None else
+                   {"description": "no crank: the mechanism is driven along a path (NaN)"})})
             if moved:  # only a study that moves coordinates has the dataset (older files never do)
-                k = len(moved)
-                d = g.create_dataset("geometry", shape=(N, k), dtype="f8", chunks=(rows, k), fillvalue=np.nan,
-                                     **SCALAR_FILTERS)
                 nominal = mech.parameters()
-                d.attrs["names"] = _strings(moved)
-                d.attrs["nominal"] = np.array([nominal[n] for n in moved], dtype=np.float64)
-                d.attrs["units"] = "model units"
-                d.attrs["description"] = ("perturbed coordinates (crank centre, ground pivots, body joints in their "
-                                          "body's frame), one column per attr 'names'")
+                make("variants/geometry", attrs={"names": _strings(moved),
+                                                 "nominal": np.array([nominal[n] for n in moved], dtype=np.float64)})
             g.attrs["perturbed"] = _strings(study.parameter_names)
             for name, (values, description) in (columns or {}).items():
                 values = np.asarray(values)
                 if values.shape != (N,) or values.dtype.kind not in "iu":
                     raise ValueError(f"column {name!r}: expected ({N},) integers, got {values.dtype} {values.shape}")
-                d = g.create_dataset(name, data=values.astype(np.int64), chunks=(rows,), **SCALAR_FILTERS)
-                d.attrs["description"] = description
-                d.attrs["column"] = True
+                make(f"variants/{name}", data=values, attrs={"description": description, "column": True})
 
             codes = sorted(FILE_STATUS_NAMES)
-            d = f.create_dataset("status", shape=(N,), dtype="i1", chunks=(rows,), fillvalue=STATUS_NOT_RUN,
-                                 **SCALAR_FILTERS)
-            d.attrs["codes"] = np.array(codes, dtype=np.int8)
-            d.attrs["names"] = _strings(FILE_STATUS_NAMES[c] for c in codes)
-            d.attrs["mapping"] = json.dumps({str(c): FILE_STATUS_NAMES[c] for c in codes})
-            d = f.create_dataset("fail_theta", shape=(N,), dtype="f8", chunks=(rows,), fillvalue=np.nan,
-                                 **SCALAR_FILTERS)
-            d.attrs["units"] = "rad"
-            d.attrs["description"] = "crank angle of the first failure; NaN when ok"
-            d = f.create_dataset("fail_theta_end", shape=(N,), dtype="f8", chunks=(rows,), fillvalue=np.nan,
-                                 **SCALAR_FILTERS)
-            d.attrs["units"] = "rad"
-            d.attrs["description"] = ("first failing crank angle going backward from 2π: the design cannot turn "
-                                      "through [fail_theta, fail_theta_end]; NaN when ok")
-            d = f.create_dataset("fail_block", shape=(N,), dtype="i2", chunks=(rows,), fillvalue=-1, **SCALAR_FILTERS)
-            d.attrs["description"] = "plan block that failed, -1 when ok; attr 'vertex' maps block -> vertex name"
-            d.attrs["vertex"] = _strings(mech.vertices[b.vertices[0]] for b in plan.blocks)
-            f.create_dataset("iterations", shape=(N,), dtype="i8", chunks=(rows,), fillvalue=-1, **SCALAR_FILTERS)
+            make("status", attrs={"codes": np.array(codes, dtype=np.int8),
+                                  "names": _strings(FILE_STATUS_NAMES[c] for c in codes),
+                                  "mapping": json.dumps({str(c): FILE_STATUS_NAMES[c] for c in codes})})
+            make("fail_theta")
+            make("fail_theta_end")
+            make("fail_block", attrs={"vertex": _strings(mech.vertices[b.vertices[0]] for b in plan.blocks)})
+            make("iterations")
 
-            groups = [("paths", True, "model units"), ("velocities", study.velocities, "model units per rad (dV/dθ)"),
-                      ("accelerations", study.accelerations, "model units per rad² (d²V/dθ²)")]
-            for name, wanted, units in groups:
+            for group, wanted in (("paths", True), ("velocities", study.velocities),
+                                  ("accelerations", study.accelerations)):
                 if not wanted:
                     continue
-                g = f.create_group(name, track_order=True)  # vertices in scene order
-                g.attrs["units"] = units
+                create_group(f, group)  # vertices in scene order
                 for v in vertices:
-                    d = g.create_dataset(v, shape=(N, S, 2), dtype="f8", chunks=(h, S, 2), fillvalue=np.nan,
-                                         **SERIES_FILTERS[study.compression])
-                    d.attrs["vertex"] = v
+                    make(f"{group}/{v}", attrs={"vertex": v})
             if getattr(study, "forces", False):
-                d = f.create_dataset("torque", shape=(N, S), dtype="f8", chunks=(h, S), fillvalue=np.nan,
-                                     **SERIES_FILTERS[study.compression])
-                d.attrs["units"] = "N·m"
-                d.attrs["description"] = ("motor torque of the walker's crankshaft at each crank angle, positive when "
-                                          "the motor does positive work (inertia, weight and the load included)")
-                d.attrs["operating"] = json.dumps(study.operating.as_dict())
-                g = f.create_group("forces", track_order=True)
-                g.attrs["units"] = "N"
-                g.attrs["description"] = ("leg 0's reaction at each joint: the force its most heavily loaded member "
-                                          "(a link, a body, the crank, the frame or the ground) puts on the pin")
+                make("torque", attrs={"operating": json.dumps(study.operating.as_dict())})
+                create_group(f, "forces")
                 for j in study.force_joints:
-                    d = g.create_dataset(j, shape=(N, S, 2), dtype="f8", chunks=(h, S, 2), fillvalue=np.nan,
-                                         **SERIES_FILTERS[study.compression])
-                    d.attrs["joint"] = j
-            f.create_group("metrics", track_order=True)  # metrics in the order computed
+                    make(f"forces/{j}", attrs={"joint": j})
+            # metrics in the order computed; the band they are computed with, as `explorer metrics` records it
+            metrics_group(f, band=study.band)
 
-            g = f.create_group("chunks")
-            g.attrs["rows"] = rows
-            g.attrs["description"] = "chunk i holds variants [i*rows, min((i+1)*rows, N)); done[i] once committed"
-            g.create_dataset("done", shape=(n_chunks,), dtype=bool, fillvalue=False)  # contiguous
+            g = create_group(f, "chunks", track_order=False, attrs={
+                "rows": rows,
+                "description": "chunk i holds variants [i*rows, min((i+1)*rows, N)); done[i] once committed"})
+            make("chunks/done")  # contiguous
             g["done"][...] = False
             f.close()
             # the results path appears only now, complete with every dataset: a run killed earlier
@@ -357,16 +319,21 @@ class ResultsWriter:
             d[a:b] = batch.forces[j]
         for name, values in (metrics or {}).items():
             g = f["metrics"]
-            if name not in g:
-                d = g.create_dataset(name, shape=(self.n_variants,), dtype="f8", chunks=(self.chunk_rows,),
-                                     fillvalue=np.nan, **SCALAR_FILTERS)
-                from ..gait import metric
-                row = metric(name)
-                if row is not None:  # self-describing from the first write, not only after a recompute
-                    d.attrs["units"] = row.unit
-                    d.attrs["description"] = row.description
+            if name not in g:  # self-describing from the first write, as `explorer metrics` writes it
+                create_metric(g, name, self.n_variants, self.chunk_rows, self._band())
             g[name][a:b] = values
         self._commit(i)
+
+    def _band(self) -> float:
+        """The stance band the run's metrics are computed with: ``/metrics`` attr band, else the study's."""
+        g = self.f["metrics"]
+        if "band" in g.attrs:
+            return float(g.attrs["band"])
+        from ..gait import DEFAULT_BAND
+        try:
+            return float(json.loads(self.f.attrs["study_resolved"])["scene"]["band"])
+        except (KeyError, TypeError, ValueError):
+            return DEFAULT_BAND
 
     def _commit(self, i: int) -> None:
         self.f.flush()
@@ -379,7 +346,7 @@ class ResultsWriter:
         if not self.done.all():
             raise RuntimeError(f"{self.path}: {int((~self.done).sum())} chunks are not done")
         self.f.attrs["complete"] = True
-        self.f.attrs["completed"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+        self.f.attrs["completed"] = now()
         self.f.flush()
 
     def close(self) -> None:
@@ -406,6 +373,50 @@ def fingerprint_diff(old: dict, new: dict) -> str:
         elif old.get(key) != value:
             out.append(words.get(key, key))
     return "differs in " + ", ".join(out) if out else "its layout differs"
+
+
+def open_for_update(path) -> h5py.File:
+    """An existing, complete-or-not explorer results file opened for writing (``r+``), the one way
+    besides :class:`ResultsWriter` that a results file is opened to be written (``explorer metrics``).
+    UserError for a missing, foreign, busy or unreadable file."""
+    p = Path(os.fspath(path))
+    if not p.is_file():
+        raise UserError(f"{p}: no such results file")
+    try:
+        f = h5py.File(p, "r+")
+    except (OSError, ValueError) as exc:
+        reason = _reason(exc)
+        if "unable to lock" in reason or "in use" in reason:
+            reason = "the file is open in another process (close it, or wait for `explorer run` to finish)"
+        raise UserError(f"{p}: cannot open the results file for writing: {reason}") from None
+    if f.attrs.get("format") != FORMAT:
+        f.close()
+        raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
+    return f
+
+
+def metrics_group(f: h5py.Group, name: str = "metrics", band: float | None = None, computed: str | None = None):
+    """A new group of metric datasets (``/metrics`` or a replacement being built), with the
+    attributes every file's ``/metrics`` carries: description, ``band`` and ``computed``."""
+    attrs = {}
+    if band is not None:
+        attrs["band"] = float(band)
+    if computed is not None:
+        attrs["computed"] = computed
+    g = create_group(f, name, attrs=attrs)
+    if name != "metrics":  # the replacement gets what /metrics carries
+        from ._datasets import GROUPS
+        for k, v in GROUPS["metrics"].items():
+            g.attrs.setdefault(k, v)
+    return g
+
+
+def create_metric(g: h5py.Group, name: str, n_variants: int, rows: int, band: float,
+                  computed: str | None = None) -> h5py.Dataset:
+    """Dataset ``name`` (N,) in the metrics group ``g``, NaN-filled, with the attributes every
+    metric carries (:func:`~explorer.store._datasets.metric_attrs`)."""
+    return create_dataset(g, name, {"N": n_variants}, rows=rows, attrs=metric_attrs(name, band, computed),
+                          like="metrics/<name>")
 
 
 def _reason(exc: BaseException) -> str:

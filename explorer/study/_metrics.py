@@ -25,14 +25,14 @@ import os
 import sys
 import time
 import tomllib
-from datetime import datetime, timezone
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from ..errors import UserError
-from ..store._write import FORMAT, SCALAR_FILTERS, STATUS_NOT_RUN, _reason, hdf5_rows
+from ..store._datasets import now as timestamp
+from ..store._write import STATUS_NOT_RUN, _reason, create_metric, hdf5_rows, metrics_group, open_for_update
 
 #: Name of the group the new metrics are written to before they replace ``/metrics``.
 PARTIAL = "metrics_partial"
@@ -87,8 +87,8 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
     Raises UserError for a missing, foreign, incomplete or busy file, an unknown metric, a bad band,
     or a file that lacks the foot path or velocities the metrics need (named in the message).
     """
-    from ..gait import (BAND_METRICS, DESCRIPTIONS, DIRECTIONS, METRICS, UNITS, VELOCITY_METRICS,
-                        available_metrics, check_band, compute_metrics, load_target)
+    from ..gait import (BAND_METRICS, METRICS, VELOCITY_METRICS, available_metrics, check_band, compute_metrics,
+                        load_target)
     from ..mechanism import mechanism_from_dict, walker_from_dict
 
     t0 = time.perf_counter()
@@ -99,18 +99,8 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             band = check_band(band)
         except UserError as exc:
             raise UserError(f"--{exc}") from None
-    if not p.is_file():
-        raise UserError(f"{p}: no such results file")
+    f = open_for_update(p)
     try:
-        f = h5py.File(p, "r+")
-    except (OSError, ValueError) as exc:
-        reason = _reason(exc)
-        if "unable to lock" in reason or "in use" in reason:
-            reason = "the file is open in another process (close it, or wait for `explorer run` to finish)"
-        raise UserError(f"{p}: cannot open the results file for writing: {reason}") from None
-    try:
-        if f.attrs.get("format") != FORMAT:
-            raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
         N = int(f.attrs["n_variants"])
         if not bool(f.attrs.get("complete", False)):
             src = _text(f.attrs.get("study_source", "STUDY"))
@@ -197,20 +187,15 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             max(hdf5_rows(int(f.attrs["steps"])), 1024)
         rows = max(1, min(rows, N))
         order = [m for m in METRICS if m in compute or m in kept] + [m for m in kept if m not in METRICS]
-        now = datetime.now(timezone.utc).isoformat(timespec="seconds")
+        now = timestamp()
         bar = None
         try:
-            g = f.create_group(PARTIAL, track_order=True)
+            g = metrics_group(f, PARTIAL, band=band, computed=now)
             for m in order:
                 if m in kept:
                     f.copy(stored_group[m], g, name=m)
                     continue
-                d = g.create_dataset(m, shape=(N,), dtype="f8", chunks=(rows,), fillvalue=np.nan, **SCALAR_FILTERS)
-                d.attrs["band"] = band
-                d.attrs["units"] = UNITS[m]
-                d.attrs["direction"] = DIRECTIONS[m]
-                d.attrs["description"] = DESCRIPTIONS[m]
-                d.attrs["computed"] = now
+                create_metric(g, m, N, rows, band, now)
             if progress and hasattr(sys.stderr, "isatty") and sys.stderr.isatty() and N > rows:
                 from tqdm import tqdm
                 bar = tqdm(total=N, unit="variant", unit_scale=True, desc="metrics", file=sys.stderr, leave=False)
@@ -240,11 +225,6 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                     d[a:b] = out[m]
                 if bar is not None:
                     bar.update(b - a)
-            g.attrs["band"] = band
-            g.attrs["computed"] = now
-            g.attrs["description"] = ("gait metrics of the foot path (explorer.gait): the walker scene, the "
-                                      "single-leg band metrics and the buildability screen's inputs; band = "
-                                      "stance band, a fraction of the step height")
             f.flush()
             # the swap: the complete new group replaces the old one
             if "metrics" in f:

@@ -1,0 +1,168 @@
+"""Every dataset of a results file, one row each, and the one function that creates them.
+
+The table :data:`DATASETS` says, for each dataset a results file may hold, its dtype, its shape
+rule (symbols: ``N`` variants, ``S`` steps, ``links``, ``k`` moved coordinates, ``chunks`` study
+chunks, or a number), how it is stored (``scalar``: per-variant, chunked along N, lzf;
+``series``: per-variant (N, S, ...), chunked along N with the study's compression; ``plain``:
+contiguous), its fill value, units and description. A ``<...>`` in a name stands for a vertex, a
+joint, a metric or a column name. :func:`create_dataset` is the only place a dataset of a results
+file is created (by :class:`~explorer.store.ResultsWriter` for a run, an optimisation and a
+Dask shard, and by :func:`~explorer.store.metrics_group` for ``explorer metrics``), so every
+file describes itself the same way whoever wrote it.
+
+A new stored dataset is one row here (and its values in ``ResultsWriter.write_chunk``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from datetime import datetime, timezone
+
+import h5py
+import numpy as np
+
+#: Filters of the (N, steps, ...) datasets by the study's ``[output] compression``; the default, lzf,
+#: chosen by measurement (see :mod:`explorer.store._write`). Every chunked dataset also carries a
+#: Fletcher-32 checksum per chunk (in every h5py build): a corrupted chunk is a read error, never a number.
+SERIES_FILTERS = {"lzf": {"compression": "lzf", "shuffle": True, "fletcher32": True},
+                  "gzip": {"compression": "gzip", "compression_opts": 1, "shuffle": True, "fletcher32": True},
+                  "none": {"fletcher32": True}}
+#: Filters of the small per-variant datasets.
+SCALAR_FILTERS = {"compression": "lzf", "fletcher32": True}
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """One dataset of a results file: ``name`` (``<...>`` = any one name), ``dtype``, ``shape`` (a
+    tuple of dimension symbols or numbers), ``storage`` (scalar | series | plain), ``fill``,
+    ``units`` ("" for none) and ``description``."""
+
+    name: str
+    dtype: str
+    shape: tuple
+    storage: str
+    fill: object
+    units: str
+    description: str
+
+    def matches(self, path: str) -> bool:
+        pa, pb = self.name.split("/"), path.strip("/").split("/")
+        return len(pa) == len(pb) and all(a == b or (a.startswith("<") and a.endswith(">")) for a, b in zip(pa, pb))
+
+
+_NAN = math.nan
+
+#: Every dataset a results file may hold (see :mod:`explorer.store` for the layout).
+DATASETS: tuple[DatasetSpec, ...] = (
+    DatasetSpec("theta", "f8", ("S",), "plain", None, "rad", "crank angle θ_k = 2πk/steps"),
+    DatasetSpec("variants/lengths", "f8", ("N", "links"), "scalar", _NAN, "model units",
+                "link lengths, one column per attr 'links'"),
+    DatasetSpec("variants/crank", "f8", ("N",), "scalar", _NAN, "model units", "crank radius"),
+    DatasetSpec("variants/geometry", "f8", ("N", "k"), "scalar", _NAN, "model units",
+                "perturbed coordinates (crank centre, ground pivots, body joints in their body's frame), one column "
+                "per attr 'names'"),
+    DatasetSpec("variants/<column>", "i8", ("N",), "scalar", None, "",
+                "a per-variant integer column known before any variant is solved (a frame column)"),
+    DatasetSpec("status", "i1", ("N",), "scalar", -1, "",
+                "variant status code; attrs codes / names / mapping; -1 = not run"),
+    DatasetSpec("fail_theta", "f8", ("N",), "scalar", _NAN, "rad", "crank angle of the first failure; NaN when ok"),
+    DatasetSpec("fail_theta_end", "f8", ("N",), "scalar", _NAN, "rad",
+                "first failing crank angle going backward from 2π: the design cannot turn through "
+                "[fail_theta, fail_theta_end]; NaN when ok"),
+    DatasetSpec("fail_block", "i2", ("N",), "scalar", -1, "",
+                "plan block that failed, -1 when ok; attr 'vertex' maps block -> vertex name"),
+    DatasetSpec("iterations", "i8", ("N",), "scalar", -1, "", "total Newton iterations of the variant's solve"),
+    DatasetSpec("paths/<vertex>", "f8", ("N", "S", 2), "series", _NAN, "model units", "positions of the vertex"),
+    DatasetSpec("velocities/<vertex>", "f8", ("N", "S", 2), "series", _NAN, "model units per rad (dV/dθ)",
+                "velocity of the vertex per radian of crank"),
+    DatasetSpec("accelerations/<vertex>", "f8", ("N", "S", 2), "series", _NAN, "model units per rad² (d²V/dθ²)",
+                "acceleration of the vertex per radian² of crank"),
+    DatasetSpec("torque", "f8", ("N", "S"), "series", _NAN, "N·m",
+                "motor torque of the walker's crankshaft at each crank angle, positive when the motor does positive "
+                "work (inertia, weight and the load included)"),
+    DatasetSpec("forces/<joint>", "f8", ("N", "S", 2), "series", _NAN, "N",
+                "leg 0's reaction at the joint: the force its most heavily loaded member puts on the pin"),
+    DatasetSpec("metrics/<name>", "f8", ("N",), "scalar", _NAN, "", "gait metric (units and description per metric)"),
+    DatasetSpec("chunks/done", "bool", ("chunks",), "plain", False, "", "chunk i committed"),
+)
+
+#: Attributes of the groups (those not listed carry none).
+GROUPS: dict[str, dict] = {
+    "paths": {"units": "model units"},
+    "velocities": {"units": "model units per rad (dV/dθ)"},
+    "accelerations": {"units": "model units per rad² (d²V/dθ²)"},
+    "forces": {"units": "N", "description": "leg 0's reaction at each joint: the force its most heavily loaded member "
+                                            "(a link, a body, the crank, the frame or the ground) puts on the pin"},
+    "metrics": {"description": "gait metrics of the foot path (explorer.gait): the walker scene, the single-leg band "
+                               "metrics and the buildability screen's inputs; band = stance band, a fraction of the "
+                               "step height"},
+}
+
+
+def dataset_spec(path: str) -> DatasetSpec:
+    """The row of :data:`DATASETS` for ``path`` (such as ``"paths/foot"``); KeyError if none."""
+    for spec in DATASETS:
+        if spec.matches(path):
+            return spec
+    raise KeyError(f"no dataset spec for {path!r}")
+
+
+def now() -> str:
+    """The timestamp results files carry (ISO 8601 UTC, seconds)."""
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def metric_attrs(name: str, band: float, computed: str | None = None) -> dict:
+    """What every ``/metrics/<name>`` dataset carries, whoever computed it: ``band`` (the stance band
+    it was computed with), ``units``, ``direction`` and ``description`` (from the metric table, for
+    a known metric) and ``computed`` (when)."""
+    from ..gait import metric
+    out: dict = {"band": float(band)}
+    row = metric(name)
+    if row is not None:
+        out.update(units=row.unit, direction=row.direction, description=row.description)
+    out["computed"] = computed or now()
+    return out
+
+
+def create_dataset(f: h5py.Group, path: str, dims: dict, *, rows: int | None = None, series_rows: int | None = None,
+                   compression: str = "lzf", data=None, attrs: dict | None = None,
+                   like: str | None = None) -> h5py.Dataset:
+    """Create dataset ``path`` of a results file (group ``f``, paths relative to it) from its row of
+    :data:`DATASETS`: dtype, shape (its symbols from ``dims``: N, S, links, k, chunks), filters,
+    chunks (``rows`` variants per chunk for scalar ones, ``series_rows`` for series), fill value,
+    ``units`` and ``description``; ``attrs`` add to (or override) those. ``data``: initial values
+    (for ``theta`` and the optimiser's columns) instead of the fill value. ``like``: the table row
+    to use when ``path`` is not where the dataset will end up (a metric of a replacement group)."""
+    spec = dataset_spec(like or f"{f.name.rstrip('/')}/{path}".lstrip("/"))
+    shape = tuple(int(dims[s]) if isinstance(s, str) else int(s) for s in spec.shape)
+    kw: dict = {}
+    if spec.storage == "scalar":
+        kw.update(chunks=(int(rows),) + shape[1:], **SCALAR_FILTERS)
+    elif spec.storage == "series":
+        kw.update(chunks=(int(series_rows),) + shape[1:], **SERIES_FILTERS[compression])
+    if data is not None:
+        d = f.create_dataset(path, data=np.asarray(data, dtype=spec.dtype), **kw)
+    else:
+        fill = {"fillvalue": spec.fill} if spec.fill is not None else {}
+        d = f.create_dataset(path, shape=shape, dtype=spec.dtype, **fill, **kw)
+    merged = {}
+    if spec.units:
+        merged["units"] = spec.units
+    merged["description"] = spec.description
+    merged.update(attrs or {})
+    for k, v in merged.items():
+        if v is None:
+            continue
+        d.attrs[k] = json.dumps(v) if isinstance(v, dict) else v
+    return d
+
+
+def create_group(f: h5py.Group, name: str, attrs: dict | None = None, track_order: bool = True) -> h5py.Group:
+    """Create group ``name`` with its :data:`GROUPS` attributes (plus ``attrs``)."""
+    g = f.create_group(name, track_order=track_order or None)
+    for k, v in {**GROUPS.get(name, {}), **(attrs or {})}.items():
+        g.attrs[k] = v
+    return g
