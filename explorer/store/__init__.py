@@ -25,16 +25,24 @@ Layout (N variants, S = steps, readable with plain h5py)::
     /paths/<vertex>        (N, S, 2) float64 for every [scene] vertex
     /velocities/<vertex>   (N, S, 2) dV/dθ, only if [scene] velocities = true
     /accelerations/<vertex> (N, S, 2) d²V/dθ², only if [scene] accelerations = true
-    /metrics/<name>        (N,) float64 gait metrics, only those the study asked for
+    /torque                (N, S) float64 N·m motor torque, only for a forces study ([scene] forces = true)
+    /forces/<joint>        (N, S, 2) float64 N, leg 0's reaction at each [scene] force_joints joint
+    /metrics/<name>        (N,) float64 gait metrics, only those the study asked for; attrs band, units,
+                           direction, description, computed (the same whether the run or `explorer
+                           metrics` wrote it); /metrics attrs band, description
     /chunks/done           (n_chunks,) bool; /chunks attr rows: chunk i is variants [i·rows, (i+1)·rows)
 
+Every dataset is one row of the table :data:`explorer.store._datasets.DATASETS` (dtype, shape rule,
+storage, fill, units, description) and is created by its one function, ``create_dataset``.
 Every (N, ...) dataset is chunked along N and compressed (lzf + shuffle for the (N, S, 2) series,
 chosen by measurement: see :mod:`explorer.store._write`).
 """
 
-from ._read import Results, open_results
+from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metric_attrs
+from ._read import Results, open_results, probe
 from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN,
-                     ResultsWriter, chunk_rows, hdf5_rows)
+                     ResultsWriter, chunk_rows, create_metric, hdf5_rows, metrics_group, open_for_update)
 
-__all__ = ["DEFAULT_CHUNK_VARIANTS", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION", "STATUS_NOT_RUN", "Results",
-           "ResultsWriter", "chunk_rows", "hdf5_rows", "open_results"]
+__all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION",
+           "STATUS_NOT_RUN", "Results", "ResultsWriter", "chunk_rows", "create_dataset", "create_metric",
+           "dataset_spec", "hdf5_rows", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe"]

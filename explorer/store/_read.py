@@ -54,6 +54,22 @@ def open_results(path) -> "Results":
         raise UserError(f"{p}: not a readable explorer results file ({what[:200]})") from None
 
 
+def probe(path) -> dict:
+    """What the file at ``path`` is, read from its root attributes only (for the runners' checks
+    before they write): ``format`` (the attribute, None if absent), ``complete``, ``fingerprint``
+    (the study fingerprint or None), ``sharded`` (stitched from shard files), ``error`` (None, or
+    "in use" when another process holds it, "unreadable" otherwise)."""
+    out = {"format": None, "complete": False, "fingerprint": None, "sharded": False, "error": None}
+    try:
+        with h5py.File(Path(os.fspath(path)), "r") as f:
+            a = f.attrs
+            out.update(format=a.get("format"), complete=bool(a.get("complete", False)),
+                       fingerprint=a.get("study_fingerprint"), sharded="shards" in a)
+    except OSError as exc:
+        out["error"] = "in use" if "unable to lock" in str(exc).lower() else "unreadable"
+    return out
+
+
 class Results:
     """An open results file.
 

@@ -276,29 +276,24 @@ def _token() -> str:
 
 def _existing(out: Path, study: Study) -> str:
     """State of an existing results file, for a resume: ``complete`` or why it cannot be resumed."""
-    import h5py
-    try:
-        with h5py.File(out, "r") as f:
-            if f.attrs.get("format") != FORMAT:
-                return "not an explorer results file"
-            if f.attrs.get("study_fingerprint") != study.fingerprint():
-                return "written by a different study"
-            if bool(f.attrs.get("complete")):
-                return "complete"
-            if "shards" not in f.attrs:
-                return "an unfinished single-process run (finish it with explorer run --resume, without --dask)"
-            return "incomplete"
-    except OSError:
+    from ..store import probe
+    info = probe(out)
+    if info["error"] is not None:
         return "unreadable or in use"
+    if info["format"] != FORMAT:
+        return "not an explorer results file"
+    if info["fingerprint"] != study.fingerprint():
+        return "written by a different study"
+    if info["complete"]:
+        return "complete"
+    if not info["sharded"]:
+        return "an unfinished single-process run (finish it with explorer run --resume, without --dask)"
+    return "incomplete"
 
 
 def _is_sharded(out: Path) -> bool:
-    import h5py
-    try:
-        with h5py.File(out, "r") as f:
-            return "shards" in f.attrs
-    except OSError:
-        return False
+    from ..store import probe
+    return probe(out)["sharded"]
 
 
 def _counts(codes: np.ndarray) -> dict:

@@ -250,18 +250,13 @@ def _same_file(a: Path, b: Path) -> bool:
 
 def _check_overwritable(out: Path) -> None:
     """--force replaces explorer results files only: not a study, a mechanism, a device, anything else."""
-    import h5py
-    from ..store import FORMAT
+    from ..store import FORMAT, probe
     if out.is_symlink() or not stat.S_ISREG(out.stat().st_mode):
         raise UserError(f"{out}: is not a regular file; --force overwrites explorer results files only")
-    try:
-        with h5py.File(out, "r") as f:
-            ours = f.attrs.get("format") == FORMAT
-    except OSError as exc:
-        if "unable to lock" in str(exc).lower():
-            raise UserError(f"{out}: is open in another process; wait for it to finish") from None
-        ours = False
-    if not ours:
+    info = probe(out)
+    if info["error"] == "in use":
+        raise UserError(f"{out}: is open in another process; wait for it to finish")
+    if info["format"] != FORMAT:
         raise UserError(f"{out}: is not an explorer results file; --force overwrites explorer results files only "
                         f"(move it away or choose another output with -o)")
 
@@ -363,14 +358,13 @@ def _counts(writer: ResultsWriter) -> dict:
 
 
 def _state(path: Path) -> str:
-    import h5py
-    try:
-        with h5py.File(path, "r") as f:
-            if f.attrs.get("format") is None:
-                return "not an explorer results file"
-            return "complete" if bool(f.attrs.get("complete")) else "incomplete"
-    except OSError:
+    from ..store import probe
+    info = probe(path)
+    if info["error"] is not None:
         return "unreadable or in use"
+    if info["format"] is None:
+        return "not an explorer results file"
+    return "complete" if info["complete"] else "incomplete"
 
 
 def _progress_bar(progress: bool, writer: ResultsWriter, pending, study):
