@@ -864,9 +864,9 @@ def _specialise(fn, name: str, inline: str = "never", **bind):
     return njit(cache=True, nogil=True, inline=inline)(copy)
 
 
-_kin_fast = _specialise(_kinematics, "fast", "always", general=_no_general)
+_kin_fast = _specialise(_kinematics, "fast", general=_no_general)
 _kin_any = _specialise(_kinematics, "any", general=_kin_general)
-_rea_fast = _specialise(_reactions, "fast", "always", general=_no_general)
+_rea_fast = _specialise(_reactions, "fast", general=_no_general)
 _rea_any = _specialise(_reactions, "any", general=_rea_general)
 #: the kernel for plans of dyads and body joints only, and the one for plans with general blocks
 forces_fast = _specialise(_forces_kernel, "fast", kinematics=_kin_fast, reactions=_rea_fast)

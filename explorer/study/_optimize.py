@@ -198,7 +198,7 @@ def _concat(parts):
     joined = {}
     for f in dataclasses.fields(first):
         v = getattr(first, f.name)
-        if f.name == "theta":
+        if f.name == "theta" or v is None:  # None: a part the run did not ask for (torque without forces)
             joined[f.name] = v
         elif isinstance(v, dict):
             joined[f.name] = {k: np.concatenate([getattr(b, f.name)[k] for b in batches]) for k in v}
