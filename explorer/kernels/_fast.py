@@ -19,7 +19,6 @@ fast_step on one block's row at a time.
 
 import math
 
-import numpy as np
 from numba import njit
 
 from ..plan import DYAD
