@@ -22,8 +22,8 @@ _LAZY = {
     **dict.fromkeys(("Crank", "Link", "Mechanism", "PathDriver", "builtin_mechanisms", "load_mechanism"), "mechanism"),
     **dict.fromkeys(("Grashof", "grashof", "make_plan"), "plan"),
     **dict.fromkeys(("Results", "open_results"), "store"),
-    **dict.fromkeys(("RunSummary", "Study", "load_study", "recompute_metrics", "run_study", "run_study_dask",
-                     "sample_variants"), "study"),
+    **dict.fromkeys(("RunSummary", "Study", "load_study", "recompute_metrics", "run_optimize", "run_study",
+                     "run_study_dask", "sample_variants"), "study"),
     **dict.fromkeys(("sensitivity", "tolerance", "tolerance_summary"), "study"),
 }
 
@@ -49,5 +49,5 @@ def __dir__():
 __all__ = ["STATUS_NAMES", "Batch", "Crank", "Cycle", "Failure", "Grashof", "Link", "Mechanism", "PathDriver",
            "UserError", "builtin_mechanisms", "grashof", "load_mechanism", "make_plan", "simulate", "simulate_batch",
            "__version__",
-           "Results", "RunSummary", "Study", "load_study", "open_results", "recompute_metrics", "run_study",
+           "Results", "RunSummary", "Study", "load_study", "open_results", "recompute_metrics", "run_optimize", "run_study",
            "run_study_dask", "sample_variants", "sensitivity", "tolerance", "tolerance_summary"]

@@ -40,9 +40,11 @@ chosen by measurement: see :mod:`explorer.store._write`).
 
 from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metric_attrs
 from ._read import Results, open_results, probe
+from ._variants import check_variant, is_results, results_band, variant_design, variant_mechanism, variant_row
 from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN,
                      ResultsWriter, chunk_rows, create_metric, hdf5_rows, metrics_group, open_for_update)
 
 __all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION",
-           "STATUS_NOT_RUN", "Results", "ResultsWriter", "chunk_rows", "create_dataset", "create_metric",
-           "dataset_spec", "hdf5_rows", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe"]
+           "STATUS_NOT_RUN", "Results", "ResultsWriter", "check_variant", "chunk_rows", "create_dataset", "create_metric",
+           "dataset_spec", "hdf5_rows", "is_results", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe", "results_band", "variant_design",
+           "variant_mechanism", "variant_row"]

@@ -211,6 +211,37 @@ class Results:
             df["buildable"], df["screen"] = screened[0], screened[1]
         return df
 
+    # -- one variant -----------------------------------------------------------------------------------
+    def check_variant(self, variant) -> int:
+        """``variant`` as an int in 0 … N−1 (UserError otherwise)."""
+        from ._variants import check_variant
+        return check_variant(self, variant)
+
+    def row(self, variant) -> "pd.Series":
+        """Variant ``variant``'s row of :meth:`frame` as a pandas Series indexed by column name (the
+        same values and units: lengths, crank and coordinates in model units, ``fail_theta`` in rad,
+        each metric in its unit, see ``/metrics/<name>`` attr units). UserError for a variant
+        outside 0 … N−1."""
+        from ._variants import check_variant, variant_row
+        return variant_row(self, check_variant(self, variant))
+
+    def design(self, variant) -> dict[str, float]:
+        """The design parameters of variant ``variant`` as {parameter name: value}: every parameter
+        of ``mechanism.parameters()``, in its order (link lengths by link name, ``crank`` the crank
+        radius, ``crank.x``/``crank.y`` its centre, ``V.x``/``V.y`` each ground pivot and body joint),
+        all in model units; the variant's stored value where the study perturbed the parameter, the
+        nominal elsewhere. ``mechanism.with_parameters(r.design(v))`` is the variant's mechanism
+        (:meth:`variant_mechanism` also sets its assembly guess). UserError for a variant outside 0 … N−1."""
+        from ._variants import variant_design
+        return variant_design(self, variant)
+
+    def variant_mechanism(self, variant) -> Mechanism:
+        """The :class:`~explorer.mechanism.Mechanism` of variant ``variant`` (its design on the
+        nominal, assembling on the nominal's branch); UserError for a design that has no valid
+        lengths or coordinates."""
+        from ._variants import variant_mechanism
+        return variant_mechanism(self, variant)
+
     def screen_summary(self, df=None) -> dict:
         """What the buildability screen removes from the ok variants: {"removed": n, "checks": {check:
         n}, "applied": [check names]} (:func:`explorer.gait.screen_counts`); ``df`` : a frame() to reuse."""

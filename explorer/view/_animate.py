@@ -40,9 +40,10 @@ from PIL import Image
 from ..errors import UserError
 from ..kernels import Cycle, simulate
 from ..mechanism import Mechanism, load_mechanism
+from ..store import is_results, variant_mechanism
 from ._draw import (ARROW_COLOR, CRANK_COLOR, FOOT_PATH_COLOR, GROUND_COLOR, STANCE_COLOR, LegArtists, draw_ground,
                     draw_path, mirror_positions, mirror_velocity)
-from ._plots import check_output, is_results, new_figure, variant_mechanism
+from ._plots import check_output, new_figure
 
 #: Movie formats animate writes, by extension.
 MOVIE_FORMATS = {".mp4": "mp4", ".gif": "gif"}

@@ -60,7 +60,7 @@ CRANK_CENTRE = "crank centre"
 # -- the design of one variant ---------------------------------------------------------------------------
 def _results(obj):
     """(results, close?) for a Results object or a results file path."""
-    from ._plots import is_results
+    from ..store import is_results
     if is_results(obj):
         return obj, False
     from ..store import open_results
@@ -82,7 +82,7 @@ def variant_design(results, variant) -> Mechanism:
     failed variant (it does not turn through a full cycle) still has one and is returned.
     """
     from ..kernels import assemble
-    from ._plots import check_variant, variant_mechanism
+    from ..store import check_variant, variant_mechanism
 
     res, close = _results(results)
     try:
@@ -282,7 +282,7 @@ def trajectory_frame(results, variant):
     driver). UserError for a variant that failed or was not run: it has no full path."""
     import pandas as pd
 
-    from ._plots import check_variant, variant_row
+    from ..store import check_variant, variant_row
     res, close = _results(results)
     try:
         v = check_variant(res, variant)

@@ -29,6 +29,9 @@ from ..gait import (DEFAULT_BAND, DEFAULT_WEIGHTS, DIRECTIONS, METRICS, UNITS, o
                    screened_mask, select, stance_indices)
 from ..kernels import Cycle, simulate
 from ..mechanism import Mechanism
+# the results helpers belong to explorer.store; the old names stay importable from here
+from ..store._variants import check_variant, is_results, results_band, variant_mechanism, variant_row  # noqa: F401
+from ..store._variants import n_variants as _n_variants  # noqa: F401
 from ._draw import STANCE_COLOR
 
 #: Figure formats save_figure writes, by extension.
@@ -83,84 +86,6 @@ def save_figure(fig: Figure, path, dpi: float | None = None) -> Path:
     except OSError as exc:
         raise UserError(f"{p}: cannot write: {exc.strerror or exc}") from None
     return p
-
-
-# -- results helpers -----------------------------------------------------------------------------------
-def is_results(obj) -> bool:
-    """True for a results object (``explorer.open_results``): it has ``frame()`` and ``path()``."""
-    return callable(getattr(obj, "frame", None)) and callable(getattr(obj, "path", None))
-
-
-def results_band(results) -> float:
-    """The stance band of the results' study (``[scene] band``), or the default 0.01."""
-    for get in (lambda r: r.study["scene"]["band"], lambda r: r.band):
-        try:
-            b = float(get(results))
-        except (AttributeError, KeyError, TypeError, ValueError):
-            continue
-        if 0.0 <= b <= 1.0:
-            return b
-    return DEFAULT_BAND
-
-
-def _n_variants(results, df: pd.DataFrame | None = None) -> int:
-    n = getattr(results, "n_variants", None)
-    if n is None:
-        n = len(df if df is not None else results.frame())
-    return int(n)
-
-
-def check_variant(results, variant) -> int:
-    """``variant`` as an int in 0 … N−1 (UserError otherwise)."""
-    n = _n_variants(results)
-    try:
-        v = int(variant)
-        if isinstance(variant, bool) or v != variant:
-            raise ValueError
-    except (TypeError, ValueError):
-        raise UserError(f"variant: expected a whole number, got {variant!r}") from None
-    if not 0 <= v < n:
-        raise UserError(f"variant {v} out of range (this results file has variants 0 to {n - 1})")
-    return v
-
-
-def variant_row(results, variant: int) -> pd.Series:
-    df = results.frame()
-    if "variant" in df.columns:
-        rows = df[df["variant"] == variant]
-        if len(rows):
-            return rows.iloc[0]
-    return df.iloc[variant]
-
-
-def variant_mechanism(results, variant) -> Mechanism:
-    """The mechanism of one variant of a results file: the nominal with every design parameter the
-    variant's row holds (lengths, crank radius, and the coordinates the study moved: crank centre,
-    ground pivots, body joints), through ``Mechanism.with_parameters``.
-
-    Its guess is the nominal's configuration at θ = 0, so it assembles on the nominal's branch, as
-    the study's batch solve did.
-    """
-    from ..kernels import assemble  # local: only needed here
-
-    v = check_variant(results, variant)
-    nominal = results.mechanism
-    row = variant_row(results, v)
-    values = {name: float(row[name]) for name in nominal.parameters() if name in row.index}
-    lengths = [x for name, x in values.items() if nominal.parameter_kind(name) == "length"]
-    coords = [x for name, x in values.items() if nominal.parameter_kind(name) == "coordinate"]
-    if not all(math.isfinite(x) and x > 0 for x in lengths):
-        raise UserError(f"variant {v}: its lengths are not all finite and > 0 (status {row.get('status', '?')})")
-    if not all(math.isfinite(x) for x in coords):
-        raise UserError(f"variant {v}: its coordinates are not all finite (status {row.get('status', '?')})")
-    mech = nominal.with_parameters(values)
-    P0, fail = assemble(nominal)
-    if fail is None:
-        from dataclasses import replace
-        skip = set(nominal.fixed) | {nominal.driven}
-        guess = {name: tuple(P0[i]) for i, name in enumerate(nominal.vertices) if name not in skip}
-        mech = replace(mech, guess=guess)
-    return mech
 
 
 def _unit(metric: str) -> str:

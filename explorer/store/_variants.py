@@ -1,0 +1,116 @@
+"""One variant of a results file: its number checked, its frame row, its design parameters, its mechanism.
+
+Functions over any results object (an open :class:`~explorer.store.Results`, or anything with
+``frame()`` and ``path()``); :class:`~explorer.store.Results` has them as methods (``check_variant``,
+``row``, ``design``, ``variant_mechanism``). Plots, exports and the CLI read a variant through these.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from ..errors import UserError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ..mechanism import Mechanism
+
+
+def is_results(obj) -> bool:
+    """True for a results object (``explorer.open_results``): it has ``frame()`` and ``path()``."""
+    return callable(getattr(obj, "frame", None)) and callable(getattr(obj, "path", None))
+
+
+def results_band(results) -> float:
+    """The stance band of the results' study (``[scene] band``), else the results' ``band``, else the
+    default 0.01."""
+    for get in (lambda r: r.study["scene"]["band"], lambda r: r.band):
+        try:
+            b = float(get(results))
+        except (AttributeError, KeyError, TypeError, ValueError):
+            continue
+        if 0.0 <= b <= 1.0:
+            return b
+    from ..gait import DEFAULT_BAND
+    return DEFAULT_BAND
+
+
+def n_variants(results, df: "pd.DataFrame | None" = None) -> int:
+    """N of a results object (its ``n_variants``, else the length of ``df`` or of its frame)."""
+    n = getattr(results, "n_variants", None)
+    if n is None:
+        n = len(df if df is not None else results.frame())
+    return int(n)
+
+
+def check_variant(results, variant) -> int:
+    """``variant`` as an int in 0 … N−1 (UserError otherwise)."""
+    n = n_variants(results)
+    try:
+        v = int(variant)
+        if isinstance(variant, bool) or v != variant:
+            raise ValueError
+    except (TypeError, ValueError):
+        raise UserError(f"variant: expected a whole number, got {variant!r}") from None
+    if not 0 <= v < n:
+        raise UserError(f"variant {v} out of range (this results file has variants 0 to {n - 1})")
+    return v
+
+
+def variant_row(results, variant: int) -> "pd.Series":
+    """Row ``variant`` of the results' frame (``frame()``), as a Series indexed by column name."""
+    # the whole frame, as Results.frame() gives it (a one-row read types some cells differently: None
+    # for NaN in an object column)
+    df = results.frame()
+    if "variant" in df.columns:
+        rows = df[df["variant"] == variant]
+        if len(rows):
+            return rows.iloc[0]
+    return df.iloc[variant]
+
+
+def variant_design(results, variant, row: "pd.Series | None" = None) -> dict[str, float]:
+    """{parameter name: value} of every design parameter of the results' mechanism
+    (``mechanism.parameters()`` order: link lengths, the crank radius, ``crank.x``/``crank.y``, the
+    ground pivots' and body joints' coordinates; model units): the variant's stored value where the
+    file stores the parameter, else the nominal (the file's stored nominal, else the mechanism's)."""
+    v = check_variant(results, variant)
+    row = variant_row(results, v) if row is None else row
+    nominal = getattr(results, "nominal", {}) or {}
+    out = {}
+    for name, mech_nominal in results.mechanism.parameters().items():
+        out[name] = float(row[name]) if name in row.index else float(nominal.get(name, mech_nominal))
+    return out
+
+
+def variant_mechanism(results, variant) -> "Mechanism":
+    """The mechanism of one variant of a results file: the nominal with every design parameter the
+    variant's row holds (lengths, crank radius, and the coordinates the study moved: crank centre,
+    ground pivots, body joints), through ``Mechanism.with_parameters``.
+
+    Its guess is the nominal's configuration at θ = 0, so it assembles on the nominal's branch, as
+    the study's batch solve did.
+    """
+    from dataclasses import replace
+
+    from ..kernels import assemble
+
+    v = check_variant(results, variant)
+    nominal = results.mechanism
+    row = variant_row(results, v)
+    values = {name: float(row[name]) for name in nominal.parameters() if name in row.index}
+    lengths = [x for name, x in values.items() if nominal.parameter_kind(name) == "length"]
+    coords = [x for name, x in values.items() if nominal.parameter_kind(name) == "coordinate"]
+    if not all(math.isfinite(x) and x > 0 for x in lengths):
+        raise UserError(f"variant {v}: its lengths are not all finite and > 0 (status {row.get('status', '?')})")
+    if not all(math.isfinite(x) for x in coords):
+        raise UserError(f"variant {v}: its coordinates are not all finite (status {row.get('status', '?')})")
+    mech = nominal.with_parameters(values)
+    P0, fail = assemble(nominal)
+    if fail is None:
+        skip = set(nominal.fixed) | {nominal.driven}
+        guess = {name: tuple(P0[i]) for i, name in enumerate(nominal.vertices) if name not in skip}
+        mech = replace(mech, guess=guess)
+    return mech
