@@ -236,6 +236,35 @@ def test_cli_connects_to_a_scheduler(client, reference, tmp_path, capsys):
     assert "--dask" in capsys.readouterr().err
 
 
+@pytest.mark.slow
+@needs_dask
+def test_run_study_takes_a_client(client, reference, tmp_path):
+    """client= is the one way to hand a runner a cluster: run_study(client=...) runs the shards and stitches
+    them, bit for bit the single-process file (as run_study_dask does)."""
+    out = tmp_path / "dk.h5"
+    s = run_study(STUDY, output=out, client=client, shard_size=SHARD, progress=False)
+    assert s.ran == 300 and os.fspath(s) == str(out)
+    assert sorted(p.name for p in shards_folder(out).glob("shard-*.h5")) == [shard_name(i) for i in range(5)]
+    assert_same_results(out, reference)
+
+
+@needs_dask
+def test_client_must_be_a_client(tmp_path):
+    from explorer.study import run_optimize
+    with pytest.raises(UserError, match="run_study_dask: expected a dask.distributed.Client"):
+        run_study(STUDY, output=tmp_path / "x.h5", client=object())
+    if importlib.util.find_spec("pymoo") is not None:
+        with pytest.raises(UserError, match="run_optimize: expected a dask.distributed.Client"):
+            run_optimize(OPT_STUDY, output=tmp_path / "o.h5", client="tcp://nowhere:8786")
+    assert not list(tmp_path.iterdir())  # refused before any file was made
+
+
+def test_shard_size_needs_a_client(tmp_path):
+    with pytest.raises(UserError, match="Dask cluster only"):
+        run_study(STUDY, output=tmp_path / "x.h5", shard_size=10)
+    assert not (tmp_path / "x.h5").exists()
+
+
 # -- without a cluster -------------------------------------------------------------------------------
 def test_without_dask_one_line_error(tmp_path, monkeypatch, capsys):
     for mod in ("distributed", "dask", "dask.distributed"):
@@ -247,6 +276,8 @@ def test_without_dask_one_line_error(tmp_path, monkeypatch, capsys):
     from explorer.study import run_study_dask
     with pytest.raises(UserError, match=r'pip install "explorer\[dask\]"'):
         run_study_dask(object(), STUDY, output=tmp_path / "y.h5")
+    with pytest.raises(UserError, match=r'pip install "explorer\[dask\]"'):
+        run_study(STUDY, output=tmp_path / "y.h5", client=object())
     assert not (tmp_path / "x.h5").exists() and not (tmp_path / "x.shards").exists()
 
 

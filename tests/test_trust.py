@@ -286,7 +286,7 @@ def test_a_disk_that_fills_mid_run_is_one_line_and_resumable(tmp_path):
         study.write_text('[study]\nname = "big"\nmechanism = "jansen"\nvariants = 150000\nsteps = 72\n',
                          encoding="utf-8")
         out = disk / "big.h5"
-        code = ("import sys\nimport explorer.study._run as r\nr._check_disk_space = lambda *a: None\n"
+        code = ("import sys\nimport explorer.study._output as r\nr._check_disk_space = lambda *a: None\n"
                 "from explorer.cli import main\n"
                 f"sys.exit(main(['run', {str(study)!r}, '-o', {str(out)!r}, '-q']))")
         p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -34,14 +34,14 @@ def register(sub) -> None:
 
 def run(args) -> int:
     if getattr(args, "dask", None):
-        from ..study import load_study
-        from ..study._dask import _require_dask, dask_client, run_study_dask
-        _require_dask()
+        from ..study import load_study, run_study
+        from ..study._cluster import dask_client, require_dask
+        require_dask()
         study = load_study(args.study)  # a bad study fails before a cluster is started
         with dask_client(args.dask) as client:
-            summary = run_study_dask(client, study, output=args.output, resume=args.resume, force=args.force,
-                                     progress=not args.quiet, chunk_size=args.chunk_size,
-                                     shard_size=args.shard_size)
+            summary = run_study(study, output=args.output, resume=args.resume, force=args.force,
+                                progress=not args.quiet, chunk_size=args.chunk_size, client=client,
+                                shard_size=args.shard_size)
     elif getattr(args, "shard_size", None) is not None:
         from ..errors import UserError
         raise UserError("--shard-size applies to --dask runs only")

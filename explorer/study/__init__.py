@@ -2,9 +2,12 @@
 
 ``load_study(path_or_dict)`` validates a study; ``sample_variants`` / ``Sampler`` generate its
 variants; ``run_study(study, output=..., resume=..., force=...)`` is what ``explorer run`` calls;
-``run_study_dask(client, study, ...)`` runs it on a Dask cluster, one HDF5 shard per task;
 ``run_optimize(study, output=...)`` is what ``explorer optimize`` calls: a pymoo search over a
-study's ``[optimize]`` parameters, one batch solve per generation, into the same results layout;
+study's ``[optimize]`` parameters, one batch solve per generation, into the same results layout. Both
+take ``client=`` (a ``dask.distributed.Client``) to run on a Dask cluster: a study one HDF5 shard per
+task (``run_study_dask(client, study)`` is the same call), an optimisation each generation split over
+the workers. Module graph: ``_run`` → ``_dask`` → ``_cluster``/``_output``; ``_optimize`` →
+``_cluster``/``_designs``/``_output``; no runner imports another's private names;
 ``recompute_metrics(path, band=...)`` redoes the gait metrics of a results file without re-solving;
 ``sensitivity(path)`` and ``tolerance_summary(path)`` say which dimensions matter (SALib's global
 indices from the samples in a results file); ``tolerance(mechanism, target=0.99)`` finds the spread at

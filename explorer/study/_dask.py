@@ -1,7 +1,7 @@
 """Running a study on a Dask cluster: one task per shard, one HDF5 file per shard, stitched at the end.
 
-``run_study_dask(client, study, output=...)`` is :func:`~explorer.study.run_study` for a
-``dask.distributed.Client`` (a ``LocalCluster`` on a laptop, a scheduler started by hand or by
+``run_study(study, client=client)`` (or ``run_study_dask(client, study, output=...)``, the same call)
+runs a study on a ``dask.distributed.Client`` (a ``LocalCluster`` on a laptop, a scheduler started by hand or by
 dask-jobqueue on HPC): the study is cut into shards (contiguous variant ranges, see
 :func:`explorer.store._shards.plan_shards`), each task solves its shard with the same Numba kernels
 in chunks and writes its own shard file (temporary name, then rename), and the client stitches the
@@ -21,112 +21,38 @@ one single-threaded worker per core (``dask worker ADDRESS --nworkers N --nthrea
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
 import sys
 import time
-import tomllib
-from functools import lru_cache
 from pathlib import Path
 
-import numpy as np
-
-from ..errors import UserError
-from ..kernels import STATUS_NAMES
+from ..errors import UserError, signals_held
 from ..store._lock import OutputLock
 from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch,
                              write_shard)
-from ..store._write import FILE_STATUS_NAMES, FORMAT, fingerprint_diff
+from ..store._write import FORMAT, fingerprint_diff
 from ._chunk import chunk_solver
-from ._run import RunSummary, _state, results_path, signals_held, validate_study
+from ._cluster import (INSTALL_HINT, Recipe, check_client, dask_client, one_thread, require_dask, token, warm, warm_everywhere,
+                       worker_threads)
+from ._output import RunSummary, _state, results_path, status_counts, validate_study
 from ._spec import Study, load_study
 
-INSTALL_HINT = 'pip install "explorer[dask]"'
-
-
-def _require_dask():
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        raise UserError(f"--dask needs Dask, which is not installed: {INSTALL_HINT}") from None
-    return distributed
+# the names this module had before the Dask plumbing moved to ._cluster (benchmarks, older callers)
+_require_dask, _Recipe, _one_thread, _warm, _warm_everywhere, _worker_threads, _token = (
+    require_dask, Recipe, one_thread, warm, warm_everywhere, worker_threads, token)
+__all__ = ["INSTALL_HINT", "dask_client", "run_study_dask"]
 
 
 # -- the work of one task ---------------------------------------------------------------------------
-class _Recipe:
-    """A picklable description of a validated study (a Study holds a Mechanism, which does not
-    pickle): its fields and the mechanism's TOML text, rebuilt once per worker process."""
-
-    def __init__(self, study: Study):
-        from dataclasses import fields
-        self.fields = tuple((f.name, getattr(study, f.name)) for f in fields(study) if f.name != "_mech")
-        self.mechanism_text = study.mechanism_text()
-        self.mechanism_source = study.mech.source
-        # everything the fields decide, as text (a field may hold arrays, which == does not compare)
-        self.key = (study.fingerprint(), json.dumps(study.as_dict(), sort_keys=True), self.mechanism_text)
-
-    def __hash__(self):
-        return hash(self.key)
-
-    def __eq__(self, other):
-        return isinstance(other, _Recipe) and self.key == other.key
-
-    def study(self) -> Study:
-        return _rebuild(self)
-
-
-@lru_cache(maxsize=4)
-def _rebuild(recipe: _Recipe) -> Study:
-    from ..mechanism import mechanism_from_dict
-    mech = mechanism_from_dict(tomllib.loads(recipe.mechanism_text), recipe.mechanism_source)
-    return Study(**dict(recipe.fields), _mech=mech)
-
-
 def _solver(study: Study):
     """solve(a, b) → (lengths, crank, geometry, batch, metrics) for variants [a, b): the one chunk runner."""
     return chunk_solver(study)
 
 
-def _one_thread() -> int | None:
-    """A task runs on one Numba thread: Dask already runs one task per worker thread (per core).
-    Returns the calling thread's Numba thread count before (None without Numba)."""
-    try:
-        import numba
-        before = numba.get_num_threads()
-        numba.set_num_threads(1)
-        return before
-    except (ImportError, ValueError):
-        return None
-
-
-def _warm(recipe: _Recipe, restore: bool = False) -> float:
-    """Compile or load every kernel the study uses (two variants); returns the seconds it took.
-
-    restore : give the calling thread back its Numba thread count afterwards (the client: a later
-    ``run_study`` or ``simulate_batch`` in the same process must use every core again).
-    """
-    t0 = time.perf_counter()
-    before = _one_thread()
-    try:
-        study = recipe.study()
-        if study.optimize is not None:  # an optimiser's designs are not sampled: warm up on the nominal
-            from ._chunk import design_solver
-            from ._optimize import designs_from_x, nominal_x
-            design_solver(study)(*designs_from_x(study, np.vstack([nominal_x(study)] * 2)))
-        else:
-            _solver(study)(0, min(2, study.n_variants))
-    finally:
-        if restore and before is not None:
-            import numba
-            numba.set_num_threads(before)
-    return time.perf_counter() - t0
-
-
-def _shard_task(recipe: _Recipe, folder: str, plan: ShardPlan, i: int) -> dict:
+def _shard_task(recipe: Recipe, folder: str, plan: ShardPlan, i: int) -> dict:
     """Solve and write shard ``i`` (a Dask task). Returns what the client reports."""
     t0 = time.perf_counter()
-    _one_thread()
+    one_thread()
     study = recipe.study()
     wrote = write_shard(folder, plan, i, study, _solver(study))
     a, b = plan.range(i)
@@ -156,11 +82,8 @@ def run_study_dask(client, study=None, output=None, resume: bool = False, force:
     with :func:`~explorer.store.open_results` like any other. Raises
     :class:`~explorer.errors.UserError` for a bad study, an existing file, or a failed shard.
     """
-    distributed = _require_dask()
     t0 = time.perf_counter()
-    if not isinstance(client, distributed.Client):
-        raise UserError(f"run_study_dask: expected a dask.distributed.Client as the first argument, "
-                        f"got {type(client).__name__}")
+    distributed = check_client(client, "run_study_dask")
     study = load_study(study)
     out = results_path(study, output, resume, force, shard_size=shard_size, chunk_size=chunk_size)
     validate_study(study)
@@ -180,7 +103,7 @@ def _run_dask_locked(client, distributed, study, out, resume, force, shard_size,
             if kind == "complete":  # sharded or not: the results are there
                 from ..store import open_results
                 with open_results(out) as r:
-                    counts = _counts(r.file["status"][...])
+                    counts = status_counts(r.file["status"][...])
                 return RunSummary(out, study.name, study.n_variants, study.steps, 0, counts,
                                   time.perf_counter() - t0, resumed=True, already_complete=True)
             raise UserError(f"{out}: {kind}; pass --force to overwrite it")
@@ -200,7 +123,7 @@ def _run_dask_locked(client, distributed, study, out, resume, force, shard_size,
         why = fingerprint_diff(json.loads(old.fingerprint), json.loads(study.fingerprint()))
         raise UserError(f"{folder}: holds shards of a different run ({why}); pass --force to start over")
 
-    workers = _worker_threads(client)
+    workers = worker_threads(client)
     if old is not None:
         plan, resumed = old, True  # a resumed run keeps its layout
         clean_folder(folder)  # leftovers of killed tasks
@@ -216,11 +139,11 @@ def _run_dask_locked(client, distributed, study, out, resume, force, shard_size,
     # -- fan out
     ran = 0
     if pending:
-        recipe = _Recipe(study)
-        _warm_everywhere(client, recipe)
+        recipe = Recipe(study)
+        warm_everywhere(client, recipe)
         bar = _progress_bar(progress, sum(_size(plan, i) for i in pending) * study.steps, study.name)
         folder_abs = str(folder.resolve())
-        futures = [client.submit(_shard_task, recipe, folder_abs, plan, i, key=f"explorer-shard-{i}-{_token()}",
+        futures = [client.submit(_shard_task, recipe, folder_abs, plan, i, key=f"explorer-shard-{i}-{token()}",
                                  pure=False, retries=retries) for i in pending]
         try:
             for fut in distributed.as_completed(futures):
@@ -259,7 +182,7 @@ def _run_dask_locked(client, distributed, study, out, resume, force, shard_size,
     clean_folder(folder)  # temporary files of attempts that died (their shards were redone)
     from ..store import open_results
     with open_results(out) as r:
-        counts = _counts(r.file["status"][...])
+        counts = status_counts(r.file["status"][...])
     return RunSummary(out, study.name, study.n_variants, study.steps, ran, counts, time.perf_counter() - t0,
                       resumed=resumed)
 
@@ -267,11 +190,6 @@ def _run_dask_locked(client, distributed, study, out, resume, force, shard_size,
 def _size(plan: ShardPlan, i: int) -> int:
     a, b = plan.range(i)
     return b - a
-
-
-def _token() -> str:
-    import uuid
-    return uuid.uuid4().hex[:12]
 
 
 def _existing(out: Path, study: Study) -> str:
@@ -294,21 +212,6 @@ def _existing(out: Path, study: Study) -> str:
 def _is_sharded(out: Path) -> bool:
     from ..store import probe
     return probe(out)["sharded"]
-
-
-def _counts(codes: np.ndarray) -> dict:
-    counts = {name: 0 for code, name in sorted(STATUS_NAMES.items())}
-    for c, n in zip(*np.unique(codes, return_counts=True)):
-        counts[FILE_STATUS_NAMES.get(int(c), f"code {int(c)}")] = int(n)
-    return counts
-
-
-def _worker_threads(client) -> int:
-    try:
-        info = client.scheduler_info()
-        return max(1, sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values()))
-    except Exception:
-        return 1
 
 
 #: Longest wait, seconds, for the shards being worked on when a run stops (about one shard's time).
@@ -334,78 +237,9 @@ def _stop(client, futures, distributed) -> None:
         pass
 
 
-def _warm_everywhere(client, recipe: _Recipe) -> None:
-    """Compile or load the study's kernels here, then on each host's first worker (one host at a
-    time), then on the other workers together: no two processes ever write the Numba cache at once."""
-    _warm(recipe, restore=True)
-    workers = client.scheduler_info().get("workers", {})
-    by_host: dict[str, list[str]] = {}
-    for addr, w in workers.items():
-        by_host.setdefault(str(w.get("host", addr)), []).append(addr)
-    firsts = [ws[0] for ws in by_host.values()]
-    rest = [a for ws in by_host.values() for a in ws[1:]]
-    def on(addrs):  # a task pinned to each worker (a task thread, not the worker's event loop)
-        return [client.submit(_warm, recipe, workers=[a], allow_other_workers=False, pure=False,
-                              key=f"explorer-warm-{_token()}") for a in addrs]
-
-    try:
-        for addr in firsts:
-            client.gather(on([addr]))
-        if rest:
-            client.gather(on(rest))
-    except Exception as exc:
-        # a worker that cannot even load the kernels: say so now rather than through every task
-        msg = " ".join(str(exc).split())[:300]
-        raise UserError(f"a Dask worker could not load explorer's kernels ({type(exc).__name__}: {msg}); "
-                        f"is explorer installed on the workers?") from None
-
-
 def _progress_bar(progress: bool, total: int, name: str):
     if not progress or not total or not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
         return None
     from tqdm import tqdm
     return tqdm(total=total, unit="cfg", unit_scale=True, desc=name, file=sys.stderr, smoothing=0.1,
                 dynamic_ncols=True, leave=False)
-
-
-# -- clusters for the CLI -----------------------------------------------------------------------------
-@contextlib.contextmanager
-def dask_client(spec: str):
-    """A Client for ``--dask SPEC``: ``local:N`` (a LocalCluster of N single-threaded worker
-    processes; ``local`` alone: one per core), a scheduler file (``*.json``, as written by
-    ``dask scheduler --scheduler-file`` or dask-jobqueue), or a scheduler address
-    (``tcp://host:8786``). The cluster it starts is closed on exit; a remote one is left running."""
-    _require_dask()
-    import logging
-
-    from distributed import Client, LocalCluster
-    spec = str(spec).strip()
-    if spec == "local" or spec.startswith("local:"):
-        n_text = spec[6:] if spec.startswith("local:") else str(os.cpu_count() or 1)
-        try:
-            n = int(n_text)
-            if n < 1:
-                raise ValueError
-        except ValueError:
-            raise UserError(f"--dask {spec}: expected local:N with N ≥ 1 worker processes") from None
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                          silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
-            yield client
-        return
-    try:
-        if spec.endswith(".json"):
-            if not Path(spec).is_file():
-                raise UserError(f"--dask {spec}: no such scheduler file")
-            client = Client(scheduler_file=spec, timeout="20s")
-        else:
-            client = Client(spec, timeout="20s")
-    except UserError:
-        raise
-    except (OSError, TimeoutError, ValueError) as exc:
-        msg = " ".join(str(exc).split())[:200]
-        raise UserError(f"--dask {spec}: cannot connect to a Dask scheduler ({msg}); give its address "
-                        f"(tcp://host:8786), a scheduler file (.json), or local:N") from None
-    try:
-        yield client
-    finally:
-        client.close()

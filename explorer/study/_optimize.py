@@ -35,8 +35,10 @@ from ..store import Results
 from ..store._lock import OutputLock
 from ..store._write import ResultsWriter
 from ._chunk import design_solver
+from ._cluster import Recipe, check_client, one_thread, warm_everywhere, worker_threads
+from ._designs import designs_from_x, nominal_x, stored_x
 from ._objectives import objective_matrix
-from ._run import _counts, _state, results_path, validate_study
+from ._output import _counts, _state, results_path, validate_study
 from ._spec import Study, load_study
 
 
@@ -102,44 +104,6 @@ class OptimizeSummary:
         return "\n".join(lines)
 
     __str__ = text
-
-
-# -- designs ------------------------------------------------------------------------------------------
-def designs_from_x(study: Study, X: np.ndarray):
-    """(lengths (n, n_links), crank (n,), geometry (n, g)) of designs X (n, k), one column per
-    ``study.optimize.parameters`` (values in model units, set exactly: the file stores X bitwise)."""
-    mech = study.mech
-    names = study.optimize.parameters
-    n = X.shape[0]
-    lengths = np.broadcast_to(mech.lengths, (n, len(mech.links))).copy()
-    crank = np.full(n, float(mech.crank.radius) if mech.crank is not None else np.nan)
-    nominal = mech.parameters()
-    geo = study.geometry_names
-    geometry = np.empty((n, len(geo)))
-    for c, name in enumerate(geo):
-        geometry[:, c] = nominal[name]
-    index = {p: i for i, p in enumerate(mech.link_names)}
-    for j, p in enumerate(names):
-        if p == "crank":
-            crank[:] = X[:, j]
-        elif p in index:
-            lengths[:, index[p]] = X[:, j]
-        else:
-            geometry[:, geo.index(p)] = X[:, j]
-    return lengths, crank, geometry
-
-
-def stored_x(df, study: Study) -> np.ndarray:
-    """The designs (n, k) of a results frame's rows, one column per searched parameter."""
-    return np.column_stack([df[p].to_numpy(dtype=np.float64) for p in study.optimize.parameters])
-
-
-def nominal_x(study: Study) -> np.ndarray:
-    """The nominal design's parameters (k,), clipped into the bounds."""
-    nominal = study.mech.parameters()
-    opt = study.optimize
-    x = np.array([nominal[p] for p in opt.parameters])
-    return np.clip(x, opt.lower, opt.upper)
 
 
 def _initial(study: Study) -> np.ndarray:
@@ -212,18 +176,16 @@ def _concat(parts):
 
 def _design_task(recipe, lengths, crank, geometry):
     """A Dask task: solve some designs of a generation on one Numba thread."""
-    from ._dask import _one_thread
-    _one_thread()
+    one_thread()
     study = recipe.study()
     return design_solver(study)(lengths, crank, geometry)
 
 
 def _dask_evaluator(client, study: Study):
     """Evaluate a generation by splitting its designs over the cluster's worker threads."""
-    from ._dask import _Recipe, _warm_everywhere, _worker_threads
-    recipe = _Recipe(study)
-    _warm_everywhere(client, recipe)
-    workers = max(1, _worker_threads(client))
+    recipe = Recipe(study)
+    warm_everywhere(client, recipe)
+    workers = max(1, worker_threads(client))
     [recipe_f] = client.scatter([recipe], broadcast=True)
 
     def evaluate(lengths, crank, geometry):
@@ -253,6 +215,8 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
     from .._extras import require
     t0 = time.perf_counter()
     require("pymoo", "explorer optimize")  # before a results file is created
+    if client is not None:
+        check_client(client, "run_optimize")
     study = load_study(study)
     if study.optimize is None:
         raise UserError(f"{study.source}: no [optimize] table; `explorer optimize` needs one (see `explorer optimize "

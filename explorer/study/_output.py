@@ -1,0 +1,194 @@
+"""What every runner shares (``run_study``, its Dask form, ``run_optimize``): the checks made before a
+results file is touched (:func:`validate_study`, :func:`results_path`), the state of an existing file,
+the status counts, and :class:`RunSummary`. A module of its own so that the runners depend on it and
+not on each other."""
+
+from __future__ import annotations
+
+import os
+import stat
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError, where
+from ..kernels import STATUS_NAMES, assemble
+from ..store._write import FILE_STATUS_NAMES
+from ._chunk import compute_study_metrics, metric_plan
+from ._spec import Study
+
+
+@dataclass
+class RunSummary:
+    """What :func:`run_study` did. ``os.fspath(summary)`` is the results path, so the summary can be
+    passed wherever a path is expected (``explorer.open_results(run_study(...))``).
+
+    path : the results file. name : the study's name. n_variants : N. steps : crank samples.
+    ran : variants solved by this call (fewer than N after ``resume``; 0 if the file was complete).
+    counts : {status name: variants} over the whole file (they add up to N).
+    wall_s : seconds this call took. resumed : True if it finished an existing file.
+    already_complete : True if ``resume`` found the file complete and did nothing.
+    """
+
+    path: Path
+    name: str
+    n_variants: int
+    steps: int
+    ran: int
+    counts: dict = field(default_factory=dict)
+    wall_s: float = 0.0
+    resumed: bool = False
+    already_complete: bool = False
+
+    def __fspath__(self) -> str:
+        return str(self.path)
+
+    @property
+    def configurations_per_s(self) -> float:
+        """Crank configurations solved per second by this call (ran × steps / wall_s)."""
+        return self.ran * self.steps / self.wall_s if self.wall_s > 0 else float("nan")
+
+    @property
+    def failed(self) -> int:
+        return sum(n for k, n in self.counts.items() if k != "ok")
+
+    def text(self) -> str:
+        """The multi-line summary ``explorer run`` prints."""
+        if self.already_complete:
+            return f"{self.path}: already complete ({self.n_variants:,} variants); nothing to do"
+        ok = self.counts.get("ok", 0)
+        reasons = ", ".join(f"{k} {n:,}" for k, n in self.counts.items() if k != "ok" and n)
+        verb = "resumed" if self.resumed else "ran"
+        lines = [
+            f"{self.name}: {verb} {self.ran:,} of {self.n_variants:,} variants × {self.steps} steps → {self.path}",
+            f"  ok {ok:,}, failed {self.failed:,}" + (f" ({reasons})" if reasons else ""),
+            f"  wall {self.wall_s:.2f} s, {_rate(self.configurations_per_s)} configurations/s",
+        ]
+        return "\n".join(lines)
+
+    __str__ = text
+
+
+def _rate(x: float) -> str:
+    if not x == x:
+        return "n/a"
+    return f"{x / 1e6:.2f} M" if x >= 1e5 else f"{x:,.0f}"
+
+
+def validate_study(study: Study, optimizing: bool = False) -> None:
+    """The checks every runner makes before touching a file: the study is of the runner's kind
+    (sampled, or an ``[optimize]`` search when ``optimizing``), the nominal design assembles at the
+    first sample, and the metrics and band the scene asks for are valid (UserError otherwise)."""
+    if study.optimize is not None and not optimizing:
+        raise UserError(f"{study.source}: has an [optimize] table; run it with `explorer optimize {study.source}` "
+                        f"(explorer run samples a [perturb] study)")
+    mech = study.mech
+    _, fail = assemble(mech)
+    if fail is not None:
+        raise UserError(f"{where(study.source, 'study.mechanism')}: the nominal design cannot be assembled at "
+                        f"θ = 0: {fail.message}")
+    if metric_plan(study)[2]:
+        z = np.zeros((1, study.steps, 2))
+        crank = np.array([mech.crank.radius if mech.crank is not None else 1.0])
+        try:
+            compute_study_metrics(study, z, z, np.ones(1, dtype=np.int8), mech.lengths[None, :], crank)
+        except UserError as exc:
+            raise UserError(f"{where(study.source, 'scene.metrics')}: {exc}") from None
+
+
+def results_path(study, output, resume: bool, force: bool, **sizes) -> Path:
+    """The results file of a run (``output``, else the study's ``[output] path``) after the checks every
+    runner shares: --resume and --force exclude each other, the path is not a folder, and each of
+    ``sizes`` (e.g. chunk_size=…) is None or a whole number of variants ≥ 1."""
+    out = Path(output if output is not None else study.output)
+    if resume and force:
+        raise UserError("--resume and --force exclude each other: resume finishes a file, force starts it over")
+    if out.is_dir():
+        raise UserError(f"{out}: is a folder; the results path must be a file such as {out / (study.name + '.h5')}")
+    inputs = [("study", study.source), ("mechanism", study.mechanism_path)]
+    for what, src in inputs:
+        if src and Path(src).is_file() and _same_file(out, Path(src)):
+            raise UserError(f"{out}: is the run's own {what} file; choose another results path with -o")
+    if force and (out.exists() or out.is_symlink()):
+        _check_overwritable(out)
+    _check_disk_space(study, out)
+    for name, v in sizes.items():
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
+            raise UserError(f"{name.replace('_', ' ')}: expected an integer ≥ 1 (variants), got {v!r}")
+    return out
+
+
+def estimated_bytes(study) -> int:
+    """An upper estimate of a study's results file: every stored series uncompressed (compression
+    saves 15-20 %), plus the per-variant columns."""
+    per_variant = study.n_series * study.steps * 2 * 8 + (len(study.mech.links) + len(study.geometry_names) + 32) * 8
+    return study.n_variants * per_variant
+
+
+def _check_disk_space(study, out: Path) -> None:
+    """Refuse, before anything is written, a study whose results would not fit on the disk."""
+    import shutil
+    folder = out.parent if str(out.parent) else Path(".")
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return
+    need = int(estimated_bytes(study) * 1.05)  # uncompressed, plus HDF5's own overhead: an upper bound
+    if need > free:
+        raise UserError(f"{out}: the study would write up to {_size(need)} and {folder} has {_size(free)} free; "
+                        f"store fewer vertices, steps or variants (or use another disk)")
+
+
+def _size(n: int) -> str:
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:,.1f} {unit}"
+    return f"{n} bytes"
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        if a.exists():
+            return os.path.samefile(a, b)
+        return a.resolve() == b.resolve()
+    except OSError:
+        return False
+
+
+def _check_overwritable(out: Path) -> None:
+    """--force replaces explorer results files only: not a study, a mechanism, a device, anything else."""
+    from ..store import FORMAT, probe
+    if out.is_symlink() or not stat.S_ISREG(out.stat().st_mode):
+        raise UserError(f"{out}: is not a regular file; --force overwrites explorer results files only")
+    info = probe(out)
+    if info["error"] == "in use":
+        raise UserError(f"{out}: is open in another process; wait for it to finish")
+    if info["format"] != FORMAT:
+        raise UserError(f"{out}: is not an explorer results file; --force overwrites explorer results files only "
+                        f"(move it away or choose another output with -o)")
+
+
+def status_counts(codes: np.ndarray) -> dict:
+    """{status name: variants} of a ``/status`` column, every kernel status listed."""
+    counts = {name: 0 for code, name in sorted(STATUS_NAMES.items())}
+    for c, n in zip(*np.unique(codes, return_counts=True)):
+        counts[FILE_STATUS_NAMES.get(int(c), f"code {int(c)}")] = int(n)
+    return counts
+
+
+def _counts(writer) -> dict:
+    """:func:`status_counts` of an open :class:`~explorer.store.ResultsWriter`."""
+    return status_counts(writer.f["status"][...])
+
+
+def _state(path: Path) -> str:
+    from ..store import probe
+    info = probe(path)
+    if info["error"] is not None:
+        return "unreadable or in use"
+    if info["format"] is None:
+        return "not an explorer results file"
+    return "complete" if info["complete"] else "incomplete"
