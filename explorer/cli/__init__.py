@@ -8,7 +8,10 @@ callable taking the parsed ``argparse.Namespace`` and returning an exit code or 
         p.add_argument("results")
         p.set_defaults(func=run)
 
-Modules are discovered automatically (no edit here needed to add a verb). A
+Modules are discovered automatically (no edit here needed to add a verb). A verb formats what
+library calls return (``Results.rank``, ``Results.row``, ``explorer.study.sensitivity``, ...), so a
+Python user can get every figure it prints; shared argument types (``--top``, ``--weights``, a
+variant, whole numbers) are in :mod:`._args` and the one table formatter in :mod:`._format`. A
 :class:`~explorer.errors.UserError` raised by a verb is printed as one line on stderr
 (``explorer: error: ...``) and the exit code is 2; argparse usage errors also exit with 2.
 """

@@ -8,7 +8,7 @@ from pathlib import Path
 
 
 def register(sub) -> None:
-    from ._show import add_variant_arguments
+    from ._args import add_variant_arguments
 
     p = sub.add_parser(
         "export", help="export one variant: its parts for a laser cutter (SVG, DXF), its trajectories (CSV), or "
@@ -60,7 +60,7 @@ def run(args) -> int:
     from ..store import FILE_STATUS_NAMES
     from ..view._export import (check_export_path, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                                 variant_design)
-    from ._show import chosen_variant, parse_variant
+    from ._args import chosen_variant, parse_variant
 
     chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format FORMAT -o PATH")
     fmt = _format(args)

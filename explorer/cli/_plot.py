@@ -99,7 +99,7 @@ def run(args) -> int:
         raise UserError(f"--dpi: expected a number from 1 to 1200, got {args.dpi!r}")
     with open_results(args.results) as res:
         if mode == "top":
-            from ._rank import parse_weights
+            from ._args import parse_weights
             weights = parse_weights(args.weights) if args.weights is not None else None
             fig = plot_top(res, by=args.by, top=5 if args.top is None else args.top, where=args.where,
                            weights=weights, include_screened=args.include_screened)

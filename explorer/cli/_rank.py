@@ -3,11 +3,15 @@
 
 from __future__ import annotations
 
-import json
-import math
 import sys
 
-FORMATS = ("table", "csv", "json")
+from ._args import FORMATS, parse_list, parse_top, parse_weights
+from ._format import better, format_column, format_floats, json_records
+from ._format import frame_table as format_table
+
+# the argument types and the table formatter are shared (._args, ._format); their names stay importable here
+__all__ = ["FORMATS", "better", "format_column", "format_floats", "format_table", "json_records", "parse_list",
+           "parse_top", "parse_weights", "register", "run", "screen_line", "short_screen"]
 
 
 def register(sub) -> None:
@@ -57,117 +61,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-# -- argument parsing ------------------------------------------------------------------------------------
-def parse_top(text) -> int | None:
-    from ..errors import UserError
-    try:
-        n = int(str(text).strip())
-    except ValueError:
-        n = -1
-    if n < 0:
-        raise UserError(f"--top: expected a whole number >= 0 (0 = all), got {text!r}")
-    return None if n == 0 else n
-
-
-def parse_list(text, option: str) -> list[str]:
-    from ..errors import UserError
-    names = [s.strip() for s in str(text).split(",") if s.strip()]
-    if not names:
-        raise UserError(f"{option}: expected comma-separated names, got {text!r}")
-    return names
-
-
-def parse_weights(text) -> dict[str, float]:
-    from ..errors import UserError
-    out: dict[str, float] = {}
-    for item in parse_list(text, "--weights"):
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        try:
-            w = float(value) if sep else math.nan
-        except ValueError:
-            w = math.nan
-        if not name or not math.isfinite(w):
-            raise UserError(f"--weights: expected METRIC=WEIGHT pairs such as stride=2,flatness=1, got {item!r}")
-        if name in out:
-            raise UserError(f"--weights: {name!r} is given twice")
-        out[name] = w
-    return out
-
-
 # -- formatting --------------------------------------------------------------------------------------------
-def format_floats(values, sig: int = 5) -> list[str]:
-    """Strings for one column of floats: a common number of decimals giving ``sig`` significant digits
-    to the largest magnitude (scientific notation for very small or large columns); NaN → "-"."""
-    finite = [abs(v) for v in values if v is not None and math.isfinite(v)]
-    big = max(finite) if finite else 0.0
-    if big and (big < 1e-4 or big >= 1e9):
-        return ["-" if v is None or not math.isfinite(v) else f"{v:.{sig - 1}e}" for v in values]
-    dec = 0 if big == 0 else min(8, max(0, sig - 1 - math.floor(math.log10(big))))
-    return ["-" if v is None or not math.isfinite(v) else f"{v:.{dec}f}" for v in values]
-
-
-def format_column(series) -> tuple[list[str], bool]:
-    """(cells, right-aligned) for one frame column."""
-    import pandas as pd
-    if pd.api.types.is_bool_dtype(series):
-        return [str(bool(v)).lower() for v in series], False
-    if pd.api.types.is_integer_dtype(series):
-        return [f"{int(v)}" for v in series], True
-    if pd.api.types.is_float_dtype(series):
-        return format_floats([float(v) for v in series]), True
-    return ["-" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v).replace(" ", "_")
-            for v in series.astype(object)], False
-
-
-def format_table(df, columns: list[str]) -> str:
-    """An aligned plain-text table of ``columns`` of ``df`` (two spaces between columns, no spaces in cells)."""
-    cols = []
-    for c in columns:
-        cells, right = format_column(df[c])
-        width = max([len(c)] + [len(s) for s in cells])
-        cols.append(([c] + cells, width, right))
-    lines = []
-    for i in range(len(df) + 1):
-        parts = [(cells[i].rjust(w) if right else cells[i].ljust(w)) for cells, w, right in cols]
-        lines.append("  ".join(parts).rstrip())
-    return "\n".join(lines)
-
-
-def better(direction: str) -> str:
-    """The words for a ranking direction ("max" or "min")."""
-    return "higher is better" if direction == "max" else "lower is better"
-
-
-def json_records(df) -> str:
-    """The rows of ``df`` as a JSON list of objects; NaN → null, exact float repr."""
-    import numpy as np
-    import pandas as pd
-    cols = list(df.columns)
-    data = []
-    arrays = []
-    for c in cols:
-        s = df[c]
-        if isinstance(s.dtype, pd.CategoricalDtype):
-            s = s.astype(object)
-        arrays.append(s.to_numpy(dtype=object))
-    for i in range(len(df)):
-        row = {}
-        for c, a in zip(cols, arrays):
-            v = a[i]
-            if isinstance(v, (np.integer,)):
-                v = int(v)
-            elif isinstance(v, (float, np.floating)):
-                v = None if not math.isfinite(float(v)) else float(v)
-            elif isinstance(v, np.bool_):
-                v = bool(v)
-            elif v is not None and not isinstance(v, (str, int, bool)):
-                v = str(v)
-            row[str(c)] = v
-        data.append(row)
-    return json.dumps(data, indent=1, allow_nan=False)
-
-
 def short_screen(reason) -> str:
     """"pass", or the names of the failed checks ("toggle,foot-whip"), for a table cell."""
     reason = str(reason)

@@ -9,7 +9,11 @@ from __future__ import annotations
 import math
 import sys
 
-FORMATS = ("table", "csv", "json")
+from ._args import FORMATS, check_format, whole
+from ._format import aligned, json_records
+
+_whole = whole  # the name this module had (explorer tolerance used it)
+__all__ = ["FORMATS", "aligned", "index_table", "register", "run", "summary_lines"]
 
 
 def register(sub) -> None:
@@ -51,17 +55,6 @@ def register(sub) -> None:
                    help="bootstrap resamples of the intervals (default: rbd-fast 50, sobol 100, delta 20, pawn 10)")
     p.add_argument("--seed", metavar="N", default="1", help="seed of the bootstrap resamples (default 1)")
     p.set_defaults(func=run)
-
-
-def _whole(text, option: str, lo: int) -> int:
-    from ..errors import UserError
-    try:
-        n = int(str(text).strip())
-    except ValueError:
-        n = lo - 1
-    if n < lo:
-        raise UserError(f"{option}: expected a whole number >= {lo}, got {text!r}")
-    return n
 
 
 def _pct(p: float) -> str:
@@ -114,18 +107,6 @@ def summary_lines(summary, indices) -> list[str]:
     return lines
 
 
-def aligned(table, columns, left=()) -> str:
-    """A plain-text table of string (or number) cells: the ``left`` columns left-aligned, the others
-    (numbers) right-aligned under right-aligned headers."""
-    cells = {c: [str(v) for v in table[c]] for c in columns}
-    widths = {c: max([len(c)] + [len(v) for v in cells[c]]) for c in columns}
-    def line(values):
-        return "  ".join(v.ljust(widths[c]) if c in left else v.rjust(widths[c]) for c, v in zip(columns, values)).rstrip()
-    rows = [line(columns)]
-    rows += [line([cells[c][i] for c in columns]) for i in range(len(table))]
-    return "\n".join(rows)
-
-
 def index_table(indices, top: int | None) -> str:
     """Per output, its parameters largest first (by the method's main index), every index side by side."""
     import pandas as pd
@@ -164,32 +145,30 @@ def index_table(indices, top: int | None) -> str:
 
 
 def run(args) -> int:
-    from ..errors import UserError
-    from ..store import open_results
-    from ..study._sensitivity import INDEX_NAMES, sensitivity_frame, summary_frame, _from_results
-    from ._rank import json_records
     from .._extras import require
+    from ..store import open_results
+    from ..study import sensitivity, tolerance_summary
+    from ..study._sensitivity import INDEX_NAMES
 
     require("SALib", "explorer sensitivity")
-    if args.format not in FORMATS:
-        raise UserError(f"--format: expected one of {', '.join(FORMATS)}, got {args.format!r}")
-    top = _whole(args.top, "--top", 0) if args.top is not None else 5
+    check_format(args.format)
+    top = whole(args.top, "--top", 0) if args.top is not None else 5
     top = None if top == 0 else top
-    resamples = _whole(args.resamples, "--resamples", 2) if args.resamples is not None else None
-    seed = _whole(args.seed, "--seed", 0)
+    resamples = whole(args.resamples, "--resamples", 2) if args.resamples is not None else None
+    seed = whole(args.seed, "--seed", 0)
     plot_path = None
     if args.plot is not None:
         from ..view import FIGURE_FORMATS
         from ..view._plots import check_output
         plot_path = check_output(args.plot, FIGURE_FORMATS)
 
+    # the library calls a Python user makes; this verb only formats what they return
     with open_results(args.results) as res:
-        df, params, design, source, stored = _from_results(res)
+        indices = sensitivity(res, metrics=args.metrics, method=args.method, resamples=resamples, seed=seed)
+        summary = tolerance_summary(res, indices=indices)
         n_total = res.n_variants
         spread = res.study.get("perturb", {}).get("spread")
-    indices = sensitivity_frame(df, params, design=design, metrics=args.metrics, method=args.method,
-                                resamples=resamples, seed=seed, source=source, stored=stored)
-    summary = summary_frame(df, indices)
+    source, design, params = indices.attrs["source"], indices.attrs["design"], list(indices.attrs["parameters"])
 
     if plot_path is not None:
         from ..view import plot_indices, save_figure

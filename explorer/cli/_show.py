@@ -5,6 +5,11 @@ from __future__ import annotations
 
 import math
 
+from ._args import add_variant_arguments, chosen_variant, parse_variant
+from ._format import better, table
+
+__all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run"]
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -22,68 +27,17 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def add_variant_arguments(p, how: str) -> None:
-    """The variant of a RESULTS file, given either as the positional VARIANT or as --variant N (``how``
-    says which other verbs take it that way); read back with :func:`chosen_variant`."""
-    p.add_argument("variant", metavar="VARIANT", nargs="?", default=None,
-                   help="variant number, 0 to N-1 (0 = the nominal design); or give it as --variant N")
-    p.add_argument("--variant", dest="variant_opt", metavar="N", default=None, help=f"the variant, {how}")
-
-
-def chosen_variant(args, verb: str, usage: str) -> str:
-    """The variant text of :func:`add_variant_arguments` (UserError if both forms differ, or neither is given)."""
-    from ..errors import UserError
-    if args.variant is not None and args.variant_opt is not None and args.variant != args.variant_opt:
-        raise UserError(f"{verb}: two different variants given ({args.variant} and --variant {args.variant_opt})")
-    chosen = args.variant if args.variant is not None else args.variant_opt
-    if chosen is None:
-        raise UserError(f"{verb}: say which variant: {usage}")
-    return chosen
-
-
-def parse_variant(text, n: int, filename) -> int:
-    from ..errors import UserError
-    try:
-        v = int(str(text).strip())
-    except ValueError:
-        raise UserError(f"{filename}: variant: expected a whole number from 0 to {n - 1}, got {text!r}") from None
-    if not 0 <= v < n:
-        raise UserError(f"{filename}: variant {v} out of range (0 to {n - 1}: {n:,} variants)")
-    return v
-
-
-def metric_rank(values, ok, v: int, direction: str) -> tuple[int, int] | None:
-    """(rank, pool): 1 + the number of ok variants with a strictly better finite value, and the number of
-    ok variants with a finite value; None if variant ``v`` is not among them."""
-    import numpy as np
-    pool = ok & np.isfinite(values)
-    if not pool[v]:
-        return None
-    x = values[pool]
-    better = (x > values[v]) if direction == "max" else (x < values[v])
-    return int(better.sum()) + 1, int(pool.sum())
-
-
-def _table(rows, right) -> list[str]:
-    widths = [max(len(r[j]) for r in rows) for j in range(len(rows[0]))]
-    out = []
-    for r in rows:
-        cells = [(c.rjust(w) if rj else c.ljust(w)) for c, w, rj in zip(r, widths, right)]
-        out.append("  ".join(cells).rstrip())
-    return out
-
-
-def parameter_lines(mech, row, nominal: dict, perturbed) -> list[str]:
+def parameter_lines(mech, design: dict, nominal: dict, perturbed) -> list[str]:
     """The table of every design parameter of ``mech`` (``Mechanism.parameters`` order): the variant's
-    value (its frame ``row``'s column, or the nominal where the file stores none), the nominal
-    (``nominal``, else the mechanism's), the change, and the change in % of the nominal (a length) or
-    of the mechanism's size (a coordinate, whose own value is no scale)."""
+    value (``design``, :meth:`Results.design`), the nominal (``nominal``, else the mechanism's), the
+    change, and the change in % of the nominal (a length) or of the mechanism's size (a coordinate,
+    whose own value is no scale)."""
     size = mech.size
     pivots = {f"{v}.{a}" for v in mech.fixed for a in "xy"}
     rows = [("parameter", "value", "nominal", "change", "change %")]
     for p, mech_nominal in mech.parameters().items():
         nom = float(nominal.get(p, mech_nominal))
-        val = float(row[p]) if p in row.index else nom
+        val = float(design.get(p, nom))
         d = val - nom
         if mech.parameter_kind(p) == "length":
             pct = f"{100.0 * d / nom:+.3f} %" if nom else "-"
@@ -94,24 +48,24 @@ def parameter_lines(mech, row, nominal: dict, perturbed) -> list[str]:
         if p not in perturbed:
             label += " (fixed)"
         rows.append((label, f"{val:.4f}", f"{nom:.4f}", f"{d:+.4f}", pct))
-    out = _table(rows, (False, True, True, True, True))
+    out = table(rows, (False, True, True, True, True))
     if any(mech.parameter_kind(p) == "coordinate" for p in mech.parameters()):
         out.append(f"(a coordinate's change is in % of the mechanism's size, {size:g}: its longest link or body span)")
     return out
 
 
 def run(args) -> int:
-    import numpy as np
-
     from ..gait import METRICS, metric
     from ..store import open_results
 
-    from ..errors import UserError
     chosen = chosen_variant(args, "show", "explorer show RESULTS VARIANT (or --variant N)")
-    with open_results(args.results) as res:
+    with open_results(args.results) as res:  # every figure below is a Results call; this verb only formats
         name, n = res.filename, res.n_variants
         v = parse_variant(chosen, n, name)
         df = res.frame()
+        row = res.row(v, frame=df)
+        design = res.design(v, frame=df)
+        ranks = res.metric_ranks(v, frame=df)
         nominal = res.nominal
         perturbed = set(res.perturbed)
         mech = res.mechanism
@@ -119,8 +73,7 @@ def run(args) -> int:
         band = res.band
         metrics = list(res.metric_names)
         res_operating = res.study.get("operating") if res.study.get("scene", {}).get("forces") else None
-    row = df.iloc[v]
-    ok = (df["status_code"] == 0).to_numpy()
+        n_ok = res.status_counts().get("ok", 0)
 
     # variant 0 is the nominal of a sampled study; of an optimisation only when the nominal lies in its bounds
     is_nominal = v == 0 and all(row[p] == nominal[p] for p in perturbed if p in row.index and p in nominal)
@@ -146,7 +99,7 @@ def run(args) -> int:
 
     # -- design parameters -------------------------------------------------------------------------------
     lines.append("")
-    lines += parameter_lines(mech, row, nominal, perturbed)
+    lines += parameter_lines(mech, design, nominal, perturbed)
 
     # -- metrics -----------------------------------------------------------------------------------------
     if "screen" in row.index and status == "ok":
@@ -159,28 +112,21 @@ def run(args) -> int:
                      if mech.crank is None else f"no gait metrics stored; compute them with `explorer metrics {name}`")
         print("\n".join(lines))
         return 0
-    n_ok = int(ok.sum())
     rows = [("metric", "value", "unit", f"rank among the {n_ok:,} ok variants (band {band:g})")]
     order = [m for m in METRICS if m in metrics] + [m for m in metrics if m not in METRICS]
     for m in order:
-        values = df[m].to_numpy(dtype=np.float64)
-        x = values[v]
+        x = float(row[m])
         info = metric(m)
-        direction = info.direction if info is not None else None
         if status != "ok":
             text, rank = "-", "- (variant failed)" if status != "not-run" else "- (not run)"
         elif not math.isfinite(x):
             text, rank = "nan", "- (undefined for this variant)"
         else:
             text = f"{x:.6g}"
-            r = metric_rank(values, ok, v, direction) if direction else None
-            if r is None:
-                rank = "-"
-            else:
-                how = "higher is better" if direction == "max" else "lower is better"
-                rank = f"rank {r[0]:,} of {r[1]:,} ({how})"
+            r = ranks.get(m)
+            rank = "-" if r is None else f"rank {r[0]:,} of {r[1]:,} ({better(info.direction)})"
         rows.append((m, text, info.unit if info is not None else "", rank))
-    lines += _table(rows, (False, True, False, False))
+    lines += table(rows, (False, True, False, False))
     op = res_operating
     if op:
         lines.append("")

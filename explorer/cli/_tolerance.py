@@ -61,7 +61,7 @@ def _pct(s: float) -> str:
 
 def run(args) -> int:
     from ..errors import UserError
-    from ._sensitivity import _whole
+    from ._args import whole as _whole
     from ..study import tolerance
 
     if args.format not in FORMATS:

@@ -217,23 +217,32 @@ class Results:
         from ._variants import check_variant
         return check_variant(self, variant)
 
-    def row(self, variant) -> "pd.Series":
+    def row(self, variant, frame: "pd.DataFrame | None" = None) -> "pd.Series":
         """Variant ``variant``'s row of :meth:`frame` as a pandas Series indexed by column name (the
         same values and units: lengths, crank and coordinates in model units, ``fail_theta`` in rad,
         each metric in its unit, see ``/metrics/<name>`` attr units). UserError for a variant
-        outside 0 … N−1."""
+        outside 0 … N−1. ``frame``: a :meth:`frame` already read, to reuse."""
         from ._variants import check_variant, variant_row
-        return variant_row(self, check_variant(self, variant))
+        return variant_row(self, check_variant(self, variant), frame)
 
-    def design(self, variant) -> dict[str, float]:
+    def design(self, variant, frame: "pd.DataFrame | None" = None) -> dict[str, float]:
         """The design parameters of variant ``variant`` as {parameter name: value}: every parameter
         of ``mechanism.parameters()``, in its order (link lengths by link name, ``crank`` the crank
         radius, ``crank.x``/``crank.y`` its centre, ``V.x``/``V.y`` each ground pivot and body joint),
         all in model units; the variant's stored value where the study perturbed the parameter, the
         nominal elsewhere. ``mechanism.with_parameters(r.design(v))`` is the variant's mechanism
-        (:meth:`variant_mechanism` also sets its assembly guess). UserError for a variant outside 0 … N−1."""
+        (:meth:`variant_mechanism` also sets its assembly guess). UserError for a variant outside 0 … N−1.
+        ``frame``: a :meth:`frame` already read, to reuse."""
         from ._variants import variant_design
-        return variant_design(self, variant)
+        return variant_design(self, variant, frame)
+
+    def metric_ranks(self, variant, frame: "pd.DataFrame | None" = None) -> dict:
+        """{metric: (rank, pool) or None} of variant ``variant`` for every stored metric: its rank among
+        the pool of ok variants with a finite value (1 = best in the metric's natural direction, ties
+        share a rank), None when it is not in the pool (failed, not run, NaN). What ``explorer show``
+        prints. ``frame``: a :meth:`frame` already read, to reuse."""
+        from ._variants import metric_ranks
+        return metric_ranks(self, variant, frame)
 
     def variant_mechanism(self, variant) -> Mechanism:
         """The :class:`~explorer.mechanism.Mechanism` of variant ``variant`` (its design on the

@@ -59,11 +59,12 @@ def check_variant(results, variant) -> int:
     return v
 
 
-def variant_row(results, variant: int) -> "pd.Series":
-    """Row ``variant`` of the results' frame (``frame()``), as a Series indexed by column name."""
+def variant_row(results, variant: int, frame: "pd.DataFrame | None" = None) -> "pd.Series":
+    """Row ``variant`` of the results' frame (``frame()``, or ``frame`` already read), as a Series
+    indexed by column name."""
     # the whole frame, as Results.frame() gives it (a one-row read types some cells differently: None
     # for NaN in an object column)
-    df = results.frame()
+    df = results.frame() if frame is None else frame
     if "variant" in df.columns:
         rows = df[df["variant"] == variant]
         if len(rows):
@@ -71,17 +72,43 @@ def variant_row(results, variant: int) -> "pd.Series":
     return df.iloc[variant]
 
 
-def variant_design(results, variant, row: "pd.Series | None" = None) -> dict[str, float]:
+def variant_design(results, variant, frame: "pd.DataFrame | None" = None) -> dict[str, float]:
     """{parameter name: value} of every design parameter of the results' mechanism
     (``mechanism.parameters()`` order: link lengths, the crank radius, ``crank.x``/``crank.y``, the
     ground pivots' and body joints' coordinates; model units): the variant's stored value where the
-    file stores the parameter, else the nominal (the file's stored nominal, else the mechanism's)."""
+    file stores the parameter, else the nominal (the file's stored nominal, else the mechanism's).
+    ``frame``: the results' frame already read."""
     v = check_variant(results, variant)
-    row = variant_row(results, v) if row is None else row
+    row = variant_row(results, v, frame)
     nominal = getattr(results, "nominal", {}) or {}
     out = {}
     for name, mech_nominal in results.mechanism.parameters().items():
         out[name] = float(row[name]) if name in row.index else float(nominal.get(name, mech_nominal))
+    return out
+
+
+def metric_ranks(results, variant, frame: "pd.DataFrame | None" = None) -> dict:
+    """{metric: (rank, pool) or None} for every stored metric (``metric_names``) of variant
+    ``variant``: pool = the ok variants with a finite value, rank = 1 + those strictly better in the
+    metric's natural direction (ties share a rank); None when the variant is not in the pool (failed,
+    not run, NaN) or the metric has no direction. ``frame``: the results' frame already read."""
+    import numpy as np
+
+    from ..gait import metric
+    v = check_variant(results, variant)
+    df = results.frame() if frame is None else frame
+    ok = (df["status_code"] == 0).to_numpy()
+    out = {}
+    for m in getattr(results, "metric_names", ()):
+        info = metric(m)
+        values = df[m].to_numpy(dtype=np.float64)
+        pool = ok & np.isfinite(values)
+        if info is None or not pool[v]:
+            out[m] = None
+            continue
+        x = values[pool]
+        better = (x > values[v]) if info.direction == "max" else (x < values[v])
+        out[m] = (int(better.sum()) + 1, int(pool.sum()))
     return out
 
 
