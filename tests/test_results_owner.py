@@ -114,3 +114,21 @@ def test_run_optimize_at_the_top_level():
     from explorer.study import run_optimize
     assert explorer.run_optimize is run_optimize
     assert "run_optimize" in explorer.__all__ and "run_optimize" in dir(explorer)
+
+
+def test_metric_ranks_count_the_strictly_better_ok_variants(results_path):
+    from explorer.gait import DIRECTIONS
+    with open_results(results_path) as r:
+        df = r.frame()
+        ok = (df["status_code"] == 0).to_numpy()
+        for v in range(r.n_variants):
+            ranks = r.metric_ranks(v, frame=df)
+            assert set(ranks) == set(r.metric_names)
+            for m, got in ranks.items():
+                x = df[m].to_numpy(dtype=float)
+                pool = ok & np.isfinite(x)
+                if not pool[v]:
+                    assert got is None
+                    continue
+                better = x[pool] > x[v] if DIRECTIONS[m] == "max" else x[pool] < x[v]
+                assert got == (int(better.sum()) + 1, int(pool.sum()))
