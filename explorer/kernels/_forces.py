@@ -34,8 +34,10 @@ is the largest of its members' forces (the one that sets the pin's shear).
 Walker: the leg is replicated on one crankshaft (``_legs``); the load W = load·g rests on the
 contact foot (the lowest, ties to the lower leg) as the walker scene's force F = (u·drag·W, W), u
 the walking direction. Everything is linear in the load, so each sample of the base leg is solved
-for three right-hand sides (inertia and weight; a unit force on the foot along x; along y) and every
-leg at every crank angle is read off them: a plain leg at θ + φ_j, a mirrored leg as the mirror
+for inertia and weight, and, only where some leg reads that sample while it carries the load, for
+the load alone (F as a plain leg carries it, the mirror image (−F_x, F_y) as a mirrored leg does;
+one solve when there is no drag); every leg at every crank angle is read off these sums: a plain
+leg at θ + φ_j, a mirrored leg as the mirror
 image of the base leg at π − θ − φ_j with the mirrored load, its torque negated (it is driven
 backwards). A phase between two samples is interpolated linearly. The motor torque, the frame force
 and the pin reactions are those of the whole walker; the stored joint forces are leg 0's.
@@ -641,7 +643,15 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                 Pu[v, 0] = Pi[u, v, 0]
                 Pu[v, 1] = Pi[u, v, 1]
             for rhs in range(nrhs):
-                if rhs > 0 and not (vis_plain[u] or vis_mirr[u]):
+                if rhs == 2 and vis_plain[u] and vis_mirr[u] and Fx == 0.0:  # the same load either way
+                    tau[u, 2] = tau[u, 1]
+                    frame[u, 2, 0] = frame[u, 1, 0]
+                    frame[u, 2, 1] = frame[u, 1, 1]
+                    for kk in range(K):
+                        Fi[u, 2, kk, 0] = Fi[u, 1, kk, 0]
+                        Fi[u, 2, kk, 1] = Fi[u, 1, kk, 1]
+                    continue
+                if (rhs == 1 and not vis_plain[u]) or (rhs == 2 and not vis_mirr[u]):
                     tau[u, rhs] = 0.0
                     frame[u, rhs, 0] = 0.0
                     frame[u, rhs, 1] = 0.0
@@ -703,9 +713,12 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                             Fu[body_inc[bi, 0], 1] -= dpy
                             Fu[body_inc[bi, 1], 0] -= dqx
                             Fu[body_inc[bi, 1], 1] -= dqy
-                else:  # a unit force on the foot from the ground: an external generalised force
-                    R[foot, rhs - 1] -= 1.0
-                    Fu[foot_inc, rhs - 1] += 1.0
+                else:  # the load on the foot from the ground, as a plain leg (1) or a mirrored one (2) carries it
+                    ex = Fx if rhs == 1 else -Fx
+                    R[foot, 0] -= ex
+                    R[foot, 1] -= Fy
+                    Fu[foot_inc, 0] += ex
+                    Fu[foot_inc, 1] += Fy
                 blk = reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
                                 dist_b, att, uvi, dinc, ainc, Pu, R, Fu, loc, M, x, g, lam_d, lam_a)
                 if blk >= 0:
@@ -745,6 +758,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
         if grid:  # each leg reads whole samples: every pin's peak over the states each sample is read in
             for u in range(S):
                 for st_ in range(3):
+                    # the weights of right-hand sides 1 (loaded, plain) and 2 (loaded, mirrored)
                     if st_ == 0:
                         if not vis_free[u]:
                             continue
@@ -753,13 +767,13 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                     elif st_ == 1:
                         if not vis_plain[u]:
                             continue
-                        lx = Fx
-                        ly = Fy
+                        lx = 1.0
+                        ly = 0.0
                     else:
                         if not vis_mirr[u]:
                             continue
-                        lx = -Fx
-                        ly = Fy
+                        lx = 0.0
+                        ly = 1.0
                     poison = 0.0  # 0, or NaN once a force is not finite (inf·0 and NaN·0 are NaN)
                     for kk in range(K):
                         fx = Fi[u, 0, kk, 0]
@@ -788,9 +802,11 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                 w0 = 1.0 - f
                 lx = 0.0
                 ly = 0.0
-                if C[k] == j and nrhs == 3:
-                    lx = -Fx if mirrored[j] else Fx
-                    ly = Fy
+                if C[k] == j and nrhs == 3:  # this leg carries the load: right-hand side 2 if mirrored, else 1
+                    if mirrored[j]:
+                        ly = 1.0
+                    else:
+                        lx = 1.0
                 tj = w0 * (tau[u0, 0] + lx * tau[u0, 1] + ly * tau[u0, 2])
                 fjx = w0 * (frame[u0, 0, 0] + lx * frame[u0, 1, 0] + ly * frame[u0, 2, 0])
                 fjy = w0 * (frame[u0, 0, 1] + lx * frame[u0, 1, 1] + ly * frame[u0, 2, 1])
