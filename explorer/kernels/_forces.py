@@ -52,7 +52,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..plan import ATTACH, DYAD, GENERAL, Plan
+from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, Plan
+from ._blocks import _general_jacobian, _general_rates, general_sign, lu_solve
 from ._legs import ground_contact, leg_feet, leg_samples
 
 # The general-block solver the kinematics / reactions call (``_kin_general`` / ``_rea_general``); the
@@ -74,7 +75,8 @@ class ForceTables:
 
     blk_kind (nb,) DYAD / ATTACH / GENERAL; blk_v (nb,) a dyad's vertex; blk_e (nb, 2) a dyad's two
     distance rows (an attach block's attach row in column 0); blk_t (nb,) an attach block's attach row; blk_vp (nb+1,) / blk_verts: a general
-    block's vertices; blk_rp (nb+1,) / row_kind (0 distance, 1 attach), row_id, row_axis: its rows.
+    block's vertices; blk_rp (nb+1,) / gen_rows (n_rows, 2): its rows as the kernels write them
+    (``_inputs.Topology.gen_rows``: ROW_DIST / ROW_ATTACH_X / ROW_ATTACH_Y, equation).
     dist_a, dist_b (n_dist,), att (n_att, 3) (joint, p, q) vertex indices.
     Incidences (one per member and pin): inc_vertex (K,); dinc (n_dist, 2) the incidence of each
     distance row's a and b ends; ainc (n_att, 3) of each attach row's j, p, q; body_pq (n_bodies, 2)
@@ -90,9 +92,7 @@ class ForceTables:
     blk_vp: np.ndarray
     blk_verts: np.ndarray
     blk_rp: np.ndarray
-    row_kind: np.ndarray
-    row_id: np.ndarray
-    row_axis: np.ndarray
+    gen_rows: np.ndarray
     dist_a: np.ndarray
     dist_b: np.ndarray
     att: np.ndarray
@@ -143,7 +143,7 @@ def force_tables(mech, plan: Plan) -> ForceTables:
     blk_v = np.array([b.vertices[0] for b in plan.blocks], dtype=np.int64)
     blk_e = np.full((nblk, 2), -1, dtype=np.int64)
     blk_t = np.full(nblk, -1, dtype=np.int64)
-    vp, verts, rp, rk, rid, rax = [0], [], [0], [], [], []
+    vp, verts, rp, rows = [0], [], [0], []
     for k, b in enumerate(plan.blocks):
         if b.kind == DYAD:
             blk_e[k] = b.links
@@ -153,54 +153,19 @@ def force_tables(mech, plan: Plan) -> ForceTables:
         else:
             verts += list(b.vertices)
             for e in b.links:
-                rk.append(0), rid.append(e), rax.append(0)
+                rows.append((ROW_DIST, e))
             for t, axis in b.attaches:
-                rk.append(1), rid.append(t), rax.append(axis)
+                rows.append((ROW_ATTACH_X if axis == 0 else ROW_ATTACH_Y, t))
         vp.append(len(verts))
-        rp.append(len(rk))
+        rp.append(len(rows))
     i64 = lambda x: np.asarray(x, dtype=np.int64)  # noqa: E731
-    return ForceTables(blk_kind, blk_v, blk_e, blk_t, i64(vp), i64(verts), i64(rp), i64(rk), i64(rid), i64(rax),
+    return ForceTables(blk_kind, blk_v, blk_e, blk_t, i64(vp), i64(verts), i64(rp), i64(rows).reshape(-1, 2),
                        i64(plan.link_a), i64(plan.link_b), i64(plan.attach).reshape(-1, 3), i64([v for _, v in inc]),
                        dinc, ainc, body_pq, body_inc, int(plan.tip), tip_inc, fixed, fixed_inc, foot, foot_inc,
                        tuple(m for m, _ in inc))
 
 
 # -- small dense solves -------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def _gauss(M, x, n, tol):
-    """Solve M[:n, :n] y = x[:n] in place (x ← y) by elimination with partial pivoting; False if a pivot
-    is below ``tol`` (singular)."""
-    for c in range(n):
-        p = c
-        best = abs(M[c, c])
-        for r in range(c + 1, n):
-            if abs(M[r, c]) > best:
-                best = abs(M[r, c])
-                p = r
-        if not (best > tol):
-            return False
-        if p != c:
-            for k in range(n):
-                t = M[c, k]
-                M[c, k] = M[p, k]
-                M[p, k] = t
-            t = x[c]
-            x[c] = x[p]
-            x[p] = t
-        for r in range(c + 1, n):
-            f = M[r, c] / M[c, c]
-            if f != 0.0:
-                for k in range(c, n):
-                    M[r, k] -= f * M[c, k]
-                x[r] -= f * x[c]
-    for c in range(n - 1, -1, -1):
-        s = x[c]
-        for k in range(c + 1, n):
-            s -= M[c, k] * x[k]
-        x[c] = s / M[c, c]
-    return True
-
-
 @njit(cache=True, nogil=True)
 def _row_grad(kind, rid, axis, v, P, dist_a, dist_b, att, uv, out):
     """out[:] = ∂c/∂q_v (2,) of constraint row (kind, rid, axis) with respect to vertex v's position."""
@@ -240,57 +205,40 @@ def _row_grad(kind, rid, axis, v, P, dist_a, dist_b, att, uv, out):
                 out[1] -= u
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _dyad_frame(k, blk_v, blk_e, dist_a, dist_b, P):
+    """Dyad block k: its vertex v, distance rows e1, e2, parents a1, a2, the columns c_i = P_v − P_a_i of
+    its (transposed) Jacobian and their determinant."""
+    v = blk_v[k]
+    e1 = blk_e[k, 0]
+    e2 = blk_e[k, 1]
+    a1 = dist_a[e1] if dist_b[e1] == v else dist_b[e1]
+    a2 = dist_a[e2] if dist_b[e2] == v else dist_b[e2]
+    c1x = P[v, 0] - P[a1, 0]
+    c1y = P[v, 1] - P[a1, 1]
+    c2x = P[v, 0] - P[a2, 0]
+    c2y = P[v, 1] - P[a2, 1]
+    return v, e1, e2, a1, a2, c1x, c1y, c2x, c2y, c1x * c2y - c1y * c2x
+
+
 @njit(cache=True, nogil=True)
-def _kin_general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, V, A, loc, M, x,
-                 g):
-    """Velocities and accelerations of general block k's vertices (see :func:`_kinematics`); False if its
-    Jacobian is singular."""
-    v0 = blk_vp[k]
-    n = 2 * (blk_vp[k + 1] - v0)
-    for i in range(v0, blk_vp[k + 1]):
-        loc[blk_verts[i]] = i - v0
-    for which in range(2):
-        X = V if which == 0 else A
-        for r in range(n):
-            kind_r = row_kind[blk_rp[k] + r]
-            rid = row_id[blk_rp[k] + r]
-            ax = row_axis[blk_rp[k] + r]
-            for c in range(n):
-                M[r, c] = 0.0
-            s = 0.0
-            for end in range(3):
-                if kind_r == 0:
-                    if end == 2:
-                        break
-                    vv = dist_a[rid] if end == 0 else dist_b[rid]
-                else:
-                    vv = att[rid, end]
-                _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
-                if loc[vv] >= 0:
-                    M[r, 2 * loc[vv]] += g[0]
-                    M[r, 2 * loc[vv] + 1] += g[1]
-                else:
-                    s -= g[0] * X[vv, 0] + g[1] * X[vv, 1]
-            if which == 1 and kind_r == 0:
-                a = dist_a[rid]
-                b = dist_b[rid]
-                dx = V[b, 0] - V[a, 0]
-                dy = V[b, 1] - V[a, 1]
-                s -= dx * dx + dy * dy
-            x[r] = s
-        if not _gauss(M, x, n, 0.0):
-            for i in range(v0, blk_vp[k + 1]):
-                loc[blk_verts[i]] = -1
-            return False
-        for i in range(v0, blk_vp[k + 1]):
-            X[blk_verts[i], 0] = x[2 * (i - v0)]
-            X[blk_verts[i], 1] = x[2 * (i - v0) + 1]
-    for i in range(v0, blk_vp[k + 1]):
-        loc[blk_verts[i]] = -1
+def _kin_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, V, A, loc, M, x, g):
+    """Velocities and accelerations of general block k's vertices (see :func:`_kinematics`), by the
+    kernels' own general-block rates (``_blocks._general_rates``); False if its Jacobian is singular."""
+    verts = blk_verts[blk_vp[k]:blk_vp[k + 1]]
+    rows = gen_rows[blk_rp[k]:blk_rp[k + 1]]
+    if general_sign(P, verts, rows, dist_a, dist_b, att, uv, loc, M, x) == 0.0:
+        return False
+    for j in range(verts.shape[0]):
+        loc[verts[j]] = j
+    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, loc, M, x, False)
+    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, loc, M, x, True)
+    for j in range(verts.shape[0]):
+        loc[verts[j]] = -1
     return True
 
 
-def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv,
+def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv,
                 tip, cx, cy, P, V, A, loc, M, x, g, tol):
     """Velocities V and accelerations A (nv, 2), per radian and per radian², of every vertex at one
     sample from its positions P, block by block in plan order; fixed vertices still, the tip on its
@@ -307,16 +255,7 @@ def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_
     for k in range(tb_kind.shape[0]):
         kind = tb_kind[k]
         if kind == 0:  # DYAD: c_i · (V_v − V_a_i) = 0, c_i · (A_v − A_a_i) + |V_v − V_a_i|² = 0
-            v = blk_v[k]
-            e1 = blk_e[k, 0]
-            e2 = blk_e[k, 1]
-            a1 = dist_a[e1] if dist_b[e1] == v else dist_b[e1]
-            a2 = dist_a[e2] if dist_b[e2] == v else dist_b[e2]
-            c1x = P[v, 0] - P[a1, 0]
-            c1y = P[v, 1] - P[a1, 1]
-            c2x = P[v, 0] - P[a2, 0]
-            c2y = P[v, 1] - P[a2, 1]
-            det = c1x * c2y - c1y * c2x
+            v, e1, e2, a1, a2, c1x, c1y, c2x, c2y, det = _dyad_frame(k, blk_v, blk_e, dist_a, dist_b, P)
             if not (abs(det) > tol * (abs(c1x * c2y) + abs(c1y * c2x))):
                 return k
             r1 = c1x * V[a1, 0] + c1y * V[a1, 1]
@@ -347,68 +286,60 @@ def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_
             A[j, 0] = A[p, 0] + u * gx - w * gy
             A[j, 1] = A[p, 1] + u * gy + w * gx
         else:  # GENERAL: J_bb x_b = −J_bk x_k (− the quadratic terms of the distance rows, for A)
-            if not general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, V,
+            if not general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, V,
                                 A, loc, M, x, g):
                 return k
     return -1
 
 
 @njit(cache=True, nogil=True)
-def _rea_general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, R, loc, M, x, g,
-                 lam_d, lam_a):
-    """The multipliers of general block k (see :func:`_reactions`); False if its Jacobian is singular."""
-    v0 = blk_vp[k]
-    n = 2 * (blk_vp[k + 1] - v0)
-    for i in range(v0, blk_vp[k + 1]):
-        loc[blk_verts[i]] = i - v0
-    for r in range(n):
-        for c in range(n):
-            M[c, r] = 0.0
-    for r in range(n):  # column r of the transposed block Jacobian
-        kind_r = row_kind[blk_rp[k] + r]
-        rid = row_id[blk_rp[k] + r]
-        ax = row_axis[blk_rp[k] + r]
-        for end in range(3):
-            if kind_r == 0 and end == 2:
-                break
-            vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
-            if loc[vv] >= 0:
-                _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
-                M[2 * loc[vv], r] += g[0]
-                M[2 * loc[vv] + 1, r] += g[1]
-    for i in range(v0, blk_vp[k + 1]):
-        x[2 * (i - v0)] = R[blk_verts[i], 0]
-        x[2 * (i - v0) + 1] = R[blk_verts[i], 1]
-    ok = _gauss(M, x, n, 0.0)
-    if not ok:
-        for i in range(v0, blk_vp[k + 1]):
-            loc[blk_verts[i]] = -1
+def _rea_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, R, loc, M, x, g, lam_d, lam_a):
+    """The multipliers of general block k (see :func:`_reactions`): its Jacobian (the kernels' own,
+    ``_blocks._general_jacobian``) transposed; False if it is singular."""
+    verts = blk_verts[blk_vp[k]:blk_vp[k + 1]]
+    rows = gen_rows[blk_rp[k]:blk_rp[k + 1]]
+    nb = verts.shape[0]
+    n = 2 * nb
+    for j in range(nb):
+        loc[verts[j]] = j
+    _general_jacobian(P, verts, rows, dist_a, dist_b, att, uv, loc, M)
+    for r in range(n):  # transpose in place
+        for c in range(r + 1, n):
+            t = M[r, c]
+            M[r, c] = M[c, r]
+            M[c, r] = t
+    for j in range(nb):
+        x[2 * j] = R[verts[j], 0]
+        x[2 * j + 1] = R[verts[j], 1]
+        R[verts[j], 0] = 0.0
+        R[verts[j], 1] = 0.0
+    if lu_solve(M, x, n) == 0.0:
+        for j in range(nb):
+            loc[verts[j]] = -1
         return False
-    for i in range(v0, blk_vp[k + 1]):
-        R[blk_verts[i], 0] = 0.0
-        R[blk_verts[i], 1] = 0.0
     for r in range(n):  # store the multipliers; push what the rows put on vertices outside the block
-        kind_r = row_kind[blk_rp[k] + r]
-        rid = row_id[blk_rp[k] + r]
-        ax = row_axis[blk_rp[k] + r]
+        kind_r = 0 if rows[r, 0] == ROW_DIST else 1
+        rid = rows[r, 1]
+        ax = 0 if rows[r, 0] != ROW_ATTACH_Y else 1
+        lam = 2.0 * x[r] if kind_r == 0 else x[r]  # the kernels' distance row is |p_b − p_a|² − d², ours half that
         if kind_r == 0:
-            lam_d[rid] = x[r]
+            lam_d[rid] = lam
         else:
-            lam_a[rid, ax] = x[r]
+            lam_a[rid, ax] = lam
         for end in range(3):
             if kind_r == 0 and end == 2:
                 break
             vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
             if loc[vv] < 0:
                 _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
-                R[vv, 0] -= g[0] * x[r]
-                R[vv, 1] -= g[1] * x[r]
-    for i in range(v0, blk_vp[k + 1]):
-        loc[blk_verts[i]] = -1
+                R[vv, 0] -= g[0] * lam
+                R[vv, 1] -= g[1] * lam
+    for j in range(nb):
+        loc[verts[j]] = -1
     return True
 
 
-def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att,
+def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att,
                uv, dinc, ainc, P, R, F, loc, M, x, g, lam_d, lam_a):
     """Solve Φ_qᵀ λ = R block by block in reverse plan order. R (nv, 2) comes holding M q̈ − Q (with the
     members' own parts already written, negated, into the incidence forces F (K, 2)); it leaves holding
@@ -419,16 +350,7 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_i
     for k in range(nblk - 1, -1, -1):
         kind = tb_kind[k]
         if kind == 0:
-            v = blk_v[k]
-            e1 = blk_e[k, 0]
-            e2 = blk_e[k, 1]
-            a1 = dist_a[e1] if dist_b[e1] == v else dist_b[e1]
-            a2 = dist_a[e2] if dist_b[e2] == v else dist_b[e2]
-            c1x = P[v, 0] - P[a1, 0]
-            c1y = P[v, 1] - P[a1, 1]
-            c2x = P[v, 0] - P[a2, 0]
-            c2y = P[v, 1] - P[a2, 1]
-            det = c1x * c2y - c1y * c2x
+            v, e1, e2, a1, a2, c1x, c1y, c2x, c2y, det = _dyad_frame(k, blk_v, blk_e, dist_a, dist_b, P)
             if det == 0.0:
                 return k
             rx = R[v, 0]
@@ -464,7 +386,7 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_i
             R[q, 0] += atx
             R[q, 1] += aty
         else:
-            if not general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, R,
+            if not general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, R,
                            loc, M, x, g, lam_d, lam_a):
                 return k
     # every row's pull on its member's pins: (∂c/∂q_v)ᵀ λ
@@ -493,7 +415,7 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_i
     return -1
 
 
-def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b,
+def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b,
                    att, inc_vertex, dinc, ainc, body_pq, body_inc, body_mass, tip, tip_inc, fixed, fixed_inc, foot,
                    foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight, out_idx,
                    P, status, uv, center, link_mass, body_cuv, body_J, crank_mass,
@@ -577,7 +499,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
             for v in range(nv):
                 Pu[v, 0] = Pi[u, v, 0]
                 Pu[v, 1] = Pi[u, v, 1]
-            blk = kinematics(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
+            blk = kinematics(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a,
                              dist_b, att, uvi, tip, cx, cy, Pu, Vu, Au, loc, M, x, g, 1e-13)
             for v in range(nv):
                 V[u, v, 0] = Vu[v, 0]
@@ -719,7 +641,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
                     R[foot, 1] -= Fy
                     Fu[foot_inc, 0] += ex
                     Fu[foot_inc, 1] += Fy
-                blk = reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a,
+                blk = reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a,
                                 dist_b, att, uvi, dinc, ainc, Pu, R, Fu, loc, M, x, g, lam_d, lam_a)
                 if blk >= 0:
                     code[i] = F_SINGULAR
@@ -866,7 +788,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, row_kind, 
 
 
 @njit(cache=True, nogil=True)
-def _no_general(k, blk_vp, blk_verts, blk_rp, row_kind, row_id, row_axis, dist_a, dist_b, att, uv, P, X, loc, M, x, g,
+def _no_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, X, loc, M, x, g,
                 *rest):
     return False
 
@@ -993,7 +915,7 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
     code = np.zeros(N, dtype=np.int64)
     csample = np.full(N, -1, dtype=np.int64)
     cblock = np.full(N, -1, dtype=np.int64)
-    shared = (tb.blk_kind, tb.blk_v, tb.blk_e, tb.blk_vp, tb.blk_verts, tb.blk_rp, tb.row_kind, tb.row_id, tb.row_axis,
+    shared = (tb.blk_kind, tb.blk_v, tb.blk_e, tb.blk_vp, tb.blk_verts, tb.blk_rp, tb.gen_rows,
               tb.dist_a, tb.dist_b, tb.att, tb.inc_vertex, tb.dinc, tb.ainc, tb.body_pq, tb.body_inc, body_mass,
               tb.tip, tb.tip_inc, tb.fixed, tb.fixed_inc, tb.foot, tb.foot_inc, sel, base, frac, sign, mirrored,
               float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight, out_idx)
