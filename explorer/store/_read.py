@@ -118,8 +118,9 @@ class Results:
 
     @property
     def band(self) -> float:
-        """Stance band of the stored metrics: the ``band`` attribute of ``/metrics`` (set by
-        ``explorer metrics``), else the study's ``[scene] band``, else the default 0.01."""
+        """Stance band of the stored metrics: the ``band`` attribute of ``/metrics`` (set by the run
+        and by ``explorer metrics``), else the study's ``[scene] band`` (files written before the run
+        set it), else the default 0.01."""
         g = self.file.get("metrics")
         if g is not None and "band" in g.attrs:
             return float(g.attrs["band"])
