@@ -120,3 +120,22 @@ def test_bad_operating_input_is_one_line_exit_2(tmp_path, capsys, edit, key):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and key in err and str(study) in err
     assert not out.exists()
+
+
+def test_a_build_round_trips_through_its_toml():
+    """Masses, centroids, inertias, the link density and [operating] survive mechanism_toml (what export
+    --format toml writes): the design a builder exports is the one whose forces were computed."""
+    import tomllib
+
+    from explorer.mechanism import mechanism_from_dict, mechanism_toml
+    d = tomllib.loads((REPO / "explorer" / "mechanism" / "builtin" / "klann.toml").read_text())
+    d["bodies"][0].update(mass=0.3, centroid=[5.0, 0.5], inertia=0.002)
+    d["bodies"][1]["mass"] = 0.45
+    d["crank"]["mass"] = 0.1
+    d["links"][0]["mass"] = 0.05
+    d["mass"] = {"link_density": 0.2}
+    d["operating"] = {"unit": 0.01, "rpm": 20.0, "load": 3.0}
+    m = mechanism_from_dict(d, "klann-built")
+    back = mechanism_from_dict(tomllib.loads(mechanism_toml(m)), "klann-built")
+    assert back == m
+    assert back.bodies[0].centroid == (5.0, 0.5) and back.operating.load == 3.0 and back.link_density == 0.2

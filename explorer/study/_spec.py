@@ -621,31 +621,5 @@ class _Validator:
 
 
 # -- writing -------------------------------------------------------------------------------------------
-def dumps_toml(data: dict) -> str:
-    """A TOML text for a study-shaped dict (tables of strings, numbers, booleans and lists of them)."""
-    lines = []
-    for sec, table in data.items():
-        if not isinstance(table, dict):
-            lines.append(f"{sec} = {_toml_value(table)}")
-            continue
-        lines.append(f"[{sec}]")
-        lines.extend(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items())
-        lines.append("")
-    return "\n".join(lines)
-
-
-def _toml_key(k) -> str:
-    k = str(k)
-    return k if re.match(r"^[A-Za-z0-9_-]+$", k) else json.dumps(k)
-
-
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else ("inf" if v > 0 else "-inf"))
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    return json.dumps(str(v))
+# the TOML writer lives beside the loader, in explorer/mechanism/_toml.py
+from ..mechanism import dumps_toml  # noqa: E402,F401
