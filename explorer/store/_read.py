@@ -365,7 +365,7 @@ class Results:
         if "torque" not in self.file:
             raise UserError(f"{self.filename}: no motor torque stored: run the study with [scene] forces = true "
                             f"and an [operating] table")
-        v = self._check_variant(variant)
+        v = self.check_variant(variant)
         return self.file["torque"][v]
 
     @property
@@ -379,14 +379,8 @@ class Results:
         if joint not in self.force_joints:
             raise UserError(f"{self.filename}: no reaction stored for joint {joint!r} (stored: "
                             f"{', '.join(self.force_joints) or 'none; list joints in [scene] force_joints'})")
-        v = self._check_variant(variant)
+        v = self.check_variant(variant)
         return self.file["forces"][joint][v]
-
-    def _check_variant(self, variant) -> int:
-        n = self.n_variants
-        if isinstance(variant, bool) or not isinstance(variant, (int, np.integer)) or not 0 <= variant < n:
-            raise UserError(f"{self.filename}: variant must be an integer from 0 to {n - 1}, got {variant!r}")
-        return int(variant)
 
     # -- lifetime --------------------------------------------------------------------------------------
     def close(self) -> None:
