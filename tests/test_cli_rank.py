@@ -21,7 +21,7 @@ import pytest
 
 from explorer import open_results, run_study
 from explorer.cli import main
-from explorer.gait import WALKER_METRICS, DIRECTIONS, TARGET_METRICS
+from explorer.gait import DEFAULT_WEIGHTS, WALKER_METRICS, DIRECTIONS, TARGET_METRICS
 from explorer.gait import FORCE_METRICS
 from explorer.gait import METRICS as ALL_METRICS
 
@@ -317,3 +317,13 @@ def test_real_process(results):
     r = subprocess.run([sys.executable, "-m", "explorer.cli", "show", str(results), "99"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and r.stdout == "" and r.stderr.count("\n") == 1 and "out of range" in r.stderr
+
+
+@pytest.mark.parametrize("verb", ["rank", "plot"])
+def test_help_names_every_metric_of_the_default_score(verb, capsys):
+    """The --help of rank and plot names the walker score's metrics: all of DEFAULT_WEIGHTS."""
+    with pytest.raises(SystemExit):
+        main([verb, "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    for m in DEFAULT_WEIGHTS:
+        assert m in out, m

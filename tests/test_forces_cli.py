@@ -139,3 +139,4 @@ def test_a_build_round_trips_through_its_toml():
     back = mechanism_from_dict(tomllib.loads(mechanism_toml(m)), "klann-built")
     assert back == m
     assert back.bodies[0].centroid == (5.0, 0.5) and back.operating.load == 3.0 and back.link_density == 0.2
+

@@ -37,8 +37,8 @@ def register(sub) -> None:
                         "default 0 = nominal) over the turn with its mean and flywheel energy, and its stored joint "
                         "reactions, in N·m and N")
     p.add_argument("--by", metavar="METRIC", default=None,
-                   help="metric to rank by for --top (default: the score of travel, bob, body_speed_ripple and "
-                        "peak_torque, as `explorer rank`)")
+                   help="metric to rank by for --top (default: the walker score of travel, bob, body_speed_ripple, "
+                        "peak_torque and clearance, as `explorer rank`)")
     p.add_argument("--weights", metavar="M1=W1,...", default=None,
                    help="with --top: rank by a weighted score of these metrics instead")
     p.add_argument("--include-screened", action="store_true",

@@ -35,7 +35,8 @@ def register(sub) -> None:
                "explorer rank R.h5 --weights travel=2,bob=1 --format csv > best.csv")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     p.add_argument("--by", metavar="METRIC", default=None,
-                   help="metric to rank by (default: the walker score of travel, bob, body_speed_ripple, peak_torque)")
+                   help="metric to rank by (default: the walker score of travel, bob, body_speed_ripple, peak_torque and "
+                        "clearance)")
     p.add_argument("--top", metavar="N", default=None,
                    help="rows to show (default: 10 in the table, every row in csv and json; 0 = all)")
     p.add_argument("--where", metavar="EXPR", default=None,
