@@ -54,8 +54,15 @@ def main(argv=None):
             continue
         gain = (vals - v0) / abs(v0) * 100 * (1 if d == "max" else -1)  # positive = better
         best = vals[np.argmax(gain)]
-        print(f"  {name:<14} {v0:10.4g}  {best:10.4g} ({gain.max():+.1f} %)   {np.median(vals):10.4g} "
-              f"({np.median(gain):+.1f} %)   [{d}]")
+        med = float(np.median(vals))
+
+        def change(x):  # the value's own change (a reduction prints as −), and whether that is better
+            pct = (x - v0) / abs(v0) * 100
+            good = (pct > 0) == (d == "max")
+            return f"{pct:+.1f} %, {'better' if good else 'worse' if pct else 'same'}".replace("-", "−")
+
+        print(f"  {name:<14} {v0:10.4g}  {best:10.4g} ({change(best)})   {med:10.4g} ({change(med)})   "
+              f"[{'higher' if d == 'max' else 'lower'} is better]")
     return 0
 
 
