@@ -140,3 +140,45 @@ def test_a_build_round_trips_through_its_toml():
     assert back == m
     assert back.bodies[0].centroid == (5.0, 0.5) and back.operating.load == 3.0 and back.link_density == 0.2
 
+
+
+OPTIMIZE = f"""\
+[study]
+name = "fo"
+mechanism = "{MECH.as_posix()}"
+seed = 7
+steps = 36
+[optimize]
+algorithm = "nsga2"
+population = 8
+generations = 2
+objectives = ["travel", "motor_torque_peak"]
+constraints = ["pin_force_max <= 500"]
+spread = 0.03
+parameters = ["1-3", "crank"]
+[scene]
+vertices = ["7"]
+velocities = false
+forces = true
+[walker]
+drag = 0.1
+"""
+
+
+def test_a_search_on_force_metrics(tmp_path, capsys):
+    """explorer optimize takes force metrics as objectives and constraints (the one chunk runner computes
+    them with the solve), and says in one line when the study has no forces to give them."""
+    study = tmp_path / "fo.toml"
+    study.write_text(OPTIMIZE)
+    out = tmp_path / "fo.h5"
+    assert main(["optimize", str(study), "-o", str(out)]) == 0
+    with h5py.File(out) as f:
+        ok = f["status"][...] == 0
+        tau = f["torque"][...]
+        assert ok.sum() > 4
+        np.testing.assert_allclose(f["metrics/motor_torque_peak"][ok], np.abs(tau[ok]).max(axis=1), rtol=1e-12)
+    capsys.readouterr()
+    study.write_text(OPTIMIZE.replace("forces = true", "forces = false"))
+    assert main(["optimize", str(study), "-o", str(tmp_path / "no.h5")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "motor_torque_peak" in err and "forces = true" in err

@@ -491,7 +491,13 @@ def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st,
                                data.get("operating"))
     from ..gait import CHECKS
     from ._objectives import metrics_needed
-    needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check[1]))
+    needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check.inputs))
+    from ..gait import metric
+    forced = [m for m in needed if metric(m) is not None and metric(m).group == "forces"]
+    if forced and not common["forces"]:
+        raise UserError(f"{where(source, 'optimize')}: {', '.join(forced)} come from the forces effect; set "
+                        f"[scene] forces = true (with an [operating] table) to search on them")
+    needed = tuple(m for m in needed if m not in forced)  # the forces effect computes those with the solve
     metrics = common["metrics"]
     if metrics is not True:  # compute what the search needs on top of what the scene asks for
         metrics = tuple(dict.fromkeys((metrics or ()) + needed))
