@@ -170,19 +170,34 @@ def test_show_ok_variant(results, capsys):
         val, nom = row[p], nominal[p]
         assert line.split() == label.split() + [f"{val:.4f}", f"{nom:.4f}", f"{val - nom:+.4f}",
                                                 f"{100 * (val - nom) / nom:+.3f}", "%"]
-    pool = int(ok.sum())
-    assert f"rank among the {pool} ok variants (band 0.01)" in out
+    # ranks among the variants `explorer rank` ranks: ok and passing the buildability screen
+    ranked = ok & df["buildable"].to_numpy(dtype=bool) if "buildable" in df.columns else ok
+    ref = df.iloc[0]
     for m in METRICS:
         line = next(ln for ln in lines if ln.startswith(m + " "))
         x = row[m]
-        vals = df.loc[ok, m].to_numpy()
+        cells = line.split()
+        assert cells[1] == f"{x:.6g}" and cells[2] == f"{ref[m]:.6g}", line
+        assert cells[3] == f"{x - ref[m]:+.4g}", line  # the change against the nominal, then in %
+        if ref[m] != 0:
+            assert cells[4] == f"{100 * (x - ref[m]) / abs(ref[m]):+.1f}", line
+        pool_mask = ranked & np.isfinite(df[m].to_numpy(dtype=float))
+        if not ranked[v]:
+            assert "screened out" in line
+            continue
+        vals = df.loc[pool_mask, m].to_numpy()
         better = (vals > x) if DIRECTIONS[m] == "max" else (vals < x)
         r = int(better.sum()) + 1
         how = "higher is better" if DIRECTIONS[m] == "max" else "lower is better"
-        assert line.split()[1] == f"{x:.6g}", line
-        assert line.endswith(f"rank {r} of {pool} ({how})"), line
+        assert line.endswith(f"rank {r} of {int(pool_mask.sum())} ({how})"), line
+    # the walker score and its rank are those of `explorer rank` (the same set, the same score)
+    with open_results(results) as res:
+        scored = res.rank(top=None)
+    if ranked[v]:
+        s = scored[scored["variant"] == v].iloc[0]
+        assert f"walker score {s['score']:.3f}, rank {int(s['rank'])} of {len(scored)} buildable variants" in out
     # the best stride is rank 1
-    best = int(df.loc[ok].sort_values(["stride", "variant"], ascending=[False, True])["variant"].iloc[0])
+    best = int(df.loc[ranked].sort_values(["stride", "variant"], ascending=[False, True])["variant"].iloc[0])
     assert "rank 1 of" in next(ln for ln in ok_cli(capsys, "show", results, best).splitlines()
                                if ln.startswith("stride "))
     assert "(the nominal design)" in ok_cli(capsys, "show", results, 0).splitlines()[0]
@@ -327,3 +342,22 @@ def test_help_names_every_metric_of_the_default_score(verb, capsys):
     out = " ".join(capsys.readouterr().out.split())
     for m in DEFAULT_WEIGHTS:
         assert m in out, m
+
+
+def test_show_verdict_quotes_the_numbers_it_judges(results, capsys):
+    """The verdict names each score metric in which the variant is better or worse than the reference
+    (--vs), with both values, and puts it on the right side by the metric's direction."""
+    with open_results(results) as res:
+        df = res.frame()
+    ok = np.flatnonzero(df["status_code"].to_numpy() == 0)
+    v, ref = int(ok[1]), int(ok[2])
+    out = ok_cli(capsys, "show", results, v, "--vs", ref)
+    line = next(ln for ln in out.splitlines() if ln.startswith("verdict against the variant"))
+    good, bad = line.split("; worse in ")
+    for m in DEFAULT_WEIGHTS:
+        x, r = df.iloc[v][m], df.iloc[ref][m]
+        if x == r or not (np.isfinite(x) and np.isfinite(r)):
+            continue
+        text = f"{m} {x:.4g} vs {r:.4g}"
+        is_better = (x > r) == (DIRECTIONS[m] == "max")
+        assert text in (good if is_better else bad), (m, line)

@@ -122,7 +122,7 @@ def test_metric_ranks_count_the_strictly_better_ok_variants(results_path):
         df = r.frame()
         ok = (df["status_code"] == 0).to_numpy()
         for v in range(r.n_variants):
-            ranks = r.metric_ranks(v, frame=df)
+            ranks = r.metric_ranks(v, frame=df, include_screened=True)
             assert set(ranks) == set(r.metric_names)
             for m, got in ranks.items():
                 x = df[m].to_numpy(dtype=float)

@@ -17,13 +17,19 @@ def register(sub) -> None:
         description="Print one variant of a results file: every design parameter (each link length, the crank "
                     "radius and centre, the ground pivots' and body joints' coordinates) against the nominal "
                     "design (absolute change, and % of the nominal for a length or of the mechanism's size for "
-                    "a coordinate; parameters the study kept fixed are marked), each stored metric with its "
-                    "rank among the ok "
-                    "variants (1 = best in the metric's natural direction; ties share a rank), its status "
+                    "a coordinate; parameters the study kept fixed are marked), each stored metric with the "
+                    "reference design's value (--vs, default the nominal), the change, and its rank among the "
+                    "variants `explorer rank` ranks (1 = best in the metric's natural direction; ties share a "
+                    "rank), the walker score and its rank, a verdict against the reference, its status "
                     "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
                     "buildability screen (and if not, why). Variant 0 is the nominal.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     add_variant_arguments(p, "as `explorer animate` and `explorer plot --velocity` take it")
+    p.add_argument("--vs", type=int, metavar="VARIANT", default=0,
+                   help="the reference design every metric is compared with (default 0: the nominal)")
+    p.add_argument("--include-screened", action="store_true",
+                   help="rank among every ok variant, as `explorer rank --include-screened` (default: among the "
+                        "buildable ones, as `explorer rank`)")
     p.set_defaults(func=run)
 
 
@@ -54,8 +60,28 @@ def parameter_lines(mech, design: dict, nominal: dict, perturbed) -> list[str]:
     return out
 
 
+def verdict(row, ref_row, ref_label: str, names) -> str:
+    """One plain line: in which of ``names`` the variant (``row``) is better and worse than the
+    reference (``ref_row``), each with both values and the change in %."""
+    from ..gait import metric
+
+    good, bad = [], []
+    for m in names:
+        x, r = float(row[m]), float(ref_row[m])
+        if not (math.isfinite(x) and math.isfinite(r)) or x == r:
+            continue
+        up = x > r
+        pct = f" ({100.0 * (x - r) / abs(r):+.0f} %)" if r != 0 else ""
+        text = f"{m} {x:.4g} vs {r:.4g}{pct}"
+        (good if up == (metric(m).direction == "max") else bad).append(text)
+    if not good and not bad:
+        return f"verdict: the same as the {ref_label} in {', '.join(names)}"
+    return (f"verdict against the {ref_label}: better in " + ("; ".join(good) or "none")
+            + "; worse in " + ("; ".join(bad) or "none"))
+
+
 def run(args) -> int:
-    from ..gait import METRICS, metric
+    from ..gait import DEFAULT_WEIGHTS, METRICS, metric
     from ..store import open_results
 
     chosen = chosen_variant(args, "show", "explorer show RESULTS VARIANT (or --variant N)")
@@ -65,7 +91,12 @@ def run(args) -> int:
         df = res.frame()
         row = res.row(v, frame=df)
         design = res.design(v, frame=df)
-        ranks = res.metric_ranks(v, frame=df)
+        ranks = res.metric_ranks(v, frame=df, include_screened=args.include_screened)
+        ref = parse_variant(args.vs, n, name)
+        ref_row = res.row(ref, frame=df)
+        # the walker score, as `explorer rank` computes it, where the file stores every metric it weighs
+        scored = (res.rank(top=None, include_screened=args.include_screened)
+                  if set(DEFAULT_WEIGHTS) <= set(res.metric_names) else None)
         nominal = res.nominal
         perturbed = set(res.perturbed)
         mech = res.mechanism
@@ -112,21 +143,49 @@ def run(args) -> int:
                      if mech.crank is None else f"no gait metrics stored; compute them with `explorer metrics {name}`")
         print("\n".join(lines))
         return 0
-    rows = [("metric", "value", "unit", f"rank among the {n_ok:,} ok variants (band {band:g})")]
+    pool = "ok" if args.include_screened else "buildable"
+    n_pool = next((r[1] for r in ranks.values() if r is not None), None)
+    ref_label = "nominal" if ref == 0 else f"variant {ref}"
+    rows = [("metric", "value", ref_label, "change", "change %", "unit",
+             f"rank among the {n_pool if n_pool is not None else '-'} {pool} variants (band {band:g})")]
     order = [m for m in METRICS if m in metrics] + [m for m in metrics if m not in METRICS]
     for m in order:
         x = float(row[m])
+        r0 = float(ref_row[m]) if str(ref_row["status"]) == "ok" else math.nan
         info = metric(m)
+        rtext = f"{r0:.6g}" if math.isfinite(r0) else "-"
         if status != "ok":
-            text, rank = "-", "- (variant failed)" if status != "not-run" else "- (not run)"
+            text, change, pct = "-", "-", "-"
+            rank = "- (variant failed)" if status != "not-run" else "- (not run)"
         elif not math.isfinite(x):
-            text, rank = "nan", "- (undefined for this variant)"
+            text, change, pct, rank = "nan", "-", "-", "- (undefined for this variant)"
         else:
             text = f"{x:.6g}"
+            change = f"{x - r0:+.4g}" if math.isfinite(r0) else "-"
+            pct = f"{100.0 * (x - r0) / abs(r0):+.1f} %" if math.isfinite(r0) and r0 != 0 else "-"
             r = ranks.get(m)
-            rank = "-" if r is None else f"rank {r[0]:,} of {r[1]:,} ({better(info.direction)})"
-        rows.append((m, text, info.unit if info is not None else "", rank))
-    lines += table(rows, (False, True, False, False))
+            if r is None:
+                rank = "- (screened out: `explorer rank` leaves it out)" if not args.include_screened else "-"
+            else:
+                rank = f"rank {r[0]:,} of {r[1]:,} ({better(info.direction)})"
+        rows.append((m, text, rtext, change, pct, info.unit if info is not None else "", rank))
+    lines += table(rows, (False, True, True, True, True, False, False))
+    # -- the walker score and a verdict against the reference ------------------------------------------
+    if scored is not None and "score" in scored.columns:
+        where_v = scored.index[scored["variant"] == v]
+        where_r = scored.index[scored["variant"] == ref]
+        lines.append("")
+        if len(where_v):
+            sv = scored.loc[where_v[0]]
+            text = f"walker score {sv['score']:.3f}, rank {int(sv['rank']):,} of {len(scored):,} {pool} variants"
+        else:
+            text = "walker score: - (not ranked: failed or screened out)"
+        if len(where_r):
+            sr = scored.loc[where_r[0]]
+            text += f"; the {ref_label}: {sr['score']:.3f}, rank {int(sr['rank']):,}"
+        lines.append(text + " (`explorer rank` with its default weights)")
+    if status == "ok" and str(ref_row["status"]) == "ok" and v != ref:
+        lines.append(verdict(row, ref_row, ref_label, [m for m in DEFAULT_WEIGHTS if m in metrics]))
     op = res_operating
     if op:
         lines.append("")

@@ -237,13 +237,14 @@ class Results:
         from ._variants import variant_design
         return variant_design(self, variant, frame)
 
-    def metric_ranks(self, variant, frame: "pd.DataFrame | None" = None) -> dict:
+    def metric_ranks(self, variant, frame: "pd.DataFrame | None" = None, include_screened: bool = False) -> dict:
         """{metric: (rank, pool) or None} of variant ``variant`` for every stored metric: its rank among
-        the pool of ok variants with a finite value (1 = best in the metric's natural direction, ties
-        share a rank), None when it is not in the pool (failed, not run, NaN). What ``explorer show``
-        prints. ``frame``: a :meth:`frame` already read, to reuse."""
+        the variants ``explorer rank`` ranks (ok, passing the buildability screen unless
+        ``include_screened``) with a finite value (1 = best in the metric's natural direction, ties
+        share a rank), None when it is not in that pool (failed, not run, screened out, NaN). What
+        ``explorer show`` prints. ``frame``: a :meth:`frame` already read, to reuse."""
         from ._variants import metric_ranks
-        return metric_ranks(self, variant, frame)
+        return metric_ranks(self, variant, frame, include_screened)
 
     def variant_mechanism(self, variant) -> Mechanism:
         """The :class:`~explorer.mechanism.Mechanism` of variant ``variant`` (its design on the

@@ -87,17 +87,21 @@ def variant_design(results, variant, frame: "pd.DataFrame | None" = None) -> dic
     return out
 
 
-def metric_ranks(results, variant, frame: "pd.DataFrame | None" = None) -> dict:
+def metric_ranks(results, variant, frame: "pd.DataFrame | None" = None, include_screened: bool = False) -> dict:
     """{metric: (rank, pool) or None} for every stored metric (``metric_names``) of variant
-    ``variant``: pool = the ok variants with a finite value, rank = 1 + those strictly better in the
+    ``variant``: pool = the variants ``explorer rank`` ranks (ok, and passing the buildability screen
+    unless ``include_screened``) with a finite value, rank = 1 + those strictly better in the
     metric's natural direction (ties share a rank); None when the variant is not in the pool (failed,
-    not run, NaN) or the metric has no direction. ``frame``: the results' frame already read."""
+    not run, screened out, NaN) or the metric has no direction. ``frame``: the results' frame already
+    read."""
     import numpy as np
 
-    from ..gait import metric
+    from ..gait import metric, ok_mask, screened_mask
     v = check_variant(results, variant)
     df = results.frame() if frame is None else frame
-    ok = (df["status_code"] == 0).to_numpy()
+    ok = ok_mask(df)
+    if not include_screened:
+        ok = ok & ~screened_mask(df)
     out = {}
     for m in getattr(results, "metric_names", ()):
         info = metric(m)
