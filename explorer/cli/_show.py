@@ -104,7 +104,6 @@ def run(args) -> int:
         band = res.band
         metrics = list(res.metric_names)
         res_operating = res.study.get("operating") if res.study.get("scene", {}).get("forces") else None
-        n_ok = res.status_counts().get("ok", 0)
 
     # variant 0 is the nominal of a sampled study; of an optimisation only when the nominal lies in its bounds
     is_nominal = v == 0 and all(row[p] == nominal[p] for p in perturbed if p in row.index and p in nominal)
