@@ -71,7 +71,9 @@ def parse_table(out: str) -> tuple[list[str], pd.DataFrame]:
     cols = lines[0].split()
     rows = [ln.split() for ln in lines[1:]]
     assert all(len(r) == len(cols) for r in rows), out
-    return head.splitlines(), pd.DataFrame(rows, columns=cols)
+    # the last row is the reference design ("nominal:R" or "reference:R"), not one of the ranked rows
+    assert ":" in rows[-1][0], out
+    return head.splitlines(), pd.DataFrame(rows[:-1], columns=cols)
 
 
 # -- rank --------------------------------------------------------------------------------------------------
@@ -361,3 +363,26 @@ def test_show_verdict_quotes_the_numbers_it_judges(results, capsys):
         text = f"{m} {x:.4g} vs {r:.4g}"
         is_better = (x > r) == (DIRECTIONS[m] == "max")
         assert text in (good if is_better else bad), (m, line)
+
+
+def test_rank_table_ends_with_the_reference_and_its_changes(results, capsys):
+    """The table's last row is the reference (nominal by default, --vs V otherwise) with its own place in
+    the ranking; --change adds each ranking metric's change against it in %."""
+    with open_results(results) as res:
+        full = res.rank(top=None)
+        df = res.frame()
+    out = ok_cli(capsys, "rank", results, "--top", "3", "--change")
+    body = out.partition("\n\n")[2].strip("\n").splitlines()
+    head, rows = body[0].split(), [ln.split() for ln in body[1:]]
+    place = full.loc[full["variant"] == 0, "rank"]
+    assert rows[-1][0] == f"nominal:{int(place.iloc[0]) if len(place) else '-'}" and rows[-1][1] == "0"
+    for cells in rows[:-1]:
+        v = int(cells[1])
+        for k in DEFAULT_WEIGHTS:
+            x, r = df.iloc[v][k], df.iloc[0][k]
+            got = float(cells[head.index(f"{k}%")])
+            assert got == pytest.approx(100 * (x - r) / abs(r), rel=1e-3, abs=1e-3), (v, k)
+    v = int(full["variant"].iloc[4])
+    out = ok_cli(capsys, "rank", results, "--top", "2", "--vs", v)
+    last = [ln.split() for ln in out.splitlines() if ln.startswith("reference:")][-1]
+    assert last[:2] == ["reference:5", str(v)]

@@ -44,11 +44,12 @@ def format_column(series) -> tuple[list[str], bool]:
             for v in series.astype(object)], False
 
 
-def frame_table(df, columns: list[str]) -> str:
-    """An aligned plain-text table of ``columns`` of ``df`` (no spaces in cells; numbers right-aligned)."""
+def frame_table(df, columns: list[str], right=()) -> str:
+    """An aligned plain-text table of ``columns`` of ``df`` (no spaces in cells; numbers right-aligned, and
+    the columns named in ``right`` whatever they hold)."""
     cols = [format_column(df[c]) for c in columns]
     rows = [list(columns)] + [[cells[i] for cells, _ in cols] for i in range(len(df))]
-    return "\n".join(table(rows, [right for _, right in cols]))
+    return "\n".join(table(rows, [r or c in right for (_, r), c in zip(cols, columns)]))
 
 
 def aligned(frame, columns, left=()) -> str:

@@ -56,6 +56,12 @@ def register(sub) -> None:
                    help="keep the ok variants the buildability screen removes (the screen column says why)")
     p.add_argument("--format", choices=FORMATS, default="table",
                    help="table (default, aligned for reading), csv or json (every column, to stdout)")
+    p.add_argument("--vs", type=int, metavar="VARIANT", default=0,
+                   help="table only: the reference design, shown as a marked last row with its own rank (default 0: "
+                        "the nominal)")
+    p.add_argument("--change", action="store_true",
+                   help="table only: after each ranking metric, its change against the reference in %% (column "
+                        "METRIC%%)")
     p.add_argument("--columns", metavar="C1,C2,...", default=None,
                    help="table only: the columns after rank, variant and the ranking metrics (default: the other "
                         "metrics, then status); any frame column, e.g. crank or a link name")
@@ -119,6 +125,7 @@ def run(args) -> int:
         counts = res.status_counts()
         screened = res.screen_summary(frame)
         n, complete, name = res.n_variants, res.complete, res.filename
+        ref = res.check_variant(args.vs)
     ranked = full if top is None else full.iloc[:top]
 
     if args.format == "csv":
@@ -171,9 +178,30 @@ def run(args) -> int:
             known = ", ".join(map(str, ranked.columns))
             raise UserError(f"--columns: unknown column {unknown[0]!r} (columns: {known})")
         rest = [c for c in extra if c not in lead]
-    if "screen" in lead + rest:  # the check names only: `explorer show` gives the whole reason
-        ranked = ranked.assign(screen=[short_screen(r) for r in ranked["screen"]])
+    # the reference design (the nominal unless --vs) as a marked last row, with its place in this ranking
+    import numpy as np
+    import pandas as pd
+    ref_label = "nominal" if ref == 0 else "reference"
+    in_full = full.index[full["variant"] == ref]
+    ref_row = (full.loc[[in_full[0]]] if len(in_full) else frame.iloc[[ref]]).copy()
+    place = f"{int(ref_row['rank'].iloc[0])}" if len(in_full) else "-"
+    table_rows = pd.concat([ranked, ref_row], ignore_index=True)
+    marks = [str(r) for r in table_rows["rank"].iloc[:-1]] + [f"{ref_label}:{place}"]
+    table_rows = table_rows.assign(rank=marks)
+    cols = lead + rest
+    if args.change:
+        base = {k: float(ref_row[k].iloc[0]) for k in keys if k in ref_row.columns}
+        with np.errstate(invalid="ignore", divide="ignore"):
+            for k in keys:
+                if k in base:
+                    table_rows[f"{k}%"] = 100.0 * (table_rows[k].to_numpy(dtype=float) - base[k]) / abs(base[k])
+        cols = [c for k in cols for c in ([k, f"{k}%"] if args.change and k in keys and k in base else [k])]
+    if "screen" in cols:  # the check names only: `explorer show` gives the whole reason
+        table_rows = table_rows.assign(screen=[short_screen(r) for r in table_rows["screen"]])
+    lines.append(f"last row: the {ref_label} (variant {ref}) and its place in this ranking"
+                 + ("; METRIC% columns: the change against it" if args.change else "")
+                 + f"; `explorer show RESULTS V --vs {ref}` compares a variant with it metric by metric")
     lines.append("")
-    lines.append(format_table(ranked, lead + rest))
+    lines.append(format_table(table_rows, cols, right={"rank"}))
     print("\n".join(lines))
     return 0
