@@ -95,7 +95,7 @@ def run(args) -> int:
         ref = parse_variant(args.vs, n, name)
         ref_row = res.row(ref, frame=df)
         # the walker score, as `explorer rank` computes it, where the file stores every metric it weighs
-        scored = (res.rank(top=None, include_screened=args.include_screened)
+        scored = (res.rank(top=None, include_screened=args.include_screened, frame=df)
                   if set(DEFAULT_WEIGHTS) <= set(res.metric_names) else None)
         nominal = res.nominal
         perturbed = set(res.perturbed)

@@ -46,12 +46,7 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
     for t, (bi, ji) in enumerate(zip(plan.attach_body, plan.attach_joint)):
         pts = points[bi]
         p, q = plan.body_base[bi]
-        e = pts[:, q] - pts[:, p]
-        w = pts[:, ji] - pts[:, p]
-        e2 = np.sum(e * e, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            uv[:, t, 0] = np.sum(w * e, axis=1) / e2
-            uv[:, t, 1] = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / e2
+        uv[:, t, 0], uv[:, t, 1] = pair_coordinates(pts[:, p], pts[:, q], pts[:, ji])
     names = [mech.vertices[v] for v in plan.fixed]
     fixed = np.stack([np.stack([col(f"{v}.x"), col(f"{v}.y")], axis=-1) for v in names], axis=1) if names \
         else np.zeros((N, 0, 2))
@@ -98,3 +93,13 @@ def body_points(mech: Mechanism, geometry: dict | None, N: int) -> list[np.ndarr
     col = _columns(mech, geometry, N)
     return [np.stack([np.stack([col(f"{b.name}.{j}.x"), col(f"{b.name}.{j}.y")], axis=-1) for j in b.joints], axis=1)
             for b in mech.bodies]
+
+
+def pair_coordinates(p: np.ndarray, q: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(u, w), each (N,): point x in the frame of the base pair (p, q), all (N, 2) in a body's frame,
+    x = p + u (q − p) + w R (q − p) with R the quarter turn (NaN where p and q coincide)."""
+    e = q - p
+    w = x - p
+    e2 = np.sum(e * e, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.sum(w * e, axis=1) / e2, (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / e2

@@ -54,6 +54,7 @@ from numba import njit
 
 from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, Plan
 from ._blocks import _general_jacobian, _general_rates, general_sign, lu_solve
+from ._design import pair_coordinates
 from ._legs import ground_contact, leg_feet, leg_samples
 
 # The general-block solver the kinematics / reactions call (``_kin_general`` / ``_rea_general``); the
@@ -74,7 +75,7 @@ class ForceTables:
     """The plan as the forces kernel reads it (computed once per topology).
 
     blk_kind (nb,) DYAD / ATTACH / GENERAL; blk_v (nb,) a dyad's vertex; blk_e (nb, 2) a dyad's two
-    distance rows (an attach block's attach row in column 0); blk_t (nb,) an attach block's attach row; blk_vp (nb+1,) / blk_verts: a general
+    distance rows (an attach block's attach row in column 0); blk_vp (nb+1,) / blk_verts: a general
     block's vertices; blk_rp (nb+1,) / gen_rows (n_rows, 2): its rows as the kernels write them
     (``_inputs.Topology.gen_rows``: ROW_DIST / ROW_ATTACH_X / ROW_ATTACH_Y, equation).
     dist_a, dist_b (n_dist,), att (n_att, 3) (joint, p, q) vertex indices.
@@ -88,7 +89,6 @@ class ForceTables:
     blk_kind: np.ndarray
     blk_v: np.ndarray
     blk_e: np.ndarray
-    blk_t: np.ndarray
     blk_vp: np.ndarray
     blk_verts: np.ndarray
     blk_rp: np.ndarray
@@ -142,13 +142,11 @@ def force_tables(mech, plan: Plan) -> ForceTables:
     blk_kind = np.array([b.kind for b in plan.blocks], dtype=np.int64)
     blk_v = np.array([b.vertices[0] for b in plan.blocks], dtype=np.int64)
     blk_e = np.full((nblk, 2), -1, dtype=np.int64)
-    blk_t = np.full(nblk, -1, dtype=np.int64)
     vp, verts, rp, rows = [0], [], [0], []
     for k, b in enumerate(plan.blocks):
         if b.kind == DYAD:
             blk_e[k] = b.links
         elif b.kind == ATTACH:
-            blk_t[k] = b.attaches[0][0]
             blk_e[k, 0] = b.attaches[0][0]
         else:
             verts += list(b.vertices)
@@ -159,7 +157,7 @@ def force_tables(mech, plan: Plan) -> ForceTables:
         vp.append(len(verts))
         rp.append(len(rows))
     i64 = lambda x: np.asarray(x, dtype=np.int64)  # noqa: E731
-    return ForceTables(blk_kind, blk_v, blk_e, blk_t, i64(vp), i64(verts), i64(rp), i64(rows).reshape(-1, 2),
+    return ForceTables(blk_kind, blk_v, blk_e, i64(vp), i64(verts), i64(rp), i64(rows).reshape(-1, 2),
                        i64(plan.link_a), i64(plan.link_b), i64(plan.attach).reshape(-1, 3), i64([v for _, v in inc]),
                        dinc, ainc, body_pq, body_inc, int(plan.tip), tip_inc, fixed, fixed_inc, foot, foot_inc,
                        tuple(m for m, _ in inc))
@@ -897,12 +895,9 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
         else:  # the mass shared equally among the joints
             IG = b.mass / pts.shape[1] * np.sum((pts - G[:, None, :]) ** 2, axis=(1, 2)) * unit ** 2
         p, q = plan.body_base[bi]
-        e = pts[:, q] - pts[:, p]
-        w = G - pts[:, p]
-        e2 = np.sum(e * e, axis=1)
-        body_cuv[:, bi, 0] = np.sum(w * e, axis=1) / e2
-        body_cuv[:, bi, 1] = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / e2
-        body_J[:, bi] = (IG + b.mass * np.sum(w * w, axis=1) * unit ** 2) / (e2 * unit ** 2)
+        body_cuv[:, bi, 0], body_cuv[:, bi, 1] = pair_coordinates(pts[:, p], pts[:, q], G)
+        e2 = np.sum((pts[:, q] - pts[:, p]) ** 2, axis=1)
+        body_J[:, bi] = (IG + b.mass * np.sum((G - pts[:, p]) ** 2, axis=1) * unit ** 2) / (e2 * unit ** 2)
     sel = np.array([mech.vertex_index(j) for j in joints], dtype=np.int64)
     base, frac, sign = leg_samples(walker, S)
     mirrored = np.array(walker.mirrored, dtype=np.bool_)
@@ -940,6 +935,14 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
                                                                                                tb.inc_vertex))}
     return Forces(torque, {j: fsel[:, :, k] for k, j in enumerate(joints)}, pin_peak, shake, travel, code, csample,
                   cblock, member_forces, vout, aout)
+
+
+def no_forces(N: int, S: int, nv: int, joints=()) -> Forces:
+    """The :class:`Forces` of N variants none of which could be solved: every figure NaN."""
+    nan = np.full(N, np.nan)
+    fail = np.full(N, F_SINGULAR, dtype=np.int64)
+    return Forces(np.full((N, S), np.nan), {j: np.full((N, S, 2), np.nan) for j in joints}, np.full((N, nv), np.nan),
+                  nan, nan.copy(), fail, np.full(N, -1, dtype=np.int64), np.full(N, -1, dtype=np.int64), {})
 
 
 def force_metrics(forces: Forces, operating, vertices) -> dict:

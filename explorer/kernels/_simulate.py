@@ -15,7 +15,7 @@ from ._blocks import solve_general
 from ._closed import closed_batch_jit
 from ._design import body_points
 from ._design import designs as _designs
-from ._forces import F_OK, force_metrics, solve_forces
+from ._forces import F_OK, force_metrics, no_forces, solve_forces
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
 from ._batch import fast_batch_jit, generic_batch_jit
 from ._codegen import kernel_for, supported
@@ -385,12 +385,12 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
         return Cycle(mech, drv.params, nan, nan.copy() if velocities else None,
                      nan.copy() if accelerations else None, False, fail, 0)
     signs = _signs(mech, plan, P0)
+    des = _nominal_design(mech, plan, tolerance)
     pos, vel, acc, status, fth, fend, fbl, its = _run(
-        mech, plan, _nominal_design(mech, plan, tolerance), steps, np.arange(nv), velocities, accelerations, method,
-        max_iterations, P0, signs, np.arange(plan.n_blocks))
+        mech, plan, des, steps, np.arange(nv), velocities, accelerations, method, max_iterations, P0, signs,
+        np.arange(plan.n_blocks))
     extra = {}
     if forces:
-        des = _nominal_design(mech, plan, tolerance)
         fo = solve_forces(mech, plan, pos, status, des, mech.lengths[None, :], np.array([_scale(mech)]),
                           body_points(mech, None, 1), operating, walker, mech.vertices, members=True)
         _force_status(fo, status, fth, fbl, drv.params)
@@ -616,10 +616,9 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
         pos, vel, acc, status, fth, fend, fbl, its = _run(mech, plan, des, steps, out_idx, velocities, accelerations,
                                                           method, max_iterations, P0, signs, blocks, kernel)
         fo = met = None
-    if forces and fo is None:  # no start: every row failed
-        N = lengths.shape[0]
-        fo = (np.full((N, steps), np.nan), {j: np.full((N, steps, 2), np.nan) for j in force_joints})
-        met = {}
+    if forces and fo is None:  # no start: every row failed, and every force figure is NaN
+        failed = no_forces(lengths.shape[0], steps, len(mech.vertices), force_joints)
+        fo, met = (failed.torque, failed.joint_forces), force_metrics(failed, operating, mech.vertices)
     return Batch(
         theta=_drive_for(mech.crank or mech.path, steps).params,
         paths={v: pos[:, :, j] for j, v in enumerate(names)},
