@@ -613,7 +613,7 @@ class _Validator:
         if value == "all":
             return "all"
         if not isinstance(value, list) or not (value or empty_ok):
-            self.fail(key, f'"all" or a non-empty list of {what} names', value)
+            self.fail(key, f'"all" or a {"" if empty_ok else "non-empty "}list of {what} names', value)
         seen = []
         for n in value:
             if not isinstance(n, str):
