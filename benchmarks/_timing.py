@@ -1,6 +1,6 @@
 """The one timing rule every benchmark here follows: a warm-up call (compile or load the cached
-kernels), then the best of ``repeat`` timed calls. (Imported by the scripts beside it, which run as
-``python benchmarks/<script>.py``.)"""
+kernels), then the best of ``repeat`` timed calls; and the one set of designs the kernel benchmarks
+time. (Imported by the scripts beside it, which run as ``python benchmarks/<script>.py``.)"""
 
 import time
 
@@ -15,3 +15,15 @@ def best(fn, repeat: int, warm_up: bool = True) -> float:
         fn()
         times.append(time.perf_counter() - t)
     return min(times)
+
+
+def variants(mech, n: int, spread: float = 0.02, seed: int = 1):
+    """(lengths (n, n_links), crank (n,)): ``mech``'s links and crank radius each within ±spread,
+    uniformly (seeded), variant 0 the nominal: the designs the kernel benchmarks share."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    lengths = mech.lengths * (1 + rng.uniform(-spread, spread, (n, len(mech.links))))
+    crank = mech.crank.radius * (1 + rng.uniform(-spread, spread, n))
+    lengths[0], crank[0] = mech.lengths, mech.crank.radius
+    return lengths, crank

@@ -14,10 +14,9 @@ after a warm-up run that compiles (or loads the cached) kernels; read the ratios
 import argparse
 from pathlib import Path
 
-import numpy as np
 
 import explorer
-from _timing import best
+from _timing import best, variants
 
 
 def main(argv=None):
@@ -28,11 +27,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
 
     mech = explorer.load_mechanism(Path(__file__).parents[1] / "studies" / "mechanisms" / "jansen-plywood.toml")
-    rng = np.random.default_rng(1)
     n = a.variants
-    lengths = mech.lengths * (1 + rng.uniform(-0.02, 0.02, (n, len(mech.links))))
-    crank = mech.crank.radius * (1 + rng.uniform(-0.02, 0.02, n))
-    lengths[0], crank[0] = mech.lengths, mech.crank.radius
+    lengths, crank = variants(mech, n)
     configs = n * a.steps
 
     def batch(**kw):

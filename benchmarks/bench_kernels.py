@@ -17,7 +17,7 @@ import numpy as np
 
 import explorer
 from _limit import foot_limit
-from _timing import best
+from _timing import best, variants
 
 
 def main(argv=None):
@@ -29,11 +29,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
 
     mech = explorer.load_mechanism("jansen")
-    rng = np.random.default_rng(1)
     n = a.variants
-    lengths = mech.lengths * (1 + rng.uniform(-0.02, 0.02, (n, len(mech.links))))
-    crank = mech.crank.radius * (1 + rng.uniform(-0.02, 0.02, n))
-    lengths[0], crank[0] = mech.lengths, mech.crank.radius
+    lengths, crank = variants(mech, n)
     configs = n * a.steps
 
     def batch(n_rows=n, **kw):

@@ -23,7 +23,7 @@ import numpy as np
 
 import explorer
 from _limit import foot_limit
-from _timing import best
+from _timing import best, variants
 
 
 def jansen_pylinkage(lengths, crank, steps):
@@ -62,11 +62,8 @@ def main(argv=None):
     from explorer.kernels import assemble
 
     mech = explorer.load_mechanism("jansen")
-    rng = np.random.default_rng(1)
     n, S = a.variants, a.steps
-    lengths = mech.lengths * (1 + rng.uniform(-0.02, 0.02, (n, len(mech.links))))
-    crank = mech.crank.radius * (1 + rng.uniform(-0.02, 0.02, n))
-    lengths[0], crank[0] = mech.lengths, mech.crank.radius
+    lengths, crank = variants(mech, n)
 
     template = jansen_pylinkage(mech.lengths, mech.crank.radius, S)
     names = list(mech.link_names)
