@@ -566,7 +566,7 @@ def plot_forces(results, variant: int = 0, *, figsize=(8.0, 7.0), dpi: float = 1
     ax1.set_ylabel("torque [N·m]", fontsize=LABEL_SIZE)
     ax1.grid(True, lw=0.4, alpha=0.5)
     ax1.axhline(0.0, color="0.3", lw=0.6)
-    ax1.legend(loc="lower right", fontsize=LEGEND_SIZE, framealpha=0.9)
+    ax1.legend(loc="best", fontsize=LEGEND_SIZE, framealpha=0.9)  # where it covers the least of the curves
     style_axes(ax1, f"motor torque: peak |τ| {np.max(np.abs(tau)):.4g} N·m, rms {np.sqrt(np.mean(tau ** 2)):.4g} N·m",
                title_size=LABEL_SIZE)
     joints = results.force_joints
