@@ -92,3 +92,25 @@ def json_records(df) -> str:
 def better(direction: str) -> str:
     """The words for a ranking direction ("max" or "min")."""
     return "higher is better" if direction == "max" else "lower is better"
+
+
+# -- physical units (--units si): the figures of show, rank and report ------------------------------------
+def add_units_argument(p) -> None:
+    """The ``--units model|si`` option of a verb that prints a results file's figures."""
+    p.add_argument("--units", choices=("model", "si"), default="model",
+                   help="model (default: the file's own units) or si: lengths in mm, travel in m per turn, the "
+                        "walking speed in m/s at the study's rpm, the torque metrics in N·m with its load "
+                        "(needs the study's [operating] unit, metres per model unit)")
+
+
+def results_si(res, frame, units: str):
+    """The :class:`explorer.gait.SI` conversion of ``frame`` (a :meth:`Results.frame`) when ``units`` is
+    "si" (every stored metric and every design parameter column of kind length or coordinate), else
+    None; UserError naming the file when its study gives no ``[operating] unit``."""
+    if units != "si":
+        return None
+    from ..gait import si_operating, to_si
+    op = si_operating(res.study.get("operating"), res.filename)
+    mech = res.mechanism
+    params = {p: mech.parameter_kind(p) for p in mech.parameters() if p in frame.columns}
+    return to_si(frame, list(res.metric_names), op, parameters=params)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from ._args import add_variant_arguments, chosen_variant, parse_variant
-from ._format import better, table
+from ._format import add_units_argument, better, results_si, table
 
 __all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run"]
 
@@ -30,17 +30,21 @@ def register(sub) -> None:
     p.add_argument("--include-screened", action="store_true",
                    help="rank among every ok variant, as `explorer rank --include-screened` (default: among the "
                         "buildable ones, as `explorer rank`)")
+    add_units_argument(p)
     p.set_defaults(func=run)
 
 
-def parameter_lines(mech, design: dict, nominal: dict, perturbed) -> list[str]:
+def parameter_lines(mech, design: dict, nominal: dict, perturbed, mm_per_unit: float | None = None) -> list[str]:
     """The table of every design parameter of ``mech`` (``Mechanism.parameters`` order): the variant's
     value (``design``, :meth:`Results.design`), the nominal (``nominal``, else the mechanism's), the
     change, and the change in % of the nominal (a length) or of the mechanism's size (a coordinate,
-    whose own value is no scale)."""
+    whose own value is no scale). Values in model units, or in mm with ``mm_per_unit`` (mm per model
+    unit: ``--units si``)."""
+    k = 1.0 if mm_per_unit is None else float(mm_per_unit)
+    unit = "" if mm_per_unit is None else " [mm]"
     size = mech.size
     pivots = {f"{v}.{a}" for v in mech.fixed for a in "xy"}
-    rows = [("parameter", "value", "nominal", "change", "change %")]
+    rows = [("parameter", "value" + unit, "nominal" + unit, "change" + unit, "change %")]
     for p, mech_nominal in mech.parameters().items():
         nom = float(nominal.get(p, mech_nominal))
         val = float(design.get(p, nom))
@@ -53,16 +57,18 @@ def parameter_lines(mech, design: dict, nominal: dict, perturbed) -> list[str]:
             label = f"pivot {p}" if p in pivots else (p if p in ("crank.x", "crank.y") else f"joint {p}")
         if p not in perturbed:
             label += " (fixed)"
-        rows.append((label, f"{val:.4f}", f"{nom:.4f}", f"{d:+.4f}", pct))
+        rows.append((label, f"{val * k:.4f}", f"{nom * k:.4f}", f"{d * k:+.4f}", pct))
     out = table(rows, (False, True, True, True, True))
     if any(mech.parameter_kind(p) == "coordinate" for p in mech.parameters()):
-        out.append(f"(a coordinate's change is in % of the mechanism's size, {size:g}: its longest link or body span)")
+        out.append(f"(a coordinate's change is in % of the mechanism's size, {size * k:g}{' mm' if unit else ''}: "
+                   f"its longest link or body span)")
     return out
 
 
-def verdict(row, ref_row, ref_label: str, names) -> str:
+def verdict(row, ref_row, ref_label: str, names, units: dict | None = None) -> str:
     """One plain line: in which of ``names`` the variant (``row``) is better and worse than the
-    reference (``ref_row``), each with both values and the change in %."""
+    reference (``ref_row``), each with both values (followed by their unit where ``units`` names one,
+    e.g. ``--units si``'s) and the change in %."""
     from ..gait import metric
 
     good, bad = [], []
@@ -72,7 +78,8 @@ def verdict(row, ref_row, ref_label: str, names) -> str:
             continue
         up = x > r
         pct = f" ({100.0 * (x - r) / abs(r):+.0f} %)" if r != 0 else ""
-        text = f"{m} {x:.4g} vs {r:.4g}{pct}"
+        unit = f" {units[m]}" if units and units.get(m) else ""
+        text = f"{m} {x:.4g} vs {r:.4g}{unit}{pct}"
         (good if up == (metric(m).direction == "max") else bad).append(text)
     if not good and not bad:
         return f"verdict: the same as the {ref_label} in {', '.join(names)}"
@@ -81,7 +88,7 @@ def verdict(row, ref_row, ref_label: str, names) -> str:
 
 
 def run(args) -> int:
-    from ..gait import DEFAULT_WEIGHTS, METRICS, metric
+    from ..gait import DEFAULT_WEIGHTS, METRICS, SPEED, metric, operating_line
     from ..store import open_results
 
     chosen = chosen_variant(args, "show", "explorer show RESULTS VARIANT (or --variant N)")
@@ -89,11 +96,13 @@ def run(args) -> int:
         name, n = res.filename, res.n_variants
         v = parse_variant(chosen, n, name)
         df = res.frame()
+        si = results_si(res, df, args.units)  # --units si: the figures shown, converted (ranks stay the file's)
         row = res.row(v, frame=df)
         design = res.design(v, frame=df)
         ranks = res.metric_ranks(v, frame=df, include_screened=args.include_screened)
         ref = parse_variant(args.vs, n, name)
         ref_row = res.row(ref, frame=df)
+        shown, shown_ref = (row, ref_row) if si is None else (res.row(v, frame=si.frame), res.row(ref, frame=si.frame))
         # the walker score, as `explorer rank` computes it, where the file stores every metric it weighs
         scored = (res.rank(top=None, include_screened=args.include_screened, frame=df)
                   if set(DEFAULT_WEIGHTS) <= set(res.metric_names) else None)
@@ -129,7 +138,8 @@ def run(args) -> int:
 
     # -- design parameters -------------------------------------------------------------------------------
     lines.append("")
-    lines += parameter_lines(mech, design, nominal, perturbed)
+    lines += parameter_lines(mech, design, nominal, perturbed,
+                             None if si is None else si.operating.unit * 1000.0)
 
     # -- metrics -----------------------------------------------------------------------------------------
     if "screen" in row.index and status == "ok":
@@ -148,10 +158,12 @@ def run(args) -> int:
     rows = [("metric", "value", ref_label, "change", "change %", "unit",
              f"rank among the {n_pool if n_pool is not None else '-'} {pool} variants (band {band:g})")]
     order = [m for m in METRICS if m in metrics] + [m for m in metrics if m not in METRICS]
+    if si is not None and SPEED in si.units:  # the walking speed follows travel (it ranks as travel does)
+        order.insert(order.index("travel") + 1, SPEED)
     for m in order:
-        x = float(row[m])
-        r0 = float(ref_row[m]) if str(ref_row["status"]) == "ok" else math.nan
-        info = metric(m)
+        x = float(shown[m])
+        r0 = float(shown_ref[m]) if str(ref_row["status"]) == "ok" else math.nan
+        info = metric("travel" if m == SPEED else m)
         rtext = f"{r0:.6g}" if math.isfinite(r0) else "-"
         if status != "ok":
             text, change, pct = "-", "-", "-"
@@ -162,12 +174,13 @@ def run(args) -> int:
             text = f"{x:.6g}"
             change = f"{x - r0:+.4g}" if math.isfinite(r0) else "-"
             pct = f"{100.0 * (x - r0) / abs(r0):+.1f} %" if math.isfinite(r0) and r0 != 0 else "-"
-            r = ranks.get(m)
+            r = ranks.get("travel" if m == SPEED else m)
             if r is None:
                 rank = "- (screened out: `explorer rank` leaves it out)" if not args.include_screened else "-"
             else:
                 rank = f"rank {r[0]:,} of {r[1]:,} ({better(info.direction)})"
-        rows.append((m, text, rtext, change, pct, info.unit if info is not None else "", rank))
+        unit = si.units.get(m, "") if si is not None else (info.unit if info is not None else "")
+        rows.append((m, text, rtext, change, pct, unit, rank))
     lines += table(rows, (False, True, True, True, True, False, False))
     # -- the walker score and a verdict against the reference ------------------------------------------
     if scored is not None and "score" in scored.columns:
@@ -184,7 +197,16 @@ def run(args) -> int:
             text += f"; the {ref_label}: {sr['score']:.3f}, rank {int(sr['rank']):,}"
         lines.append(text + " (`explorer rank` with its default weights)")
     if status == "ok" and str(ref_row["status"]) == "ok" and v != ref:
-        lines.append(verdict(row, ref_row, ref_label, [m for m in DEFAULT_WEIGHTS if m in metrics]))
+        lines.append(verdict(shown, shown_ref, ref_label, [m for m in DEFAULT_WEIGHTS if m in metrics],
+                             None if si is None else {c: si.units[c] for c in si.converted}))
+    if si is not None:
+        lines.append("")
+        lines.append(operating_line(si.operating))
+        lines += si.notes
+        if any(m in si.converted and si.units[m] == "N·m" for m in metrics if metric(m) is not None
+               and metric(m).unit != "N·m"):
+            lines.append("ranks are over the stored values: a torque's rank is that of its value per weight × "
+                         "crank radius")
     op = res_operating
     if op:
         lines.append("")
