@@ -100,7 +100,8 @@ def add_units_argument(p) -> None:
     p.add_argument("--units", choices=("model", "si"), default="model",
                    help="model (default: the file's own units) or si: lengths in mm, travel in m per turn, the "
                         "walking speed in m/s at the study's rpm, the torque metrics in N·m with its load "
-                        "(needs the study's [operating] unit, metres per model unit)")
+                        "(needs the study's [operating] unit, metres per model unit). Ranks and filters stay over the "
+                        "stored values")
 
 
 def results_si(res, frame, units: str):

@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 
 from ._args import FORMATS, parse_list, parse_top, parse_weights
-from ._format import better, format_column, format_floats, json_records
+from ._format import add_units_argument, better, format_column, format_floats, json_records, results_si
 from ._format import frame_table as format_table
 
 # the argument types and the table formatter are shared (._args, ._format); their names stay importable here
@@ -65,6 +65,7 @@ def register(sub) -> None:
     p.add_argument("--columns", metavar="C1,C2,...", default=None,
                    help="table only: the columns after rank, variant and the ranking metrics (default: the other "
                         "metrics, then status); any frame column, e.g. crank or a link name")
+    add_units_argument(p)
     p.set_defaults(func=run)
 
 
@@ -95,7 +96,7 @@ def screen_line(summary: dict, included: bool) -> str:
 # -- the verb ----------------------------------------------------------------------------------------------
 def run(args) -> int:
     from ..errors import UserError
-    from ..gait import DEFAULT_WEIGHTS, DIRECTIONS, WALKER_METRICS
+    from ..gait import DEFAULT_WEIGHTS, DIRECTIONS, WALKER_METRICS, operating_line
     from ..store import open_results
 
     # machine formats carry everything unless --top is given; the table shows ten
@@ -126,13 +127,15 @@ def run(args) -> int:
         screened = res.screen_summary(frame)
         n, complete, name = res.n_variants, res.complete, res.filename
         ref = res.check_variant(args.vs)
+        # --units si: the rows shown in SI, the ranking itself over the stored values (--where too)
+        si = results_si(res, frame.iloc[:0], args.units)
     ranked = full if top is None else full.iloc[:top]
 
-    if args.format == "csv":
-        sys.stdout.write(ranked.to_csv(index=False))
-        return 0
-    if args.format == "json":
-        sys.stdout.write(json_records(ranked) + "\n")
+    if args.format in ("csv", "json"):
+        if si is not None:  # converted values under unit-suffixed names: bob[mm], travel[m/turn], speed[m/s]
+            conv = si.apply(ranked)
+            ranked = conv.frame.rename(columns=conv.labels())
+        sys.stdout.write(ranked.to_csv(index=False) if args.format == "csv" else json_records(ranked) + "\n")
         return 0
 
     # -- table -----------------------------------------------------------------------------------------
@@ -189,8 +192,14 @@ def run(args) -> int:
     marks = [str(r) for r in table_rows["rank"].iloc[:-1]] + [f"{ref_label}:{place}"]
     table_rows = table_rows.assign(rank=marks)
     cols = lead + rest
+    conv = None
+    if si is not None:  # the shown rows (the reference's included) in SI; speed follows travel
+        conv = si.apply(table_rows)
+        table_rows = conv.frame
+        if "speed" in conv.converted and "travel" in cols and "speed" not in cols:
+            cols.insert(cols.index("travel") + 1, "speed")
     if args.change:
-        base = {k: float(ref_row[k].iloc[0]) for k in keys if k in ref_row.columns}
+        base = {k: float(table_rows[k].iloc[-1]) for k in keys if k in table_rows.columns}  # the reference, last
         with np.errstate(invalid="ignore", divide="ignore"):
             for k in keys:
                 if k in base:
@@ -201,6 +210,13 @@ def run(args) -> int:
     lines.append(f"last row: the {ref_label} (variant {ref}) and its place in this ranking"
                  + ("; METRIC% columns: the change against it" if args.change else "")
                  + f"; `explorer show RESULTS V --vs {ref}` compares a variant with it metric by metric")
+    if conv is not None:
+        lines.append(operating_line(conv.operating) + "; ranks are over the stored values (a torque's: per "
+                     "weight × crank radius)")
+        lines += conv.notes
+        labels = conv.labels()
+        table_rows = table_rows.rename(columns=labels)
+        cols = [labels.get(c, c) for c in cols]
     lines.append("")
     lines.append(format_table(table_rows, cols, right={"rank"}))
     print("\n".join(lines))

@@ -74,7 +74,8 @@ class SI:
         was converted, the table's own unit string where not.
     converted : the columns whose values changed (``speed`` included).
     notes : one line per thing left undone (torque without a load, speed without rpm).
-    operating : the :class:`~explorer.mechanism.Operating` used.
+    operating : the :class:`~explorer.mechanism.Operating` used; names, parameters, crank_column : the
+    arguments of :func:`to_si` (:meth:`apply` converts another frame with them).
     """
 
     frame: object
@@ -82,10 +83,17 @@ class SI:
     converted: list
     notes: list
     operating: object = None
+    names: tuple = ()
+    parameters: dict | None = None
+    crank_column: object = "crank"
 
     def labels(self) -> dict:
         """{column: ``name[unit]``} for the converted columns, for a csv / json header."""
         return {c: si_label(c, self.units[c]) for c in self.converted}
+
+    def apply(self, frame) -> "SI":
+        """The same conversion of another frame in model units (rows of the same results: a ranking)."""
+        return to_si(frame, self.names, self.operating, self.crank_column, self.parameters)
 
 
 def _scale(kind: str, op, crank):
@@ -151,7 +159,7 @@ def to_si(frame, names, operating, crank_column="crank", parameters=None) -> SI:
             converted.append(SPEED)
         else:
             notes.append("no walking speed: the study's [operating] table gives no rpm (add `rpm = ...`)")
-    return SI(out, units, converted, notes, operating)
+    return SI(out, units, converted, notes, operating, tuple(names), dict(parameters or {}), crank_column)
 
 
 def operating_line(operating) -> str:
