@@ -105,13 +105,6 @@ def add_units_argument(p) -> None:
 
 
 def results_si(res, frame, units: str):
-    """The :class:`explorer.gait.SI` conversion of ``frame`` (a :meth:`Results.frame`) when ``units`` is
-    "si" (every stored metric and every design parameter column of kind length or coordinate), else
-    None; UserError naming the file when its study gives no ``[operating] unit``."""
-    if units != "si":
-        return None
-    from ..gait import si_operating, to_si
-    op = si_operating(res.study.get("operating"), res.filename)
-    mech = res.mechanism
-    params = {p: mech.parameter_kind(p) for p in mech.parameters() if p in frame.columns}
-    return to_si(frame, list(res.metric_names), op, parameters=params)
+    """:func:`explorer.gait.results_si`: ``frame`` in SI units for ``--units si``, else None."""
+    from ..gait import results_si as convert
+    return convert(res, frame, units)

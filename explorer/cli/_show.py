@@ -6,9 +6,10 @@ from __future__ import annotations
 import math
 
 from ._args import add_variant_arguments, chosen_variant, parse_variant
+from ..gait._units import verdict
 from ._format import add_units_argument, better, results_si, table
 
-__all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run"]
+__all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run", "verdict"]
 
 
 def register(sub) -> None:
@@ -63,28 +64,6 @@ def parameter_lines(mech, design: dict, nominal: dict, perturbed, mm_per_unit: f
         out.append(f"(a coordinate's change is in % of the mechanism's size, {size * k:g}{' mm' if unit else ''}: "
                    f"its longest link or body span)")
     return out
-
-
-def verdict(row, ref_row, ref_label: str, names, units: dict | None = None) -> str:
-    """One plain line: in which of ``names`` the variant (``row``) is better and worse than the
-    reference (``ref_row``), each with both values (followed by their unit where ``units`` names one,
-    e.g. ``--units si``'s) and the change in %."""
-    from ..gait import metric
-
-    good, bad = [], []
-    for m in names:
-        x, r = float(row[m]), float(ref_row[m])
-        if not (math.isfinite(x) and math.isfinite(r)) or x == r:
-            continue
-        up = x > r
-        pct = f" ({100.0 * (x - r) / abs(r):+.0f} %)" if r != 0 else ""
-        unit = f" {units[m]}" if units and units.get(m) else ""
-        text = f"{m} {x:.4g} vs {r:.4g}{unit}{pct}"
-        (good if up == (metric(m).direction == "max") else bad).append(text)
-    if not good and not bad:
-        return f"verdict: the same as the {ref_label} in {', '.join(names)}"
-    return (f"verdict against the {ref_label}: better in " + ("; ".join(good) or "none")
-            + "; worse in " + ("; ".join(bad) or "none"))
 
 
 def run(args) -> int:

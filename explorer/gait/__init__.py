@@ -15,7 +15,8 @@ from ._rank import ok_mask, pareto_front, rank, screened_mask, select
 from ._screen import CHECKS, SCREEN_INPUTS, SCREEN_KEYS, Check, Screen, screen_columns, screen_counts, screen_from_dict
 from ._table import (DEFAULT_WEIGHTS, BAND_METRICS, FORCE_METRICS, PIN_FORCE, metric, BY_NAME, DESCRIPTIONS, DIRECTIONS, FOOT_METRICS, LEG_METRICS, MECHANISM_METRICS,
                      METRICS, PATH_METRICS, SCREEN_METRICS, TABLE, TARGET_METRICS, UNITS, VELOCITY_METRICS, WALKER_METRICS, Metric)
-from ._units import CONVERSIONS, SI, SPEED, UNIT_SYSTEMS, operating_line, si_label, si_operating, to_si
+from ._units import (CONVERSIONS, SI, SPEED, UNIT_SYSTEMS, change_pct, operating_line, results_si, si_label, si_operating,
+                     to_si, verdict)
 from ._walker import leg_samples
 from ._warm import start_kernel_warmup, stop_kernel_warmup
 
@@ -24,4 +25,5 @@ __all__ = ["FORCE_METRICS", "PIN_FORCE", "metric", "MATCHES", "IGNORES", "TARGET
            "VELOCITY_METRICS", "WALKER_METRICS", "available_metrics", "check_band", "compute_metrics", "foot_headroom", "leg_samples",
            "min_transmission_angle", "ok_mask", "screened_mask", "pareto_front", "rank", "select", "stance_indices",
            "start_kernel_warmup", "stop_kernel_warmup"]
-__all__ += ["CONVERSIONS", "SI", "SPEED", "UNIT_SYSTEMS", "operating_line", "si_label", "si_operating", "to_si"]
+__all__ += ["CONVERSIONS", "SI", "SPEED", "UNIT_SYSTEMS", "change_pct", "operating_line", "results_si", "si_label",
+            "si_operating", "to_si", "verdict"]

@@ -19,10 +19,14 @@ model unit             SI unit     factor
 Every other unit (ratios, degrees, counts, fractions, and the forces group, already in N, N·m, W, J,
 kg·m²) is left as it is. With ``rpm``, a derived column ``speed`` (m/s) follows travel: the walking
 speed at the stated crank speed, travel per turn [m] × rpm / 60.
+
+The comparison with a reference design that ``show``, ``rank --change`` and the report print lives here
+too (:func:`change_pct`, :func:`verdict`), so that the command line and the report word it alike.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..errors import UserError
@@ -171,3 +175,48 @@ def operating_line(operating) -> str:
         parts.append(f"load {operating.load:g} kg × g {operating.gravity:g} m/s² = {operating.load * operating.gravity:.4g} N")
     return "SI units at the study's [operating] point: " + ", ".join(parts)
 
+
+
+def results_si(res, frame, units: str = "si") -> SI | None:
+    """:func:`to_si` of ``frame`` (a frame of the open results ``res``, model units) when ``units`` is
+    "si": every stored metric and every design parameter column of kind length or coordinate, at the
+    study's ``[operating]`` point; None for "model". UserError naming the file when ``units`` is
+    neither, or the study gives no ``[operating] unit``."""
+    if units not in UNIT_SYSTEMS:
+        raise UserError(f"{res.filename}: units: expected one of {', '.join(UNIT_SYSTEMS)}, got {units!r}")
+    if units != "si":
+        return None
+    op = si_operating(res.study.get("operating"), res.filename)
+    mech = res.mechanism
+    params = {p: mech.parameter_kind(p) for p in mech.parameters() if p in frame.columns}
+    return to_si(frame, list(res.metric_names), op, parameters=params)
+
+
+# -- against a reference design ---------------------------------------------------------------------------
+def change_pct(x, ref) -> float:
+    """The change of ``x`` against ``ref`` in % of ``|ref|``: 100·(x − ref)/|ref| (NaN where ref is 0 or
+    either is not finite)."""
+    x, ref = float(x), float(ref)
+    if not (math.isfinite(x) and math.isfinite(ref)) or ref == 0:
+        return math.nan
+    return 100.0 * (x - ref) / abs(ref)
+
+
+def verdict(row, ref_row, ref_label: str, names, units: dict | None = None) -> str:
+    """One plain line: in which of ``names`` the variant (``row``) is better and worse than the
+    reference (``ref_row``, called ``ref_label``), each with both values (followed by their unit where
+    ``units`` names one, e.g. ``--units si``'s) and the change in %, by each metric's direction."""
+    good, bad = [], []
+    for m in names:
+        x, r = float(row[m]), float(ref_row[m])
+        if not (math.isfinite(x) and math.isfinite(r)) or x == r:
+            continue
+        pct = f" ({change_pct(x, r):+.0f} %)" if r != 0 else ""
+        unit = f" {units[m]}" if units and units.get(m) else ""
+        text = f"{m} {x:.4g} vs {r:.4g}{unit}{pct}"
+        info = metric("travel" if m == SPEED else m)
+        (good if (x > r) == (info is not None and info.direction == "max") else bad).append(text)
+    if not good and not bad:
+        return f"verdict: the same as the {ref_label} in {', '.join(names)}"
+    return (f"verdict against the {ref_label}: better in " + ("; ".join(good) or "none")
+            + "; worse in " + ("; ".join(bad) or "none"))
