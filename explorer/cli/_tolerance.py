@@ -1,4 +1,4 @@
-"""``explorer tolerance MECHANISM [--target 0.99] [--spread 0.01] [--variants 1000] [--parameters P1,P2|all]
+"""``explorer tolerance MECHANISM [--target 0.99] [--spread 0.01] [--variants 1000] [--parameters all|links|P1,P2]
 [--criterion assembles|buildable] [--seed 1] [--steps 360] [--rtol 0.05] [--format table|json]``: how precisely
 must the parts be cut so that a share of the legs walks (bisection on the spread,
 :mod:`explorer.study._tolerance`)."""
@@ -16,14 +16,16 @@ def register(sub) -> None:
     p = sub.add_parser(
         "tolerance", help="how precisely must the parts be cut so that 99 %% of legs walk (bisection on the spread)",
         description="Find the largest manufacturing spread ±s (every chosen length within ±s of its nominal, "
-                    "uniformly; coordinates within ±s of the mechanism's size) at which at least --target of the "
+                    "uniformly; coordinates within ±s of the mechanism's size; by default every design parameter: "
+                    "links, crank, pivots and body points) at which at least --target of the "
                     "legs still walk: assemble over a full crank turn (or, with --criterion buildable, also pass "
                     "the buildability screen). Each step runs a small uniform study (--variants, the same seed "
                     "every time, so the spreads are compared on the same random draws) into a temporary file and "
                     "counts; the spread doubles or halves from --spread until the target is bracketed, then is "
                     "bisected until the bracket is within --rtol. The answer is the largest spread that met the "
                     "target; its share carries the binomial standard error of --variants samples.",
-        epilog="examples: explorer tolerance jansen; explorer tolerance jansen --target 0.95 --parameters 1-6,2-6,crank; "
+        epilog="examples: explorer tolerance jansen; explorer tolerance klann --parameters links; "
+               "explorer tolerance jansen --target 0.95 --parameters 1-6,2-6,crank; "
                "explorer tolerance my-leg.toml --criterion buildable --variants 2000")
     p.add_argument("mechanism", metavar="MECHANISM", help="built-in mechanism name or a mechanism .toml")
     p.add_argument("--target", metavar="SHARE", default="0.99", help="share of legs that must walk (default 0.99)")
@@ -31,9 +33,10 @@ def register(sub) -> None:
                    help="relative spread where the search starts (default 0.01 = ±1 %%)")
     p.add_argument("--variants", metavar="N", default="1000",
                    help="variants per study, the nominal included (default 1000)")
-    p.add_argument("--parameters", metavar="P1,P2|all", default=None,
-                   help="parameters cut to the spread, named as in [perturb] parameters (default: every link and "
-                        "the crank radius)")
+    p.add_argument("--parameters", metavar="all|links|P1,P2", default=None,
+                   help="parameters cut to the spread: all (default: every design parameter: links, crank, pivots, "
+                        "body points), links (the links and the crank radius only), or names as in [perturb] "
+                        "parameters")
     p.add_argument("--criterion", metavar="WHAT", default="assembles",
                    help="assembles (default: turns a full turn) or buildable (and passes the buildability screen)")
     p.add_argument("--seed", metavar="N", default="1", help="seed of the samples (default 1)")
@@ -66,10 +69,11 @@ def run(args) -> int:
 
     if args.format not in FORMATS:
         raise UserError(f"--format: expected one of {', '.join(FORMATS)}, got {args.format!r}")
-    params = None
+    from ..study._tolerance import PARAMETER_SETS, PARAMETER_WORDS
+    params = "all"
     if args.parameters is not None:
         params = args.parameters.strip()
-        if params != "all":
+        if params not in PARAMETER_SETS:
             params = [s.strip() for s in params.split(",") if s.strip()]
             if not params:
                 raise UserError(f"--parameters: expected comma-separated names or all, got {args.parameters!r}")
@@ -83,7 +87,8 @@ def run(args) -> int:
     if table:
         print(f"{args.mechanism}: the largest spread at which {100 * _number(args.target, '--target'):g} % of the legs "
               f"{'assemble over a full turn' if args.criterion == 'assembles' else 'turn and pass the buildability screen'} "
-              f"(uniform studies of {_whole(args.variants, '--variants', 1):,} variants, seed {args.seed})")
+              f"(uniform studies of {_whole(args.variants, '--variants', 1):,} variants, seed {args.seed}), cutting "
+              f"{PARAMETER_WORDS[params] if params in PARAMETER_SETS else 'the parameters named'} to the spread")
         print(f"  {'spread':>10}  {'share ± standard error':<22}  {'legs':>7}")
     res = tolerance(args.mechanism, target=_number(args.target, "--target"), spread=_number(args.spread, "--spread"),
                     variants=_whole(args.variants, "--variants", 1), parameters=params,
@@ -93,7 +98,8 @@ def run(args) -> int:
         sys.stdout.write(json.dumps(_jsonable(res.as_dict()), indent=1, allow_nan=False) + "\n")
         return 0
     lo, hi = res.bracket
-    print(f"parameters cut to the spread: {', '.join(res.parameters)}")
+    words = PARAMETER_WORDS[params] + ": " if params in PARAMETER_SETS else ""
+    print(f"parameters cut to the spread: {words}{', '.join(res.parameters)}")
     if not math.isfinite(lo):
         print(f"no spread tried met the target within {len(res.evaluations)} studies")
         return 0

@@ -5,7 +5,11 @@ runs).
 Each evaluation is a uniform study of ``variants`` variants (variant 0, the nominal, plus
 ``variants − 1`` designs with every chosen parameter within ±spread: lengths relatively, coordinates
 by spread × the mechanism's size, as ``[perturb]`` does), run by :func:`~explorer.study.run_study`
-into a temporary file, and the share of the sampled designs that meet the criterion:
+into a temporary file, and the share of the sampled designs that meet the criterion. The chosen
+parameters are by default every design parameter (links, crank radius and centre, ground pivots,
+body points: a workshop cuts the holes in the bodies and the frame with the same error as the links);
+``"links"`` keeps the links and the crank radius only, as a default ``[perturb]`` study does.
+The criterion:
 
 * ``assembles`` (default): solved over a full crank turn (status ok);
 * ``buildable``: that, and passing the buildability screen (the study computes the four metrics the
@@ -44,6 +48,11 @@ MAX_SPREAD = 0.5
 #: ... nor below this (a spread that small is machining noise).
 MIN_SPREAD = 1e-6
 CRITERIA = ("assembles", "buildable")
+#: The ``parameters`` choices by word: every design parameter (the default), or the links and the crank radius.
+PARAMETER_SETS = ("all", "links")
+#: How the table says what each of them cuts.
+PARAMETER_WORDS = {"all": "every design parameter (links, crank, pivots, body points)",
+                   "links": "the links and the crank radius"}
 #: The metrics the buildability screen reads (computed for ``criterion = "buildable"``): its checks' own
 #: inputs (``explorer.gait.CHECKS``), so a new check needs no edit here.
 SCREEN_INPUTS = list(_SCREEN_INPUTS)
@@ -89,8 +98,10 @@ class ToleranceResult:
 
 def _study(mech_ref: str, spread: float, variants: int, parameters, seed: int, steps: int, criterion: str) -> dict:
     perturb = {"method": "uniform", "spread": float(spread)}
-    if parameters is not None:
-        perturb["parameters"] = parameters if parameters == "all" else list(parameters)
+    if parameters is None or parameters == "all":
+        perturb["parameters"] = "all"
+    elif parameters != "links":  # "links": a default [perturb] study's links and crank radius
+        perturb["parameters"] = list(parameters)
     return {"study": {"name": "tolerance", "mechanism": mech_ref, "variants": int(variants), "seed": int(seed),
                       "steps": int(steps)},
             "perturb": perturb,
@@ -103,13 +114,17 @@ def share_at(mechanism, spread: float, *, variants: int = 1000, parameters=None,
              criterion: str = "assembles", folder=None) -> dict:
     """One evaluation: run the uniform study at ``spread`` into a temporary file and count. Returns
     {spread, share, se, count, n, nominal_ok, meets: None, perturbed} (n = variants − 1: the nominal is no
-    sample)."""
+    sample). ``parameters`` as for :func:`tolerance`."""
     from ..store import open_results
     from ._run import run_study
+    from ._spec import load_study
     mech_ref = _mechanism_ref(mechanism)
+    # the study's own errors name the mechanism the user gave, not an anonymous <dict>
+    study = load_study(_study(mech_ref, spread, variants, parameters, seed, steps, criterion),
+                       source=f"{mechanism} (tolerance study)")
     with tempfile.TemporaryDirectory(prefix="explorer-tolerance-", dir=folder) as tmp:
         out = Path(tmp) / "tolerance.h5"
-        run_study(_study(mech_ref, spread, variants, parameters, seed, steps, criterion), output=out, progress=False)
+        run_study(study, output=out, progress=False)
         with open_results(out) as r:
             df = r.frame()
             perturbed = r.perturbed
@@ -137,6 +152,24 @@ def _mechanism_ref(mechanism) -> str:
                     f"or a path to a .toml)")
 
 
+def _check_nominal(mechanism, mech_ref: str, parameters) -> None:
+    """Before any study: the named parameters exist and the nominal design assembles (UserError naming
+    the mechanism as given)."""
+    from ..kernels import assemble
+    from ..mechanism import load_mechanism
+    mech = load_mechanism(mech_ref)
+    if parameters not in PARAMETER_SETS:
+        known = mech.parameters()
+        for name in parameters:
+            if name not in known:
+                raise UserError(f"{mechanism}: --parameters: unknown design parameter {name!r} (known: "
+                                f"{', '.join(known)}; or all, links)")
+    _, fail = assemble(mech)
+    if fail is not None:
+        raise UserError(f"{mechanism}: the nominal design cannot be assembled at θ = 0: {fail.message}: no "
+                        f"tolerance makes its legs walk")
+
+
 def tolerance(mechanism, target: float = 0.99, spread: float = 0.01, *, variants: int = 1000, parameters=None,
               seed: int = 1, steps: int = 360, criterion: str = "assembles", rtol: float = 0.05,
               max_runs: int = 24, progress=None) -> ToleranceResult:
@@ -144,9 +177,10 @@ def tolerance(mechanism, target: float = 0.99, spread: float = 0.01, *, variants
     sampled legs meet ``criterion``, by bisection on s (see the module docstring).
 
     mechanism : built-in name or mechanism .toml. target : share in (0, 1). spread : where the search
-        starts, in (0, 0.5]. variants : per study (≥ 20; variant 0 is the nominal). parameters : None
-        (every link and the crank radius, as the default study), ``"all"``, or names as in ``[perturb]
-        parameters``. seed, steps : of each study. criterion : "assembles" or "buildable". rtol : stop
+        starts, in (0, 0.5]. variants : per study (≥ 20; variant 0 is the nominal). parameters : None or
+        ``"all"`` (every design parameter: links, crank radius and centre, ground pivots, body points),
+        ``"links"`` (every link and the crank radius, as a default ``[perturb]`` study), or names as in
+        ``[perturb] parameters``. seed, steps : of each study. criterion : "assembles" or "buildable". rtol : stop
         when hi/lo ≤ 1 + rtol. max_runs : at most this many studies. progress : called with each
         evaluation dict as it comes.
     """
@@ -163,9 +197,12 @@ def tolerance(mechanism, target: float = 0.99, spread: float = 0.01, *, variants
         raise UserError(f"--rtol: expected a number in (0, 1], got {rtol!r}")
     if isinstance(max_runs, bool) or not isinstance(max_runs, int) or max_runs < 2:
         raise UserError(f"max_runs: expected a whole number >= 2, got {max_runs!r}")
-    if parameters is not None and parameters != "all":
+    if parameters is None:
+        parameters = "all"
+    if parameters not in PARAMETER_SETS:
         parameters = [parameters] if isinstance(parameters, str) else list(parameters)
     mech_ref = _mechanism_ref(mechanism)
+    _check_nominal(mechanism, mech_ref, parameters)
     res = ToleranceResult(mechanism=str(mechanism), target=float(target), criterion=criterion, variants=variants,
                           parameters=(), seed=int(seed), steps=int(steps), rtol=float(rtol))
     best = None
