@@ -118,7 +118,10 @@ def run(args) -> int:
         mode, weights = "default", dict(DEFAULT_WEIGHTS)
     extra = parse_list(args.columns, "--columns") if args.columns is not None else None
 
+    unstored = []
     with open_results(args.results) as res:
+        if mode == "default":  # the default score over the metrics the file stores (an optimisation: some)
+            weights, unstored = res.default_weights()
         frame = res.frame()  # read once: the ranking and the screen's counts share it
         full = res.rank(by=by, top=None, where=args.where, ascending=args.ascending, weights=weights,
                         pareto=pareto, include_failed=args.include_failed, include_screened=args.include_screened,
@@ -167,6 +170,8 @@ def run(args) -> int:
     shown = f"showing {len(ranked):,}" if len(ranked) < len(full) else "showing all"
     lines = [f"{name}: {how}", f"{pool}; {matched}; {shown}"]
     lines.append(screen_line(screened, args.include_screened))
+    if unstored:
+        lines.append(f"ranked without {', '.join(unstored)}: not stored in this file")
     if ranked.empty:
         lines.append("(no variant to show)")
         print("\n".join(lines))

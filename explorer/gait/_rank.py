@@ -108,6 +108,20 @@ def select(df: pd.DataFrame, where=None, include_failed: bool = False, include_s
     return df
 
 
+def default_weights(columns) -> tuple[dict[str, float], list[str]]:
+    """The default score (:data:`DEFAULT_WEIGHTS`) over the metrics ``columns`` holds: (its weights
+    restricted to them, the default metrics missing, which it ranks without). An optimisation stores
+    only its objectives, constraints and the screen's inputs, so a results file may hold some of them.
+    UserError if it holds none."""
+    have = set(map(str, columns))
+    weights = {m: w for m, w in DEFAULT_WEIGHTS.items() if m in have}
+    missing = [m for m in DEFAULT_WEIGHTS if m not in have]
+    if not weights:
+        raise UserError(f"the default ranking needs the walker metrics {', '.join(missing)}, which these results "
+                        f"do not have; rank by=METRIC (for example by='stride') or compute them")
+    return weights, missing
+
+
 def _check_top(top):
     """None or 0 (every row, as ``--top 0`` on the command line), else a row count >= 1."""
     if top is None:
@@ -213,7 +227,8 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
     * ``by`` (a metric name): sorted in its natural direction, or smallest first if
       ``ascending=True``, largest first if ``ascending=False``.
     * none of them: the default ranking, the weighted score of :data:`DEFAULT_WEIGHTS` (travel,
-      bob, body_speed_ripple and peak_torque, equal weights).
+      bob, body_speed_ripple, peak_torque and clearance, equal weights) over those of them the frame
+      holds (:func:`default_weights`: an optimisation's results hold only some).
 
     NaN values of the sort key (a failed variant kept with include_failed, an undefined metric)
     come last. Ties keep variant order. ``top`` rows are returned (0 or None: all, as ``--top 0``). ``rank`` is the
@@ -226,11 +241,7 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
         raise UserError(f"rank: expected a pandas DataFrame, got {type(df).__name__}")
     top = _check_top(top)
     if by is None and weights is None and pareto is None:
-        missing = [m for m in DEFAULT_WEIGHTS if m not in df.columns]
-        if missing:
-            raise UserError(f"the default ranking needs the walker metrics {', '.join(missing)}, which these results "
-                            f"do not have; rank by=METRIC (for example by='stride') or compute them")
-        weights = dict(DEFAULT_WEIGHTS)
+        weights, _ = default_weights(df.columns)
     if pareto is not None and weights is not None:
         raise UserError("rank: pass either pareto= or weights=, not both")
     if pareto is not None:

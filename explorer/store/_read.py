@@ -275,7 +275,8 @@ class Results:
              pareto=None, include_failed: bool = False, include_screened: bool = False,
              frame: "pd.DataFrame | None" = None) -> "pd.DataFrame":
         """Ranked rows of :meth:`frame`, best first, with a ``rank`` column: :func:`explorer.gait.rank`
-        (by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS`; one metric ``by``, a weighted ``score`` over normalised metrics with ``weights``, or the
+        (by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS` over those of them stored,
+        :meth:`default_weights`; one metric ``by``, a weighted ``score`` over normalised metrics with ``weights``, or the
         Pareto front of ``pareto``; ``where`` is a filter such as "bob < 0.5 and slip < 0.05" (explorer.gait._filter);
         failed variants are left out unless ``include_failed``, variants the buildability screen
         removes unless ``include_screened``; the frame's ``screen`` column says why). ``frame``: a
@@ -285,9 +286,26 @@ class Results:
         (``explorer metrics RESULTS`` or ``[scene] metrics = true``).
         """
         from ..gait import rank
-        self._check_metrics(_ranked_columns(by, weights, pareto))
+        if by is None and weights is None and pareto is None:
+            self.default_weights()  # ranks over the default metrics stored; UserError if none is
+        else:
+            self._check_metrics(_ranked_columns(by, weights, pareto))
         return rank(self.frame() if frame is None else frame, by=by, top=top, where=where, ascending=ascending,
                     weights=weights, pareto=pareto, include_failed=include_failed, include_screened=include_screened)
+
+    def default_weights(self, check: bool = True) -> tuple[dict[str, float], list[str]]:
+        """The default score's weights over the metrics this file stores, and the default metrics it
+        lacks (ranked without): :func:`explorer.gait._rank.default_weights`. An optimisation stores
+        only its objectives, constraints and the screen's inputs. With ``check``, a file that stores
+        none of them is a UserError saying how to compute them."""
+        from ..gait import DEFAULT_WEIGHTS
+        from ..gait._rank import default_weights
+        stored = self.metric_names
+        if not any(m in stored for m in DEFAULT_WEIGHTS):
+            if check:
+                self._check_metrics(list(DEFAULT_WEIGHTS))
+            return {}, list(DEFAULT_WEIGHTS)
+        return default_weights(stored)
 
     def _check_metrics(self, names) -> None:
         """UserError if any of ``names`` is a gait metric that this file does not store."""
