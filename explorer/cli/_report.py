@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ._format import add_units_argument
+
 
 # The defaults of explorer.view._report, repeated here: importing explorer.view to read them would load
 # matplotlib (1.7 s) every time the command line starts (tests/test_report.py checks that they agree).
@@ -19,7 +21,10 @@ def register(sub) -> None:
                     "network) of a results file. Parallel coordinates over the rank, the varied design "
                     "parameters and every stored metric; a scatter of any two metrics with the Pareto front of "
                     "the selected buildable designs; the foot paths of the best-ranked selected designs over the "
-                    "nominal's; the screened-out and failed designs counted by reason, each viewable. Brushing "
+                    "nominal's; the best designs against the nominal (or --vs VARIANT: each metric's value and "
+                    "change in %, the reference's own place); the screened-out and failed designs counted by "
+                    "reason, each viewable. --units si gives lengths in mm, travel in m per turn, a walking speed in "
+                    "m/s and torque in N·m at the study's [operating] point. Brushing "
                     "an axis or selecting in the scatter filters every view. The views hold the ok designs; "
                     f"above --max-designs (default {DEFAULT_MAX_DESIGNS:,}) a seeded uniform sample of them, "
                     "which the page states. An existing -o file is never replaced without --force.")
@@ -43,6 +48,10 @@ def register(sub) -> None:
     p.add_argument("--points", type=int, metavar="N", default=DEFAULT_POINTS,
                    help=f"samples per stored foot path (default: {DEFAULT_POINTS})")
     p.add_argument("--seed", type=int, default=0, help="seed of the sample above --max-designs (default: 0)")
+    p.add_argument("--vs", type=int, metavar="VARIANT", default=0,
+                   help="the reference design the tables compare every metric with (value and change in %%), "
+                        "starred in the scatter and drawn under the foot paths (default 0: the nominal)")
+    add_units_argument(p)
     p.set_defaults(func=run)
 
 
@@ -70,7 +79,8 @@ def run(args) -> int:
     check_export_path(out, args.force, protect=[args.results])  # a bad path fails before any work
     with open_results(args.results) as res:
         rep = write_report(res, out, force=args.force, metrics=args.metrics, max_designs=args.max_designs,
-                           paths=args.paths, shown=args.shown, points=args.points, seed=args.seed, x=x, y=y, pc_lines=args.lines)
+                           paths=args.paths, shown=args.shown, points=args.points, seed=args.seed, x=x, y=y, pc_lines=args.lines,
+                           vs=args.vs, units=args.units)
     views = f"{rep.n_designs:,} designs in the views"
     if rep.sampled:
         views += f" (a seeded sample of the {rep.n_ok:,} ok)"

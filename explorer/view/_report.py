@@ -6,10 +6,14 @@ The page holds plotly.js itself (inlined, ~4.8 MB; no CDN, it opens offline) and
   stored metric (in the order of :data:`explorer.gait.TABLE`, ↑ higher / ↓ lower is better), whether
   the design passes the buildability screen, and whether it is picked in the scatter;
 * a **scatter** of any two metrics (two drop-downs; default travel against bob) with the **Pareto
-  front** of the selected buildable designs in the metrics' own directions and the nominal
-  (variant 0) starred;
+  front** of the selected buildable designs in the metrics' own directions and the reference design
+  (``vs``: the nominal, variant 0, unless another is named) starred;
 * the **foot paths** of the best-ranked selected designs (at most ``shown`` at once, default 50) over
   the nominal's;
+* the **best designs against the reference**: the best-ranked buildable designs with each score
+  metric's value and change in % against the reference's, the reference last with its own place, the
+  walker score of both and a verdict of design #1 (as ``explorer rank --change`` and ``explorer show``);
+  the best selected designs' table (linked to the brushes) shows the change too, the reference last;
 * the **screened-out and failed designs counted by reason** (a design can fail several screen
   checks: it counts under each), each reason viewable: its first designs' foot paths drawn in red
   and its variant numbers listed.
@@ -31,6 +35,10 @@ Foot paths are downsampled to ``points`` (default 60) per path and stored for th
 16-bit integers over their common bounding box. 10,000 Jansen variants make a 7.3 MB page, 100,000 a
 22 MB one (plotly.js itself is 4.8 MB of it).
 
+Units: the file's model units, or with ``units="si"`` (``--units si``) lengths in mm, travel in m per turn,
+a walking speed in m/s and torque in N·m at the study's ``[operating]`` point (:func:`explorer.gait.to_si`);
+the ranking stays that of the stored values.
+
 Open from a notebook: ``write_report(res, "report.html")`` then
 ``IPython.display.IFrame("report.html", width="100%", height=1100)``; or
 :meth:`Report.iframe`.
@@ -50,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..gait import BY_NAME, CHECKS, DEFAULT_WEIGHTS, METRICS, rank
+from ..gait import BY_NAME, CHECKS, DEFAULT_WEIGHTS, METRICS, SPEED, change_pct, operating_line, rank, results_si, verdict
 
 #: Above this many ok designs the linked views show a seeded uniform sample of them.
 DEFAULT_MAX_DESIGNS = 100_000
@@ -69,6 +77,8 @@ DEFAULT_POINTS = 60
 DEFAULT_REASON_PATHS = 50
 #: Variant numbers listed per reason.
 REASON_LIST = 500
+#: Best-ranked buildable designs in the table against the reference design.
+VS_ROWS = 10
 
 _STATUS_TEXT = {
     "assembly": "cannot assemble at some crank angle (or time along its path)",
@@ -249,7 +259,7 @@ def _check_count(name, value, minimum) -> int:
 def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, paths: int = DEFAULT_PATHS,
                  shown: int = DEFAULT_SHOWN, points: int = DEFAULT_POINTS, reason_paths: int = DEFAULT_REASON_PATHS,
                  seed: int = 0, x: str | None = None, y: str | None = None, title: str | None = None,
-                 pc_lines: int = DEFAULT_PC_LINES):
+                 pc_lines: int = DEFAULT_PC_LINES, vs: int = 0, units: str = "model"):
     """(html text, :class:`Report` with path None) of an open results file; see :func:`write_report`."""
     from .._extras import require
     require("plotly", "explorer report")
@@ -269,6 +279,10 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     df = res.frame()
     N = len(df)
     mech = res.mechanism
+    ref = res.check_variant(vs)
+    ref_label = "nominal" if ref == 0 else f"reference (variant {ref})"
+    si = results_si(res, df, units)  # --units si: every figure shown in SI; the ranking stays the stored values'
+    dv = df if si is None else si.frame
     params = [p for p in res.perturbed if p in df.columns]
     stored = [m for m in METRICS if m in df.columns] + [m for m in res.metric_names
                                                           if m not in METRICS and m in df.columns]
@@ -283,6 +297,15 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     n_ok = int(ok.sum())
     dropped = [m for m in stored if not np.isfinite(df.loc[ok, m].to_numpy(dtype=np.float64)).any()]
     mets = [m for m in stored if m not in dropped]
+    if si is not None and SPEED in si.units and "travel" in mets:  # the walking speed follows travel
+        mets.insert(mets.index("travel") + 1, SPEED)
+
+    def unit_of(key) -> str:
+        """The unit the page shows ``key`` in."""
+        if si is not None and key in si.converted:
+            return si.units[key]
+        meta = BY_NAME.get(key)
+        return _unit_text(meta.unit) if meta else "model units"
 
     order, by_score = _ranked_ok(df)
     sampled = n_ok > max_designs
@@ -292,6 +315,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         order = order[pick]
     n = len(order)
     rows = df.iloc[order]
+    shown_rows = dv.iloc[order]  # the same rows in the units shown
     variant = rows["variant"].to_numpy(dtype=np.int64) if "variant" in rows.columns else order.astype(np.int64)
     buildable = rows["buildable"].to_numpy(dtype=bool) if "buildable" in rows.columns else np.ones(n, dtype=bool)
     rank_col = (pick + 1) if sampled else np.arange(1, n + 1)  # place among every ok design
@@ -317,14 +341,18 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     table = []
     dims = []
 
-    def add(key, label, kind, values, unit="", description="", **extra):
+    ref_ok = bool(ok_mask(df.iloc[[ref]])[0])
+
+    def add(key, label, kind, values, unit="", description="", direction=None, **extra):
         table.append(_f32(values))
         dims.append(dict(label=label, values=[], **extra))
         meta = BY_NAME.get(key)
+        r0 = float(dv[key].iloc[ref]) if key in dv.columns and kind in ("parameter", "metric") else math.nan
         columns.append({"key": key, "label": label, "kind": kind, "dim": len(dims) - 1,
-                        "unit": _unit_text(meta.unit) if meta else unit,
-                        "direction": meta.direction if meta else None,
-                        "description": meta.description if meta else description})
+                        "unit": unit_of(key) if meta or kind == "parameter" else unit,
+                        "direction": meta.direction if meta else direction,
+                        "description": meta.description if meta else description,
+                        "reference": r0 if math.isfinite(r0) and (ref_ok or kind == "parameter") else None})
 
     add("rank", "rank", "rank", rank_col, description="place in the ranking (1 = best; see above)")
     if "generation" in rows.columns:  # an optimisation (explorer optimize): when each design was tried
@@ -332,11 +360,20 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
             description="the generation of the optimisation that tried the design (0 = the first)")
     for p in params:
         kind = mech.parameter_kind(p)
-        add(p, p, "parameter", rows[p].to_numpy(dtype=np.float64), unit="model units",
+        add(p, p, "parameter", shown_rows[p].to_numpy(dtype=np.float64),
             description=("crank radius" if p == "crank" else f"length of link {p}" if kind == "length"
                          else f"coordinate {p}"))
     for m in mets:
-        add(m, _axis_label(m), "metric", rows[m].to_numpy(dtype=np.float64))
+        if m == SPEED:
+            add(m, f"{m} ↑", "metric", shown_rows[m].to_numpy(dtype=np.float64), unit="m/s", direction="max",
+                description=f"walking speed at {si.operating.rpm:g} rpm: travel per turn × rpm / 60")
+        else:
+            add(m, _axis_label(m), "metric", shown_rows[m].to_numpy(dtype=np.float64))
+    col_of = {c["key"]: c for c in columns}
+
+    def axis_title(m) -> str:
+        c = col_of[m]
+        return f"{m} [{c['unit']}], {'higher' if c['direction'] == 'max' else 'lower'} is better"
     add("buildable", "buildable", "flag", buildable.astype(np.float64), range=[0, 1], tickvals=[0, 1],
         ticktext=["screened out", "yes"], description="passes the buildability screen (yes) or is screened out")
     add("pick", "scatter pick", "flag", np.ones(n), range=[0, 1], tickvals=[0, 1], ticktext=["out", "in"],
@@ -354,10 +391,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     pc.update_layout(margin=dict(l=60, r=40, t=150, b=30), height=520, font=dict(size=12), paper_bgcolor="white")
 
     # -- scatter (its points are filled in by the page's script from the table) ------------------------------
-    nominal = df[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
-    nominal_ok = len(nominal) and bool(ok_mask(nominal)[0])
-    nominal_values = {m: (float(nominal[m].iloc[0]) if nominal_ok and math.isfinite(float(nominal[m].iloc[0]))
-                          else None) for m in mets}
+    # the reference design (the nominal unless vs): its star in the scatter, its row in the tables
+    nominal_values = {m: col_of[m]["reference"] for m in mets}
     sc = go.Figure()
     keep = dict(marker=dict(opacity=1.0))  # a box drawn in the scatter dims only the all-designs layer
     if sx is not None:
@@ -376,10 +411,10 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
                                 line=dict(color="#ff7f0e", width=2), marker=dict(size=7, color="#ff7f0e"),
                                 customdata=[], unselected=keep, hovertemplate="front: variant %{customdata}<br>%{x:.4g}, %{y:.4g}"
                                                              "<extra></extra>"))
-        sc.add_trace(go.Scatter(x=[], y=[], mode="markers", name="nominal (variant 0)", unselected=keep,
-                                hovertemplate="nominal<br>%{x:.4g}, %{y:.4g}<extra></extra>",
+        sc.add_trace(go.Scatter(x=[], y=[], mode="markers", name=f"{ref_label}" + (" (variant 0)" if ref == 0 else ""),
+                                unselected=keep, hovertemplate=f"{ref_label}<br>%{{x:.4g}}, %{{y:.4g}}<extra></extra>",
                                 marker=dict(symbol="star", size=16, color="#d62728", line=dict(color="black", width=1))))
-        sc.update_layout(xaxis_title=_title_label(sx), yaxis_title=_title_label(sy))
+        sc.update_layout(xaxis_title=axis_title(sx), yaxis_title=axis_title(sy))
     sc.update_layout(dragmode="select", height=520, margin=dict(l=70, r=20, t=30, b=60), font=dict(size=13),
                      legend=dict(orientation="h", yanchor="bottom", y=1.0, x=0, font=dict(size=11)),
                      plot_bgcolor="white", paper_bgcolor="white", hovermode="closest")
@@ -413,12 +448,14 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         reasons.append(entry)
     if has_paths:
         nominal_path = len(path_variants)
-        path_variants.append(0)
+        path_variants.append(ref)
     vname = None
     blob, scale, npts = "", [0.0, 0.0, 1.0, 1.0], 0
     if has_paths:
         vname = mech.foot if mech.foot in res.vertices else res.vertices[0]
         P = read_foot_paths(res, path_variants, points, vname)
+        if si is not None:
+            P = P * (si.operating.unit * 1000.0)  # mm
         npts = P.shape[1]
         q, scale = _quantize(P)
         blob = _b64(q)
@@ -426,7 +463,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     loop = has_paths and mech.crank is not None and np.isfinite(nom_xy).all()  # a path driver's path is no loop
     closed = np.vstack([nom_xy, nom_xy[:1]]) if loop else nom_xy
     fp = go.Figure()
-    fp.add_trace(go.Scatter(x=closed[:, 0], y=closed[:, 1], mode="lines", name="nominal (variant 0)",
+    fp.add_trace(go.Scatter(x=closed[:, 0], y=closed[:, 1], mode="lines",
+                            name=f"{ref_label}" + (" (variant 0)" if ref == 0 else ""),
                             line=dict(color="#555555", width=4), hoverinfo="name"))
     fp.add_trace(go.Scatter(x=[], y=[], mode="lines", name=f"selected: the best {shown} by rank",
                             line=dict(color="#1f77b4", width=1.2), opacity=0.75, customdata=[],
@@ -434,7 +472,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     fp.add_trace(go.Scatter(x=[], y=[], mode="lines", name="by reason (none chosen)",
                             line=dict(color="#d62728", width=1.2), opacity=0.8, customdata=[],
                             hovertemplate="variant %{customdata}<extra>reason</extra>"))
-    unit = "model units"
+    unit = "model units" if si is None else "mm"
     fp.update_layout(height=500, margin=dict(l=70, r=20, t=30, b=60), font=dict(size=13),
                      legend=dict(orientation="h", yanchor="bottom", y=1.0, x=0, font=dict(size=11)),
                      plot_bgcolor="white", paper_bgcolor="white",
@@ -453,6 +491,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         "pc_order": _b64(pc_order), "pc_lines": min(pc_lines, n), "pc_lines_software": min(PC_LINES_SOFTWARE, n), "shown": shown, "n_paths": n_paths,
         "points": npts, "paths": blob, "scale": scale, "nominal_path": nominal_path, "reasons": reasons,
         "nominal": nominal_values, "foot": vname, "dropped": dropped, "closed": mech.crank is not None,
+        "reference": {"variant": ref, "label": ref_label, "ok": ref_ok,
+                      "place": (str(int(rank_col[np.flatnonzero(variant == ref)[0]])) if (variant == ref).any() else "-")}, "units": "si" if si is not None else "model",
     }
     figs = {"parcoords": pc, "scatter": sc, "feet": fp}
     fig_json = {k: pio.to_json(f, validate=False, engine="json") for k, f in figs.items()}
@@ -473,9 +513,21 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
                   + ", ".join(DEFAULT_WEIGHTS) + " over the buildable designs), the screened-out designs after them"
                   if by_score else "rank: variant order (the default score's metrics are not stored)")
     axes_rows = "".join(
-        f"<tr><td>{html.escape(c['label'])}</td><td>{html.escape(c['unit'] or '')}</td>"
+        f"<tr data-key='{html.escape(c['key'], quote=True)}'><td>{html.escape(c['label'])}</td>"
+        f"<td>{html.escape(c['unit'] or '')}</td>"
+        f"<td class='num'>{'-' if c.get('reference') is None else format(c['reference'], '.6g')}</td>"
         f"<td>{ {'max': 'higher', 'min': 'lower'}.get(c['direction'], '')}</td>"
         f"<td>{html.escape(c['description'])}</td></tr>" for c in columns)
+    keys = [m for m in DEFAULT_WEIGHTS if m in mets] or [m for m in mets if m != SPEED][:6]
+    if SPEED in mets and "travel" in keys:
+        keys.insert(keys.index("travel") + 1, SPEED)
+    vs_section = _vs_section(df, dv, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys}, by_score,
+                             None if si is None else {c: si.units[c] for c in si.converted})
+    units_note = ""
+    if si is not None:
+        units_note = "<p class='note' id='units-note'>" + html.escape(
+            operating_line(si.operating) + ". Ranks, brushes' order and the default score are over the stored "
+            "values (a torque's: per weight × crank radius). " + " ".join(f"{n}." for n in si.notes)) + "</p>"
     created = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     no_scatter = "" if sx is not None else "<p class='warn'>Fewer than two metrics stored: no scatter.</p>"
     no_paths = "" if has_paths else "<p class='warn'>This results file stores no paths: no foot paths to draw.</p>"
@@ -487,14 +539,81 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         heading=html.escape(f"{name} — {mech.name}"),
         meta=html.escape(f"{res.filename} · {N:,} variants × {res.steps} steps · {n_ok:,} ok · explorer {__version__} "
                          f"· {created}"),
-        n_designs=n, n_designs_text=f"{n:,}", n_ok=f"{n_ok:,}", N=f"{N:,}", sample_note=sample_note + dropped_note,
+        n_designs=n, n_designs_text=f"{n:,}", n_ok=f"{n_ok:,}", N=f"{N:,}", sample_note=sample_note + dropped_note + units_note,
         order_note=order_note, options=options, reason_table=tables, axes_rows=axes_rows, no_scatter=no_scatter,
         no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data=_script_safe(json.dumps(data)),
         figs=fig_scripts, results=html.escape(str(res.filename)), foot=html.escape(str(vname or "-")),
+        vs_section=vs_section, ref_label=html.escape(ref_label),
         points=npts)
     rep = Report(path=None, bytes=len(page.encode("utf-8")), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
                  n_paths=n_paths, parameters=params, metrics=mets, counts=counts)
     return page, rep
+
+
+def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dict, by_score: bool,
+                verdict_units: dict | None = None) -> str:
+    """The table of the best-ranked buildable designs against the reference (as ``explorer rank --change``
+    prints it): for each metric of ``keys`` its value (``dv``: the units shown) and the change against the
+    reference's in %, the reference last, marked with its own place; then the walker score of both and a
+    verdict of the best design against the reference (as ``explorer show``; its values followed by
+    ``verdict_units``' unit where it names one)."""
+    from ..gait import ok_mask
+    esc = html.escape
+    if by_score:
+        scored = rank(df, top=None)
+        pos = df.index.get_indexer(scored.index)
+        score, places = scored["score"].to_numpy(dtype=np.float64), scored["rank"].to_numpy(dtype=np.int64)
+    else:  # the default score's metrics are not stored: the buildable designs in variant order
+        keep = ok_mask(df) & (df["buildable"].to_numpy(dtype=bool) if "buildable" in df.columns else True)
+        pos = np.flatnonzero(keep)
+        score, places = np.full(len(pos), np.nan), np.arange(1, len(pos) + 1)
+    if not keys:
+        return ""
+    r0 = {k: float(dv[k].iloc[ref]) if ref_ok else math.nan for k in keys}
+    head = ("<tr><th>rank</th><th>variant</th>" + ("<th class='num'>score</th>" if by_score else "")
+            + "".join(f"<th class='num'>{esc(k)} [{esc(units.get(k) or '')}]</th><th class='num'>Δ %</th>"
+                      for k in keys) + "</tr>")
+
+    def cells(i) -> str:
+        out = []
+        for k in keys:
+            x = float(dv[k].iloc[i])
+            d = change_pct(x, r0[k])
+            out.append(f"<td class='num' data-key='{esc(k, quote=True)}' data-value='{x!r}' data-change='{d!r}'>"
+                       f"{'-' if not math.isfinite(x) else format(x, '.5g')}</td>"
+                       f"<td class='num'>{'-' if not math.isfinite(d) else format(d, '+.1f') + ' %'}</td>")
+        return "".join(out)
+
+    body = []
+    for j in range(min(VS_ROWS, len(pos))):
+        i = int(pos[j])
+        sc = f"<td class='num'>{score[j]:.3f}</td>" if by_score else ""
+        body.append(f"<tr class='vs' data-variant='{int(df['variant'].iloc[i])}'><td>{int(places[j])}</td>"
+                    f"<td>{int(df['variant'].iloc[i])}</td>{sc}{cells(i)}</tr>")
+    at = np.flatnonzero(pos == ref)
+    place = f"{int(places[at[0]])}" if len(at) else "-"
+    sc = (f"<td class='num'>{score[at[0]]:.3f}</td>" if len(at) else "<td class='num'>-</td>") if by_score else ""
+    body.append(f"<tr class='ref' data-variant='{ref}' data-place='{place}'><td>{esc(ref_label)}: {place}</td>"
+                f"<td>{ref}</td>{sc}{cells(ref)}</tr>")
+    pool = f"{len(pos):,} buildable designs"
+    lines = []
+    if by_score:
+        ref_score = (f"the {ref_label}'s walker score is {score[at[0]]:.3f}, rank {place} of {pool}" if len(at)
+                     else f"the {ref_label} is not ranked (failed or screened out)")
+        lines.append(f"Ranked by the walker score ({', '.join(DEFAULT_WEIGHTS)}; 1 = best); {ref_score}.")
+    if len(pos) and ref_ok and int(pos[0]) != ref:
+        best = int(pos[0])
+        lines.append(f"Design #1 (variant {int(df['variant'].iloc[best])}): "
+                     + verdict(dv.iloc[best], dv.iloc[ref], ref_label, keys, verdict_units) + ".")
+    elif not ref_ok:
+        lines.append(f"The {ref_label} failed: it has no metrics to compare with.")
+    notes = "".join(f"<p class='note' id='{'vs-score' if t.startswith('Ranked') else 'vs-verdict'}'>{esc(t)}</p>"
+                    for t in lines)
+    return (f"<div class='panel' id='vs-panel'><h2>The best designs against the {esc(ref_label)}</h2>"
+            f"<p class='note'>The {min(VS_ROWS, len(pos))} best-ranked of the {pool}, each metric with its change "
+            f"against the {esc(ref_label)} in % of its value (Δ % = 100·(value − reference)/|reference|); the last row "
+            f"is the {esc(ref_label)} with its place in the ranking. <code>explorer show RESULTS V --vs {ref}</code> "
+            f"compares one design metric by metric.</p><table id='vs'>{head}{''.join(body)}</table>{notes}</div>")
 
 
 def _script_safe(text: str) -> str:
@@ -532,7 +651,7 @@ def _with_results(results, fn):
 def write_report(results, path, *, force: bool = False, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS,
                  paths: int = DEFAULT_PATHS, shown: int = DEFAULT_SHOWN, points: int = DEFAULT_POINTS,
                  reason_paths: int = DEFAULT_REASON_PATHS, seed: int = 0, x: str | None = None, y: str | None = None,
-                 title: str | None = None, pc_lines: int = DEFAULT_PC_LINES) -> Report:
+                 title: str | None = None, pc_lines: int = DEFAULT_PC_LINES, vs: int = 0, units: str = "model") -> Report:
     """Write the interactive report of ``results`` (an open results file, or a path to one) to ``path``
     as one self-contained HTML file (plotly.js inlined; it opens offline). Returns a :class:`Report`.
 
@@ -542,7 +661,11 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
     selected paths at once; points : samples per stored path; reason_paths : paths stored per reason
     (screen check, failure status); x, y : the scatter's first pair (default travel, bob); title : the
     page title; pc_lines : the parallel coordinates draw at most this many designs (a seeded sample;
-    brushes and counts are over every design in the page). An existing ``path`` is replaced only with ``force``; never the results file itself.
+    brushes and counts are over every design in the page); vs : the reference design (variant number;
+    default 0, the nominal) whose value every metric table shows with the change against it in %, starred
+    in the scatter and drawn grey under the foot paths; units : "model" (default) or "si" (lengths in mm,
+    travel in m per turn, a walking speed in m/s, torque in N·m; needs the study's ``[operating] unit``,
+    :func:`explorer.gait.to_si`). An existing ``path`` is replaced only with ``force``; never the results file itself.
     """
     from .._extras import require
     from ._export import _write, check_export_path
@@ -551,7 +674,7 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
     out = check_export_path(path, force, protect=[p for p in protect if p is not None])
     page, rep = _with_results(results, lambda res: build_report(
         res, metrics=metrics, max_designs=max_designs, paths=paths, shown=shown, points=points,
-        reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines))
+        reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines, vs=vs, units=units))
     _write(out, lambda tmp: tmp.write_text(page, encoding="utf-8"))
     rep.path = out
     rep.bytes = out.stat().st_size
@@ -572,7 +695,7 @@ h1 { font-size: 22px; margin: 14px 0 2px; } h2 { font-size: 16px; margin: 14px 0
 table { border-collapse: collapse; font-size: 13px; } td, th { padding: 3px 8px; border-bottom: 1px solid #e4e4e4; text-align: left; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
 tr.sub td:first-child { padding-left: 22px; } tr.total td { font-weight: bold; border-bottom: none; }
-tr.active { background: #fde8e8; }
+tr.active { background: #fde8e8; } tr.ref td { background: #fff4d6; font-weight: bold; }
 #reason-variants { font-size: 12px; color: #333; max-height: 140px; overflow: auto; margin-top: 6px; word-break: break-word; }
 details { margin: 10px 0; font-size: 13px; }
 code { background: #f1f1f1; padding: 0 3px; border-radius: 3px; }
@@ -609,11 +732,12 @@ scatter draws them all).<span id="software-note"></span></p>
   {no_scatter}<div id="scatter"></div>
  </div>
  <div class="panel">
-  <h2>Foot paths (vertex {foot}) over the nominal's</h2>
+  <h2>Foot paths (vertex {foot}) over the {ref_label}'s</h2>
   <p class="note" id="feet-note"></p>
   {no_paths}<div id="feet"></div>
  </div>
 </div>
+{vs_section}
 <div class="row">
  <div class="panel">
   <h2>Best selected designs</h2>
@@ -631,7 +755,7 @@ scatter draws them all).<span id="software-note"></span></p>
  </div>
 </div>
 <details><summary>What the axes mean</summary>
-<table><tr><th>axis</th><th>unit</th><th>better</th><th>meaning</th></tr>{axes_rows}</table>
+<table><tr><th>axis</th><th>unit</th><th class="num">{ref_label}</th><th>better</th><th>meaning</th></tr>{axes_rows}</table>
 <p class="note">Values are stored as 32-bit floats; foot paths as {points} samples per turn
 (16-bit over their bounding box), for the {n_paths} best-ranked designs.</p></details>
 <script type="application/json" id="report-data">{data}</script>
@@ -755,18 +879,36 @@ function setCount(id, n) {
   el.textContent = fmt(n); el.setAttribute('data-count', String(n));
 }
 
-function bestTable(mask) {
+function change(v, r) {  // the change against the reference in % of its value, as text
+  if (r === null || r === undefined || r === 0 || !isFinite(v)) return '-';
+  var d = 100 * (v - r) / Math.abs(r);
+  return (d >= 0 ? '+' : '') + d.toFixed(1) + ' %';
+}
+
+function bestTable(mask) {  // the best selected designs, each metric with its change against the reference
   var keys = [xKey, yKey].filter(function (k, i, a) { return k && a.indexOf(k) === i; });
+  var R = D.reference, ref = D.nominal;
   var html = '<tr><th>variant</th><th class="num">rank</th>' + keys.map(function (k) {
-    return '<th class="num">' + k + '</th>'; }).join('') + '<th>buildable</th></tr>', shown = 0;
+    return '<th class="num">' + k + ' [' + colOf[k].unit + ']</th><th class="num">Δ %</th>'; }).join('') +
+    '<th>buildable</th></tr>', shown = 0;
   for (var i = 0; i < N && shown < 12; i++) {
     if (!mask[i]) continue;
     shown++;
     html += '<tr><td>' + variant[i] + '</td><td class="num">' + fmt(values['rank'][i]) + '</td>';
-    keys.forEach(function (k) { html += '<td class="num">' + values[k][i].toPrecision(5) + '</td>'; });
+    keys.forEach(function (k) {
+      html += '<td class="num">' + values[k][i].toPrecision(5) + '</td><td class="num">' + change(values[k][i], ref[k]) +
+        '</td>';
+    });
     html += '<td>' + (build[i] === 1 ? 'yes' : 'screened out') + '</td></tr>';
   }
-  if (!shown) html += '<tr><td colspan="5">nothing selected</td></tr>';
+  if (!shown) html += '<tr><td colspan="' + (3 + 2 * keys.length) + '">nothing selected</td></tr>';
+  html += '<tr class="ref"><td>' + R.label + ' (' + R.variant + ')</td><td class="num">' + R.place + '</td>';
+  keys.forEach(function (k) {
+    var r = ref[k];
+    html += '<td class="num">' + (r === null || r === undefined ? '-' : Number(r).toPrecision(5)) +
+      '</td><td class="num">-</td>';
+  });
+  html += '<td>' + (R.ok ? 'reference' : 'reference (failed)') + '</td></tr>';
   document.getElementById('best').innerHTML = html;
 }
 
