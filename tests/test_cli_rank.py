@@ -22,12 +22,13 @@ import pytest
 from explorer import open_results, run_study
 from explorer.cli import main
 from explorer.gait import DEFAULT_WEIGHTS, WALKER_METRICS, DIRECTIONS, TARGET_METRICS
-from explorer.gait import FORCE_METRICS
+from explorer.gait import FORCE_METRICS, ROBUSTNESS_METRICS
 from explorer.gait import METRICS as ALL_METRICS
 
 #: every metric a leg study stores (path synthesis's path_error needs a [target] path, the forces effect's
 #: need [scene] forces)
-METRICS = tuple(m for m in ALL_METRICS if m not in TARGET_METRICS and m not in FORCE_METRICS)
+METRICS = tuple(m for m in ALL_METRICS if m not in TARGET_METRICS and m not in FORCE_METRICS
+                and m not in ROBUSTNESS_METRICS)
 
 STUDY = {
     "study": {"name": "clirank", "mechanism": "jansen", "variants": 40, "seed": 11, "steps": 36},

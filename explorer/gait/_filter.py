@@ -13,7 +13,8 @@ accepted. The grammar::
     atom     := NUMBER | STRING | "true" | "false" | COLUMN | `ANY COLUMN NAME` | "(" expr ")"
 
 Columns are the frame's (metrics, link lengths such as ```1-3```, crank, status, …); a name with
-characters other than letters, digits and ``_`` is written in backticks. Numbers are float64, so
+characters other than letters, digits and ``_`` is written in backticks. A column whose name is a
+Python keyword (``yield``) is a column like any other: ``yield >= 0.95``. Numbers are float64, so
 ``10**10**10`` is ``inf``, not a computation that never ends. Bounds: 1,000 characters, 200 nodes,
 exponents within ±64 per ``**`` step. Anything else is a one-line UserError saying what is not
 allowed.
@@ -22,6 +23,7 @@ allowed.
 from __future__ import annotations
 
 import ast
+import keyword
 import math
 import re
 
@@ -39,6 +41,12 @@ _BIN = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply, ast.Div: n
         ast.Mod: np.mod, ast.Pow: np.power}
 _BACKTICK = re.compile(r"`([^`]*)`")
 _STRING = re.compile(r"(\"[^\"]*\"|'[^']*')")
+#: Python keywords that are words of the grammar, or start an expression the grammar refuses by name
+#: (a lambda, a conditional, a comprehension, an identity test); any other keyword written bare (``yield``,
+#: ``class`` …) can only be a column name.
+_GRAMMAR_WORDS = {"and", "or", "not", "in", "True", "False", "None", "is", "if", "else", "lambda", "for", "async",
+                  "await"}
+_KEYWORD = re.compile(r"\b(" + "|".join(k for k in keyword.kwlist if k not in _GRAMMAR_WORDS) + r")\b")
 
 
 class FilterError(UserError):
@@ -72,6 +80,7 @@ def parse_filter(text: str):
     parts = _STRING.split(src)
     for i in range(0, len(parts), 2):
         p = parts[i].replace("&", " and ").replace("|", " or ").replace("~", " not ")
+        p = _KEYWORD.sub(quote, p)  # a column called like a Python keyword (yield) is a column
         parts[i] = re.sub(r"\btrue\b", "True", re.sub(r"\bfalse\b", "False", p))
     src = "".join(parts)
     try:

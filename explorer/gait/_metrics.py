@@ -315,6 +315,9 @@ def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
         if "forces" in needs:
             why = ("comes from the forces effect: a study's [scene] forces = true with an [operating] table, or "
                    "simulate_batch(..., forces=True, operating=...)")
+        elif "robustness" in needs:
+            why = ("comes from copies of each design cut with a manufacturing error: a study's [robustness] table "
+                   "with yield in [scene] metrics, or explorer.study.design_yield")
         elif "mechanism" in needs and mechanism is None:
             why = "needs the mechanism (mechanism=, lengths=, crank=)"
         elif m == "min_transmission_angle" and not fourbar_loops(mechanism):

@@ -16,15 +16,20 @@ leg        single-leg metrics of one foot path with a stance *band* (``y ≤ y_m
 screen     what the buildability screen reads (:mod:`explorer.gait._screen`).
 
 target     path synthesis: the foot path against a study's ``[target]`` points (:mod:`explorer.gait._path`).
+robustness ``yield``: the share of copies of a design, cut with a manufacturing error on every design
+           parameter (a study's ``[robustness]`` table), that assemble over the whole turn and pass the
+           buildability screen (:mod:`explorer.study._yield`: it re-solves copies, so the study computes it,
+           only when its scene names it).
 forces     what it takes to drive and hold the machine, in SI units, at the ``[operating]`` point (the
            forces effect, :mod:`explorer.kernels._forces`, computed with the positions when a study's
            ``[scene] forces = true``); ``pin_force.<joint>`` (N, each joint's peak reaction) follow
            for every joint (see :func:`metric`).
 
-``needs`` is a subset of {"velocity", "band", "mechanism", "crank", "walker", "target"}: the foot
-velocities dF/dθ, the stance band, the mechanism and each variant's lengths, the crank radius, the
-walker spec, a target path.
-Every metric but the forces group needs the foot path; the forces group needs the forces effect.
+``needs`` is a subset of {"velocity", "band", "mechanism", "crank", "walker", "target", "forces",
+"robustness"}: the foot velocities dF/dθ, the stance band, the mechanism and each variant's lengths,
+the crank radius, the walker spec, a target path, the forces effect, copies of the design.
+Every metric but the forces and robustness groups needs the foot path; the forces group needs the
+forces effect, ``yield`` a study's ``[robustness]`` table.
 """
 
 from __future__ import annotations
@@ -101,6 +106,11 @@ TABLE: tuple[Metric, ...] = (
     _m("path_error", "length", "min", "target",
        "RMS distance from the [target] points to their matches on the foot path (timed, closest or by arc "
        "length), after the translation / rotation / scale the target lets the match ignore", "velocity", "target"),
+    # -- robustness: copies cut with a manufacturing error (explorer.study._yield) -----------------------
+    _m("yield", "fraction of copies", "max", "robustness",
+       "share of copies cut with ±[robustness] tolerance on every design parameter (common random errors) that "
+       "assemble over the whole turn and pass the buildability screen; binomial standard error √(p(1 − p)/copies)",
+       "robustness"),
     # -- the forces effect (SI units, at the [operating] point; the walker's whole crankshaft) -----------
     _m("motor_torque_peak", "N·m", "min", "forces",
        "largest |motor torque| over the turn, with the links' inertia and weight and the load on the contact foot",
@@ -154,6 +164,8 @@ TARGET_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "tar
 BAND_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "band" in m.needs)
 #: Metrics of the forces effect (``pin_force.<joint>`` follow them for every joint).
 FORCE_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "forces")
+#: Metrics a study computes by re-solving copies of each design (its ``[robustness]`` table): ``yield``.
+ROBUSTNESS_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "robustness")
 #: Metrics that need the foot velocities dF/dθ.
 VELOCITY_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "velocity" in m.needs)
 #: Metrics that need the mechanism (and each variant's lengths), not only the foot path.

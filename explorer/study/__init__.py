@@ -11,7 +11,8 @@ the workers. Module graph: ``_run`` → ``_dask`` → ``_cluster``/``_output``; 
 ``recompute_metrics(path, band=...)`` redoes the gait metrics of a results file without re-solving;
 ``sensitivity(path)`` and ``tolerance_summary(path)`` say which dimensions matter (SALib's global
 indices from the samples in a results file); ``tolerance(mechanism, target=0.99)`` finds the spread at
-which a share of the legs still walks, by bisection.
+which a share of the legs still walks, by bisection; ``design_yield`` / ``results_yield`` give the
+``yield`` of designs: the share of copies cut with a ``[robustness]`` error that still walk.
 """
 
 from ._dask import run_study_dask
@@ -25,10 +26,12 @@ from ._sensitivity import INDEX_METHODS, sensitivity, sensitivity_frame, summary
 from ._spec import (MAX_VARIANTS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHODS, Study, builtin_studies,
                     default_study_text, dumps_toml, load_study, study_from_dict, variant_count)
 from ._tolerance import ToleranceResult, tolerance
+from ._yield import Robustness, YieldResult, design_yield, results_yield, robustness_from_dict
 
 __all__ = ["ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
            "run_optimize", "Terminated", "BLOCK", "INDEX_METHODS", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
            "RunSummary", "Sampler", "Study", "ToleranceResult", "apply_multipliers", "apply_samples", "builtin_studies",
            "default_study_text", "dumps_toml", "load_study", "recompute_metrics", "run_study", "run_study_dask",
            "saltelli_design", "sample_variants", "sensitivity", "sensitivity_frame", "study_from_dict", "study_sampler",
-           "study_variants", "summary_frame", "tolerance", "tolerance_summary", "variant_count"]
+           "study_variants", "summary_frame", "tolerance", "tolerance_summary", "variant_count",
+           "Robustness", "YieldResult", "design_yield", "results_yield", "robustness_from_dict"]

@@ -6,16 +6,28 @@ from __future__ import annotations
 from ..kernels import simulate_batch
 from ._sample import study_sampler, study_variants
 from ._spec import Study
+from ._yield import YIELD, design_yield
 
 
 def metric_plan(study: Study):
-    """(metric names or None for all, needs velocities, needs the foot) of the study's scene."""
+    """(metric names or None for all, needs velocities, needs the foot) of the study's scene: the
+    metrics of the foot path (``yield``, which re-solves copies, is :func:`wants_yield`'s)."""
     if study.metrics is False:
         return [], False, False
     from ..gait import VELOCITY_METRICS
-    names = None if study.metrics is True else list(study.metrics)
+    names = None if study.metrics is True else [m for m in study.metrics if m != YIELD]
+    if names == []:
+        return [], False, False
     need_vel = names is None or any(m in VELOCITY_METRICS for m in names)
     return names, need_vel, True
+
+
+def wants_yield(study: Study) -> bool:
+    """Whether the study computes ``yield``: it has a ``[robustness]`` table and its scene asks for
+    every metric or names ``yield`` (an optimisation naming it adds it to the scene's metrics)."""
+    if study.robustness is None or study.metrics is False:
+        return False
+    return study.metrics is True or YIELD in study.metrics
 
 
 def geometry_columns(study: Study, geometry) -> dict | None:
@@ -55,6 +67,7 @@ def design_solver(study: Study):
     if want_metrics and mech.foot not in vertices:
         vertices.append(mech.foot)
     velocities = study.velocities or metric_vel
+    want_yield = wants_yield(study)
 
     def solve(lengths, crank, geometry):
         radii = crank if mech.crank is not None else None  # a path driver has no crank radius (NaN column)
@@ -72,6 +85,10 @@ def design_solver(study: Study):
                                             lengths, crank, geometry)
         if study.forces:  # the forces effect's metrics, always with it
             metrics = {**(metrics or {}), **batch.force_metrics}
+        if want_yield:  # copies of each design, cut with the [robustness] error, solved apart
+            y = design_yield(mech, lengths, crank, moved, robustness=study.robustness, steps=study.steps,
+                             tolerance=study.tolerance, method=study.method, screen=study.screen)
+            metrics = {**(metrics or {}), YIELD: y.share}
         return batch, metrics
 
     return solve

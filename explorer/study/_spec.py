@@ -82,6 +82,7 @@ from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
 from ..mechanism import (OPERATING_KEYS, Mechanism, Operating, Walker, builtin_mechanisms, load_mechanism,
                          operating_from_dict, parse_toml, walker_from_dict)
 from ._objectives import OPTIMIZE_KEYS, Optimize, parse_optimize
+from ._yield import ROBUSTNESS_KEYS, YIELD, Robustness, robustness_from_dict
 
 PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "saltelli", "oat", "grid")
 #: Methods whose variants are a sample of the design space (global sensitivity indices apply):
@@ -101,6 +102,7 @@ _SECTIONS = {
     "output": ("path", "compression"),
     "optimize": OPTIMIZE_KEYS,
     "target": TARGET_KEYS,
+    "robustness": ROBUSTNESS_KEYS,
 }
 #: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
 COMPRESSIONS = ("lzf", "gzip", "none")
@@ -131,6 +133,8 @@ class Study:
         metrics, ``/torque``) and the joints whose reactions are stored (``/forces/<joint>``).
     operating : the operating point (:class:`~explorer.mechanism.Operating`: the study's ``[operating]``
         over the mechanism's own), None when neither gives one.
+    robustness : the ``[robustness]`` table (:class:`~explorer.study._yield.Robustness`: the
+        manufacturing error the ``yield`` metric's copies are cut with), None when absent.
     optimize : the ``[optimize]`` table (:class:`~explorer.study._objectives.Optimize`) of a study run by
         ``explorer optimize``, else None. Its designs are the optimiser's: ``perturb_method`` is
         ``"optimize"``, ``variants`` is population × generations and the perturbed parameters are the
@@ -166,6 +170,7 @@ class Study:
     forces: bool = False
     force_joints: tuple = ()
     operating: Operating | None = None
+    robustness: Robustness | None = None
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
 
     # -- derived -------------------------------------------------------------------------------
@@ -241,6 +246,8 @@ class Study:
             out["scene"]["force_joints"] = list(self.force_joints)
         if self.operating is not None:
             out["operating"] = self.operating.as_dict()
+        if self.robustness is not None:  # only when given: a study without it keeps its fingerprint
+            out["robustness"] = self.robustness.as_dict()
         if self.target is not None:  # the points themselves (a CSV's content), so a changed target changes the fingerprint
             t = self.target
             out["target"] = {"points": t.points.tolist(), "match": t.match, "ignore": list(t.ignore)}
@@ -408,7 +415,7 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
                         f"gives {n_total:,} variants; at most {MAX_VARIANTS:,} are allowed")
 
     common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base,
-                               data.get("operating"))
+                               data.get("operating"), data.get("robustness"))
     return Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
                  method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
                  source=source, text=text if text is not None else dumps_toml(data), mechanism_path=mech_path,
@@ -416,7 +423,7 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
 
 
 def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, sc, ou, wa, scr, ta=None,
-                      base: Path | None = None, op=None) -> dict:
+                      base: Path | None = None, op=None, rb=None) -> dict:
     """The Study fields of [scene], [walker], [screen], [output] and [target], validated."""
     target = load_target(ta, base, source=source, key="target") if ta is not None else None
     vertices = v.names("scene.vertices", sc.get("vertices", [mech.foot]), mech.vertices, "vertex")
@@ -455,13 +462,18 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
         raise UserError(f"{where(source, 'operating.load')}: a load rides on a walker's contact foot; mechanism "
                         f"{mech.name!r} is driven along a path")
 
+    robustness = robustness_from_dict(rb, source, mech, operating) if rb is not None else None
+    if robustness is None and isinstance(metrics, tuple) and YIELD in metrics:
+        raise UserError(f"{where(source, 'scene.metrics')}: {YIELD!r} needs a [robustness] table (tolerance = ..., the "
+                        f"manufacturing error its copies are cut with, e.g. tolerance = 0.5 and unit = \"%\")")
+
     out = ou.get("path", f"results/{name}.h5")
     out = v.string("output.path", out)
     compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
 
     return dict(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
                 metrics=metrics, output=out, compression=compression, walker=walker, screen=screen, target=target,
-                forces=forces, force_joints=force_joints, operating=operating)
+                forces=forces, force_joints=force_joints, operating=operating, robustness=robustness)
 
 
 def _solver_keys(v: "_Validator", st: dict):
@@ -488,7 +500,7 @@ def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st,
     known = _known_metrics() or ()
     opt = parse_optimize(data["optimize"], source, mech, known, has_target="target" in data)
     common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base,
-                               data.get("operating"))
+                               data.get("operating"), data.get("robustness"))
     from ..gait import CHECKS
     from ._objectives import metrics_needed
     needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check.inputs))
@@ -498,6 +510,9 @@ def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st,
         raise UserError(f"{where(source, 'optimize')}: {', '.join(forced)} come from the forces effect; set "
                         f"[scene] forces = true (with an [operating] table) to search on them")
     needed = tuple(m for m in needed if m not in forced)  # the forces effect computes those with the solve
+    if YIELD in needed and common["robustness"] is None:
+        raise UserError(f"{where(source, 'optimize')}: {YIELD!r} needs a [robustness] table (tolerance = ..., the "
+                        f"manufacturing error its copies are cut with, e.g. tolerance = 0.5 and unit = \"%\")")
     metrics = common["metrics"]
     if metrics is not True:  # compute what the search needs on top of what the scene asks for
         metrics = tuple(dict.fromkeys((metrics or ()) + needed))
