@@ -84,3 +84,95 @@ def test_tolerance_errors_name_the_mechanism_file(tmp_path, capsys):
     code, out, err = cli(capsys, "tolerance", "jansen", "--parameters", "1-3,leg.37.x", "--variants", "20")
     one_line_error(code, err, "jansen", "leg.37.x")
     assert "<dict>" not in err
+
+
+# -- 2. an optimisation's results with every verb that reads results ----------------------------------------
+def header_commands(path: Path) -> list[list[str]]:
+    """The `explorer ...` command lines of a study file's header comment, as argv lists (trailing comments cut)."""
+    import shlex
+    out = []
+    for line in path.read_text().splitlines():
+        if not line.startswith("#"):
+            break
+        text = line.lstrip("#").strip()
+        if text.startswith("explorer "):
+            out.append(shlex.split(text.split("  #")[0])[1:])
+    return out
+
+
+def small_optimize_study(text: str) -> str:
+    """The shipped study with a budget for a test (16 designs x 2 generations, 72 steps)."""
+    import re
+    for key, value in (("population", 16), ("generations", 2), ("steps", 72)):
+        text, n = re.subn(rf"(?m)^{key} = \d+", f"{key} = {value}", text)
+        assert n == 1, key
+    return text
+
+
+def test_optimize_header_commands_run(tmp_path, monkeypatch, capsys):
+    """Every command of studies/jansen-optimize.toml's header runs (on a small budget), and the file
+    then works with rank, plot --top and metrics."""
+    pytest.importorskip("pymoo")
+    shipped = ROOT / "studies" / "jansen-optimize.toml"
+    commands = header_commands(shipped)
+    verbs = [c[0] for c in commands]
+    assert verbs[0] == "optimize" and {"rank", "metrics", "plot"} <= set(verbs), commands
+    (tmp_path / "studies").mkdir()
+    (tmp_path / "studies" / "jansen-optimize.toml").write_text(small_optimize_study(shipped.read_text()))
+    monkeypatch.chdir(tmp_path)
+    outputs: dict[str, list[str]] = {}
+    for argv in commands:
+        code, out, err = cli(capsys, *argv)
+        assert code == 0, (argv, err)
+        outputs.setdefault(argv[0], []).append(out)
+    assert (tmp_path / "results" / "jansen-optimize.h5").is_file()
+    # the default rank before `explorer metrics` ranks without body_speed_ripple and says so; after, with it
+    before = [o for o in outputs["rank"] if "walker score" in o]
+    assert before and "ranked without body_speed_ripple" in before[0]
+    code, out, err = cli(capsys, "rank", "results/jansen-optimize.h5")
+    assert code == 0, err
+    assert "ranked without" not in out and "body_speed_ripple" in out.splitlines()[0]
+
+
+def test_default_rank_and_plot_top_of_an_optimisation(tmp_path, capsys):
+    pytest.importorskip("pymoo")
+    from explorer import open_results
+    from explorer.study import run_optimize
+    study = tmp_path / "opt.toml"
+    study.write_text(small_optimize_study((ROOT / "studies" / "jansen-optimize.toml").read_text()))
+    out = tmp_path / "opt.h5"
+    run_optimize(str(study), output=out, progress=False)
+    with open_results(out) as r:
+        assert "body_speed_ripple" not in r.metric_names  # what broke the default ranking
+        weights, missing = r.default_weights()
+        ranked = r.rank(top=None)
+    assert missing == ["body_speed_ripple"] and "body_speed_ripple" not in weights and len(weights) >= 3
+    assert ranked["score"].notna().all() and ranked["score"].is_monotonic_decreasing and len(ranked) > 3
+    code, text, err = cli(capsys, "rank", out)
+    assert code == 0, err
+    assert "ranked without body_speed_ripple: not stored" in text
+    code, text, err = cli(capsys, "plot", out, "--top", "3", "-o", tmp_path / "p.png")
+    assert code == 0, err
+    assert (tmp_path / "p.png").stat().st_size > 1000
+
+
+def test_metrics_solves_the_velocities_a_file_lacks(tmp_path, capsys):
+    """body_speed_ripple of a file run without velocities, through `explorer metrics`, equals the value a
+    run that stored them computed (the same designs, solved again)."""
+    import numpy as np
+
+    from explorer import open_results, run_study
+    base = {"study": {"name": "v", "mechanism": "jansen", "variants": 30, "seed": 3, "steps": 72},
+            "perturb": {"method": "uniform", "spread": 0.03}}
+    without = run_study({**base, "scene": {"velocities": False, "metrics": ["travel", "bob"]}},
+                        output=tmp_path / "without.h5", progress=False)
+    with_vel = run_study({**base, "scene": {"velocities": True, "metrics": ["travel", "bob", "body_speed_ripple"]}},
+                         output=tmp_path / "with.h5", progress=False)
+    code, out, err = cli(capsys, "metrics", without.path, "--metrics", "body_speed_ripple")
+    assert code == 0, err
+    assert "solved the foot velocities of" in out
+    with open_results(without.path) as a, open_results(with_vel.path) as b:
+        assert "velocities" not in a.file  # nothing written but /metrics
+        got, want = a.frame()["body_speed_ripple"].to_numpy(), b.frame()["body_speed_ripple"].to_numpy()
+    assert np.isfinite(want).sum() > 10
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12, equal_nan=True)

@@ -264,14 +264,15 @@ def test_recompute_refusals(fresh, tmp_path):
     with pytest.raises(UserError, match=r"incomplete results file.*--resume"):
         recompute_metrics(inc, band=0.02)
     assert inc.read_bytes() == before
-    # no velocities stored: speed metrics cannot be computed, path metrics can
+    # no velocities stored: path metrics need no solve, speed metrics solve the ok variants again (issue 26)
     novel = tmp_path / "novel.h5"
     run_study(study(velocities=False, metrics=["stride", "duty"]), output=novel, progress=False)
-    with pytest.raises(UserError, match=r"lacks /velocities/7 \(the foot velocities\), needed for travel, "
-                                        r"body_speed_ripple, .*stance_speed, speed_ripple, max_speed.*"
-                                        r"\[scene\] velocities = true.*--metrics bob,clearance,contact_fraction,width"):
-        recompute_metrics(novel, names="all")
-    assert recompute_metrics(novel, names="stride,flatness", band=0.02)["metrics"] == ("stride", "flatness")
+    out = recompute_metrics(novel, names="stride,flatness", band=0.02)
+    assert out["metrics"] == ("stride", "flatness") and out["resolved"] == 0
+    out = recompute_metrics(novel, names="all")
+    assert out["resolved"] == out["ok"] > 0
+    with open_results(novel) as r:
+        assert "velocities" not in r.file and r.frame()["max_speed"].notna().sum() == out["ok"]
     # the foot path not stored
     nofoot = tmp_path / "nofoot.h5"
     run_study(study(vertices=["4"], metrics=False), output=nofoot, progress=False)

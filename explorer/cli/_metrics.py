@@ -1,4 +1,5 @@
-"""``explorer metrics RESULTS [--band B] [--metrics M1,M2|all] [-q]``: recompute gait metrics without re-solving."""
+"""``explorer metrics RESULTS [--band B] [--metrics M1,M2|all] [-q]``: recompute gait metrics from the stored
+foot paths (foot velocities that are not stored are solved again)."""
 
 from __future__ import annotations
 
@@ -7,12 +8,15 @@ import math
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "metrics", help="(re)compute the gait metrics of a results file from its stored foot paths, no re-solving",
+        "metrics", help="(re)compute the gait metrics of a results file from its stored foot paths",
         description="Compute the gait metrics of an existing, complete results file from the foot path (and "
                     "velocities) it stores, chunk by chunk, and write them to /metrics (replacing the stored ones "
                     "only once all are computed). Use it to change the stance band or to add metrics to a file "
-                    "run without them. Stance-based metrics kept from before with another band are recomputed "
-                    "too, so a file never mixes bands. Paths and velocities are read, never written.")
+                    "run without them (an optimisation stores only its objectives and constraints). Metrics "
+                    "that need the foot velocities (body_speed_ripple, max_speed, ...) of a file that does not "
+                    "store them solve each ok variant again from its stored design (as long as the run took). "
+                    "Stance-based metrics kept from before with another band are recomputed too, so a file "
+                    "never mixes bands. Paths and velocities are read, never written.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     p.add_argument("--band", metavar="B", default=None,
                    help="stance band, a fraction of the step height in [0, 1] (default: the file's band, i.e. "
@@ -46,6 +50,9 @@ def run(args) -> int:
     lines = [f"{out['path']}: computed {len(names)} metric{'s' if len(names) != 1 else ''} "
              f"({', '.join(names)}) for {out['n_variants']:,} variants ({out['ok']:,} ok) with band "
              f"{out['band']:g} in {out['wall_s']:.2f} s"]
+    if out.get("resolved"):
+        lines.append(f"  solved the foot velocities of {out['resolved']:,} ok variants again (the file does not "
+                     f"store them)")
     if out["also"]:
         lines.append(f"  also recomputed {', '.join(out['also'])}: they were stored with another band")
     if out["kept"]:

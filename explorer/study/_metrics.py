@@ -1,6 +1,7 @@
 """Recomputing the gait metrics of an existing results file (another band, more metrics) without re-solving.
 
-``recompute_metrics(path, band=0.02)`` reads the stored foot path (and velocities) chunk by chunk,
+``recompute_metrics(path, band=0.02)`` reads the stored foot path (and velocities; where they are not
+stored, it solves them again from each variant's stored design) chunk by chunk,
 runs :func:`explorer.gait.compute_metrics` on each chunk and writes ``/metrics/<name>``. Memory is
 one chunk of foot paths whatever N is.
 
@@ -84,8 +85,12 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
     metrics recomputed to keep one band), ``kept`` (stored metrics left as they were),
     ``n_variants``, ``ok`` (variants with status ok), ``wall_s``.
 
+    Foot velocities that the file does not store (an optimisation's results, a study run with
+    ``[scene] velocities = false``) are solved again from each ok variant's stored design, chunk by
+    chunk, with the study's steps, tolerance and method (``resolved``: how many variants; else 0).
+
     Raises UserError for a missing, foreign, incomplete or busy file, an unknown metric, a bad band,
-    or a file that lacks the foot path or velocities the metrics need (named in the message).
+    or a file that lacks the foot path the metrics need (named in the message).
     """
     from ..gait import (BAND_METRICS, METRICS, VELOCITY_METRICS, available_metrics, check_band, compute_metrics,
                         load_target)
@@ -163,10 +168,9 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             missing.append(f"/paths/{foot} (the foot path), needed for {', '.join(need_path)}")
             blocked |= set(need_path)
             fix = f"vertex {foot!r} in [scene] vertices"
-        elif need_vel and not ("velocities" in f and foot in f["velocities"]):
-            missing.append(f"/velocities/{foot} (the foot velocities), needed for {', '.join(need_vel)}")
-            blocked |= set(need_vel)
-            fix = "[scene] velocities = true"
+        # foot velocities not stored (an optimisation, a study run without them): solved again from each
+        # variant's stored design, chunk by chunk, as the run solved it (same steps, tolerance, method)
+        resolve = bool(need_vel) and not ("velocities" in f and foot in f["velocities"])
         if missing:
             possible = [m for m in compute if m not in blocked]
             forced = [m for m in also if m in blocked]
@@ -200,7 +204,9 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                 from tqdm import tqdm
                 bar = tqdm(total=N, unit="variant", unit_scale=True, desc="metrics", file=sys.stderr, leave=False)
             dpath = f["paths"][foot] if need_path else None
-            dvel = f["velocities"][foot] if need_vel else None
+            dvel = f["velocities"][foot] if need_vel and not resolve else None
+            solver = _solver(f) if resolve else None
+            resolved = 0
             dstatus, dlen, dcrank = f["status"], f["variants/lengths"], f["variants/crank"]
             dgeom = f["variants/geometry"] if "variants/geometry" in f else None  # each variant's own pivots
             gnames = [_text(s) for s in dgeom.attrs["names"]] if dgeom is not None else []
@@ -218,6 +224,9 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                 vel = dvel[a:b] if dvel is not None else None
                 G = dgeom[a:b] if dgeom is not None else None
                 geometry = {n: G[:, j] for j, n in enumerate(gnames)} if G is not None else None
+                if resolve:
+                    vel = _velocities(mech, foot, status, dlen[a:b], dcrank[a:b], geometry, S, solver)
+                    resolved += int((status == 0).sum())
                 out = compute_metrics(paths, vel, status, compute, band, mechanism=mech,
                                       lengths=dlen[a:b], crank=dcrank[a:b], walker=walker, geometry=geometry,
                                       target=target)
@@ -247,4 +256,28 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
     finally:
         f.close()
     return {"path": p, "band": band, "metrics": tuple(chosen), "also": tuple(also), "kept": tuple(kept),
-            "n_variants": N, "ok": ok, "wall_s": time.perf_counter() - t0}
+            "n_variants": N, "ok": ok, "resolved": resolved, "wall_s": time.perf_counter() - t0}
+
+
+def _solver(f: h5py.File) -> dict:
+    """The solver settings the study ran with (its [study] tolerance and method), to solve again."""
+    from ..kernels import DEFAULT_TOLERANCE
+    try:
+        st = json.loads(_text(f.attrs["study_resolved"]))["study"]
+    except (KeyError, TypeError, ValueError):
+        st = {}
+    return {"tolerance": float(st.get("tolerance", DEFAULT_TOLERANCE)), "method": str(st.get("method", "block"))}
+
+
+def _velocities(mech, foot: str, status, lengths, crank, geometry, steps: int, solver: dict) -> np.ndarray:
+    """The foot velocities (n, steps, 2) of a chunk's ok variants, solved again from their stored designs
+    (NaN for the others, whose metrics are NaN anyway)."""
+    from ..kernels import simulate_batch
+    vel = np.full((len(status), steps, 2), np.nan)
+    ok = np.flatnonzero(status == 0)
+    if ok.size:
+        geo = {n: np.asarray(v)[ok] for n, v in geometry.items()} if geometry else None
+        batch = simulate_batch(mech, np.asarray(lengths)[ok], np.asarray(crank)[ok], steps, geometry=geo,
+                               vertices=[foot], velocities=True, **solver)
+        vel[ok] = batch.velocities[foot]
+    return vel

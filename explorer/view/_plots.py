@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..errors import UserError
-from ..gait import (DEFAULT_BAND, DEFAULT_WEIGHTS, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_front, rank,
+from ..gait import (DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_front, rank,
                    screened_mask, select, stance_indices)
 from ..kernels import Cycle, simulate
 from ..mechanism import Mechanism
@@ -131,7 +131,8 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     """Foot paths of the ``top`` best variants over the nominal (variant 0) path.
 
     The ranking is :func:`explorer.gait.rank`'s, so it shows the rows ``explorer rank`` lists for the
-    same request: by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS`, else one
+    same request: by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS` (those of them
+    stored; the title names the others), else one
     metric ``by`` or a ``weights`` score; variants the buildability screen removes are left out unless
     ``include_screened``; ``where`` is a filter as in :func:`explorer.gait.rank`. Equal axes; each variant labelled with
     its rank and ranking value; its single-leg band stance (longest run within ``band`` · height of its
@@ -188,8 +189,9 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
         first = {"max": "highest", "min": "lowest"}.get(DIRECTIONS.get(by), "best")
         how = f"by {by} ({first} first)"
     else:
-        w = weights if weights is not None else DEFAULT_WEIGHTS
-        how = "by score of " + ", ".join(w)
+        from ..gait._rank import default_weights
+        w, unstored = (weights, []) if weights is not None else default_weights(df.columns)
+        how = "by score of " + ", ".join(w) + (f" (without {', '.join(unstored)}: not stored)" if unstored else "")
     filt = f", where {where}" if where else ""
     style_axes(ax, f"{mech.name}: foot path of vertex {vname}, top {len(ranked)} of {pool} variants\n"
                    f"{how}{filt}")
