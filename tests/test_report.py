@@ -9,7 +9,8 @@ plain pandas/numpy, never against the report's own helpers:
   deterministically and the page says so with the numbers; the CLI refuses to overwrite without
   ``--force`` and gives one line and exit 2 for a bad RESULTS path or output folder.
 * in headless Chromium (Debian's ``chromium`` and ``chromium-driver``, through selenium): the page
-  loads with no SEVERE console message; it shows as many designs as the frame has ok rows; the Pareto
+  loads with no SEVERE console message; the best selected designs' table gives each one's change
+  against the nominal in % and ends with the nominal's row, marked; it shows as many designs as the frame has ok rows; the Pareto
   front it draws has as many designs as a brute-force dominance count; a scripted brush on the
   parallel coordinates (``Plotly.restyle`` of a ``constraintrange``), then a box selection in the
   scatter (``Plotly.relayout`` of ``selections``, which plotly turns into its selection event), change
@@ -281,6 +282,13 @@ def test_report_in_headless_chromium(study, page, browser):
                                 ".map(function (tr) { return Number(tr.cells[0].textContent); })")
     chosen = set(ok.loc[in_box & in_stride, "variant"])
     assert listed and set(listed) <= chosen
+    # ... each with its change against the reference (the nominal), which closes the table, marked
+    best = drv.execute_script("var rows = document.querySelectorAll('#best tr');"
+                              "return [rows[1].cells[0].textContent, rows[1].cells[3].textContent,"
+                              " rows[rows.length - 1].className, rows[rows.length - 1].cells[0].textContent];")
+    assert best[2] == "ref" and best[3] == "nominal (0)"
+    x, x0 = float(ok.loc[ok["variant"] == int(best[0]), "travel"].astype(np.float32).iloc[0]), float(df.iloc[0]["travel"])
+    assert float(best[1].rstrip(" %")) == pytest.approx(100 * (x - x0) / abs(x0), abs=0.051)
 
     # clear every brush
     drv.find_element("id", "reset").click()

@@ -9,7 +9,7 @@ The page holds plotly.js itself (inlined, ~4.8 MB; no CDN, it opens offline) and
   front** of the selected buildable designs in the metrics' own directions and the reference design
   (``vs``: the nominal, variant 0, unless another is named) starred;
 * the **foot paths** of the best-ranked selected designs (at most ``shown`` at once, default 50) over
-  the nominal's;
+  the reference design's;
 * the **best designs against the reference**: the best-ranked buildable designs with each score
   metric's value and change in % against the reference's, the reference last with its own place, the
   walker score of both and a verdict of design #1 (as ``explorer rank --change`` and ``explorer show``);
