@@ -134,14 +134,22 @@ def test_optimize_header_commands_run(tmp_path, monkeypatch, capsys):
     assert "ranked without" not in out and "body_speed_ripple" in out.splitlines()[0]
 
 
-def test_default_rank_and_plot_top_of_an_optimisation(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def opt_file(tmp_path_factory):
+    """A small run of studies/jansen-optimize.toml."""
     pytest.importorskip("pymoo")
-    from explorer import open_results
     from explorer.study import run_optimize
-    study = tmp_path / "opt.toml"
+    folder = tmp_path_factory.mktemp("opt")
+    study = folder / "opt.toml"
     study.write_text(small_optimize_study((ROOT / "studies" / "jansen-optimize.toml").read_text()))
-    out = tmp_path / "opt.h5"
+    out = folder / "opt.h5"
     run_optimize(str(study), output=out, progress=False)
+    return out
+
+
+def test_default_rank_and_plot_top_of_an_optimisation(opt_file, tmp_path, capsys):
+    from explorer import open_results
+    out = opt_file
     with open_results(out) as r:
         assert "body_speed_ripple" not in r.metric_names  # what broke the default ranking
         weights, missing = r.default_weights()
@@ -176,3 +184,33 @@ def test_metrics_solves_the_velocities_a_file_lacks(tmp_path, capsys):
         got, want = a.frame()["body_speed_ripple"].to_numpy(), b.frame()["body_speed_ripple"].to_numpy()
     assert np.isfinite(want).sum() > 10
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12, equal_nan=True)
+
+
+# -- 3. sensitivity needs a sample ----------------------------------------------------------------------------
+def test_sensitivity_refuses_an_optimisation(opt_file, capsys):
+    pytest.importorskip("SALib")
+    for extra in ([], ["--summary"]):
+        code, out, err = cli(capsys, "sensitivity", opt_file, *extra)
+        one_line_error(code, err, str(opt_file), "optimisation", "not a sample")
+        assert "uniform sample" not in err and out == ""
+
+
+def test_sensitivity_refuses_a_file_that_names_no_sampling(tmp_path, capsys):
+    """A results file whose study says nothing of how its variants were chosen is not taken for a sample."""
+    pytest.importorskip("SALib")
+    import json
+
+    import h5py
+
+    from explorer import run_study
+    path = run_study({"study": {"name": "s", "mechanism": "jansen", "variants": 40, "seed": 1, "steps": 24},
+                      "perturb": {"method": "uniform", "spread": 0.01}, "scene": {"metrics": ["travel"]}},
+                     output=tmp_path / "s.h5", progress=False).path
+    code, out, err = cli(capsys, "sensitivity", path, "--metrics", "travel", "--format", "json")
+    assert code == 0, err  # the sample itself is analysed
+    with h5py.File(path, "r+") as f:
+        study = json.loads(f.attrs["study_resolved"])
+        del study["perturb"]
+        f.attrs["study_resolved"] = json.dumps(study)
+    code, out, err = cli(capsys, "sensitivity", path, "--metrics", "travel")
+    one_line_error(code, err, str(path), "no sample of the design space")

@@ -43,8 +43,8 @@ bootstrap standard deviation, and ``low``/``high`` are value ∓ conf. Resamples
 :data:`DEFAULT_RESAMPLES` per method. Every SALib call runs with the global NumPy random state seeded
 from ``seed`` and restored afterwards, so the indices are reproducible and nothing else is disturbed.
 
-A study whose variants are not a sample of the design space (``oat``, ``grid``) has no global
-indices: that, an unknown metric, and ``sobol`` on a study that is not ``saltelli`` are one-line
+A study whose variants are not a sample of the design space (``oat``, ``grid``, an optimisation's
+population, a file that names no sampling method) has no global indices: that, an unknown metric, and ``sobol`` on a study that is not ``saltelli`` are one-line
 :class:`~explorer.errors.UserError`\\ s.
 """
 
@@ -100,20 +100,33 @@ def _read(results):
 def _from_results(r):
     df = r.frame()
     params = [p for p in r.perturbed if p in df.columns]
-    try:
-        design = str(r.study["perturb"]["method"])
-    except (KeyError, TypeError):
-        design = "uniform"
-    return df, params, design, str(r.filename), tuple(r.metric_names)
+    return df, params, _design(r.study), str(r.filename), tuple(r.metric_names)
+
+
+def _design(study) -> str:
+    """How a results file's variants were chosen: its ``[perturb] method``, ``"optimize"`` for an
+    optimisation's population, ``"none"`` when the file does not say (never taken for a sample)."""
+    if not isinstance(study, dict):
+        return "none"
+    if study.get("optimize") is not None:
+        return "optimize"
+    perturb = study.get("perturb")
+    method = perturb.get("method") if isinstance(perturb, dict) else None
+    return str(method) if method else "none"
 
 
 def _check_design(design: str, method: str | None, source: str) -> str:
     """The index method to use for a study of perturb method ``design`` (UserError if none applies)."""
+    if design == "optimize":
+        raise UserError(f"{source}: an optimisation's results: its variants are the search's population, gathered "
+                        f"where the optimiser went, not a sample of the design space, so they have no global "
+                        f"indices (run a study with perturb.method = uniform, normal, lhs, sobol or saltelli)")
     if design not in SAMPLED_METHODS:
-        raise UserError(f"{source}: perturb.method = {design!r}: a {'one-at-a-time' if design == 'oat' else 'full-factorial'} "
-                        f"design is no sample of the design space, so it has no global indices (run a study with "
-                        f"perturb.method = uniform, normal, lhs, sobol or saltelli; `explorer plot --sensitivity` "
-                        f"draws an oat study's slopes)")
+        what = {"oat": "a one-at-a-time design", "grid": "a full-factorial design"}.get(
+            design, "a design set that says no sampling method" if design == "none" else f"design {design!r}")
+        raise UserError(f"{source}: perturb.method = {design!r}: {what} is no sample of the design space, so it has "
+                        f"no global indices (run a study with perturb.method = uniform, normal, lhs, sobol or "
+                        f"saltelli; `explorer plot --sensitivity` draws an oat study's slopes)")
     if method is None:
         return "sobol" if design == "saltelli" else "rbd-fast"
     if method not in INDEX_METHODS:
