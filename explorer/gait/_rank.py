@@ -21,6 +21,9 @@ if TYPE_CHECKING:  # pandas is imported where it is used: it costs ~0.4 s, and `
     import pandas as pd
 
 _RESERVED = ("variant", "status", "rank", "score", "buildable", "screen")
+#: Frame columns that are no metric but have a natural direction: the Newton iterations a variant's
+#: solve took (fewer: a design the solver passes through easily; what a path-driven arm ranks by).
+COLUMN_DIRECTIONS = {"iterations": "min"}
 
 
 # -- helpers ------------------------------------------------------------------------------------------
@@ -59,8 +62,10 @@ def _direction(col: str, override) -> str:
         return DIRECTIONS[col]
     if metric(col) is not None:  # pin_force.<joint>
         return metric(col).direction
-    raise UserError(f"{col!r} has no natural direction; say which is better with ascending= "
-                    f"(True: smaller is better)")
+    if col in COLUMN_DIRECTIONS:
+        return COLUMN_DIRECTIONS[col]
+    raise UserError(f"{col!r} has no natural direction: say which is better, --ascending (smaller first) or "
+                    f"--descending (larger first); in Python rank(..., ascending=True or False)")
 
 
 def _directions(cols: list[str], ascending) -> dict[str, str]:

@@ -316,7 +316,8 @@ class Results:
             return
         if not stored and self.mechanism.crank is None:
             raise UserError(f"{self.filename}: mechanism {self.mechanism.name!r} is driven along a path: gait metrics "
-                            f"do not apply to it; rank by a column such as iterations (--by iterations --ascending)")
+                            f"do not apply to it; rank by a column such as iterations (--by iterations: the fewest "
+                            f"Newton iterations first)")
         if not stored:
             raise UserError(f"{self.filename}: no gait metrics stored; compute them with "
                             f"`explorer metrics {self.filename}` (no re-solving) or set [scene] metrics = true "
