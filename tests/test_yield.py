@@ -259,3 +259,77 @@ def test_se_is_binomial():
                                    robustness=rb)
     assert res.se[0] == pytest.approx(math.sqrt(0.95 * 0.05 / 256))
     assert res.se[1] == 0.0 and res.se[2] == pytest.approx(0.5 / 16)
+
+
+# -- the command line: rank --yield, show ------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def yield_file(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("yield")
+    d = _study(tmp)
+    d["scene"] = {"metrics": ["travel", "bob", "body_speed_ripple", "peak_torque", "clearance", "yield",
+                              "min_transmission_angle", "foot_headroom", "max_speed", "self_crossings"]}
+    run_study(load_study(d), output=tmp / "y.h5", progress=False)
+    return tmp / "y.h5"
+
+
+def _cli(capsys, *argv):
+    from explorer.cli import main
+    code = main(list(argv))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_rank_yield_is_each_shown_designs_yield(yield_file, capsys):
+    """--yield 3% --copies 20 on the shown rows: each equals design_yield of the design read back from the
+    csv's own columns, and yield_se is √(p(1 − p)/20)."""
+    import io
+
+    import pandas as pd
+    code, out, _ = _cli(capsys, "rank", str(yield_file), "--yield", "3%", "--copies", "20", "--top", "3",
+                        "--format", "csv")
+    assert code == 0
+    df = pd.read_csv(io.StringIO(out))
+    assert len(df) == 3
+    rb = robustness_from_dict({"tolerance": 3.0, "copies": 20}, "t", JANSEN)
+    designs = [{p: float(df[p].iloc[i]) if p in df.columns else JANSEN.parameters()[p] for p in JANSEN.parameters()}
+               for i in range(3)]
+    want = _explorer_yield(designs, rb)
+    assert np.array_equal(df["yield"].to_numpy(), want.share)
+    p = df["yield"].to_numpy()
+    assert np.allclose(df["yield_se"].to_numpy(), np.sqrt(p * (1 - p) / 20))
+    # the table: the study's own [robustness] (24 copies at ±2 %), the reference row included
+    code, out, _ = _cli(capsys, "rank", str(yield_file), "--yield", "--top", "2")
+    assert code == 0 and "±2 % (uniform) on every design parameter, 24 copies" in out and "yield_se" in out
+    assert out.strip().splitlines()[-1].startswith("nominal:")
+
+
+def test_show_gives_yield_with_its_error_and_warns(yield_file, capsys):
+    from explorer.store import open_results
+    with open_results(yield_file) as r:
+        p = float(r.row(0)["yield"])
+    code, out, _ = _cli(capsys, "show", str(yield_file), "0")
+    assert code == 0
+    line = next(s for s in out.splitlines() if s.startswith("yield (will it survive the workshop?)"))
+    assert f"{p:.3f} ± {math.sqrt(p * (1 - p) / 24):.3f}" in line
+    assert ("warning: only" in out) == (p < 0.95)
+    # a tolerance wide enough that few copies walk always warns
+    code, out, _ = _cli(capsys, "show", str(yield_file), "0", "--yield", "8%", "--copies", "16")
+    assert code == 0 and "warning: only" in out and "±8 % (uniform)" in out
+
+
+@pytest.mark.parametrize("argv,words", [
+    (["rank", "{f}", "--yield", "2in"], "--yield: expected a tolerance"),
+    (["rank", "{f}", "--copies", "8"], "--copies goes with --yield TOL"),
+    (["show", "{f}", "0", "--copies", "8"], "--copies goes with --yield TOL"),
+    (["rank", "{f}", "--yield", "1mm"], "[operating] unit"),
+])
+def test_bad_yield_options_exit_2_in_one_line(yield_file, capsys, argv, words):
+    code, out, err = _cli(capsys, *[a.format(f=yield_file) for a in argv])
+    assert code == 2 and words in err and len(err.strip().splitlines()) == 1
+
+
+def test_rank_yield_needs_a_tolerance_without_robustness(tmp_path, capsys):
+    d = _study(tmp_path, robustness=None, scene={"metrics": ["travel"]})
+    run_study(load_study(d), output=tmp_path / "n.h5", progress=False)
+    code, _, err = _cli(capsys, "rank", str(tmp_path / "n.h5"), "--by", "travel", "--yield")
+    assert code == 2 and "no [robustness] table" in err and "n.h5" in err

@@ -65,6 +65,7 @@ def register(sub) -> None:
     p.add_argument("--columns", metavar="C1,C2,...", default=None,
                    help="table only: the columns after rank, variant and the ranking metrics (default: the other "
                         "metrics, then status); any frame column, e.g. crank or a link name")
+    add_yield_arguments(p, "the rows shown (--top)")
     add_units_argument(p)
     p.set_defaults(func=run)
 
@@ -93,7 +94,30 @@ def screen_line(summary: dict, included: bool) -> str:
             f"--include-screened keeps them")
 
 
-# -- the verb ----------------------------------------------------------------------------------------------
+# -- yield ------------------------------------------------------------------------------------------------
+def add_yield_arguments(p, rows: str) -> None:
+    """--yield [TOL] and --copies N, shared by rank and show; ``rows``: which designs it re-solves."""
+    p.add_argument("--yield", dest="yield_tol", nargs="?", const="", default=None, metavar="TOL",
+                   help="the yield: the share of --copies copies, every design parameter cut with ±TOL (0.5%%: "
+                        "lengths relatively, coordinates in %% of the mechanism's size; 0.1mm with [operating] unit; "
+                        "0.02: model units; uniform, the same errors for every design), that turn and pass the "
+                        "buildability screen, ± its binomial standard error. Without TOL: the study's [robustness] "
+                        f"table. Re-solves the copies of {rows}")
+    p.add_argument("--copies", metavar="N", default=None, help="with --yield TOL: copies per design (default 256)")
+
+
+def yields(res, args, variants) -> tuple[dict, object]:
+    """({variant: (yield, standard error)}, Robustness) of ``variants`` for --yield [TOL] [--copies N]."""
+    from ..study import results_robustness, results_yield
+    from ._args import whole
+
+    copies = whole(args.copies, "--copies", 2) if args.copies is not None else None
+    robustness = results_robustness(res, args.yield_tol or None, copies)
+    wanted = list(dict.fromkeys(int(v) for v in variants))
+    y = results_yield(res, wanted, robustness)
+    return {v: (float(p), float(se)) for v, p, se in zip(wanted, y.share, y.se)}, y.robustness
+
+
 def run(args) -> int:
     from ..errors import UserError
     from ..gait import DEFAULT_WEIGHTS, DIRECTIONS, WALKER_METRICS, operating_line
@@ -117,6 +141,8 @@ def run(args) -> int:
             raise UserError("--ascending/--descending go with --by METRIC, not with the default score")
         mode, weights = "default", dict(DEFAULT_WEIGHTS)
     extra = parse_list(args.columns, "--columns") if args.columns is not None else None
+    if args.copies is not None and not args.yield_tol:
+        raise UserError("--copies goes with --yield TOL (without TOL the study's [robustness] table gives the copies)")
 
     unstored = []
     with open_results(args.results) as res:
@@ -132,7 +158,12 @@ def run(args) -> int:
         ref = res.check_variant(args.vs)
         # --units si: the rows shown in SI, the ranking itself over the stored values (--where too)
         si = results_si(res, frame.iloc[:0], args.units)
-    ranked = full if top is None else full.iloc[:top]
+        ranked = full if top is None else full.iloc[:top]
+        robust = yields(res, args, [*ranked["variant"].tolist(), ref]) if args.yield_tol is not None else None
+    if robust is not None:  # each shown design's yield, ± its binomial standard error
+        ys, robustness = robust
+        ranked = ranked.assign(**{"yield": [ys[v][0] for v in ranked["variant"]],
+                                  "yield_se": [ys[v][1] for v in ranked["variant"]]})
 
     if args.format in ("csv", "json"):
         if si is not None:  # converted values under unit-suffixed names: bob[mm], travel[m/turn], speed[m/s]
@@ -192,11 +223,18 @@ def run(args) -> int:
     ref_label = "nominal" if ref == 0 else "reference"
     in_full = full.index[full["variant"] == ref]
     ref_row = (full.loc[[in_full[0]]] if len(in_full) else frame.iloc[[ref]]).copy()
+    if robust is not None:
+        ref_row = ref_row.assign(**{"yield": ys[ref][0], "yield_se": ys[ref][1]})
     place = f"{int(ref_row['rank'].iloc[0])}" if len(in_full) else "-"
     table_rows = pd.concat([ranked, ref_row], ignore_index=True)
     marks = [str(r) for r in table_rows["rank"].iloc[:-1]] + [f"{ref_label}:{place}"]
     table_rows = table_rows.assign(rank=marks)
     cols = lead + rest
+    if robust is not None:
+        cols = lead + [c for c in ("yield", "yield_se") if c not in lead] + [c for c in rest if c not in
+                                                                              ("yield", "yield_se")]
+        lines.append(f"yield: the share of copies, {robustness.describe()}, that turn and pass the screen; "
+                     f"yield_se its binomial standard error")
     conv = None
     if si is not None:  # the shown rows (the reference's included) in SI; speed follows travel
         conv = si.apply(table_rows)

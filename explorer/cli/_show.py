@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from ._args import add_variant_arguments, chosen_variant, parse_variant
+from ._rank import add_yield_arguments, yields
 from ..gait._units import verdict
 from ._format import add_units_argument, better, results_si, table
 
@@ -28,6 +29,7 @@ def register(sub) -> None:
     add_variant_arguments(p, "as `explorer animate` and `explorer plot --velocity` take it")
     p.add_argument("--vs", type=int, metavar="VARIANT", default=0,
                    help="the reference design every metric is compared with (default 0: the nominal)")
+    add_yield_arguments(p, "this variant and the reference")
     p.add_argument("--include-screened", action="store_true",
                    help="rank among every ok variant, as `explorer rank --include-screened` (default: among the "
                         "buildable ones, as `explorer rank`)")
@@ -66,6 +68,41 @@ def parameter_lines(mech, design: dict, nominal: dict, perturbed, mm_per_unit: f
     return out
 
 
+#: Below this yield `show` warns that the design may not survive the workshop.
+YIELD_WARNING = 0.95
+
+
+def _robustness_lines(res, args, v: int, ref: int, row, ref_row) -> list[str]:
+    """Will it survive the workshop: the variant's and the reference's yield ± binomial standard error
+    (re-solved with --yield [TOL], else the stored metric with the study's [robustness]), and a warning
+    under :data:`YIELD_WARNING`. [] when neither is asked for nor stored."""
+    from ..errors import UserError
+    from ..study import results_robustness
+    if args.copies is not None and not args.yield_tol:
+        raise UserError("--copies goes with --yield TOL (without TOL the study's [robustness] table gives the copies)")
+    if args.yield_tol is not None:
+        ys, rb = yields(res, args, [v, ref])
+        how = "re-solved now"
+    elif "yield" in res.metric_names:
+        rb = results_robustness(res)
+        ys = {}
+        for k, r in ((v, row), (ref, ref_row)):
+            p = float(r["yield"])
+            ys[k] = (p, math.sqrt(p * (1 - p) / rb.copies) if math.isfinite(p) else math.nan)
+        how = "stored by the study"
+    else:
+        return []
+    p, se = ys[v]
+    ref_label = "the nominal" if ref == 0 else f"variant {ref}"
+    out = [f"yield (will it survive the workshop?): {p:.3f} ± {se:.3f} of copies turn and pass the screen, each cut "
+           f"{rb.describe()}; {ref_label}: {ys[ref][0]:.3f} ± {ys[ref][1]:.3f} ({how}; ± one binomial standard "
+           f"error)"]
+    if math.isfinite(p) and p < YIELD_WARNING:
+        out.append(f"warning: only {100 * p:.1f} % of copies cut to that tolerance walk: cut tighter (`explorer "
+                   f"tolerance` finds how tight) or choose a design with a higher yield")
+    return out
+
+
 def run(args) -> int:
     from ..gait import DEFAULT_WEIGHTS, METRICS, SPEED, metric, operating_line
     from ..store import open_results
@@ -92,6 +129,7 @@ def run(args) -> int:
         band = res.band
         metrics = list(res.metric_names)
         res_operating = res.study.get("operating") if res.study.get("scene", {}).get("forces") else None
+        robust = _robustness_lines(res, args, v, ref, row, ref_row)
 
     # variant 0 is the nominal of a sampled study; of an optimisation only when the nominal lies in its bounds
     is_nominal = v == 0 and all(row[p] == nominal[p] for p in perturbed if p in row.index and p in nominal)
@@ -178,6 +216,9 @@ def run(args) -> int:
     if status == "ok" and str(ref_row["status"]) == "ok" and v != ref:
         lines.append(verdict(shown, shown_ref, ref_label, [m for m in DEFAULT_WEIGHTS if m in metrics],
                              None if si is None else {c: si.units[c] for c in si.converted}))
+    if robust:
+        lines.append("")
+        lines += robust
     if si is not None:
         lines.append("")
         lines.append(operating_line(si.operating))

@@ -26,7 +26,8 @@ from ._sensitivity import INDEX_METHODS, sensitivity, sensitivity_frame, summary
 from ._spec import (MAX_VARIANTS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHODS, Study, builtin_studies,
                     default_study_text, dumps_toml, load_study, study_from_dict, variant_count)
 from ._tolerance import ToleranceResult, tolerance
-from ._yield import Robustness, YieldResult, design_yield, results_yield, robustness_from_dict
+from ._yield import (Robustness, YieldResult, design_yield, results_robustness, results_yield,
+                     robustness_from_dict)
 
 __all__ = ["ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
            "run_optimize", "Terminated", "BLOCK", "INDEX_METHODS", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
@@ -34,4 +35,4 @@ __all__ = ["ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_
            "default_study_text", "dumps_toml", "load_study", "recompute_metrics", "run_study", "run_study_dask",
            "saltelli_design", "sample_variants", "sensitivity", "sensitivity_frame", "study_from_dict", "study_sampler",
            "study_variants", "summary_frame", "tolerance", "tolerance_summary", "variant_count",
-           "Robustness", "YieldResult", "design_yield", "results_yield", "robustness_from_dict"]
+           "Robustness", "YieldResult", "design_yield", "results_robustness", "results_yield", "robustness_from_dict"]

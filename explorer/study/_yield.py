@@ -279,18 +279,28 @@ def design_yield(mech: Mechanism, lengths, crank=None, geometry: dict | None = N
     return YieldResult(share=count / K, count=count, copies=K, robustness=robustness)
 
 
+def results_robustness(results, text: str | None = None, copies: int | None = None) -> Robustness:
+    """The :class:`Robustness` of an open results file: from a command line's tolerance ``text``
+    ("0.5%", "0.1mm", "0.02" model units; ``copies`` per design, default 256), or else the study's own
+    ``[robustness]`` table (UserError naming the file if it has none)."""
+    mech = results.mechanism
+    if text:
+        return parse_tolerance(text, _operating(results), "--yield", mech, copies or DEFAULT_COPIES)
+    table = results.study.get("robustness")
+    if not table:
+        raise UserError(f"{results.filename}: its study has no [robustness] table; give the tolerance to cut "
+                        f"copies with (e.g. --yield 0.5%)")
+    return robustness_from_dict(table, f"{results.filename} (its study)", mech, _operating(results))
+
+
 def results_yield(results, variants, robustness: Robustness | None = None) -> YieldResult:
     """The yield of some variants of an open results file (:class:`explorer.store.Results`), re-solved
     as its study solved them (steps, tolerance, method, screen). ``robustness``: None for the study's
-    own ``[robustness]`` table (UserError naming the file if it has none)."""
+    own ``[robustness]`` table (:func:`results_robustness`)."""
     study = results.study
     mech = results.mechanism
     if robustness is None:
-        table = study.get("robustness")
-        if not table:
-            raise UserError(f"{results.filename}: its study has no [robustness] table; give the tolerance to cut "
-                            f"copies with (e.g. --yield 0.5%)")
-        robustness = robustness_from_dict(table, f"{results.filename} (its study)", mech, _operating(results))
+        robustness = results_robustness(results)
     frame = results.frame()
     designs = [results.design(int(v), frame) for v in variants]
     names = list(mech.parameters())
@@ -323,4 +333,4 @@ def parse_tolerance(text: str, operating: Operating | None, source: str, mech: M
         raise UserError(f"{source}: expected a tolerance such as 0.5% (relative), 0.1mm or 0.02 (model units), "
                         f"got {text!r}") from None
     return robustness_from_dict({"tolerance": value, "unit": unit, "copies": copies, "distribution": distribution,
-                                 "seed": seed}, source, mech, operating, key="robustness")
+                                 "seed": seed}, source, mech, operating, key="tolerance")
