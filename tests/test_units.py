@@ -279,3 +279,24 @@ def test_report_cli_takes_vs_and_units(files, tmp_path, capsys):
     assert rows[-1]["class"] == "ref" and rows[-1]["variant"] == 3
     code, _, err = cli(capsys, "report", files["si"], "-o", tmp_path / "x.html", "--vs", 999)
     assert code == 2 and err.count("\n") == 1 and "999" in err
+
+
+# -- the conversion itself ---------------------------------------------------------------------------------
+def test_to_si_leaves_si_and_dimensionless_metrics_alone():
+    """The forces group (already N, N·m, W …) and ratios pass through; gravity 0 leaves the torque
+    metrics per weight × crank radius and says so."""
+    from explorer.gait import to_si
+    from explorer.mechanism import Operating
+    df = pd.DataFrame({"crank": [10.0, 12.0], "travel": [100.0, 90.0], "bob": [0.5, 0.7], "peak_torque": [0.1, 0.2],
+                       "motor_torque_peak": [3.0, 4.0], "pin_force.2": [50.0, 60.0], "slip": [0.01, 0.02]})
+    names = ["travel", "bob", "peak_torque", "motor_torque_peak", "pin_force.2", "slip"]
+    out = to_si(df, names, Operating(unit=0.02, rpm=30.0, load=2.0, gravity=9.81))
+    np.testing.assert_allclose(out.frame["peak_torque"], df["peak_torque"] * 2.0 * 9.81 * df["crank"] * 0.02)
+    np.testing.assert_allclose(out.frame["speed"], df["travel"] * 0.02 * 30.0 / 60.0)
+    for c in ("motor_torque_peak", "pin_force.2", "slip"):
+        np.testing.assert_array_equal(out.frame[c], df[c])
+    assert out.units["motor_torque_peak"] == "N·m" and out.units["pin_force.2"] == "N"
+    assert sorted(out.converted) == ["bob", "peak_torque", "speed", "travel"] and not out.notes
+    off = to_si(df, names, Operating(unit=0.02, load=2.0, gravity=0.0))
+    np.testing.assert_array_equal(off.frame["peak_torque"], df["peak_torque"])
+    assert "speed" not in off.frame.columns and len(off.notes) == 2 and "gravity" in off.notes[0]
