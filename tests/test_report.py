@@ -156,7 +156,7 @@ def test_cli_defaults_are_the_modules():
 
 @pytest.mark.parametrize("argv, words", [
     (["report", "{t}/missing.h5", "-o", "{t}/r.html"], ["missing.h5", "no such results file"]),
-    (["report", "{r}", "-o", "{t}/no/r.html"], ["does not exist"]),
+    (["report", "{r}", "-o", "{r}/r.html"], ["is not a folder"]),
     (["report", "{r}", "-o", "{t}/r.png"], ["r.png", ".html"]),
     (["report", "{r}", "-o", "{t}/r.html", "--metrics", "travel,nope"], ["nope", "not stored"]),
     (["report", "{r}", "-o", "{t}/r.html", "--scatter", "travel"], ["--scatter", "two metrics"]),

@@ -58,7 +58,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..errors import UserError
     from ..store import open_results
-    from ..view._export import check_export_path
+    from ._args import output_path
     from ..view._report import write_report
     from .._extras import require
 
@@ -76,7 +76,7 @@ def run(args) -> int:
                                ("--shown", args.shown, 0), ("--points", args.points, 3)):
         if value < least:
             raise UserError(f"{name}: expected a whole number >= {least}, got {value}")
-    check_export_path(out, args.force, protect=[args.results])  # a bad path fails before any work
+    output_path(out, args.force, protect=[args.results])  # the verbs' one policy, before any work
     with open_results(args.results) as res:
         rep = write_report(res, out, force=args.force, metrics=args.metrics, max_designs=args.max_designs,
                            paths=args.paths, shown=args.shown, points=args.points, seed=args.seed, x=x, y=y, pc_lines=args.lines,
