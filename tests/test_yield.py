@@ -333,3 +333,19 @@ def test_rank_yield_needs_a_tolerance_without_robustness(tmp_path, capsys):
     run_study(load_study(d), output=tmp_path / "n.h5", progress=False)
     code, _, err = _cli(capsys, "rank", str(tmp_path / "n.h5"), "--by", "travel", "--yield")
     assert code == 2 and "no [robustness] table" in err and "n.h5" in err
+
+
+def test_report_shows_yield_against_the_reference(yield_file):
+    """The report's table of the best designs against the reference carries the stored yield and its change,
+    and says what the copies were cut with."""
+    import re
+
+    from explorer.store import open_results
+    from explorer.view import report_html
+    page = report_html(yield_file)
+    assert "id='vs-yield'" in page and "±2 % (uniform) on every design parameter, 24 copies" in page
+    with open_results(yield_file) as r:
+        p0 = float(r.row(0)["yield"])
+    ref = re.search(r"<tr class='ref'[^>]*>.*?</tr>", page).group(0)
+    cell = re.search(r"data-key='yield' data-value='([^']*)'", ref)
+    assert cell is not None and float(cell.group(1)) == p0

@@ -521,8 +521,16 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     keys = [m for m in DEFAULT_WEIGHTS if m in mets] or [m for m in mets if m != SPEED][:6]
     if SPEED in mets and "travel" in keys:
         keys.insert(keys.index("travel") + 1, SPEED)
+    yield_note = ""
+    if "yield" in mets and "yield" not in keys:  # will it survive the workshop: the stored yield, its settings
+        keys.append("yield")
+        from ..study import results_robustness
+        rb = results_robustness(res)
+        yield_note = (f"yield: the share of copies, {rb.describe()}, that turn and pass the buildability screen "
+                      f"(binomial standard error √(p(1 − p)/{rb.copies}): ±{math.sqrt(0.25 / rb.copies):.3f} at "
+                      f"most).")
     vs_section = _vs_section(df, dv, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys}, by_score,
-                             None if si is None else {c: si.units[c] for c in si.converted})
+                             None if si is None else {c: si.units[c] for c in si.converted}, yield_note)
     units_note = ""
     if si is not None:
         units_note = "<p class='note' id='units-note'>" + html.escape(
@@ -551,7 +559,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
 
 
 def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dict, by_score: bool,
-                verdict_units: dict | None = None) -> str:
+                verdict_units: dict | None = None, yield_note: str = "") -> str:
     """The table of the best-ranked buildable designs against the reference (as ``explorer rank --change``
     prints it): for each metric of ``keys`` its value (``dv``: the units shown) and the change against the
     reference's in %, the reference last, marked with its own place; then the walker score of both and a
@@ -609,6 +617,8 @@ def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dic
         lines.append(f"The {ref_label} failed: it has no metrics to compare with.")
     notes = "".join(f"<p class='note' id='{'vs-score' if t.startswith('Ranked') else 'vs-verdict'}'>{esc(t)}</p>"
                     for t in lines)
+    if yield_note:
+        notes += f"<p class='note' id='vs-yield'>{esc(yield_note)}</p>"
     return (f"<div class='panel' id='vs-panel'><h2>The best designs against the {esc(ref_label)}</h2>"
             f"<p class='note'>The {min(VS_ROWS, len(pos))} best-ranked of the {pool}, each metric with its change "
             f"against the {esc(ref_label)} in % of its value (Δ % = 100·(value − reference)/|reference|); the last row "
