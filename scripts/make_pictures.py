@@ -56,7 +56,7 @@ def plots(results: Path, out: Path) -> list[Path]:
     made = []
     for name, args in (("foot_paths.png", ["--top", "5"]), ("pareto.png", ["--scatter", "travel,bob"])):
         target = out / name
-        if main(["plot", str(results), *args, "-o", str(target), "--dpi", "110"]) != 0:
+        if main(["plot", str(results), *args, "-o", str(target), "--dpi", "110", "--force"]) != 0:
             raise SystemExit(f"explorer plot {' '.join(args)} failed")
         if target.stat().st_size > LIMIT:
             _small_png(target, colours=256)

@@ -248,3 +248,63 @@ def test_no_direction_hint_names_the_options_not_a_python_keyword(arm_file, caps
     assert not err.split("explorer: error: ")[1].startswith("ascending=")
     code, out, err = cli(capsys, "rank", arm_file, "--by", "O.x", "--descending", "--format", "csv")
     assert code == 0, err
+
+
+# -- 5. one output policy for every writing verb ------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def small_results(tmp_path_factory):
+    from explorer import run_study
+    folder = tmp_path_factory.mktemp("small")
+    return run_study({"study": {"name": "small", "mechanism": "jansen", "variants": 12, "seed": 1, "steps": 36},
+                      "perturb": {"method": "uniform", "spread": 0.01}, "scene": {"velocities": True, "metrics": True}},
+                     output=folder / "small.h5", progress=False).path
+
+
+WRITERS = {
+    "plot": lambda r, o: ["plot", r, "--top", "2", "-o", o, "--dpi", "30"],
+    "animate": lambda r, o: ["animate", r, "--variant", "1", "--frames", "2", "--cycles", "0.1", "--dpi", "20",
+                             "-o", o],
+    "export": lambda r, o: ["export", r, "1", "-o", o],
+    "report": lambda r, o: ["report", r, "-o", o, "--paths", "2"],
+    "sensitivity": lambda r, o: ["sensitivity", r, "--metrics", "travel", "--resamples", "2", "--plot", o],
+}
+SUFFIX = {"plot": ".png", "animate": ".gif", "export": ".svg", "report": ".html", "sensitivity": ".png"}
+
+
+@pytest.mark.parametrize("verb", sorted(WRITERS))
+def test_every_writing_verb_creates_folders_and_keeps_files(verb, small_results, tmp_path, capsys):
+    if verb == "report":
+        pytest.importorskip("plotly")
+    if verb == "sensitivity":
+        pytest.importorskip("SALib")
+    out = tmp_path / "new" / "deeper" / f"out{SUFFIX[verb]}"
+    code, text, err = cli(capsys, *WRITERS[verb](small_results, out))
+    assert code == 0, err
+    assert out.is_file() and out.stat().st_size > 0
+    assert "folder" not in text + err  # created silently
+    out.write_bytes(b"mine")
+    code, text, err = cli(capsys, *WRITERS[verb](small_results, out))
+    one_line_error(code, err, str(out), "file exists", "--force")
+    assert out.read_bytes() == b"mine"
+    code, text, err = cli(capsys, *WRITERS[verb](small_results, out), "--force")
+    assert code == 0, err
+    assert out.read_bytes() != b"mine"
+
+
+def test_run_and_optimize_follow_the_same_policy(tmp_path, capsys):
+    """Results files: missing folders created, an existing file kept unless --force (and --resume)."""
+    study = tmp_path / "s.toml"
+    study.write_text('[study]\nname = "s"\nmechanism = "jansen"\nvariants = 8\nsteps = 24\n')
+    out = tmp_path / "a" / "b" / "s.h5"
+    assert cli(capsys, "run", study, "-o", out, "-q")[0] == 0 and out.is_file()
+    code, text, err = cli(capsys, "run", study, "-o", out, "-q")
+    one_line_error(code, err, str(out), "--force")
+    assert cli(capsys, "run", study, "-o", out, "-q", "--force")[0] == 0
+    pytest.importorskip("pymoo")
+    opt = tmp_path / "opt.toml"
+    opt.write_text(small_optimize_study((ROOT / "studies" / "jansen-optimize.toml").read_text())
+                   .replace("generations = 2", "generations = 1"))
+    out = tmp_path / "c" / "opt.h5"
+    assert cli(capsys, "optimize", opt, "-o", out, "-q")[0] == 0 and out.is_file()
+    code, text, err = cli(capsys, "optimize", opt, "-o", out, "-q")
+    one_line_error(code, err, str(out), "--force")

@@ -448,7 +448,9 @@ def test_errors_are_one_line(studies, tmp_path, capsys):
     one_line_error(*cli(capsys, "export", tmp_path / "none.h5", 1, "-o", tmp_path / "a.svg")[::2], "no such results file")
     one_line_error(*cli(capsys, "export", res, 6, "-o", tmp_path / "a.svg")[::2], "variant 6 out of range")
     one_line_error(*cli(capsys, "export", res, "x", "-o", tmp_path / "a.svg")[::2], "expected a whole number")
-    one_line_error(*cli(capsys, "export", res, 1, "-o", tmp_path / "no" / "a.svg")[::2], "does not exist")
+    # a missing folder is created (the verbs' one output policy, issue 26)
+    assert cli(capsys, "export", res, 1, "-o", tmp_path / "no" / "a.svg")[0] == 0
+    assert (tmp_path / "no" / "a.svg").is_file()
     (tmp_path / "file").write_text("")
     one_line_error(*cli(capsys, "export", res, 1, "-o", tmp_path / "file" / "a.svg")[::2], "is not a folder")
     one_line_error(*cli(capsys, "export", res, 1, "--format", "svg", "-o", tmp_path)[::2], "it is a folder")

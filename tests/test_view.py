@@ -468,13 +468,13 @@ def test_cli_help(verb, capsys):
 @pytest.mark.parametrize("argv, match", [
     (["plot", "{r}", "--top", "2", "--by", "nope", "-o", "{t}/x.png"], "unknown metric 'nope'"),
     (["plot", "{r}", "--velocity", "999", "-o", "{t}/x.png"], "out of range"),
-    (["plot", "{r}", "--top", "2", "-o", "{t}/missing/x.png"], "does not exist"),
+    (["plot", "{r}", "--top", "2", "-o", "{r}/x.png"], "is not a folder"),
     (["plot", "{r}", "--top", "2", "-o", "{t}/x.jpg"], "unknown output extension"),
     (["plot", "{r}", "-o", "{t}/x.png"], "say what to plot"),
     (["plot", "{r}", "--scatter", "stride", "-o", "{t}/x.png"], "two metrics"),
     (["animate", "{r}", "--variant", "999", "-o", "{t}/x.gif"], "out of range"),
     (["animate", "--mechanism", "jansen", "-o", "{t}/x.avi"], "unknown output extension"),
-    (["animate", "--mechanism", "jansen", "-o", "{t}/missing/x.gif"], "does not exist"),
+    (["animate", "--mechanism", "jansen", "-o", "{r}/x.gif"], "is not a folder"),
     (["animate", "-o", "{t}/x.gif"], "RESULTS file"),
 ])
 def test_cli_errors_are_one_line_exit_2(results, tmp_path, capsys, argv, match):

@@ -19,7 +19,9 @@ def register(sub) -> None:
     p.add_argument("--mechanism", default=None, metavar="NAME",
                    help="animate this mechanism's nominal design instead (built-in name or .toml file)")
     p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="output .mp4 or .gif (default: <name>.mp4 in the working directory)")
+                   help="output .mp4 or .gif (default: <name>.mp4 in the working directory); missing folders are "
+                        "created, an existing file is kept unless --force")
+    p.add_argument("--force", action="store_true", help="overwrite PATH if it exists (never done without it)")
     p.add_argument("--cycles", type=float, default=2, metavar="K", help="crank turns to show (default: 2)")
     p.add_argument("--legs", type=int, default=1, metavar="N",
                    help="draw a walker of N legs, crank phases spread evenly, odd legs mirrored (default: 1)")
@@ -38,7 +40,7 @@ def run(args) -> int:
     from ..mechanism import load_mechanism
     from ..store import open_results
     from ..view import MOVIE_FORMATS, animate
-    from ..view._plots import check_output
+    from ._args import output_path
 
     if (args.results is None) == (args.mechanism is None):
         raise UserError("animate: give a RESULTS file (with --variant) or --mechanism NAME, not both and not neither")
@@ -51,7 +53,8 @@ def run(args) -> int:
     else:
         stem = Path(args.mechanism).stem
     out = args.output if args.output is not None else f"{stem}.mp4"
-    check_output(out, MOVIE_FORMATS)  # a bad path fails before any work
+    output_path(out, args.force, formats=MOVIE_FORMATS, protect=[args.results] if args.results else ())
+    # (a bad path fails before any work)
     if args.walker and args.legs != 1:
         raise UserError("animate: --walker draws the walker of the study or mechanism; give it or --legs, not both")
     kw = dict(cycles=args.cycles, frames=args.frames, legs=args.legs, fps=args.fps, dpi=args.dpi,

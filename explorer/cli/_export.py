@@ -21,7 +21,7 @@ def register(sub) -> None:
                     "as a mechanism file (`explorer run`, `explorer.load_mechanism`), its guess at the variant's "
                     "own positions at the first sample. A failed variant exports as svg, dxf and toml (its design "
                     "exists) but not as csv (it has no full path). An existing PATH is never replaced without "
-                    "--force.")
+                    "--force; missing folders are created.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     add_variant_arguments(p, "as `explorer show --variant` takes it")
     p.add_argument("--format", dest="fmt", choices=("svg", "dxf", "csv", "toml"), default=None,
@@ -60,7 +60,7 @@ def run(args) -> int:
     from ..store import FILE_STATUS_NAMES
     from ..view._export import (check_export_path, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                                 variant_design)
-    from ._args import chosen_variant, parse_variant
+    from ._args import chosen_variant, output_path, parse_variant
 
     chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format FORMAT -o PATH")
     fmt = _format(args)
@@ -72,7 +72,8 @@ def run(args) -> int:
                             f"not {fmt}")
     if args.scale is None:
         sheet_opts["scale"] = 1.0
-    out = check_export_path(args.output, args.force, protect=[args.results])  # a bad path fails before any work
+    output_path(args.output, args.force, protect=[args.results])  # the verbs' one policy: fails before any work
+    out = check_export_path(args.output, args.force, protect=[args.results])
     with open_results(args.results) as res:
         v = parse_variant(chosen, res.n_variants, res.filename)
         code = int(res.file["status"][v])

@@ -47,7 +47,9 @@ def register(sub) -> None:
     p.add_argument("--where", metavar="EXPR", default=None,
                    help="filter for --top and --scatter over the frame's columns, e.g. \"bob < 0.2 and slip < 0.01\" (comparisons, arithmetic, and/or/not, in [...]; `backticks` for names such as `1-3`)")
     p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="output .png, .svg or .pdf (default: RESULTS-<mode>.png in the working directory)")
+                   help="output .png, .svg or .pdf (default: RESULTS-<mode>.png in the working directory); missing "
+                        "folders are created, an existing file is kept unless --force")
+    p.add_argument("--force", action="store_true", help="overwrite PATH if it exists (never done without it)")
     p.add_argument("--variant", type=int, metavar="N", default=None,
                    help="with --velocity or --forces: the variant (as in `explorer show --variant` and `explorer animate`)")
     p.add_argument("--dpi", type=float, default=150, help="resolution of PNG output (default: 150)")
@@ -88,13 +90,13 @@ def run(args) -> int:
     from ..errors import UserError
     from ..store import open_results
     from ..view import FIGURE_FORMATS, plot_scatter, plot_sensitivity, plot_top, plot_velocity, save_figure
-    from ..view._plots import check_output
+    from ._args import output_path
 
     mode = _mode(args)
     out = args.output
     if out is None:
         out = f"{Path(args.results).stem}-{mode}.png"
-    check_output(out, FIGURE_FORMATS)  # a bad path fails before any work
+    output_path(out, args.force, formats=FIGURE_FORMATS, protect=[args.results])  # a bad path fails before any work
     if not (1 <= args.dpi <= 1200):  # beyond that a figure is gigapixels: matplotlib fails or fills memory
         raise UserError(f"--dpi: expected a number from 1 to 1200, got {args.dpi!r}")
     with open_results(args.results) as res:

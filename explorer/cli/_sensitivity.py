@@ -50,7 +50,9 @@ def register(sub) -> None:
     p.add_argument("--format", metavar="FORMAT", default="table",
                    help="table (default), csv or json (every index of every parameter, to stdout)")
     p.add_argument("--plot", metavar="PATH", default=None,
-                   help="also draw the indices as bars with their intervals, one panel per output (.png, .svg, .pdf)")
+                   help="also draw the indices as bars with their intervals, one panel per output (.png, .svg, "
+                        ".pdf); missing folders are created, an existing file is kept unless --force")
+    p.add_argument("--force", action="store_true", help="overwrite the --plot file if it exists")
     p.add_argument("--resamples", metavar="N", default=None,
                    help="bootstrap resamples of the intervals (default: rbd-fast 50, sobol 100, delta 20, pawn 10)")
     p.add_argument("--seed", metavar="N", default="1", help="seed of the bootstrap resamples (default 1)")
@@ -159,8 +161,8 @@ def run(args) -> int:
     plot_path = None
     if args.plot is not None:
         from ..view import FIGURE_FORMATS
-        from ..view._plots import check_output
-        plot_path = check_output(args.plot, FIGURE_FORMATS)
+        from ._args import output_path
+        plot_path = output_path(args.plot, args.force, "--plot", formats=FIGURE_FORMATS, protect=[args.results])
 
     # the library calls a Python user makes; this verb only formats what they return
     with open_results(args.results) as res:
