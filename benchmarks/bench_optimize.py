@@ -63,7 +63,35 @@ def main(argv=None):
 
         print(f"  {name:<14} {v0:10.4g}  {best:10.4g} ({change(best)})   {med:10.4g} ({change(med)})   "
               f"[{'higher' if d == 'max' else 'lower'} is better]")
+    if dom.any():
+        give_up(study, df, front[dom])
     return 0
+
+
+def give_up(study, df, chosen):
+    """What the dominating designs give up: every walker metric the search did not score, re-solved at
+    the study's steps with velocities for them and the nominal (the file stores only what the search
+    read), as the range among them against the nominal and how many are worse."""
+    from explorer.gait import DIRECTIONS, WALKER_METRICS, compute_metrics
+    from explorer.kernels import simulate_batch
+    mech = study.mech
+    rows = df.iloc[[0, *chosen["variant"].tolist()]]
+    nominal = mech.parameters()
+    L = np.column_stack([rows[n].to_numpy(dtype=float) if n in rows.columns else np.full(len(rows), nominal[n])
+                         for n in mech.link_names])
+    r = rows["crank"].to_numpy(dtype=float) if "crank" in rows.columns else np.full(len(rows), nominal["crank"])
+    assert not set(study.optimize.parameters) - set(mech.link_names) - {"crank"}, "links and crank only"
+    b = simulate_batch(mech, L, r, study.steps, vertices=[mech.foot], velocities=True)
+    m = compute_metrics(b.paths[mech.foot], b.velocities[mech.foot], b.status, list(WALKER_METRICS), mechanism=mech,
+                        lengths=L, crank=r, walker=study.walker)
+    others = [k for k in WALKER_METRICS if k not in study.optimize.objectives]
+    print(f"  what the {len(chosen)} dominating designs give up (walker metrics not searched on, re-solved):")
+    print("  metric              nominal   range among dominating        worse than the nominal")
+    for k in others:
+        v0, vals = float(m[k][0]), m[k][1:]
+        worse = (vals < v0) if DIRECTIONS[k] == "max" else (vals > v0)
+        print(f"  {k:<18} {v0:10.4g}   {vals.min():10.4g} to {vals.max():<10.4g}   {int(worse.sum()):>3} of {len(vals)}"
+              f"   [{'higher' if DIRECTIONS[k] == 'max' else 'lower'} is better]")
 
 
 if __name__ == "__main__":
