@@ -308,3 +308,42 @@ def test_run_and_optimize_follow_the_same_policy(tmp_path, capsys):
     assert cli(capsys, "optimize", opt, "-o", out, "-q")[0] == 0 and out.is_file()
     code, text, err = cli(capsys, "optimize", opt, "-o", out, "-q")
     one_line_error(code, err, str(out), "--force")
+
+
+# -- 6. every foot's path, and [unit] axis labels ---------------------------------------------------------------
+def test_strider_animation_draws_both_feet():
+    import numpy as np
+
+    from explorer import load_mechanism, simulate
+    from explorer.view import LinkageAnimation
+    mech = load_mechanism("strider")
+    anim = LinkageAnimation(mech, cycles=1, frames=2, dpi=30)
+    assert anim.feet == ["4", "8"]
+    cyc = simulate(mech, anim.S)
+    assert len(anim.foot_paths) == 2
+    for v, drawn in zip(("4", "8"), anim.foot_paths):
+        np.testing.assert_allclose(drawn, cyc.path(v))
+    # both are on the axes: some line of the figure goes through every point of foot 8's path
+    lines = [np.asarray(line.get_xydata()) for line in anim.ax.get_lines()]
+    assert any(len(xy) >= anim.S and np.allclose(xy[: anim.S], cyc.path("8")) for xy in lines)
+    legend = " ".join(t.get_text() for leg in anim.fig.legends for t in leg.get_texts())
+    assert "feet 4, 8" in legend
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann", "hoeken"])
+def test_a_one_footed_leg_draws_one_path(name):
+    from explorer import load_mechanism
+    from explorer.view import LinkageAnimation
+    mech = load_mechanism(name)
+    anim = LinkageAnimation(mech, cycles=1, frames=2, dpi=30)
+    assert anim.feet == [mech.foot] and len(anim.foot_paths) == 1
+    assert len(LinkageAnimation(mech, cycles=1, frames=2, dpi=30, legs=2).foot_paths) == 2  # and its mirror image
+
+
+def test_animation_axis_labels_use_brackets_as_the_readme_promises():
+    from explorer.view import LinkageAnimation
+    readme = (ROOT / "README.md").read_text()
+    assert "units in square brackets in the axis labels" in readme
+    anim = LinkageAnimation("jansen", cycles=1, frames=2, dpi=30)
+    for label in (anim.ax.get_xlabel(), anim.ax.get_ylabel()):
+        assert label.endswith("[model units]") and "(" not in label, label

@@ -66,6 +66,36 @@ class Movie:
     failure: str | None
 
 
+def foot_vertices(mech, positions: np.ndarray, cx: float) -> list[str]:
+    """The feet of a leg: ``mech.foot`` first, then every other moving vertex whose path over the cycle
+    is the foot path's mirror image about the crank's vertical axis x = ``cx`` (Strider's foot 8, which
+    one crank pin drives as foot 4's mirror image). ``positions``: (S, n_vertices, 2), the solved
+    samples. A vertex counts when each of its points lies within the foot path's sampling step (half
+    the longest step between samples, plus 1e-9 of the path's size) of a mirrored foot point."""
+    foot = mech.vertex_index(mech.foot)
+    path = positions[:, foot]
+    path = path[np.isfinite(path).all(axis=1)]
+    feet = [mech.foot]
+    if mech.crank is None or len(path) < 3:
+        return feet
+    mirrored = mirror_positions(path, cx)
+    step = float(np.max(np.hypot(*np.diff(np.vstack([path, path[:1]]), axis=0).T)))
+    size = float(np.max(np.ptp(path, axis=0)))
+    tol = 0.5 * step + 1e-9 * max(size, 1.0)
+    fixed = set(mech.fixed) | {mech.crank.tip}
+    for j, v in enumerate(mech.vertices):
+        if j == foot or v in fixed:
+            continue
+        q = positions[:, j]
+        q = q[np.isfinite(q).all(axis=1)]
+        if len(q) != len(path) or float(np.max(np.ptp(q, axis=0))) < 0.5 * size:
+            continue
+        d = np.hypot(q[:, None, 0] - mirrored[None, :, 0], q[:, None, 1] - mirrored[None, :, 1]).min(axis=1)
+        if float(d.max()) <= tol:
+            feet.append(v)
+    return feet
+
+
 def ffmpeg_exe() -> str:
     """The ffmpeg binary shipped in the ``imageio-ffmpeg`` wheel (no system ffmpeg needed)."""
     from .._extras import require
@@ -247,8 +277,11 @@ class LinkageAnimation:
         valid = cyc.positions[: self.n_valid]
         path = valid[:, foot]
         closed = self.n_valid == self.S
-        paths = [path]
-        if any(self._mirrored):
+        # every foot of the leg: the named foot, and any vertex that walks its mirror image (Strider's
+        # second foot); a walker's mirrored legs add the mirror image of a single foot's path
+        self.feet = foot_vertices(mech, valid, cx)
+        paths = [valid[:, mech.vertex_index(v)] for v in self.feet]
+        if any(self._mirrored) and len(self.feet) == 1:
             paths.append(mirror_positions(path, cx))
         self.foot_paths = paths
         # extent: every vertex of every drawn orientation, the pivots and the crank circle
@@ -279,13 +312,13 @@ class LinkageAnimation:
         ax.set_aspect("equal", adjustable="box")
         width = np.nanmax(path[:, 0]) - np.nanmin(path[:, 0])
         ref = max(width, 0.15 * max(span))
-        ax.set_xlabel("x (model units)")
-        ax.set_ylabel("y (model units)")
+        ax.set_xlabel("x [model units]")
+        ax.set_ylabel("y [model units]")
         ax.grid(True, lw=0.4, alpha=0.4)
         # static: foot path(s), ground line, pivots, crank circle
         for n, p in enumerate(paths):
             draw_path(ax, p, closed=closed, label="foot path (one cycle)" if n == 0 else None)
-        ymin = np.nanmin(path[:, 1])
+        ymin = min(np.nanmin(p[:, 1]) for p in paths)
         # the ground: under the lowest foot point, shifted down by the path's half width so that the
         # stance stays visible on top of it
         ground = ax.axhline(ymin, color=STANCE_COLOR, lw=1.0, alpha=0.6, zorder=1)
@@ -315,7 +348,8 @@ class LinkageAnimation:
                    Line2D([], [], color=CRANK_COLOR, lw=4),
                    Line2D([], [], color=GROUND_COLOR, ls="none", marker="^", ms=8)]
         crank = mech.crank is not None
-        labels = ["foot path (one cycle)" if crank else "tip path",
+        labels = [("foot path (one cycle)" if len(self.feet) == 1 else f"paths of feet {', '.join(self.feet)} "
+                   f"(one cycle)") if crank else "tip path",
                   f"foot velocity dF/dθ (× {self.arrow_scale:.2g} rad)" if crank else
                   f"tip velocity (× {self.arrow_scale:.2g} s)", "crank" if crank else "(driven along its path)",
                   "ground pivots"]
