@@ -7,7 +7,6 @@ import math
 
 from ._args import add_variant_arguments, chosen_variant, parse_variant
 from ._rank import add_yield_arguments, yields
-from ..gait._units import verdict
 from ._format import add_units_argument, better, results_si, table
 
 __all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run", "verdict"]
@@ -104,7 +103,7 @@ def _robustness_lines(res, args, v: int, ref: int, row, ref_row) -> list[str]:
 
 
 def run(args) -> int:
-    from ..gait import DEFAULT_WEIGHTS, METRICS, SPEED, metric, operating_line
+    from ..gait import DEFAULT_WEIGHTS, METRICS, SPEED, metric, operating_line, verdict
     from ..store import open_results
 
     chosen = chosen_variant(args, "show", "explorer show RESULTS VARIANT (or --variant N)")
