@@ -1,5 +1,6 @@
 """``explorer export RESULTS VARIANT --format svg|dxf|csv|toml -o PATH``: one design, to cut, to plot or to
-run again."""
+run again; ``explorer export RESULTS VARIANT --format kit -o DIR`` (or ``explorer export MECHANISM --format kit
+-o DIR``): its build kit, a folder of cut sheets, a bill of materials and a README (issue 27)."""
 
 from __future__ import annotations
 
@@ -20,21 +21,36 @@ def register(sub) -> None:
                     "V.vx, V.vy / V.ax, V.ay when stored) of each stored vertex, the foot first. toml: the design "
                     "as a mechanism file (`explorer run`, `explorer.load_mechanism`), its guess at the variant's "
                     "own positions at the first sample. A failed variant exports as svg, dxf and toml (its design "
-                    "exists) but not as csv (it has no full path). An existing PATH is never replaced without "
-                    "--force; missing folders are created.")
-    p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
+                    "exists) but not as csv (it has no full path). kit: a folder DIR for a laser cutter and a "
+                    "workbench: parts.svg and parts.dxf (every part once per leg, mirrored copies of asymmetric "
+                    "parts marked M, nested on --sheet sheets, holes labelled with their joints, a scale bar, cut "
+                    "and engrave layers), bom.csv (parts, pins sized from the study's joint forces where it computed "
+                    "them, spacers, the crankshaft), README.txt (scale, material, the tolerance the design needs, "
+                    "the command); the design is scaled so its crank is --crank-mm (30 mm) unless --scale is "
+                    "given; RESULTS may then also be a mechanism (a built-in name or a .toml) with no VARIANT. "
+                    "An existing PATH (or a kit's file in DIR) is never replaced without --force; missing folders "
+                    "are created.")
+    p.add_argument("results", metavar="RESULTS",
+                   help="results file (.h5) written by `explorer run`; with --format kit also a mechanism (built-in "
+                        "name or .toml)")
     add_variant_arguments(p, "as `explorer show --variant` takes it")
-    p.add_argument("--format", dest="fmt", choices=("svg", "dxf", "csv", "toml"), default=None,
-                   help="what to write (default: from the extension of -o)")
-    p.add_argument("-o", "--output", metavar="PATH", required=True, help="the file to write")
+    p.add_argument("--format", dest="fmt", choices=("svg", "dxf", "csv", "toml", "kit"), default=None,
+                   help="what to write (default: from the extension of -o; kit: a folder)")
+    p.add_argument("-o", "--output", metavar="PATH", required=True, help="the file to write (kit: the folder)")
     p.add_argument("--force", action="store_true", help="overwrite PATH if it exists (never done without it)")
     p.add_argument("--scale", type=float, default=None, metavar="MM",
-                   help="svg, dxf: millimetres per model unit (default: 1, one model unit = 1 mm)")
+                   help="svg, dxf, kit: millimetres per model unit (default: 1, one model unit = 1 mm; kit: the "
+                        "scale that makes the crank --crank-mm)")
     p.add_argument("--width", type=float, default=None, metavar="MM",
-                   help="svg, dxf: width of every part, mm (default: 20 %% of the shortest distance between two "
-                        "holes of one part: the crank radius or the shortest link, usually)")
+                   help="svg, dxf, kit: width of every part, mm (default: 20 %% of the shortest distance between two "
+                        "holes of one part: the crank radius or the shortest link, usually; kit: 3 pin diameters)")
     p.add_argument("--hole", type=float, default=None, metavar="MM",
-                   help="svg, dxf: diameter of the pin holes, mm (default: 40 %% of the part width)")
+                   help="svg, dxf, kit: diameter of the pin holes, mm (default: 40 %% of the part width; kit: every "
+                        "pin sized from the study's joint forces, else M3 at a 30 mm crank, scaled)")
+    p.add_argument("--crank-mm", dest="crank_mm", type=float, default=None, metavar="MM",
+                   help="kit: the crank radius of the build, mm (default 30; sets the scale unless --scale)")
+    p.add_argument("--sheet", default=None, metavar="WxH",
+                   help="kit: the size of the sheets to cut from, mm (default 600x400)")
     p.set_defaults(func=run)
 
 
@@ -45,13 +61,143 @@ def _format(args) -> str:
     by_ext = {e: f for f, e in EXPORT_FORMATS.items()}
     if args.fmt is None:
         if ext not in by_ext:
-            raise UserError(f"{args.output}: say what to write with --format svg|dxf|csv|toml (the extension "
+            raise UserError(f"{args.output}: say what to write with --format svg|dxf|csv|toml|kit (the extension "
                             f"{Path(args.output).suffix or '(none)'!r} does not say)")
         return by_ext[ext]
     if ext in by_ext and by_ext[ext] != args.fmt:
         raise UserError(f"{args.output}: --format {args.fmt} into a {ext} file; name it {EXPORT_FORMATS[args.fmt]} "
                         f"or drop --format")
     return args.fmt
+
+
+def parse_sheet(text) -> tuple[float, float]:
+    """``--sheet WxH`` (mm) → (W, H)."""
+    import math
+
+    from ..errors import UserError
+    parts = str(text).lower().replace("×", "x").split("x")
+    try:
+        W, H = (float(parts[0]), float(parts[1])) if len(parts) == 2 else (math.nan, math.nan)
+    except ValueError:
+        W = H = math.nan
+    if not (math.isfinite(W) and math.isfinite(H) and W > 0 and H > 0):
+        raise UserError(f"--sheet: expected WIDTHxHEIGHT in mm such as 600x400, got {text!r}")
+    return W, H
+
+
+def _is_results(path) -> bool:
+    p = Path(path)
+    if not p.is_file():
+        return False
+    with open(p, "rb") as fh:
+        return fh.read(8) == b"\x89HDF\r\n\x1a\n"
+
+
+def _variant_forces(res, v: int) -> dict[str, float]:
+    """{joint: peak reaction, N} of variant v: its ``pin_force.<joint>`` metrics, else the peak magnitude of
+    the stored ``/forces/<joint>``."""
+    import math
+
+    import numpy as np
+
+    from ..store import variant_row
+    row = variant_row(res, v)
+    out = {}
+    for col, val in row.items():
+        if str(col).startswith("pin_force."):
+            try:
+                f = float(val)
+            except (TypeError, ValueError):
+                continue
+            if math.isfinite(f):
+                out[str(col)[len("pin_force."):]] = f
+    if not out:
+        for j in res.force_joints:
+            a = np.asarray(res.force(v, j), dtype=np.float64)
+            m = np.hypot(a[:, 0], a[:, 1])
+            if np.any(np.isfinite(m)):
+                out[j] = float(np.nanmax(m))
+    return out
+
+
+def _kit_command(args, chosen) -> str:
+    import shlex
+    words = ["explorer", "export", args.results] + ([str(chosen)] if chosen is not None else [])
+    words += ["--format", "kit", "-o", str(args.output)]
+    for opt, val in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--scale", args.scale),
+                     ("--width", args.width), ("--hole", args.hole)):
+        if val is not None:
+            words += [opt, f"{val:g}" if isinstance(val, float) else str(val)]
+    return " ".join(shlex.quote(w) for w in words)
+
+
+def run_kit(args) -> int:
+    """``--format kit``: the build kit of a variant of a results file, or of a mechanism."""
+    from ..errors import UserError
+    from ..mechanism import load_mechanism
+    from ..view._kit import build_kit, design_yield_note, write_kit
+
+    sheet = parse_sheet(args.sheet) if args.sheet is not None else (600.0, 400.0)
+    out = Path(args.output)
+    if not str(args.output).strip():
+        raise UserError(f"-o: expected a folder name, got {str(args.output)!r}")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: cannot write the kit: it is a file, not a folder")
+    chosen = args.variant if args.variant is not None else args.variant_opt
+    forces: dict[str, float] = {}
+    note = ""
+    tolerance_note = None
+    if _is_results(args.results):
+        from ..store import FILE_STATUS_NAMES, open_results, variant_row
+        from ..view._export import variant_design
+        from ._args import chosen_variant, parse_variant
+        chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format kit -o DIR")
+        with open_results(args.results) as res:
+            v = parse_variant(chosen, res.n_variants, res.filename)
+            code = int(res.file["status"][v])
+            status = FILE_STATUS_NAMES.get(code, f"code {code}")
+            mech = variant_design(res, v)
+            forces = _variant_forces(res, v)
+            row = variant_row(res, v)
+            y = row.get("yield") if "yield" in row.index else None
+            try:
+                y = float(y)
+            except (TypeError, ValueError):
+                y = None
+            if y is not None and y == y:
+                rob = (res.study or {}).get("robustness") or {}
+                tolerance_note = (f"yield {100 * y:.1f} % (stored by the study: the share of copies cut within "
+                                  f"±{rob.get('tolerance', '?')} {rob.get('unit', '%')} of every design parameter "
+                                  f"that still work)")
+            source = f"{res.filename}, variant {v} (status {status})"
+        if status != "ok":
+            note = f"; note: variant {v} did not solve over its whole cycle ({status})"
+    else:
+        if chosen is not None:
+            raise UserError(f"{args.results}: a mechanism has no variants; drop {chosen!r} (a VARIANT goes with a "
+                            f"results file)")
+        mech = load_mechanism(args.results)
+        source = f"mechanism {args.results}" + (f" ({mech.source})" if mech.source and mech.source != args.results else "")
+    if mech.crank is None:
+        raise UserError(f"{args.results}: {mech.name} is driven along a path, not by a crank: a build kit needs a "
+                        f"crankshaft (export its parts with --format svg or dxf)")
+    kit = build_kit(mech, crank_mm=30.0 if args.crank_mm is None else args.crank_mm, scale=args.scale,
+                    width=args.width, hole=args.hole, sheet=sheet, forces=forces, source=source,
+                    commands=(_kit_command(args, chosen),))
+    if tolerance_note is None:
+        try:
+            tolerance_note = design_yield_note(mech)
+        except Exception:  # noqa: BLE001 - the kit does not depend on it; README states the command instead
+            tolerance_note = None
+    if tolerance_note is not None:
+        tolerance_note += "; `explorer tolerance` finds the spread it takes"
+    kit.tolerance_note = tolerance_note
+    paths = write_kit(kit, out, force=args.force)
+    n = sum(p.copies for p in kit.parts)
+    print(f"wrote {os.fspath(out)}: {', '.join(p.name for p in paths)}; {n} parts for {kit.walker.legs} legs on "
+          f"{kit.sheets} sheet(s) of {sheet[0]:g} x {sheet[1]:g} mm; scale: 1 model unit = {kit.scale:.4g} mm "
+          f"(crank {kit.scale * mech.crank.radius:.3g} mm, parts {kit.width:.3g} mm wide){note}")
+    return 0
 
 
 def run(args) -> int:
@@ -62,6 +208,11 @@ def run(args) -> int:
                                 variant_design)
     from ._args import chosen_variant, output_path, parse_variant
 
+    if args.fmt == "kit":
+        return run_kit(args)
+    given = [o for o, v in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm)) if v is not None]
+    if given:
+        raise UserError(f"export: {', '.join(given)} go{'es' if len(given) == 1 else ''} with --format kit")
     chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format FORMAT -o PATH")
     fmt = _format(args)
     sheet_opts = {"scale": args.scale, "width": args.width, "hole": args.hole}

@@ -30,6 +30,10 @@ Exports of one design (:mod:`explorer.view._export`): ``export_svg(mech, "parts.
 "paths.csv")`` (its stored trajectories), ``mechanism_toml(mech)`` / ``export_toml(mech, "leg.toml")`` (a
 mechanism file that ``load_mechanism`` reads back), ``variant_design(results, variant)`` (the Mechanism
 of one variant, as written).
+
+Build kit of one design (:mod:`explorer.view._kit`): ``write_kit(build_kit(mech, crank_mm=30), "kit/")`` —
+parts.svg / parts.dxf (every part once per leg, nested on sheets, labelled), bom.csv, README.txt (and
+assembly.pdf).
 """
 
 from ._animate import DEFAULT_FPS, FRAMES_PER_CYCLE, MOVIE_FORMATS, LinkageAnimation, Movie, animate, ffmpeg_exe
@@ -37,6 +41,7 @@ from ._draw import FOOT_PATH_COLOR, LegArtists, draw_ground, draw_path, mirror_p
 from ._export import (EXPORT_FORMATS, Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                       mechanism_toml, trajectory_frame, variant_design)
 from ._front import plot_front
+from ._kit import Kit, KitLeg, KitPart, KitPin, Material, Placement, build_kit, pin_diameter, write_kit
 from ._indices import plot_indices
 from ._report import Report, report_html, write_report
 from ._plots import (FIGURE_FORMATS, central_differences, new_figure, oat_sensitivity, plot_scatter,
@@ -50,3 +55,4 @@ __all__ += ["plot_front"]
 __all__ += ["EXPORT_FORMATS", "Sheet", "cut_sheet", "export_csv", "export_dxf", "export_svg", "export_toml",
             "mechanism_toml", "trajectory_frame", "variant_design"]
 __all__ += ["Report", "report_html", "write_report"]
+__all__ += ["Kit", "KitLeg", "KitPart", "KitPin", "Material", "Placement", "build_kit", "pin_diameter", "write_kit"]
