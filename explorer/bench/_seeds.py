@@ -41,7 +41,7 @@ import numpy as np
 from numba import njit
 
 from ..kernels import parallel_rows, simulate
-from ..kernels._blocks import lu_solve
+from ..kernels import lu_solve
 
 FULL_GE = 0
 FULL_GS = 1

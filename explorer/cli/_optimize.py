@@ -42,7 +42,7 @@ def run(args) -> int:
     require("pymoo", "explorer optimize")
     study = load_study(args.study)  # a bad study fails before a cluster is started
     if args.dask:
-        from ..study._cluster import dask_client, require_dask
+        from ..study import dask_client, require_dask
         require_dask()
         with dask_client(args.dask) as client:
             summary = run_optimize(study, output=args.output, resume=args.resume, force=args.force,

@@ -59,7 +59,7 @@ def run(args) -> int:
     from ..errors import UserError
     from ..store import open_results
     from ._args import output_path
-    from ..view._report import write_report
+    from ..view import write_report
     from .._extras import require
 
     require("plotly", "explorer report")

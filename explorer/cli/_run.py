@@ -35,7 +35,7 @@ def register(sub) -> None:
 def run(args) -> int:
     if getattr(args, "dask", None):
         from ..study import load_study, run_study
-        from ..study._cluster import dask_client, require_dask
+        from ..study import dask_client, require_dask
         require_dask()
         study = load_study(args.study)  # a bad study fails before a cluster is started
         with dask_client(args.dask) as client:

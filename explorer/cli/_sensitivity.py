@@ -67,7 +67,7 @@ def _pct(p: float) -> str:
 
 def summary_lines(summary, indices) -> list[str]:
     """The tolerance summary, in words."""
-    from ..study._sensitivity import INDEX_NAMES
+    from ..study import INDEX_NAMES
     lines = ["tolerance summary (sampled variants; variant 0, the nominal, is no sample; ± binomial standard error):"]
     method = indices.attrs.get("method", "")
     s1 = indices[(indices["output"] == "fails") & (indices["index"] == "S1")]["value"]
@@ -113,7 +113,7 @@ def index_table(indices, top: int | None) -> str:
     """Per output, its parameters largest first (by the method's main index), every index side by side."""
     import pandas as pd
 
-    from ..study._sensitivity import main_index
+    from ..study import main_index
     method = str(indices["method"].iloc[0])
     names = list(dict.fromkeys(indices["index"]))
     first = main_index(method, "metric")
@@ -150,7 +150,7 @@ def run(args) -> int:
     from .._extras import require
     from ..store import open_results
     from ..study import sensitivity, tolerance_summary
-    from ..study._sensitivity import INDEX_NAMES
+    from ..study import INDEX_NAMES
 
     require("SALib", "explorer sensitivity")
     check_format(args.format)

@@ -9,7 +9,7 @@ from ._args import add_variant_arguments, chosen_variant, parse_variant
 from ._rank import add_yield_arguments, yields
 from ._format import add_units_argument, better, results_si, table
 
-__all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run", "verdict"]
+__all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run"]
 
 
 def register(sub) -> None:

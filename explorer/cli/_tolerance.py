@@ -69,7 +69,7 @@ def run(args) -> int:
 
     if args.format not in FORMATS:
         raise UserError(f"--format: expected one of {', '.join(FORMATS)}, got {args.format!r}")
-    from ..study._tolerance import PARAMETER_SETS, PARAMETER_WORDS
+    from ..study import PARAMETER_SETS, PARAMETER_WORDS
     params = "all"
     if args.parameters is not None:
         params = args.parameters.strip()

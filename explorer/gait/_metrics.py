@@ -62,7 +62,7 @@ from numba import njit
 from ..errors import UserError
 from ..kernels import parallel_rows
 from ..plan import fourbar_loops
-from ..plan._grashof import loop_ground, loop_side
+from ..plan import loop_ground, loop_side
 from ._runs import all_finite, longest_cyclic_run
 from ._walker import walker_metrics
 

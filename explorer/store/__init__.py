@@ -38,13 +38,17 @@ Every (N, ...) dataset is chunked along N and compressed (lzf + shuffle for the 
 chosen by measurement: see :mod:`explorer.store._write`).
 """
 
-from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metric_attrs
+from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metric_attrs, now
+from ._lock import OutputLock
+from ._shards import ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch, write_shard
 from ._read import Results, open_results, probe
 from ._variants import check_variant, is_results, results_band, variant_design, variant_mechanism, variant_row
 from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN,
-                     ResultsWriter, chunk_rows, create_metric, hdf5_rows, metrics_group, open_for_update)
+                     ResultsWriter, chunk_rows, create_metric, fingerprint_diff, hdf5_rows, metrics_group,
+                     open_for_update, write_error_reason)
 
 __all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION",
            "STATUS_NOT_RUN", "Results", "ResultsWriter", "check_variant", "chunk_rows", "create_dataset", "create_metric",
            "dataset_spec", "hdf5_rows", "is_results", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe", "results_band", "variant_design",
-           "variant_mechanism", "variant_row"]
+           "variant_mechanism", "variant_row", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",
+           "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason"]

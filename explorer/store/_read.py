@@ -295,11 +295,10 @@ class Results:
 
     def default_weights(self, check: bool = True) -> tuple[dict[str, float], list[str]]:
         """The default score's weights over the metrics this file stores, and the default metrics it
-        lacks (ranked without): :func:`explorer.gait._rank.default_weights`. An optimisation stores
+        lacks (ranked without): :func:`explorer.gait.default_weights`. An optimisation stores
         only its objectives, constraints and the screen's inputs. With ``check``, a file that stores
         none of them is a UserError saying how to compute them."""
-        from ..gait import DEFAULT_WEIGHTS
-        from ..gait._rank import default_weights
+        from ..gait import DEFAULT_WEIGHTS, default_weights
         stored = self.metric_names
         if not any(m in stored for m in DEFAULT_WEIGHTS):
             if check:

@@ -153,7 +153,7 @@ class ResultsWriter:
             path.parent.mkdir(parents=True, exist_ok=True)
             f = h5py.File(tmp, "w")
         except (OSError, ValueError) as exc:
-            raise UserError(f"{path}: cannot create the results file: {_reason(exc)} "
+            raise UserError(f"{path}: cannot create the results file: {write_error_reason(exc)} "
                             f"(set [output] path in {study.source} or pass -o)") from None
         try:
             plan = plan_for(mech)
@@ -248,7 +248,7 @@ class ResultsWriter:
         try:
             f = h5py.File(path, "r+")
         except (OSError, ValueError) as exc:
-            raise UserError(f"{path}: cannot open the results file to resume it: {_reason(exc)}") from None
+            raise UserError(f"{path}: cannot open the results file to resume it: {write_error_reason(exc)}") from None
         try:
             if f.attrs.get("format") != FORMAT or "chunks/done" not in f:
                 raise UserError(f"{path}: not an explorer results file; use --force to overwrite it")
@@ -385,7 +385,7 @@ def open_for_update(path) -> h5py.File:
     try:
         f = h5py.File(p, "r+")
     except (OSError, ValueError) as exc:
-        reason = _reason(exc)
+        reason = write_error_reason(exc)
         if "unable to lock" in reason or "in use" in reason:
             reason = "the file is open in another process (close it, or wait for `explorer run` to finish)"
         raise UserError(f"{p}: cannot open the results file for writing: {reason}") from None
@@ -419,7 +419,8 @@ def create_metric(g: h5py.Group, name: str, n_variants: int, rows: int, band: fl
                           like="metrics/<name>")
 
 
-def _reason(exc: BaseException) -> str:
+def write_error_reason(exc: BaseException) -> str:
+    """A short reason, in words, why writing a results file failed (permission, a lock held, a full disk …)."""
     text = str(exc).strip().splitlines()
     text = text[0] if text else type(exc).__name__
     if isinstance(exc, PermissionError) or "ermission" in text:

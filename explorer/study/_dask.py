@@ -27,10 +27,8 @@ import time
 from pathlib import Path
 
 from ..errors import UserError, signals_held
-from ..store._lock import OutputLock
-from ..store._shards import (ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch,
-                             write_shard)
-from ..store._write import FORMAT, fingerprint_diff
+from ..store import (FORMAT, OutputLock, ShardPlan, clean_folder, completed_shards, fingerprint_diff, plan_shards,
+                     shards_folder, stitch, write_shard)
 from ._chunk import chunk_solver
 from ._cluster import (INSTALL_HINT, Recipe, check_client, dask_client, one_thread, require_dask, token, warm, warm_everywhere,
                        worker_threads)

@@ -32,8 +32,8 @@ import h5py
 import numpy as np
 
 from ..errors import UserError
-from ..store._datasets import now as timestamp
-from ..store._write import STATUS_NOT_RUN, _reason, create_metric, hdf5_rows, metrics_group, open_for_update
+from ..store import STATUS_NOT_RUN, create_metric, hdf5_rows, metrics_group, open_for_update, write_error_reason
+from ..store import now as timestamp
 
 #: Name of the group the new metrics are written to before they replace ``/metrics``.
 PARTIAL = "metrics_partial"
@@ -252,7 +252,7 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             if bar is not None:
                 bar.close()
     except OSError as exc:
-        raise UserError(f"{p}: cannot update the metrics: {_reason(exc)}") from None
+        raise UserError(f"{p}: cannot update the metrics: {write_error_reason(exc)}") from None
     finally:
         f.close()
     return {"path": p, "band": band, "metrics": tuple(chosen), "also": tuple(also), "kept": tuple(kept),

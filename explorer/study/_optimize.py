@@ -32,8 +32,7 @@ import numpy as np
 from ..errors import Terminated, UserError, signals_held
 from ..gait import pareto_front
 from ..store import Results
-from ..store._lock import OutputLock
-from ..store._write import ResultsWriter
+from ..store import OutputLock, ResultsWriter
 from ._chunk import design_solver
 from ._cluster import Recipe, check_client, one_thread, warm_everywhere, worker_threads
 from ._designs import designs_from_x, nominal_x, stored_x

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import UserError, where
 from ..kernels import STATUS_NAMES, assemble
-from ..store._write import FILE_STATUS_NAMES
+from ..store import FILE_STATUS_NAMES
 from ._chunk import compute_study_metrics, metric_plan
 from ._spec import Study
 

@@ -10,8 +10,7 @@ from pathlib import Path
 
 from ..errors import Terminated, UserError, signals_held
 from ..gait import start_kernel_warmup, stop_kernel_warmup
-from ..store._lock import OutputLock
-from ..store._write import ResultsWriter
+from ..store import OutputLock, ResultsWriter
 from ._chunk import chunk_solver, metric_plan
 from ._output import (RunSummary, _check_disk_space, _check_overwritable, _counts, _state,  # noqa: F401
                       estimated_bytes, results_path, validate_study)

@@ -21,7 +21,7 @@ def plot_indices(indices, outputs=None, *, columns: int | None = None, figsize=N
     """Sensitivity indices (the frame of :func:`explorer.study.sensitivity`) as horizontal bars with
     their intervals, one panel per output (``outputs``: a subset, in that order), parameters sorted by
     the method's main index, largest on top. Returns a matplotlib Figure."""
-    from ..study._sensitivity import INDEX_NAMES, main_index
+    from ..study import INDEX_NAMES, main_index
     if indices is None or len(indices) == 0:
         raise UserError("sensitivity plot: no indices to draw")
     names = list(dict.fromkeys(indices["output"]))

@@ -30,8 +30,7 @@ from ..gait import (DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_fr
 from ..kernels import Cycle, simulate
 from ..mechanism import Mechanism
 # the results helpers belong to explorer.store; the old names stay importable from here
-from ..store._variants import check_variant, is_results, results_band, variant_mechanism, variant_row  # noqa: F401
-from ..store._variants import n_variants as _n_variants  # noqa: F401
+from ..store import check_variant, is_results, results_band, variant_mechanism, variant_row  # noqa: F401
 from ._draw import STANCE_COLOR
 
 #: Figure formats save_figure writes, by extension.
@@ -189,7 +188,7 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
         first = {"max": "highest", "min": "lowest"}.get(DIRECTIONS.get(by), "best")
         how = f"by {by} ({first} first)"
     else:
-        from ..gait._rank import default_weights
+        from ..gait import default_weights
         w, unstored = (weights, []) if weights is not None else default_weights(df.columns)
         how = "by score of " + ", ".join(w) + (f" (without {', '.join(unstored)}: not stored)" if unstored else "")
     filt = f", where {where}" if where else ""
