@@ -42,7 +42,7 @@ def register(sub) -> None:
                    help="svg, dxf, kit: millimetres per model unit (default: 1, one model unit = 1 mm; kit: the "
                         "scale that makes the crank --crank-mm)")
     p.add_argument("--width", type=float, default=None, metavar="MM",
-                   help="svg, dxf, kit: width of every part, mm (default: 20 %% of the shortest distance between two "
+                   help="width of every part, mm (svg, dxf default: 20 %% of the shortest distance between two "
                         "holes of one part: the crank radius or the shortest link, usually; kit: 3 pin diameters)")
     p.add_argument("--hole", type=float, default=None, metavar="MM",
                    help="svg, dxf, kit: diameter of the pin holes, mm (default: 40 %% of the part width; kit: every "
