@@ -135,7 +135,7 @@ def run_kit(args) -> int:
     """``--format kit``: the build kit of a variant of a results file, or of a mechanism."""
     from ..errors import UserError
     from ..mechanism import load_mechanism
-    from ..view._kit import build_kit, design_yield_note, write_kit
+    from ..view import build_kit, design_yield_note, write_kit
 
     sheet = parse_sheet(args.sheet) if args.sheet is not None else (600.0, 400.0)
     out = Path(args.output)
@@ -149,7 +149,7 @@ def run_kit(args) -> int:
     tolerance_note = None
     if _is_results(args.results):
         from ..store import FILE_STATUS_NAMES, open_results, variant_row
-        from ..view._export import variant_design
+        from ..view import variant_design
         from ._args import chosen_variant, parse_variant
         chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format kit -o DIR")
         with open_results(args.results) as res:

@@ -41,7 +41,8 @@ from ._draw import FOOT_PATH_COLOR, LegArtists, draw_ground, draw_path, mirror_p
 from ._export import (EXPORT_FORMATS, Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                       mechanism_toml, trajectory_frame, variant_design)
 from ._front import plot_front
-from ._kit import Kit, KitLeg, KitPart, KitPin, Material, Placement, build_kit, pin_diameter, write_kit
+from ._kit import (Kit, KitLeg, KitPart, KitPin, Material, Placement, build_kit, design_yield_note, pin_diameter,
+                   write_kit)
 from ._indices import plot_indices
 from ._report import Report, report_html, write_report
 from ._plots import (FIGURE_FORMATS, central_differences, new_figure, oat_sensitivity, plot_scatter,
@@ -55,4 +56,5 @@ __all__ += ["plot_front"]
 __all__ += ["EXPORT_FORMATS", "Sheet", "cut_sheet", "export_csv", "export_dxf", "export_svg", "export_toml",
             "mechanism_toml", "trajectory_frame", "variant_design"]
 __all__ += ["Report", "report_html", "write_report"]
-__all__ += ["Kit", "KitLeg", "KitPart", "KitPin", "Material", "Placement", "build_kit", "pin_diameter", "write_kit"]
+__all__ += ["Kit", "KitLeg", "KitPart", "KitPin", "Material", "Placement", "build_kit", "design_yield_note",
+            "pin_diameter", "write_kit"]
