@@ -10,45 +10,21 @@ import numpy as np
 import pytest
 
 from explorer import load_mechanism
-from explorer.mechanism import Walker
 from explorer.view._export import CRANK_CENTRE, _raw_parts
-from explorer.view._kit import Kit, KitLeg, KitPart, KitPin, Material
+from explorer.view._kit import build_kit
 
 pdfium = pytest.importorskip("pypdfium2")
 
-LEGS = ("jansen", "klann", "strider", "hoeken", "fourbar")
+LEGS = ("jansen", "klann", "strider", "hoeken", "fourbar", "klann-moved")
+#: A variant with its crank centre, a ground pivot and body points moved (the frame's dimensions are then
+#: not the built-in's).
+MOVED = {"crank.x": 0.1, "11.x": -6.8, "leg.33.y": -5.5, "connecting_rod.35.x": 12.1}
 
 
-# -- test fixture: a Kit built by hand (a stand-in for build_kit) -------------------------------------------
-def hand_kit(name: str, crank_mm: float = 30.0, width: float = 6.0, hole: float = 3.0) -> Kit:
-    """A Kit of the built-in ``name`` made plainly: scale = crank_mm / crank radius, parts from
-    ``_raw_parts`` × scale, every part on its own layer (file order), one pin per joint holding the parts
-    that have a hole there, the walker's legs at its phases."""
-    mech = load_mechanism(name)
-    walker = mech.walker or Walker()
-    scale = crank_mm / mech.crank.radius
-    n_mirrored = sum(walker.mirrored)
-    parts = []
-    for pname, kind, joints, pts in _raw_parts(mech):
-        P = np.asarray(pts, dtype=float) * scale
-        collinear = len(P) < 3 or all(
-            abs((P[1][0] - P[0][0]) * (P[i][1] - P[0][1]) - (P[1][1] - P[0][1]) * (P[i][0] - P[0][0])) < 1e-9
-            for i in range(2, len(P)))
-        symmetric = kind != "body" or collinear
-        copies = 1 if kind == "frame" else walker.legs
-        parts.append(KitPart(pname, kind, tuple(joints), tuple(map(tuple, P)), (hole,) * len(P), copies,
-                             0 if symmetric else n_mirrored, symmetric))
-    layers = {p.name: i for i, p in enumerate(parts)}
-    holders: dict[str, list[str]] = {}
-    for p in parts:
-        for j in p.joints:
-            for single in j.split("+"):
-                holders.setdefault(single, []).append(p.name)
-    pins = tuple(KitPin(j, tuple(sorted(ps, key=layers.get)), hole, 5.0 * len(ps), walker.legs, None)
-                 for j, ps in holders.items() if len(ps) >= 2)
-    legs = tuple(KitLeg(i, math.degrees(ph), m) for i, (ph, m) in enumerate(zip(walker.phases, walker.mirrored)))
-    return Kit(mech, walker, scale, width, Material(), tuple(parts), pins, legs, layers, (600.0, 400.0), (),
-               source=f"builtin:{name} (test fixture)", tolerance_note="±0.5 % on every length (test fixture)")
+def design(name: str):
+    if name == "klann-moved":
+        return load_mechanism("klann").with_parameters(MOVED)
+    return load_mechanism(name)
 
 
 # -- reading the PDF -------------------------------------------------------------------------------------
@@ -104,47 +80,48 @@ def expected_distances(mech, pname: str, scale: float) -> list[float]:
     return [math.dist(pts[i], pts[j]) * scale for i in range(len(pts)) for j in range(i + 1, len(pts))]
 
 
-@pytest.fixture(scope="module")
-def written(tmp_path_factory):
-    """name → (kit, pdf path, page texts), for every built-in leg."""
+_CACHE: dict = {}
+
+
+@pytest.fixture(params=LEGS)
+def written(request, tmp_path_factory):
+    """(kit, pdf path, page texts) of build_kit's kit of one built-in leg (at its default walker), written
+    once per test session."""
     from explorer.view._kit_pdf import write_assembly_pdf
-    out = {}
-    folder = tmp_path_factory.mktemp("kit_pdf")
-    for name in LEGS:
-        kit = hand_kit(name)
-        path = write_assembly_pdf(kit, folder / f"{name}.pdf")
-        out[name] = (kit, path, pages_text(path))
-    return out
+    name = request.param
+    if name not in _CACHE:
+        kit = build_kit(design(name), source=f"builtin:{name} (test)", tolerance_note="±0.5 % on every length (test)")
+        path = write_assembly_pdf(kit, tmp_path_factory.mktemp("kit_pdf") / "assembly.pdf")
+        _CACHE[name] = (kit, path, pages_text(path))
+    return _CACHE[name]
 
 
-@pytest.mark.parametrize("name", LEGS)
-def test_page_count_is_one_plus_parts(written, name):
-    kit, path, texts = written[name]
+def test_page_count_is_one_plus_parts(written):
+    kit, path, texts = written
     assert len(texts) == 1 + len(_raw_parts(kit.mechanism))
 
 
-@pytest.mark.parametrize("name", LEGS)
-def test_assembly_page_names_every_joint_pin_stack_and_phase(written, name):
-    kit, _, texts = written[name]
+def test_assembly_page_names_every_joint_pin_stack_and_phase(written):
+    kit, _, texts = written
     page = flat(texts[0])
     mech = kit.mechanism
     for v in mech.vertices:
         assert v in page, v
     assert CRANK_CENTRE in page
-    for pin in kit.pins:
-        for part in pin.stack:
-            assert part in page, (pin.joint, part)
+    for pin in kit.pins:  # bottom to top, each part with its layer
+        stack = " · ".join(f"{part} [{kit.layers[part]}]" for part in pin.stack)
+        assert f"{pin.joint}: Ø{f1(pin.diameter)} × {f1(pin.length)} mm" in page, pin
+        assert stack in page, (pin.joint, stack)
     for i, (ph, mir) in enumerate(zip(mech.walker.phases, mech.walker.mirrored)):
         deg = round(math.degrees(ph) % 360.0, 1) % 360.0
         want = f"leg {i + 1}: {deg:.1f}°" + (", mirrored" if mir else "")
         assert want in page, want
     assert f"{kit.scale:g} mm per model unit" in page
-    assert "test fixture" in page  # the source and the tolerance note
+    assert f"Design: builtin:{mech.name}" in page and "Tolerance: ±0.5 % on every length (test)" in page
 
 
-@pytest.mark.parametrize("name", LEGS)
-def test_frame_pivot_dimensions_from_the_crank_centre(written, name):
-    kit, _, texts = written[name]
+def test_frame_pivot_dimensions_from_the_crank_centre(written):
+    kit, _, texts = written
     mech = kit.mechanism
     page = flat(texts[0])
     cx, cy = mech.crank.center
@@ -156,12 +133,15 @@ def test_frame_pivot_dimensions_from_the_crank_centre(written, name):
     frame_page = flat(texts[1 + [p.kind for p in kit.parts].index("frame")])
     for d in expected_distances(mech, "frame", kit.scale):
         assert f"{f1(d)} mm" in frame_page
+    for v, (x, y) in mech.fixed.items():
+        assert f"{v}: x = {f1((x - cx) * kit.scale)} mm, y = {f1((y - cy) * kit.scale)} mm" in frame_page
 
 
-@pytest.mark.parametrize("name", LEGS)
-def test_part_pages_name_holes_and_distances(written, name):
-    kit, _, texts = written[name]
+def test_part_pages_name_holes_and_distances(written):
+    kit, _, texts = written
     mech = kit.mechanism
+    names = [p.name for p in kit.parts]
+    assert {ln.name for ln in mech.links} | {b.name for b in mech.bodies} | {"frame", "crank"} <= set(names)
     for part, text in zip(kit.parts, texts[1:]):
         page = flat(text)
         assert part.name in page
@@ -169,13 +149,28 @@ def test_part_pages_name_holes_and_distances(written, name):
             assert j in page, (part.name, j)
         for d in expected_distances(mech, part.name, kit.scale):
             assert f"{f1(d)} mm" in page, (part.name, d)
-        assert f"cut {part.copies}" in page
+        assert f"{part.kind} · cut {part.copies}" in page  # the page's subtitle: this part's page
+        assert part.copies == mech.walker.legs
         if part.mirrored:
             assert f"{part.mirrored} mirrored" in page
 
 
-@pytest.mark.parametrize("name", ["jansen", "klann"])
-def test_pages_are_not_blank(written, name):
-    _, path, _ = written[name]
+def test_pages_are_not_blank(written):
+    _, path, _ = written
     ink = pages_ink(path)
     assert all(f > 0.003 for f in ink), ink
+
+
+def test_a_part_too_big_for_the_page_is_drawn_at_a_stated_reduction(tmp_path):
+    """At a 90 mm crank the Jansen leg's longest link (5-7, 65.7 × 6 = 394.2 mm) cannot be drawn true size
+    on A4 landscape (297 mm): its page states a reduction 1:k with 394.2 / k under the page width; the
+    crank (90 mm) stays true size."""
+    from explorer.view._kit_pdf import write_assembly_pdf
+    kit = build_kit(load_mechanism("jansen"), crank_mm=90.0)
+    texts = pages_text(write_assembly_pdf(kit, tmp_path / "assembly.pdf"))
+    names = [p.name for p in kit.parts]
+    long_page = flat(texts[1 + names.index("5-7")])
+    assert f"{f1(65.7 * 6.0)} mm" in long_page
+    k = float(long_page.split("drawn at 1:")[1].split(" ")[0])
+    assert k > 1 and 65.7 * 6.0 / k < 297.0
+    assert "true size (1:1)" in flat(texts[1 + names.index("crank")])
