@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from explorer import load_mechanism
-from explorer.view._export import CRANK_CENTRE, _raw_parts
-from explorer.view._kit import build_kit
+from explorer.view import build_kit
 
 pdfium = pytest.importorskip("pypdfium2")
+
+CRANK_CENTRE = "crank centre"  # the frame's hole at the crank centre, as labelled
 
 LEGS = ("jansen", "klann", "strider", "hoeken", "fourbar", "klann-moved")
 #: A variant with its crank centre, a ground pivot and body points moved (the frame's dimensions are then
@@ -98,7 +99,8 @@ def written(request, tmp_path_factory):
 
 def test_page_count_is_one_plus_parts(written):
     kit, path, texts = written
-    assert len(texts) == 1 + len(_raw_parts(kit.mechanism))
+    mech = kit.mechanism  # the frame, the crank, each link, each body
+    assert len(texts) == 1 + 2 + len(mech.links) + len(mech.bodies)
 
 
 def test_assembly_page_names_every_joint_pin_stack_and_phase(written):
