@@ -95,16 +95,28 @@ def shape_dist(A, B) -> float:
 
 # -- pins -------------------------------------------------------------------------------------------------
 def test_pin_diameter_from_a_force():
-    need = math.sqrt(4 * 125 * 3 / (math.pi * 140))  # 1.85 mm
+    # shear alone (a part thick enough that bearing does not decide): 125 N → √(4·125·3/(π·140)) = 1.85 mm → M2
+    need = math.sqrt(4 * 125 * 3 / (math.pi * 140))
     expected = min(d for d in STANDARD if d >= need)
-    name, d, req = pin_diameter(125.0, Material(pin_shear=140.0, safety_factor=3.0))
+    name, d, req = pin_diameter(125.0, Material(pin_shear=140.0, safety_factor=3.0, thickness=9.0, bearing=60.0))
+    assert 125 * 3 / (9.0 * 60.0) < need
     assert d == expected == 2.0 and name == "M2" and req == pytest.approx(need)
-    # a heavier joint: 2 kN → √(4·2000·3/(π·140)) = 7.4 mm → M8
-    need2 = math.sqrt(4 * 2000 * 3 / (math.pi * 140))
-    assert pin_diameter(2000.0)[1] == min(d for d in STANDARD if d >= need2) == 8.0
-    kit = build_kit(load_mechanism("jansen"), forces={"1": 2000.0, "2": 125.0})
+    # in 3 mm plywood bearing decides: 125·3 / (3·60) = 2.08 mm → M2.5
+    bear = 125 * 3 / (3.0 * 60.0)
+    assert bear > need
+    name, d, req = pin_diameter(125.0, Material(thickness=3.0, bearing=60.0))
+    assert d == min(d for d in STANDARD if d >= bear) == 2.5 and req == pytest.approx(bear)
+    # a heavier joint in 3 mm plywood: 2 kN → bearing 2000·3/(3·60) = 33 mm, past M20: refused in one line
+    with pytest.raises(UserError, match="2000 N joint needs a 33.3 mm pin"):
+        pin_diameter(2000.0)
+    # in 20 mm plywood (f_h 60 MPa): shear √(4·2000·3/(π·140)) = 7.4 mm, bearing 5 mm → M8
+    hard = Material(thickness=20.0)
+    need2 = max(math.sqrt(4 * 2000 * 3 / (math.pi * 140)), 2000 * 3 / (20.0 * 60.0))
+    assert pin_diameter(2000.0, hard)[1] == min(d for d in STANDARD if d >= need2) == 8.0
+    kit = build_kit(load_mechanism("jansen"), forces={"1": 2000.0, "2": 125.0}, material=hard)
     assert kit.pin("1").diameter == 8.0 and kit.pin("1").force == 2000.0
-    assert kit.pin("2").diameter == 2.0 and kit.pin("3").force is None and kit.pin("3").diameter == 3.0
+    # 125 N needs only M2 there, but no pin is smaller than the default M3 (a tenth of the 30 mm crank)
+    assert kit.pin("2").diameter == 3.0 and kit.pin("3").force is None and kit.pin("3").diameter == 3.0
     for p in kit.parts:
         for j, d in zip(p.joints, p.diameters):
             if j == "1":
@@ -279,8 +291,8 @@ def test_bom_and_readme(tmp_path):
     parts = bom[bom["item"] == "part"].set_index("name")
     assert (parts["count"] == 4).all() and set(parts.index) == set(design_parts(kit.mechanism))
     pins = bom[bom["item"] == "pin"].set_index("name")
-    need = math.sqrt(4 * 300 * 3 / (math.pi * 140))
-    assert pins.loc["6", "diameter_mm"] == min(d for d in STANDARD if d >= need)
+    need = max(math.sqrt(4 * 300 * 3 / (math.pi * 140)), 300 * 3 / (3.0 * 60.0))  # shear, bearing in 3 mm
+    assert pins.loc["6", "diameter_mm"] == max(3.0, min(d for d in STANDARD if d >= need))
     assert pins.loc["6", "required_d_mm"] == pytest.approx(need, rel=1e-2)
     assert (bom["item"] == "crankshaft").sum() == 1
     # pin length: the layers it spans × 3 mm + washers + one diameter + 2 mm, rounded up
@@ -340,7 +352,10 @@ def test_cli_kit_from_a_results_variant_with_forces(tmp_path, capsys):
     (tmp_path / "study.toml").write_text(text)
     assert main(["run", str(tmp_path / "study.toml")]) == 0
     capsys.readouterr()
-    assert main(["export", str(tmp_path / "f.h5"), "1", "--format", "kit", "-o", str(tmp_path / "kit")]) == 0
+    # the forces are those of the study's machine (1 model unit = 1 cm): the kit is built at that size, on
+    # sheets it fits on
+    assert main(["export", str(tmp_path / "f.h5"), "1", "--format", "kit", "-o", str(tmp_path / "kit"),
+                 "--sheet", "1300x700"]) == 0
     with explorer.open_results(tmp_path / "f.h5") as res:
         row = res.frame().iloc[1]
         forces = {c[len("pin_force."):]: float(row[c]) for c in row.index if str(c).startswith("pin_force.")}
@@ -348,7 +363,9 @@ def test_cli_kit_from_a_results_variant_with_forces(tmp_path, capsys):
     import pandas as pd
     bom = pd.read_csv(tmp_path / "kit" / "bom.csv", comment="#")
     pins = bom[bom["item"] == "pin"].set_index(bom[bom["item"] == "pin"]["name"].astype(str))
+    assert "1 model unit = 10 mm" in (tmp_path / "kit" / "bom.csv").read_text()
+    floor = 16.0  # the standard size nearest a tenth of the 150 mm crank
     for j, f in forces.items():
-        need = math.sqrt(4 * f * 3 / (math.pi * 140))
-        assert pins.loc[j, "diameter_mm"] == min(d for d in STANDARD + (12.0, 16.0, 20.0) if d >= need), j
+        need = max(math.sqrt(4 * f * 3 / (math.pi * 140)), f * 3 / (3.0 * 60.0))
+        assert pins.loc[j, "diameter_mm"] == max(floor, min(d for d in STANDARD + (12.0, 16.0, 20.0) if d >= need)), j
     assert "variant 1" in (tmp_path / "kit" / "README.txt").read_text()

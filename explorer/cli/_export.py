@@ -47,6 +47,9 @@ def register(sub) -> None:
     p.add_argument("--hole", type=float, default=None, metavar="MM",
                    help="svg, dxf, kit: diameter of the pin holes, mm (default: 40 %% of the part width; kit: every "
                         "pin sized from the study's joint forces, else M3 at a 30 mm crank, scaled)")
+    p.add_argument("--thickness", type=float, default=None, metavar="MM",
+                   help="kit: the thickness of the sheet the parts are cut from, mm (default 3); one stack layer, "
+                        "and the bearing length that sizes a pin from a joint force")
     p.add_argument("--crank-mm", dest="crank_mm", type=float, default=None, metavar="MM",
                    help="kit: the crank radius of the build, mm (default 30; sets the scale unless --scale)")
     p.add_argument("--sheet", default=None, metavar="WxH",
@@ -124,7 +127,8 @@ def _kit_command(args, chosen) -> str:
     import shlex
     words = ["explorer", "export", args.results] + ([str(chosen)] if chosen is not None else [])
     words += ["--format", "kit", "-o", str(args.output)]
-    for opt, val in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--scale", args.scale),
+    for opt, val in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--thickness", args.thickness),
+                     ("--scale", args.scale),
                      ("--width", args.width), ("--hole", args.hole)):
         if val is not None:
             words += [opt, f"{val:g}" if isinstance(val, float) else str(val)]
@@ -170,9 +174,11 @@ def run_kit(args) -> int:
                                   f"±{rob.get('tolerance', '?')} {rob.get('unit', '%')} of every design parameter "
                                   f"that still work)")
             source = f"{res.filename}, variant {v} (status {status})"
+            unit = ((res.study or {}).get("operating") or {}).get("unit")
         if status != "ok":
             note = f"; note: variant {v} did not solve over its whole cycle ({status})"
     else:
+        unit = None
         if chosen is not None:
             raise UserError(f"{args.results}: a mechanism has no variants; drop {chosen!r} (a VARIANT goes with a "
                             f"results file)")
@@ -181,7 +187,24 @@ def run_kit(args) -> int:
     if mech.crank is None:
         raise UserError(f"{args.results}: {mech.name} is driven along a path, not by a crank: a build kit needs a "
                         f"crankshaft (export its parts with --format svg or dxf)")
-    kit = build_kit(mech, crank_mm=30.0 if args.crank_mm is None else args.crank_mm, scale=args.scale,
+    scale = args.scale
+    if forces and unit:  # the joint forces are those of a machine of the study's own size: build that one
+        study_scale = 1000.0 * float(unit)
+        if scale is None and args.crank_mm is None:
+            scale = study_scale
+        else:
+            built = scale if scale is not None else args.crank_mm / mech.crank.radius
+            if abs(built / study_scale - 1.0) > 1e-9:
+                note += (f"; note: the pins are sized from the forces of the study's machine, {study_scale:.4g} mm per "
+                         f"model unit ([operating] unit), not of this {built:.4g} mm build: rerun the forces study at "
+                         f"the build's size, or drop --scale/--crank-mm")
+    from ..view import Material
+    material = Material()
+    if args.thickness is not None:
+        if not (args.thickness > 0 and args.thickness < 1000):
+            raise UserError(f"--thickness: expected the sheet thickness in mm, a number > 0, got {args.thickness!r}")
+        material = Material(thickness=float(args.thickness))
+    kit = build_kit(mech, crank_mm=30.0 if args.crank_mm is None else args.crank_mm, scale=scale, material=material,
                     width=args.width, hole=args.hole, sheet=sheet, forces=forces, source=source,
                     commands=(_kit_command(args, chosen),))
     if tolerance_note is None:
@@ -210,7 +233,8 @@ def run(args) -> int:
 
     if args.fmt == "kit":
         return run_kit(args)
-    given = [o for o, v in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm)) if v is not None]
+    given = [o for o, v in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--thickness", args.thickness))
+             if v is not None]
     if given:
         raise UserError(f"export: {', '.join(given)} go{'es' if len(given) == 1 else ''} with --format kit")
     chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format FORMAT -o PATH")

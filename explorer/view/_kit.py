@@ -27,14 +27,17 @@ class Material:
 
     name : the sheet material of the parts; thickness : its thickness, mm (one stack layer).
     pin_material : what the pins are; pin_shear : its allowable shear stress, MPa (default 140 MPa:
-    the shear strength of S235 structural steel, ≈ 0.6 × 235 MPa); safety_factor : applied to the peak
-    joint force when a pin is sized from it.
+    the shear strength of S235 structural steel, ≈ 0.6 × 235 MPa); bearing : the embedment (bearing)
+    strength of the part material against a pin, MPa (default 60 MPa: birch plywood, 0.11·ρ_k with
+    ρ_k ≈ 600 kg/m³ after EN 1995-1-1 8.5.1 for plywood, the small-diameter limit); safety_factor :
+    applied to the peak joint force when a pin is sized from it.
     """
 
     name: str = "birch plywood"
     thickness: float = 3.0
     pin_material: str = "steel (S235)"
     pin_shear: float = 140.0
+    bearing: float = 60.0
     safety_factor: float = 3.0
 
 
@@ -178,15 +181,19 @@ SHAFT_ENDS = 10.0
 
 
 def pin_diameter(force: float, material: Material = Material()) -> tuple[str, float, float]:
-    """(name, diameter mm, required diameter mm) of the pin for a peak joint force ``force`` (N) in single
-    shear: d = √(4 · F · SF / (π · τ_allow)) (τ_allow = material.pin_shear, MPa = N/mm²; SF = its
-    safety_factor), rounded up to the next of :data:`STANDARD_PINS` (UserError past the largest)."""
-    need = math.sqrt(4.0 * float(force) * material.safety_factor / (math.pi * material.pin_shear))
+    """(name, diameter mm, required diameter mm) of the pin for a peak joint force ``force`` (N): the
+    larger of single shear of the pin, d = √(4 · F · SF / (π · τ_allow)) (τ_allow = material.pin_shear,
+    MPa = N/mm²), and bearing of one part on it, d = F · SF / (t · f_h) (t = material.thickness, mm, the
+    thinnest part a pin carries the force into; f_h = material.bearing, MPa); SF = the material's
+    safety_factor; rounded up to the next of :data:`STANDARD_PINS` (UserError past the largest)."""
+    shear = math.sqrt(4.0 * float(force) * material.safety_factor / (math.pi * material.pin_shear))
+    bearing = float(force) * material.safety_factor / (material.thickness * material.bearing)
+    need = max(shear, bearing)
     for name, d in STANDARD_PINS:
         if d >= need - 1e-12:
             return name, d, need
     raise UserError(f"force: a {force:g} N joint needs a {need:.1f} mm pin, larger than "
-                    f"{STANDARD_PINS[-1][0]}; choose a stronger pin material")
+                    f"{STANDARD_PINS[-1][0]}; cut the parts from thicker sheet (--thickness) or use a stronger pin")
 
 
 def _standard_name(d: float) -> str:
@@ -213,8 +220,9 @@ def build_kit(design: Mechanism, *, crank_mm: float = 30.0, scale: float | None 
 
     crank_mm : the crank radius of the build, mm (sets the scale unless ``scale``, mm per model unit, is
     given). width : part width, mm (default :data:`DEFAULT_WIDTH` × the largest pin). hole : every pin's
-    diameter, mm (default: sized from ``forces`` where given, {joint: peak reaction N}, see
-    :func:`pin_diameter`; else the standard size nearest :data:`DEFAULT_PIN` × the crank radius in mm).
+    diameter, mm (default: the standard size nearest :data:`DEFAULT_PIN` × the crank radius in mm, a pin
+    stiff enough to handle at that size; larger where ``forces``, {joint: peak reaction N}, need it, see
+    :func:`pin_diameter`).
     sheet : (W, H) of one sheet, mm. Every part is cut once per leg (the frame plate and the crank arm
     too); a part that is not symmetric is cut mirrored for the mirrored legs.
 
@@ -256,7 +264,7 @@ def build_kit(design: Mechanism, *, crank_mm: float = 30.0, scale: float | None 
         if hole is not None:
             dia[j] = hole
         elif j in forces:
-            dia[j] = pin_diameter(forces[j], material)[1]
+            dia[j] = max(default_d, pin_diameter(forces[j], material)[1])  # never below the handling size
         else:
             dia[j] = default_d
     dia[CRANK_CENTRE] = hole if hole is not None else max([default_d] + [dia[j] for j in forces if j in dia])
@@ -418,10 +426,12 @@ def bom_text(kit: Kit) -> str:
     head = [
         f"# bill of materials of the {kit.mechanism.name} kit: {kit.walker.legs} legs, 1 model unit = {kit.scale:.6g} mm",
         f"# parts: {m.thickness:g} mm {m.name}, {kit.width:.3g} mm wide; pins: {m.pin_material}",
-        f"# pin sizing: single shear, d = sqrt(4 F SF / (pi tau)), tau = allowable shear stress of the pin "
-        f"{m.pin_shear:g} MPa, SF = safety factor {m.safety_factor:g}, rounded up to the next of "
-        f"{', '.join(n for n, _ in STANDARD_PINS)}",
-        ("# F = the joint's peak reaction from the study's forces (force_N); required_d_mm = the d it needs"
+        f"# pin sizing: the larger of single shear, d = sqrt(4 F SF / (pi tau)), tau = allowable shear stress of "
+        f"the pin {m.pin_shear:g} MPa, and bearing in one part, d = F SF / (t f_h), t = {m.thickness:g} mm, f_h = "
+        f"bearing strength of the {m.name} {m.bearing:g} MPa; SF = safety factor {m.safety_factor:g}; rounded up "
+        f"to the next of {', '.join(n for n, _ in STANDARD_PINS)}",
+        ("# F = the joint's peak reaction from the study's forces (force_N); required_d_mm = the d it needs; a pin is "
+         "never smaller than the default size, the standard size nearest a tenth of the crank radius (stiffness)"
          if forces else "# no joint forces were computed for this design: every pin is the default size "
                         "(the standard size nearest a tenth of the crank radius), not sized from a load"),
         f"# pin length = stack of layers x {m.thickness:g} mm + a {WASHER:g} mm washer between layers + one "
@@ -490,9 +500,12 @@ def readme_text(kit: Kit, pdf: bool) -> str:
         lines.append(f"  {pin.joint}: {' / '.join(pin.stack)}")
     forces = any(p.force is not None for p in kit.pins)
     lines += ["",
-              f"Pins: single shear, d = sqrt(4 F SF / (pi tau)) with the allowable shear stress of the pin "
-              f"tau = {m.pin_shear:g} MPa ({m.pin_material}) and a safety factor SF = {m.safety_factor:g}, rounded up "
-              f"to a standard size. " + ("F is each joint's peak reaction from the study's forces." if forces else
+              f"Pins: the larger of single shear, d = sqrt(4 F SF / (pi tau)) with the allowable shear stress of the "
+              f"pin tau = {m.pin_shear:g} MPa ({m.pin_material}), and bearing in one {m.thickness:g} mm part, d = F SF "
+              f"/ (t f_h) with the {m.name}'s bearing strength f_h = {m.bearing:g} MPa; safety factor SF = "
+              f"{m.safety_factor:g}; rounded up to a standard size. " + ("F is each joint's peak reaction from the study's forces; no pin is smaller than the "
+                                         "default size, the standard size nearest a tenth of the crank radius "
+                                         "(stiffness and handling)." if forces else
                                          "No joint forces were computed for this design: every pin is the "
                                          "default, the standard size nearest a tenth of the crank radius."),
               "",
