@@ -59,7 +59,7 @@ def register(sub) -> None:
 
 def _format(args) -> str:
     from ..errors import UserError
-    from ..view._export import EXPORT_FORMATS
+    from ..view import EXPORT_FORMATS
     ext = Path(args.output).suffix.lower()
     by_ext = {e: f for f, e in EXPORT_FORMATS.items()}
     if args.fmt is None:
@@ -227,8 +227,8 @@ def run(args) -> int:
     from ..errors import UserError
     from ..store import open_results
     from ..store import FILE_STATUS_NAMES
-    from ..view._export import (check_export_path, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
-                                variant_design)
+    from ..view import cut_sheet, export_csv, export_dxf, export_svg, export_toml, variant_design
+    from ._args import output_path as check_export_path
     from ._args import chosen_variant, output_path, parse_variant
 
     if args.fmt == "kit":

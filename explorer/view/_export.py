@@ -135,27 +135,12 @@ from ..mechanism import mechanism_toml  # noqa: E402,F401
 
 # -- writing files ---------------------------------------------------------------------------------------
 def check_export_path(path, force: bool = False, protect=()) -> Path:
-    """``path`` as a Path if a file can be written there: its folder exists, it is not a folder, and it
-    does not exist unless ``force``; never one of ``protect`` (such as the results file read), even with
-    ``force``. UserError otherwise."""
-    p = Path(os.fspath(path))
-    parent = p.parent if str(p.parent) else Path(".")
-    if p.is_dir():
-        raise UserError(f"{p}: cannot write: it is a folder")
-    if not parent.is_dir():
-        what = "is not a folder" if parent.exists() else "does not exist"
-        raise UserError(f"{p}: cannot write: folder {parent} {what}")
-    for q in protect:
-        try:
-            if p.exists() and Path(os.fspath(q)).exists() and os.path.samefile(p, q):
-                raise UserError(f"{p}: refusing to write over the results file it exports from")
-        except OSError:
-            pass
-    if p.exists() and not force:
-        raise UserError(f"{p}: file exists; pass --force to overwrite it")
-    if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
-        raise UserError(f"{p}: cannot write: permission denied")
-    return p
+    """``path`` as a Path if a file can be written there, by the one output policy
+    (:func:`explorer._files.output_path`): not a folder, not one of ``protect`` (such as the results file
+    read) even with ``force``, an existing file only with ``force``; missing folders are created.
+    UserError otherwise."""
+    from .._files import output_path
+    return output_path(path, force, protect=protect)
 
 
 def _write(path: Path, write) -> Path:
@@ -433,6 +418,25 @@ def cut_sheet(mech: Mechanism, scale: float = 1.0, width: float | None = None, h
     return Sheet(tuple(parts), (W, H), scale, w, h, th, pitch, mech.name)
 
 
+def svg_path(segs, H: float, dx: float = 0.0) -> str:
+    """The SVG path data of an outline (``Sheet.outline``'s chain of arcs and lines, mm, y up), shifted
+    right by ``dx`` mm and flipped into SVG's y-down frame of a sheet ``H`` mm high."""
+    d = []
+    for k, seg in enumerate(segs):
+        if seg[0] == "arc":
+            _, c, rr, a0, a1 = seg
+            p0 = (c[0] + rr * math.cos(a0), c[1] + rr * math.sin(a0))
+            p1 = (c[0] + rr * math.cos(a1), c[1] + rr * math.sin(a1))
+            if k == 0:
+                d.append(f"M {_f(p0[0] + dx)} {_f(H - p0[1])}")
+            # counter-clockwise with y up is sweep-flag 0 once y points down; every arc is <= 180°
+            d.append(f"A {_f(rr)} {_f(rr)} 0 0 0 {_f(p1[0] + dx)} {_f(H - p1[1])}")
+        else:
+            d.append(f"L {_f(seg[2][0] + dx)} {_f(H - seg[2][1])}")
+    d.append("Z")
+    return " ".join(d)
+
+
 def _f(x: float) -> str:
     """A coordinate for SVG, to the nanometre."""
     s = f"{x:.6f}".rstrip("0").rstrip(".")
@@ -456,22 +460,8 @@ def svg_text(sheet: Sheet) -> str:
         f"{sheet.hole:g} mm; red lines are cuts, blue text labels")
     for part in sheet.parts:
         g = ET.SubElement(root, "g", {"class": "part", "data-part": part.name, "data-kind": part.kind})
-        segs = sheet.outline(part)
-        d = []
-        for k, seg in enumerate(segs):
-            if seg[0] == "arc":
-                _, c, rr, a0, a1 = seg
-                p0 = (c[0] + rr * math.cos(a0), c[1] + rr * math.sin(a0))
-                p1 = (c[0] + rr * math.cos(a1), c[1] + rr * math.sin(a1))
-                if k == 0:
-                    d.append(f"M {_f(p0[0])} {_f(H - p0[1])}")
-                # counter-clockwise with y up is sweep-flag 0 once y points down; every arc is <= 180°
-                d.append(f"A {_f(rr)} {_f(rr)} 0 0 0 {_f(p1[0])} {_f(H - p1[1])}")
-            else:
-                _, p, q = seg
-                d.append(f"L {_f(q[0])} {_f(H - q[1])}")
-        d.append("Z")
-        ET.SubElement(g, "path", {"class": "outline", "d": " ".join(d), "fill": "none", "stroke": CUT_COLOR,
+        ET.SubElement(g, "path", {"class": "outline", "d": svg_path(sheet.outline(part), H), "fill": "none",
+                                  "stroke": CUT_COLOR,
                                   "stroke-width": _f(STROKE_MM)})
         for j, (x, y) in zip(part.joints, part.holes):
             ET.SubElement(g, "circle", {"class": "hole", "data-joint": j, "cx": _f(x), "cy": _f(H - y),

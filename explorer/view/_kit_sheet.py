@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 
 from ..errors import UserError
-from ._export import CRANK_CENTRE, CUT_COLOR, LABEL_COLOR, STROKE_MM, _f, _hull, _outline
+from ._export import CRANK_CENTRE, CUT_COLOR, LABEL_COLOR, STROKE_MM, _f, _hull, _outline, svg_path
 
 #: mm between two parts on a sheet (kerf and a margin), and between the parts and the sheet's edges.
 GAP, MARGIN = 3.0, 5.0
@@ -206,22 +206,6 @@ def sheet_marks(kit, s: int) -> list[dict]:
 
 
 # -- SVG ----------------------------------------------------------------------------------------------------
-def _outline_path(segs, H: float, dx: float) -> str:
-    d = []
-    for k, seg in enumerate(segs):
-        if seg[0] == "arc":
-            _, c, rr, a0, a1 = seg
-            p0 = (c[0] + rr * math.cos(a0), c[1] + rr * math.sin(a0))
-            p1 = (c[0] + rr * math.cos(a1), c[1] + rr * math.sin(a1))
-            if k == 0:
-                d.append(f"M {_f(p0[0] + dx)} {_f(H - p0[1])}")
-            d.append(f"A {_f(rr)} {_f(rr)} 0 0 0 {_f(p1[0] + dx)} {_f(H - p1[1])}")
-        else:
-            d.append(f"L {_f(seg[2][0] + dx)} {_f(H - seg[2][1])}")
-    d.append("Z")
-    return " ".join(d)
-
-
 def placed_outline(kit, pl) -> list[tuple]:
     """The outline of a placed copy, sheet mm (as :meth:`Kit.outline`)."""
     return _outline(_hull(place(kit.part(pl.part).holes, pl)), 0.5 * kit.width)
@@ -273,7 +257,7 @@ def svg_text(kit) -> str:
         data = {"data-part": pl.part, "data-copy": str(pl.copy), "data-mirrored": "true" if pl.mirrored else "false",
                 "data-sheet": str(pl.sheet + 1)}
         g = ET.SubElement(g_cut, q + "g", {"class": "part", "data-kind": part.kind, **data})
-        ET.SubElement(g, q + "path", {"class": "outline", "d": _outline_path(placed_outline(kit, pl), H, dx), **line})
+        ET.SubElement(g, q + "path", {"class": "outline", "d": svg_path(placed_outline(kit, pl), H, dx), **line})
         for j, (x, y), d in zip(part.joints, place(part.holes, pl), part.diameters):
             ET.SubElement(g, q + "circle", {"class": "hole", "data-joint": j, "cx": _f(x + dx), "cy": _f(H - y),
                                             "r": _f(0.5 * d), **line})
