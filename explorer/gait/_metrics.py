@@ -317,7 +317,8 @@ def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
                    "simulate_batch(..., forces=True, operating=...)")
         elif "robustness" in needs:
             why = ("comes from copies of each design cut with a manufacturing error: a study's [robustness] table "
-                   "with yield in [scene] metrics, or explorer.study.design_yield")
+                   "with yield in [scene] metrics, `explorer rank RESULTS --yield 0.5%` for the designs it shows, "
+                   "or explorer.study.design_yield")
         elif "mechanism" in needs and mechanism is None:
             why = "needs the mechanism (mechanism=, lengths=, crank=)"
         elif m == "min_transmission_angle" and not fourbar_loops(mechanism):
