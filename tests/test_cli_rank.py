@@ -21,6 +21,8 @@ import pytest
 
 from explorer import open_results, run_study
 from explorer.cli import main
+
+from clihelp import cli, ok_cli
 from explorer.gait import DEFAULT_WEIGHTS, WALKER_METRICS, DIRECTIONS, TARGET_METRICS
 from explorer.gait import FORCE_METRICS, ROBUSTNESS_METRICS
 from explorer.gait import METRICS as ALL_METRICS
@@ -51,18 +53,6 @@ def fresh(results, tmp_path):
     p = tmp_path / "copy.h5"
     shutil.copyfile(results, p)
     return p
-
-
-def cli(capsys, *args):
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def ok_cli(capsys, *args) -> str:
-    code, out, err = cli(capsys, *args)
-    assert code == 0 and err == "", err
-    return out
 
 
 def parse_table(out: str) -> tuple[list[str], pd.DataFrame]:

@@ -26,7 +26,8 @@ import pandas as pd
 import pytest
 
 from explorer import open_results, run_study
-from explorer.cli import main
+
+from clihelp import cli, ok_cli
 
 REPO = Path(__file__).resolve().parents[1]
 PLYWOOD = (REPO / "studies" / "mechanisms" / "jansen-plywood.toml").as_posix()
@@ -55,18 +56,6 @@ def files(tmp_path_factory):
     del plain["operating"]
     none = run_study(plain, output=d / "none.h5", progress=False).path
     return {"si": si, "bare": bare, "none": none, "dir": d}
-
-
-def cli(capsys, *args):
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def ok_cli(capsys, *args) -> str:
-    code, out, err = cli(capsys, *args)
-    assert code == 0 and err == "", err
-    return out
 
 
 def _half_ulp(cell: str) -> float:
