@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from explorer import STATUS_NAMES, UserError, load_study, open_results, run_study, simulate_batch
-from explorer.store import FILE_STATUS_NAMES, ResultsWriter, chunk_rows, hdf5_rows
+from explorer.store import FILE_STATUS_NAMES, ResultsWriter, chunk_rows, hdf5_rows, seal
 from explorer.study import study_variants
 
 SMALL = {
@@ -133,6 +133,7 @@ def test_frame_picks_up_metrics_datasets(results_file, tmp_path):
     copy_path.write_bytes(path.read_bytes())
     with h5py.File(copy_path, "r+") as f:
         f["metrics"].create_dataset("stride", data=np.arange(45.0))
+    seal(copy_path)  # an edit made on purpose: its checksums recomputed (unsealed, it is a damaged file)
     with open_results(copy_path) as r:
         assert r.metric_names == ("stride",)
         assert np.array_equal(r.frame()["stride"].to_numpy(), np.arange(45.0))

@@ -80,6 +80,7 @@ def test_resume_refuses_a_changed_mechanism_or_version(files, capsys, monkeypatc
     with h5py.File(out, "r+") as f:  # as if the run had been interrupted
         f.attrs["complete"] = False
         f["chunks/done"][-1] = False
+    explorer.store.seal(out)  # the edit made on purpose, re-checksummed (else the resume refuses a damaged file)
     leg.write_text(leg.read_text().replace("length = 50.0", "length = 50.5", 1), encoding="utf-8")
     code, _, err = cli(capsys, "run", study, "-o", out, "--resume", "-q")
     assert code == 2 and "the mechanism file's content changed" in err and "--force" in err

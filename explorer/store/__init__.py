@@ -31,6 +31,11 @@ Layout (N variants, S = steps, readable with plain h5py)::
                            direction, description, computed (the same whether the run or `explorer
                            metrics` wrote it); /metrics attrs band, description
     /chunks/done           (n_chunks,) bool; /chunks attr rows: chunk i is variants [i·rows, (i+1)·rows)
+    /chunks/digest         (n_chunks, 32) uint8: SHA-256 of chunk i's per-variant rows (not the series),
+                           set with done[i]; root attr integrity = "sha256-v1 <hex>": SHA-256 of the
+                           metadata, every attribute and the contiguous datasets. Both are verified by
+                           open_results before anything is read (explorer.store._integrity); a file
+                           edited on purpose with plain h5py is re-checksummed with seal(path)
 
 Every dataset is one row of the table :data:`explorer.store._datasets.DATASETS` (dtype, shape rule,
 storage, fill, units, description) and is created by its one function, ``create_dataset``.
@@ -39,6 +44,7 @@ chosen by measurement: see :mod:`explorer.store._write`).
 """
 
 from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metric_attrs, now
+from ._integrity import seal
 from ._lock import OutputLock
 from ._shards import ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch, write_shard
 from ._read import Results, open_results, probe
@@ -51,4 +57,4 @@ __all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAM
            "STATUS_NOT_RUN", "Results", "ResultsWriter", "check_variant", "chunk_rows", "create_dataset", "create_metric",
            "dataset_spec", "hdf5_rows", "is_results", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe", "results_band", "variant_design",
            "variant_mechanism", "variant_row", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",
-           "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason"]
+           "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason", "seal"]

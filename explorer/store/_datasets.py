@@ -86,6 +86,9 @@ DATASETS: tuple[DatasetSpec, ...] = (
                 "leg 0's reaction at the joint: the force its most heavily loaded member puts on the pin"),
     DatasetSpec("metrics/<name>", "f8", ("N",), "scalar", _NAN, "", "gait metric (units and description per metric)"),
     DatasetSpec("chunks/done", "bool", ("chunks",), "plain", False, "", "chunk i committed"),
+    DatasetSpec("chunks/digest", "u1", ("chunks", 32), "plain", 0, "",
+                "SHA-256 of chunk i's rows of every per-variant dataset that is not a series, written with "
+                "done[i] (explorer.store._integrity); zero until committed"),
 )
 
 #: Attributes of the groups (those not listed carry none).

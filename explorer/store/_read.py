@@ -13,6 +13,7 @@ import numpy as np
 from ..errors import UserError
 from ..mechanism import Mechanism, mechanism_from_dict
 from ..plan import fourbar_loops, grashof_batch
+from ._integrity import verify, warn_legacy
 from ._write import FILE_STATUS_NAMES, FORMAT
 
 if TYPE_CHECKING:
@@ -24,6 +25,12 @@ def open_results(path) -> "Results":
 
     ``path`` is a path or anything with ``__fspath__`` (such as the summary ``run_study`` returns).
     Incomplete files (an interrupted run) open too: rows not yet run have status "not-run".
+
+    Verified before anything is read (:func:`explorer.store._integrity.verify`): the checksum of the
+    metadata and every attribute and contiguous dataset, the digest of every committed chunk's
+    per-variant rows, and the chunk index of every series. A file that does not verify is a one-line
+    UserError naming it and what is damaged; a file written by an earlier version (no checksums) opens
+    with a one-line warning on stderr.
     """
     p = Path(os.fspath(path))
     if not p.is_file():
@@ -43,7 +50,12 @@ def open_results(path) -> "Results":
         if "shards" in f.attrs:  # a study stitched from shard files (explorer.run_study_dask): are they there?
             from ._shards import check_sources
             check_sources(f, p)
-        return Results(f, p)
+        # before any number is read: metadata, attributes and committed rows match their checksums
+        verified = verify(f, p, warn=False)
+        r = Results(f, p)
+        if not verified:  # an earlier version's file: one line, once the file has opened
+            warn_legacy(p)
+        return r
     except UserError:
         f.close()
         raise

@@ -32,6 +32,7 @@ silently read fill values (NaN, status "not-run").
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -44,6 +45,8 @@ import h5py
 import numpy as np
 
 from ..errors import UserError
+from ._datasets import create_dataset
+from ._integrity import chunk_digest, has_integrity, per_variant, stamp
 from ._write import FORMAT, ResultsWriter, chunk_rows, hdf5_rows
 
 #: Name of the shard-layout file in a shards folder.
@@ -209,6 +212,7 @@ def write_shard(folder, plan: ShardPlan, i: int, study, solve) -> bool:
             at["shard_stop"] = b
             at["shard_host"] = tag
             at["shard_done"] = True  # the done marker (the rename below publishes it)
+            writer.stamp()  # the metadata checksum covers the marker too
         finally:
             writer.close()
         _fsync(tmp)
@@ -300,11 +304,22 @@ def stitch(output, folder, plan: ShardPlan) -> None:
                                           f"{folder.name}/shard-<i:05d>.h5; all done")
                 g.attrs["chunk_rows"] = plan.chunk_rows
                 g.create_dataset("done", data=np.ones(plan.n_shards, dtype=bool))
+                if has_integrity(src0):  # the digest of each shard's per-variant rows, read from the shard
+                    digest = create_dataset(f, "chunks/digest", {"chunks": plan.n_shards})
+                    for i, n in enumerate(names):
+                        with (h5py.File(folder / n, "r") if i else _borrowed(src0)) as src:
+                            digest[i] = chunk_digest(per_variant(src, plan.n_variants), *plan.range(i))
+                    stamp(f)
             _fsync(tmp)
             os.replace(tmp, out)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
+
+
+@contextlib.contextmanager
+def _borrowed(f):
+    yield f  # an open file, used in a with block without being closed by it
 
 
 def _mirror(src: h5py.Group, dst: h5py.Group, plan: ShardPlan, rel: list[str]) -> None:
@@ -355,7 +370,9 @@ def check_sources(f: h5py.File, path) -> None:
     """Raise a UserError if a stitched study file ``f`` (at ``path``) cannot reach one of its shards.
 
     HDF5 reads a missing virtual-dataset source as fill values (NaN, "not-run") without a word;
-    this names the first missing shard instead. Called by :func:`~explorer.store.open_results`.
+    this names the first missing shard instead. Each shard of a file with checksums is verified too
+    (its own metadata checksum, chunk digests and chunk index). Called by
+    :func:`~explorer.store.open_results`.
     """
     folder = f.attrs.get("shards")
     if folder is None:
@@ -368,6 +385,22 @@ def check_sources(f: h5py.File, path) -> None:
     n = int(f.attrs.get("n_shards", 0))
     for i in range(n):
         rel = f"{folder}/{shard_name(i)}"
-        if not any((r / rel).is_file() for r in roots):
+        found = [r / rel for r in roots if (r / rel).is_file()]
+        if not found:
             raise UserError(f"{path}: shard file {base / rel} is missing; a sharded results file needs its "
                             f"{folder}/ folder beside it (move or copy the two together)")
+        if has_integrity(f):  # the shard's own checksums: its series' chunk index is read only through it
+            _verify_shard(found[0], path)
+
+
+def _verify_shard(shard: Path, path) -> None:
+    from ._integrity import Damaged, check
+    try:
+        with h5py.File(shard, "r") as s:
+            check(s)
+    except Damaged as exc:
+        raise UserError(f"{path}: damaged shard file {shard}: {exc}; run the study again or restore the "
+                        f"file from a copy") from None
+    except Exception as exc:  # noqa: BLE001 - whatever the damaged bytes made h5py raise
+        what = " ".join(str(exc).split())[:160] or type(exc).__name__
+        raise UserError(f"{path}: damaged shard file {shard}: cannot verify it ({what})") from None

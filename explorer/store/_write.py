@@ -50,6 +50,7 @@ import numpy as np
 from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
 from ._datasets import SCALAR_FILTERS, SERIES_FILTERS, create_dataset, create_group, metric_attrs, now
+from ._integrity import DIGEST, RESTORE, chunk_digest, has_integrity, per_variant, stamp, verify
 
 __all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
 
@@ -126,6 +127,11 @@ class ResultsWriter:
         self._torque = f["torque"] if "torque" in f else None
         self._forces = [(f["forces"][j], j) for j in f["forces"]] if "forces" in f else []
         self._done = f["chunks/done"]
+        # files of this version carry checksums (explorer.store._integrity), kept up to date at every
+        # commit; a file started by an earlier version is finished as it was begun, without them
+        self.integrity = has_integrity(f) and DIGEST in f
+        self._digest = f[DIGEST] if self.integrity else None
+        self._covered = None  # the datasets the chunk digests cover (looked up once, again after a new metric)
 
     # -- opening ---------------------------------------------------------------------------------------
     @classmethod
@@ -230,6 +236,9 @@ class ResultsWriter:
                 "description": "chunk i holds variants [i*rows, min((i+1)*rows, N)); done[i] once committed"})
             make("chunks/done")  # contiguous
             g["done"][...] = False
+            make("chunks/digest")  # contiguous: each chunk's SHA-256, set with done[i]
+            g["digest"][...] = 0
+            stamp(f)  # the metadata checksum, kept up to date by every later change
             f.close()
             # the results path appears only now, complete with every dataset: a run killed earlier
             # leaves no half-made file there (at most a hidden .partial next to it)
@@ -243,7 +252,9 @@ class ResultsWriter:
 
     @classmethod
     def resume(cls, path, study) -> "ResultsWriter":
-        """Open an existing results file of ``study`` to finish it (UserError if it is not one)."""
+        """Open an existing results file of ``study`` to finish it (UserError if it is not one, or if it
+        does not verify: :func:`~explorer.store._integrity.verify`, so that a resume never builds on
+        damaged metadata or committed rows)."""
         path = Path(path)
         try:
             f = h5py.File(path, "r+")
@@ -259,6 +270,10 @@ class ResultsWriter:
                     old = {}
                 raise UserError(f"{path}: written by a different run: {fingerprint_diff(old, json.loads(study.fingerprint()))}"
                                 f"; --resume would mix two designs' results; use --force to start it over")
+            try:
+                verify(f, path)
+            except UserError as exc:
+                raise UserError(f"{exc}".replace(RESTORE, "use --force to start it over")) from None
         except BaseException:
             f.close()
             raise
@@ -317,10 +332,16 @@ class ResultsWriter:
             self._torque[a:b] = batch.torque
         for d, j in self._forces:
             d[a:b] = batch.forces[j]
+        g = f["metrics"]
+        new = [name for name in (metrics or {}) if name not in g]
+        for name in new:  # self-describing from the first write, as `explorer metrics` writes it
+            create_metric(g, name, self.n_variants, self.chunk_rows, self._band())
+        if new:
+            self._covered = None
+            if self.integrity:  # the new datasets and their checksum reach the disk in one flush
+                stamp(f)
+                f.flush()
         for name, values in (metrics or {}).items():
-            g = f["metrics"]
-            if name not in g:  # self-describing from the first write, as `explorer metrics` writes it
-                create_metric(g, name, self.n_variants, self.chunk_rows, self._band())
             g[name][a:b] = values
         self._commit(i)
 
@@ -336,10 +357,24 @@ class ResultsWriter:
             return DEFAULT_BAND
 
     def _commit(self, i: int) -> None:
+        """The rows reach the disk (flush), then, in one more flush, the chunk's digest, ``done[i]`` and
+        the metadata checksum that covers both."""
         self.f.flush()
+        if self.integrity:
+            if self._covered is None:
+                self._covered = per_variant(self.f, self.n_variants)
+            self._digest[i] = chunk_digest(self._covered, *self.chunk_range(i))
         self._done[i] = True
+        if self.integrity:
+            stamp(self.f)
         self.f.flush()
         self.done[i] = True
+
+    def stamp(self) -> None:
+        """Update the metadata checksum after attributes were set directly (a Dask shard's done marker);
+        the caller flushes or closes."""
+        if self.integrity:
+            stamp(self.f)
 
     def finish(self) -> None:
         """Mark the file complete (every chunk must be done) and flush."""
@@ -347,6 +382,7 @@ class ResultsWriter:
             raise RuntimeError(f"{self.path}: {int((~self.done).sum())} chunks are not done")
         self.f.attrs["complete"] = True
         self.f.attrs["completed"] = now()
+        self.stamp()
         self.f.flush()
 
     def close(self) -> None:
@@ -378,7 +414,8 @@ def fingerprint_diff(old: dict, new: dict) -> str:
 def open_for_update(path) -> h5py.File:
     """An existing, complete-or-not explorer results file opened for writing (``r+``), the one way
     besides :class:`ResultsWriter` that a results file is opened to be written (``explorer metrics``).
-    UserError for a missing, foreign, busy or unreadable file."""
+    UserError for a missing, foreign, busy, unreadable or damaged file (it is verified first:
+    :func:`~explorer.store._integrity.verify`)."""
     p = Path(os.fspath(path))
     if not p.is_file():
         raise UserError(f"{p}: no such results file")
@@ -392,6 +429,11 @@ def open_for_update(path) -> h5py.File:
     if f.attrs.get("format") != FORMAT:
         f.close()
         raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
+    try:
+        verify(f, p)  # never compute from (nor re-checksum) damaged metadata or rows
+    except BaseException:
+        f.close()
+        raise
     return f
 
 

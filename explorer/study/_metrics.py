@@ -34,6 +34,7 @@ import numpy as np
 from ..errors import UserError
 from ..store import STATUS_NOT_RUN, create_metric, hdf5_rows, metrics_group, open_for_update, write_error_reason
 from ..store import now as timestamp
+from ..store._integrity import has_integrity, stamp, write_digests
 
 #: Name of the group the new metrics are written to before they replace ``/metrics``.
 PARTIAL = "metrics_partial"
@@ -235,10 +236,14 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                 if bar is not None:
                     bar.update(b - a)
             f.flush()
-            # the swap: the complete new group replaces the old one
+            # the swap: the complete new group replaces the old one, and the checksums that cover it
+            # (chunk digests, metadata) reach the disk in the same flush
             if "metrics" in f:
                 del f["metrics"]
             f.move(PARTIAL, "metrics")
+            if has_integrity(f):
+                write_digests(f)
+                stamp(f)
             f.flush()
         except BaseException:
             if f.id.valid and PARTIAL in f:
