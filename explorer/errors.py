@@ -5,7 +5,7 @@ unwritable path) raises :class:`UserError`. Its message is one line that names t
 and the offending value; the CLI prints it without a traceback and exits with code 2.
 
 Interrupts live here too (every layer needs them): :class:`Terminated` (SIGTERM, raised like
-Ctrl-C) and :func:`signals_held`, which defers both over a block that must not be cut.
+Ctrl-C), :class:`Interrupted` (Ctrl-C in the command) and :func:`signals_held`, which defers both over a block that must not be cut.
 """
 
 import contextlib
@@ -30,6 +30,13 @@ class Terminated(KeyboardInterrupt):
     (``explorer`` exits 143 for it, 130 for Ctrl-C)."""
 
 
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT) as the ``explorer`` command raises it: a KeyboardInterrupt like Python's own, but
+    not of its exact class, which CPython remembers when it escapes code run by ``PyRun_String`` (a
+    library deep in a run may do that) and then, after the command has reported it and returned 130,
+    exits by killing itself with SIGINT instead (exit -2)."""
+
+
 @contextlib.contextmanager
 def signals_held():
     """Hold SIGINT and SIGTERM over a block that must not be cut: a results file being closed or the
@@ -52,6 +59,15 @@ def signals_held():
     finally:
         for sig, handler in old.items():
             signal.signal(sig, handler)
-    # an interrupt raised in the handled code takes precedence; one held here is not lost silently
+    # an interrupt raised in the handled code takes precedence; one held here is not lost silently: it
+    # goes to the handler it was held from (which may ignore it: the command stopping already), or is
+    # raised where that handler is the system's default
     if pending and sys.exc_info()[0] is None:
-        raise Terminated() if signal.SIGTERM in pending else KeyboardInterrupt()
+        sig = signal.SIGTERM if signal.SIGTERM in pending else signal.SIGINT
+        handler = old[sig]
+        if handler == signal.SIG_IGN:
+            return
+        if callable(handler):
+            handler(sig, None)
+            return
+        raise Terminated() if sig == signal.SIGTERM else KeyboardInterrupt()

@@ -18,14 +18,37 @@ variant, whole numbers) are in :mod:`._args` and the one table formatter in :mod
 
 from __future__ import annotations
 
-import argparse
-import errno
-import importlib
-import os
-import pkgutil
+import signal
 import sys
+import threading
 
-from ..errors import UserError
+
+def _is_the_command() -> bool:
+    """True in the process that runs the ``explorer`` command itself (its console script, or
+    ``python -m explorer.cli``), not in a program that imports this module (a test, a notebook)."""
+    if threading.current_thread() is not threading.main_thread():
+        return False
+    argv0 = (sys.argv[0] if sys.argv else "").replace("\\", "/").rsplit("/", 1)[-1]
+    orig = list(getattr(sys, "orig_argv", ()))
+    as_module = any(a == "-m" and b == __name__ for a, b in zip(orig, orig[1:])) or f"-m{__name__}" in orig
+    return argv0 in ("explorer", "explorer.exe") or as_module
+
+
+#: Signals (SIGINT, SIGTERM) that arrived while the command was still loading, before ``main``: they are
+#: held, not raised inside an import, and ``main`` reports them as it starts (exit 130 or 143).
+_EARLY: list[int] = []
+if _is_the_command():  # first thing, so that a SIGTERM in the start-up is not a plain kill
+    for _sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(_sig, lambda signum, frame: _EARLY.append(signum))
+
+import argparse  # noqa: E402
+import errno  # noqa: E402
+import importlib  # noqa: E402
+import os  # noqa: E402
+import pkgutil  # noqa: E402
+import time  # noqa: E402
+
+from ..errors import Interrupted, Terminated, UserError  # noqa: E402
 
 #: Verbs listed first in ``explorer --help``, in this order; other discovered verbs follow A→Z.
 VERB_ORDER = ("run", "rank", "show", "metrics", "plot", "animate", "bench")
@@ -67,46 +90,76 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _terminate_as_interrupt():
-    """SIGTERM stops a run like Ctrl-C (between commits, saying how to resume); returns the handler it
-    replaced (None outside the main thread)."""
-    import signal
-    import threading
+class _Stop:
+    #: the command is stopping (an interrupt was raised, or its work is done): further signals are
+    #: ignored, so a second Ctrl-C (impatience), or one in the interpreter's shutdown, cannot turn the
+    #: exit code into a kill or add a traceback
+    stopping = False
+    #: the handler ``main`` installed (an interrupt lost in a callback is sent to it again)
+    handler = None
+
+
+def _catch_signals(command: bool):
+    """SIGTERM stops a run like Ctrl-C (between commits, saying how to resume): it raises
+    :class:`~explorer.errors.Terminated` (already loaded with this module: a handler that imported it
+    could find its module half loaded, and fail or be lost). In the command itself, SIGINT too goes
+    through the handler, and once the first has been raised further signals are ignored. Returns the
+    handlers it replaced (None outside the main thread)."""
     if threading.current_thread() is not threading.main_thread():
         return None
 
-    def terminate(signum, frame):
-        from ..study import Terminated
-        raise Terminated()
+    def stop(signum, frame):
+        if command:
+            if _Stop.stopping:
+                return
+            _Stop.stopping = True
+        raise Terminated() if signum == signal.SIGTERM else (Interrupted() if command else KeyboardInterrupt())
 
-    return signal.signal(signal.SIGTERM, terminate)
+    _Stop.handler = stop
+    previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, stop)}
+    if command:
+        previous[signal.SIGINT] = signal.signal(signal.SIGINT, stop)
+    return previous
+
+
+def _interrupted(exc: KeyboardInterrupt) -> int:
+    terminated = isinstance(exc, Terminated) or type(exc).__name__ == "Terminated"
+    word = "terminated" if terminated else "interrupted"
+    text = " ".join(str(exc).split("\n")).strip()
+    print(f"explorer: {text if text.split(': ', 1)[-1].startswith(word) else word + (': ' + text if text else '')}",
+          file=sys.stderr)
+    return 143 if terminated else 130
 
 
 def main(argv=None) -> int:
-    """Entry point of the ``explorer`` command; returns the exit code (0 ok, 2 user error)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    previous = _terminate_as_interrupt()
+    """Entry point of the ``explorer`` command; returns the exit code (0 ok, 2 user error, 130 Ctrl-C,
+    143 SIGTERM)."""
+    command = argv is None and threading.current_thread() is threading.main_thread()
     hook = sys.unraisablehook
-    sys.unraisablehook = _quiet_failed_writes
+    previous = None
     try:
-        code = args.func(args)
+        try:
+            sys.unraisablehook = _unraisable
+            previous = _catch_signals(command)  # before the verbs load (they import Numba: seconds)
+            if command and _EARLY:
+                _Stop.stopping = True
+                raise Terminated() if signal.SIGTERM in _EARLY else Interrupted()
+            parser = build_parser()
+            args = parser.parse_args(argv)
+            code = args.func(args)
+            if command:
+                _Stop.stopping = True  # done: a signal from here on cannot undo the work
+            return int(code or 0)
+        except KeyboardInterrupt:
+            if command:
+                _Stop.stopping = True
+            raise
     except UserError as exc:
         msg = " ".join(str(exc).split("\n")).strip()
         print(f"explorer: error: {msg}", file=sys.stderr)
         return getattr(exc, "exit_code", 2)
     except KeyboardInterrupt as exc:
-        terminated = type(exc).__name__ == "Terminated"
-        word = "terminated" if terminated else "interrupted"
-        text = str(exc)
-        print(f"explorer: {text if text.split(': ', 1)[-1].startswith(word) else word + (': ' + text if text else '')}",
-              file=sys.stderr)
-        if argv is None and previous is not None:  # the command itself: it exits now, so a further Ctrl-C
-            import signal                          # (impatience) must not turn exit 130 into a kill
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-            signal.signal(signal.SIGTERM, signal.SIG_IGN)
-            previous = None
-        return 143 if terminated else 130
+        return _interrupted(exc)
     except BrokenPipeError:  # e.g. `explorer rank ... | head`
         return 0
     except OSError as exc:  # a damaged results file (a checksum that fails), a full disk, …: one line, exit 2
@@ -128,16 +181,48 @@ def main(argv=None) -> int:
         return 2
     finally:
         sys.unraisablehook = hook
-        if previous is not None:
-            import signal
-            signal.signal(signal.SIGTERM, previous)
-    return int(code or 0)
+        if command:
+            # the command exits now: a signal in the interpreter's shutdown must not turn the exit code
+            # into a kill (-2) or a traceback (the interpreter resets handlers it did not ignore)
+            _Stop.stopping = True
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        elif previous is not None:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+
+def _unraisable(unraisable) -> None:
+    """Errors Python cannot raise where they happen (a callback from C, a ``__del__``):
+
+    * an interrupt the signal handler raised inside one (Numba compiling calls back from LLVM) would be
+      lost, the run going on to exit 0: it is sent again a moment later, to land in ordinary code;
+    * h5py reports a write that failed (a full disk) once more from every object it frees, as
+      "Exception ignored in ObjectID.__dealloc__" tracebacks; the error itself is reported once, as one
+      line.
+
+    Everything else goes to Python's default hook."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) and _Stop.handler is not None:
+        _send_again(signal.SIGTERM if isinstance(unraisable.exc_value, Terminated) else signal.SIGINT)
+        return
+    _quiet_failed_writes(unraisable)
+
+
+def _send_again(signum: int) -> None:
+    handler = _Stop.handler
+    _Stop.stopping = False
+
+    def send():
+        time.sleep(0.01)
+        if signal.getsignal(signum) is handler:  # still the command's (not restored, not ignored)
+            os.kill(os.getpid(), signum)
+
+    threading.Thread(target=send, daemon=True).start()
 
 
 def _quiet_failed_writes(unraisable) -> None:
-    """h5py reports a write that failed (a full disk) once more from every object it frees, as
-    "Exception ignored in ObjectID.__dealloc__" tracebacks; the error itself is reported once, as one
-    line. Everything else goes to Python's default hook."""
+    """h5py's "Exception ignored in ObjectID.__dealloc__" after a failed write are not shown (above);
+    everything else goes to Python's default hook."""
     text = f"{unraisable.object} {unraisable.exc_value}"
     if "h5py" in text and ("write failed" in text or "errno = 28" in text or "No space left" in text):
         return
