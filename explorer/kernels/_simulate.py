@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -21,7 +22,7 @@ from ._batch import fast_batch_jit, generic_batch_jit
 from ._codegen import kernel_for, supported
 from ._inputs import Drive, Options, Outputs, topology
 from ._rows import parallel_rows
-from ._step import BLOCK, DENSE, block_signs, block_table
+from ._step import BLOCK, DENSE
 from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
 
 #: Status code -> name; the same codes are stored in results files as ``/status``.
@@ -54,8 +55,61 @@ _KIND_TEXT = {
     "singular": "is at or too near a toggle for its forces (a singular Jacobian: the joint reactions are unbounded)",
 }
 #: Variants solved at once when forces are asked for (every vertex's positions are needed; this
-#: bounds the memory they take: 1,024 × 360 steps × 7 vertices is 41 MB).
+#: bounds the memory they take: 1,024 × 360 steps × 7 vertices is 41 MB), fewer for a large
+#: mechanism, so that their positions stay within FORCE_MEMORY.
 FORCE_CHUNK = 1024
+FORCE_MEMORY = 64 << 20
+
+
+def force_chunk(steps: int, n_vertices: int) -> int:
+    """Variants per forces chunk: FORCE_CHUNK, lowered so their positions fit in FORCE_MEMORY."""
+    return max(1, min(FORCE_CHUNK, FORCE_MEMORY // max(1, steps * n_vertices * 2 * 8)))
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux's MemAvailable), None if unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _size(n: float) -> str:
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:,.1f} {unit}"
+    return f"{int(n)} bytes"
+
+
+def dense_bytes(n_vertices: int, threads: int | None = None) -> int:
+    """Memory the dense method's full-system matrix takes: (2 n_vertices)² doubles per thread."""
+    import numba
+    threads = numba.get_num_threads() if threads is None else int(threads)
+    return threads * (2 * n_vertices) ** 2 * 8
+
+
+def check_memory(need: int, what: str, advice: str) -> None:
+    """Refuse, with one line and the estimate, what needs more memory than is available."""
+    avail = available_memory()
+    if avail is not None and need > avail:
+        raise UserError(f"{what} need about {_size(need)} of memory and {_size(avail)} is available; {advice}")
+
+
+def check_dense(n_vertices: int, method: str) -> None:
+    """Refuse the dense method where its full-system matrices cannot fit in memory."""
+    if method == "dense":
+        import numba
+        threads = numba.get_num_threads()
+        check_memory(dense_bytes(n_vertices, threads), f"method 'dense': the full system of {n_vertices:,} vertices "
+                     f"({2 * n_vertices:,} unknowns, one matrix per thread, {threads} threads) would",
+                     "use method 'block' (the default), which solves it block by block")
 
 
 @dataclass(frozen=True)
@@ -261,7 +315,7 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
     des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
     L, uv = des.dist[0], des.uv[0]
     topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
-    n = 2 * len(mech.vertices)
+    n = 2 * _largest_general(plan)  # scratch of the largest coupled block, not of the whole mechanism
     loc, M, rhs = np.full(len(mech.vertices), -1, dtype=np.int64), np.empty((n, n)), np.empty(n)
     Z = np.zeros_like(P)
     for k, blk in enumerate(plan.blocks):
@@ -287,6 +341,11 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
                 return P, _failure(mech, plan, STATUS_NOCONV, 0.0, math.nan, k)
             P = P1
     return P, None
+
+
+def _largest_general(plan: Plan) -> int:
+    """Vertices of the plan's largest coupled (GENERAL) block, 0 if it has none."""
+    return max((len(b.vertices) for b in plan.blocks if b.kind == GENERAL), default=0)
 
 
 def _nominal_design(mech: Mechanism, plan: Plan, tolerance: float):
@@ -376,6 +435,7 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
     velocities = _default_velocities(velocities, method)
     if forces:
         operating, walker = force_setup(mech, operating, walker)
+    check_dense(len(mech.vertices), method)
     plan = plan_for(mech)
     drv = _drive_for(mech.crank or mech.path, steps)
     nv = len(mech.vertices)
@@ -434,27 +494,40 @@ def _force_status(fo, status, fth, fbl, params) -> None:
 def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
     """Branch sign (+1.0 / −1.0; 0.0 if singular or for an ATTACH block, which has none) of every block
     at positions P (n_vertices, 2)."""
-    kind = plan.kind
-    if not np.any(kind == GENERAL):
-        # the orientation of each dyad's vertex (``_blocks.dyad_sign``), without compiling the general
-        # blocks' determinant for plans that have none
-        out = np.zeros(plan.n_blocks)
-        for k, blk in enumerate(plan.blocks):
-            if blk.kind == DYAD:
-                v = blk.vertices[0]
-                a, b = (_other(plan, e, v) for e in blk.links)
-                g, w = P[b] - P[a], P[v] - P[a]
-                out[k] = np.sign(g[0] * w[1] - g[1] * w[0])
-        return out
-    des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
-    topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
-    tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, des.dist[0],
-                      des.uv[0], P, *des.center[0], des.scale[0], mech.crank is not None)
-    return block_signs(P, tab, topo.gen_vptr, topo.gen_verts, topo.gen_rptr, topo.gen_rows, topo.dist_a, topo.dist_b,
-                       topo.att_vpq, des.uv[0])
+    # a dyad's orientation (``_blocks.dyad_sign``); a coupled block's determinant sign
+    # (``_blocks.general_sign``, compiled only for plans that have one) with scratch of the largest
+    # coupled block's size (``_step.block_signs`` takes scratch of the whole mechanism's, (2 n)²)
+    out = np.zeros(plan.n_blocks)
+    general = [k for k, blk in enumerate(plan.blocks) if blk.kind == GENERAL]
+    for k, blk in enumerate(plan.blocks):
+        if blk.kind == DYAD:
+            v = blk.vertices[0]
+            a, b = (_other(plan, e, v) for e in blk.links)
+            g, w = P[b] - P[a], P[v] - P[a]
+            out[k] = np.sign(g[0] * w[1] - g[1] * w[0])
+    if general:
+        from ._blocks import general_sign
+
+        des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
+        topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
+        n = 2 * _largest_general(plan)
+        loc, M, rhs = np.full(len(mech.vertices), -1, dtype=np.int64), np.empty((n, n)), np.empty(n)
+        for k in general:
+            g = topo.gen[k]
+            out[k] = general_sign(P, topo.gen_verts[topo.gen_vptr[g]:topo.gen_vptr[g + 1]],
+                                  topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]], topo.dist_a, topo.dist_b,
+                                  topo.att_vpq, des.uv[0], loc, M, rhs)
+    return out
 
 
 KERNELS = ("auto", "general", "generated")
+#: Most blocks for which kernel "auto" generates a kernel for the topology (``_codegen``). Its
+#: compile time grows faster than its size, and its speed-up vanishes: on the 2-core development
+#: machine, cold, a chain of dyads compiled in 13 s with 5 blocks, 22 s with 10, 35 s with 20 and
+#: 206 s with 50 (two such kernels for a first ``simulate`` and ``simulate_batch``), and solved 2,000
+#: variants x 360 steps 1.02x, 1.11x and 0.80x as fast as the general kernel, which is compiled once
+#: for every topology. Every built-in leg has at most 6 blocks.
+GENERATED_MAX_BLOCKS = 12
 
 
 def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max_iterations, P0, signs, blocks,
@@ -486,7 +559,8 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
                             "of dyads and rigid bodies, without accelerations; use kernel='auto' or 'general'")
         if method == "dense" or general:
             fn = generic_batch_jit
-        elif kernel != "general" and supported(topo, opts):
+        elif kernel != "general" and supported(topo, opts) and (kernel == "generated"
+                                                                or topo.kind.shape[0] <= GENERATED_MAX_BLOCKS):
             fn = kernel_for(topo, bool(velocities))  # this plan's code, generated (same results)
         else:
             fn = fast_batch_jit
@@ -560,12 +634,13 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
     design itself cannot be assembled at the start, there is no configuration or branch to start
     from: every row fails as the nominal does (as :func:`simulate` reports it), with NaN paths.
     velocities : default yes, except with method "closed" (positions only).
-    kernel : "auto" (default: the per-topology generated code where it applies, else the array form),
+    kernel : "auto" (default: the per-topology generated code where it applies and the blocks solved
+        are at most :data:`GENERATED_MAX_BLOCKS`, else the array form),
         "general" (always the array form of the sweep) or "generated" (the generated code; an error
         where it does not apply). The results are the same bit for bit; the choice is for debugging.
     forces, operating, walker : as for :func:`simulate`; the Batch then holds ``torque`` (N, steps),
         ``forces`` {joint: (N, steps, 2)} for the joints named in ``force_joints`` and
-        ``force_metrics`` {metric: (N,)}. Variants are solved ``FORCE_CHUNK`` at a time.
+        ``force_metrics`` {metric: (N,)}. Variants are solved ``force_chunk`` at a time.
     """
     _check_common(steps, tolerance, method, max_iterations)
     if forces:
@@ -593,6 +668,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
         vertices = [vertices]  # one vertex name, not its characters ("37" is vertex 37, not 3 and 7)
     names = [mech.foot] if vertices is None else (list(mech.vertices) if vertices == "all" else [str(v) for v in vertices])
     out_idx = np.array([mech.vertex_index(v) for v in names], dtype=np.int64)
+    check_dense(len(mech.vertices), method)
     plan = plan_for(mech)
     P0, fail = assemble(mech)
     if fail is not None:  # no start: every row fails as the nominal does
@@ -610,6 +686,10 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
             mech, plan, lengths, scale, geometry, tolerance, steps, out_idx, velocities, accelerations, method,
             max_iterations, P0, kernel, operating, walker, force_joints)
     else:
+        N = lengths.shape[0]
+        per = steps * len(names) * 2 * 8 * (1 + bool(velocities) + bool(accelerations))
+        check_memory(N * per, f"simulate_batch: the outputs of {N:,} variants x {steps:,} steps x {len(names):,} "
+                     f"vertices would", "ask for fewer vertices or variants at a time (a study solves in chunks)")
         signs = _signs(mech, plan, P0)
         blocks = np.arange(plan.n_blocks) if method == "dense" else plan.needed_blocks(out_idx)
         des = _designs(mech, plan, lengths, scale, geometry, tolerance)
@@ -654,8 +734,9 @@ def _batch_forces(mech, plan, lengths, scale, geometry, tolerance, steps, out_id
     met: dict = {}
     params = _drive_for(mech.crank, steps).params
     geometry = dict(geometry or {})
-    for lo in range(0, N, FORCE_CHUNK):
-        hi = min(N, lo + FORCE_CHUNK)
+    rows = force_chunk(steps, nv)
+    for lo in range(0, N, rows):
+        hi = min(N, lo + rows)
         g = {n: np.asarray(c, dtype=np.float64).reshape(-1)[lo:hi] for n, c in geometry.items()}
         des = _designs(mech, plan, lengths[lo:hi], scale[lo:hi], g, tolerance)
         # positions only from the sweep: the forces' own block-by-block solves give the velocities

@@ -4,6 +4,7 @@ does with a range of variants — sample them, solve them, compute the metrics t
 from __future__ import annotations
 
 from ..kernels import simulate_batch
+from ..kernels._simulate import check_dense
 from ._sample import study_sampler, study_variants
 from ._spec import Study
 from ._yield import YIELD, design_yield
@@ -62,6 +63,9 @@ def design_solver(study: Study):
     (torque, the stored joints' reactions, the force metrics) with ``[scene] forces = true``.
     """
     mech = study.mech
+    # before any chunk is solved: the dense method's full-system matrices must fit in memory (a
+    # chunk's outputs are bounded by the writer's chunk size, the forces' by ``force_chunk``)
+    check_dense(len(mech.vertices), study.method)
     _, metric_vel, want_metrics = metric_plan(study)
     vertices = list(study.vertex_names)
     if want_metrics and mech.foot not in vertices:
