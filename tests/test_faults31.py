@@ -114,3 +114,148 @@ def test_terminated_lives_in_errors():
     import explorer.study
     assert explorer.study.Terminated is explorer.errors.Terminated
     assert issubclass(explorer.errors.Interrupted, KeyboardInterrupt)
+
+
+# -- the one output policy, for every writing verb (item 4) -------------------------------------------------
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("faults31")
+    study = tmp / "study.toml"
+    study.write_text(SMALL + "[perturb]\nspread = 0.01\n", encoding="utf-8")
+    out = tmp / "r.h5"
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 0
+    return out
+
+
+#: verb → (its arguments with T the file it writes, T's extension)
+WRITERS = {
+    "plot": (["plot", "R", "--top", "2", "-o", "T"], ".png"),
+    "animate": (["animate", "R", "--variant", "0", "--frames", "4", "-o", "T"], ".gif"),
+    "export-svg": (["export", "R", "0", "--format", "svg", "-o", "T"], ".svg"),
+    "export-dxf": (["export", "R", "0", "--format", "dxf", "-o", "T"], ".dxf"),
+    "export-csv": (["export", "R", "0", "--format", "csv", "-o", "T"], ".csv"),
+    "export-toml": (["export", "R", "0", "--format", "toml", "-o", "T"], ".toml"),
+    "export-kit": (["export", "R", "0", "--format", "kit", "-o", "K"], "parts.svg"),
+    "report": (["report", "R", "-o", "T"], ".html"),
+    "sensitivity": (["sensitivity", "R", "--plot", "T"], ".png"),
+}
+
+
+class _Drain:
+    """Reads a FIFO's other end (so that a writer that wrongly opens it does not block the test) and keeps
+    what came through."""
+
+    def __init__(self, fifo):
+        import threading
+        self.data = b""
+        self.fd = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+        self.thread = threading.Thread(target=self._read, daemon=True)
+        self.stop = False
+        self.thread.start()
+
+    def _read(self):
+        while not self.stop:
+            try:
+                chunk = os.read(self.fd, 65536)
+            except BlockingIOError:
+                time.sleep(0.005)
+                continue
+            if chunk:
+                self.data += chunk
+            else:
+                time.sleep(0.005)
+
+    def close(self):
+        self.stop = True
+        self.thread.join()
+        os.close(self.fd)
+
+
+def _target(tmp_path, verb, kind, results):
+    args, ext = WRITERS[verb]
+    if verb == "export-kit":
+        folder = tmp_path / "kit"
+        folder.mkdir()
+        target = folder / ext
+        args = [folder if a == "K" else a for a in args]
+    else:
+        target = tmp_path / f"out{ext}"
+        args = [target if a == "T" else a for a in args]
+    args = [results if a == "R" else a for a in args]
+    if kind == "link-to-results":
+        target.symlink_to(results)
+    elif kind == "link-to-other":
+        other = tmp_path / "precious.txt"
+        other.write_text("precious", encoding="utf-8")
+        target.symlink_to(other)
+    elif kind == "hard-link":
+        os.link(results, target)
+    elif kind == "fifo":
+        os.mkfifo(target)
+    elif kind == "device":
+        import stat
+        try:
+            os.mknod(target, stat.S_IFCHR | 0o666, os.makedev(1, 3))  # a /dev/null of its own
+        except (PermissionError, OSError):
+            pytest.skip("making a device node needs root")
+    return args + ["--force"], target
+
+
+@pytest.mark.parametrize("kind", ["link-to-results", "link-to-other", "hard-link", "fifo", "device"])
+@pytest.mark.parametrize("verb", list(WRITERS))
+def test_every_writing_verb_refuses_inputs_links_and_special_files(results, tmp_path, capsys, verb, kind):
+    """Even with --force: never the results file read (through a link or another name), never through a
+    symbolic link, never over a device or a FIFO (a write would block on it, or fill a disk through it)."""
+    before = results.read_bytes()
+    args, target = _target(tmp_path, verb, kind, results)
+    drain = _Drain(target) if kind == "fifo" else None
+    try:
+        code, _, err = cli(capsys, *args)
+    finally:
+        if drain is not None:
+            drain.close()
+    assert code == 2 and err.count("\n") == 1 and err.startswith("explorer: error: "), err
+    assert str(target.name) in err
+    assert results.read_bytes() == before
+    if kind.startswith("link"):
+        assert target.is_symlink()
+    if kind == "link-to-other":
+        assert (tmp_path / "precious.txt").read_text(encoding="utf-8") == "precious"
+    if kind == "fifo":
+        import stat
+        assert stat.S_ISFIFO(os.lstat(target).st_mode) and drain.data == b""
+    assert not [p for p in target.parent.iterdir() if ".tmp" in p.name]
+
+
+def test_force_still_replaces_a_regular_file(results, tmp_path, capsys):
+    for verb in ("plot", "export-svg", "sensitivity"):
+        args, ext = WRITERS[verb]
+        target = tmp_path / f"{verb}{ext}"
+        target.write_text("old", encoding="utf-8")
+        args = [target if a == "T" else results if a == "R" else a for a in args]
+        code, _, err = cli(capsys, *args)
+        assert code == 2 and "file exists; pass --force" in err and target.read_text(encoding="utf-8") == "old"
+        code, _, err = cli(capsys, *args, "--force")
+        assert code == 0, err
+        assert target.read_bytes() != b"old" and not target.is_symlink()
+        assert not [p for p in tmp_path.iterdir() if ".tmp" in p.name]
+
+
+def test_library_writers_replace_a_link_never_follow_it(results, tmp_path):
+    """save_figure and animate (which overwrite, as a Python call asks) write a temporary file renamed into
+    place: a link at the path is replaced, the file it pointed to untouched."""
+    from explorer.view import animate, plot_top, save_figure
+    other = tmp_path / "precious.txt"
+    other.write_text("precious", encoding="utf-8")
+    for name, write in (("fig.png", lambda p: save_figure(plot_top(explorer.open_results(results), top=2), p)),
+                        ("movie.gif", lambda p: animate(explorer.load_mechanism("jansen"), p, frames=3))):
+        link = tmp_path / name
+        link.symlink_to(other)
+        write(link)
+        assert not link.is_symlink() and link.stat().st_size > 0
+        assert other.read_text(encoding="utf-8") == "precious"
+    fifo = tmp_path / "pipe.png"
+    os.mkfifo(fifo)
+    from explorer.errors import UserError
+    with pytest.raises(UserError, match="not a regular file"):
+        save_figure(plot_top(explorer.open_results(results), top=2), fifo)

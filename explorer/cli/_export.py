@@ -147,6 +147,12 @@ def run_kit(args) -> int:
         raise UserError(f"-o: expected a folder name, got {str(args.output)!r}")
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: cannot write the kit: it is a file, not a folder")
+    if out.is_dir():  # the kit's files already there: the verbs' one policy, each (before any work)
+        from ..view._kit import KIT_FILES
+        from ._args import output_path
+        for name in KIT_FILES:
+            if os.path.lexists(out / name):
+                output_path(out / name, args.force, protect=[args.results])
     chosen = args.variant if args.variant is not None else args.variant_opt
     forces: dict[str, float] = {}
     note = ""

@@ -43,6 +43,7 @@ from ..mechanism import Mechanism, load_mechanism
 from ..store import is_results, variant_mechanism
 from ._draw import (ARROW_COLOR, CRANK_COLOR, FOOT_PATH_COLOR, GROUND_COLOR, STANCE_COLOR, LegArtists, draw_ground,
                     draw_path, mirror_positions, mirror_velocity)
+from .._files import write_replacing
 from ._plots import check_output, new_figure
 
 #: Movie formats animate writes, by extension.
@@ -440,20 +441,21 @@ class LinkageAnimation:
             # the same file size on these flat-coloured frames (measured)
             writer = FFMpegWriter(fps=self.fps, codec="h264",
                                   extra_args=["-pix_fmt", "yuv420p", "-preset", "veryfast"])
-        try:
-            with rc_context(rc), writer.saving(self.fig, str(p), dpi=self.dpi):
-                for i in range(self.n_frames):
-                    self.draw_frame(i)
-                    writer.grab_frame()
-                    if progress is not None:
-                        progress(i + 1, self.n_frames)
-        except (subprocess.CalledProcessError, BrokenPipeError, OSError) as exc:
+        def render(tmp):
+            # ffmpeg and Pillow write to a temporary file (same extension) renamed into place: a link at
+            # the path is replaced, never followed, and a failure leaves nothing there
             try:
-                p.unlink()
-            except OSError:
-                pass
-            msg = getattr(exc, "strerror", None) or (str(exc).splitlines() or [type(exc).__name__])[0]
-            raise UserError(f"{p}: cannot write the {fmt.upper()}: {msg}") from None
+                with rc_context(rc), writer.saving(self.fig, str(tmp), dpi=self.dpi):
+                    for i in range(self.n_frames):
+                        self.draw_frame(i)
+                        writer.grab_frame()
+                        if progress is not None:
+                            progress(i + 1, self.n_frames)
+            except (subprocess.CalledProcessError, BrokenPipeError, OSError) as exc:
+                msg = getattr(exc, "strerror", None) or (str(exc).splitlines() or [type(exc).__name__])[0]
+                raise UserError(f"{p}: cannot write the {fmt.upper()}: {msg}") from None
+
+        write_replacing(p, render)
         return Movie(p, self.n_frames, self.fps, time.perf_counter() - t0, self.failure)
 
 

@@ -29,8 +29,6 @@ on the sheet, never turned or mirrored, so the holes of a body sit at its body-f
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -144,22 +142,10 @@ def check_export_path(path, force: bool = False, protect=()) -> Path:
 
 
 def _write(path: Path, write) -> Path:
-    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then rename it onto ``path``."""
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent if str(path.parent) else ".")
-    except OSError as exc:
-        raise UserError(f"{path}: cannot write: {exc.strerror or exc}") from None
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise UserError(f"{path}: cannot write: {exc.strerror or exc}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then rename it onto ``path`` (a link
+    there is replaced, never written through): :func:`explorer._files.write_replacing`."""
+    from .._files import write_replacing
+    return write_replacing(path, write)
 
 
 def export_toml(mech: Mechanism, path, *, force: bool = False, header: str = "") -> Path:

@@ -24,6 +24,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from .._files import write_replacing, writable_kind
 from ..errors import UserError
 from ..gait import (DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_front, rank,
                    screened_mask, select, stance_indices)
@@ -70,21 +71,18 @@ def check_output(path, formats) -> Path:
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise UserError(f"{p}: cannot write: folder {parent} does not exist")
-    if p.is_dir():
-        raise UserError(f"{p}: cannot write: it is a folder")
+    writable_kind(p)  # not a folder, a device, a FIFO or a socket
     if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
         raise UserError(f"{p}: cannot write: permission denied")
     return p
 
 
 def save_figure(fig: Figure, path, dpi: float | None = None) -> Path:
-    """Save ``fig`` to ``path``: PNG, SVG or PDF by its extension (UserError on a bad extension or path)."""
+    """Save ``fig`` to ``path``: PNG, SVG or PDF by its extension (UserError on a bad extension or path).
+    Written to a temporary file renamed into place: a link at ``path`` is replaced, never followed."""
     p = check_output(path, FIGURE_FORMATS)
-    try:
-        fig.savefig(p, format=FIGURE_FORMATS[p.suffix.lower()], dpi=dpi if dpi is not None else "figure")
-    except OSError as exc:
-        raise UserError(f"{p}: cannot write: {exc.strerror or exc}") from None
-    return p
+    fmt = FIGURE_FORMATS[p.suffix.lower()]
+    return write_replacing(p, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi if dpi is not None else "figure"))
 
 
 def _unit(metric: str) -> str:
