@@ -259,3 +259,70 @@ def test_library_writers_replace_a_link_never_follow_it(results, tmp_path):
     from explorer.errors import UserError
     with pytest.raises(UserError, match="not a regular file"):
         save_figure(plot_top(explorer.open_results(results), top=2), fifo)
+
+
+# -- the output lock's race (item 5) -------------------------------------------------------------------------
+STALLED = """
+import sys, time, fcntl
+import explorer.store._lock as lock
+marker, stall = sys.argv[1], float(sys.argv[2])
+
+class Stalled:  # fcntl, with a stall before the first flock (as a busy machine may make)
+    LOCK_EX, LOCK_NB, LOCK_UN = fcntl.LOCK_EX, fcntl.LOCK_NB, fcntl.LOCK_UN
+    calls = 0
+    def flock(self, fd, op):
+        Stalled.calls += 1
+        if Stalled.calls == 1:
+            open(marker, "w").close()
+            time.sleep(stall)
+        return fcntl.flock(fd, op)
+
+lock.fcntl = Stalled()
+from explorer.cli import main
+sys.exit(main(sys.argv[3:]))
+"""
+
+
+def test_a_run_stalled_before_its_flock_does_not_share_the_lock(tmp_path):
+    """Run A opens the lock file, stalls; its owner finishes and removes the file; run C takes a new one. A
+    used to lock the removed file and run beside C (both exit 0, one's results lost): now it sees that the
+    path names another file, tries that one, and stops in one line."""
+    from explorer.store._lock import OutputLock
+    study = tmp_path / "study.toml"
+    study.write_text(SMALL, encoding="utf-8")
+    out, marker = tmp_path / "out.h5", tmp_path / "opened"
+    owner = OutputLock(out).acquire()
+    proc = subprocess.Popen([sys.executable, "-c", STALLED, str(marker), "2.0", "run", str(study), "-o", str(out), "-q"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 120
+        while not marker.exists() and proc.poll() is None and time.time() < deadline:
+            time.sleep(0.01)
+        assert marker.exists(), proc.communicate()[1]
+        owner.release()                      # the first run ends while A stalls
+        other = OutputLock(out).acquire()    # and another starts
+        try:
+            _, err = proc.communicate(timeout=120)
+        finally:
+            other.release()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 2, err
+    assert err.count("\n") == 1 and f"another explorer run (pid {os.getpid()})" in err, err
+    assert not out.exists() and not list(tmp_path.glob(".*lock"))
+
+
+def test_the_lock_is_not_removed_from_under_its_next_owner(tmp_path):
+    from explorer.store._lock import OutputLock, lock_path
+    out = tmp_path / "out.h5"
+    a = OutputLock(out).acquire()
+    os.unlink(lock_path(out))                # removed by hand (or by a run that lost the race)
+    b = OutputLock(out).acquire()            # a new lock file, a new owner
+    a.release()                              # must not remove b's file
+    assert lock_path(out).exists()
+    with pytest.raises(explorer.UserError, match="another explorer run"):
+        OutputLock(out).acquire()
+    b.release()
+    assert not lock_path(out).exists()

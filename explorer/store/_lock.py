@@ -3,7 +3,9 @@
 Two runs started together on one output would otherwise both build the file under temporary names
 and rename it into place, the second silently replacing the first. The lock is ``flock`` on a
 hidden file beside the results (``.NAME.lock``, holding the owner's pid), so it is released by the
-operating system when the process dies, kill -9 included; the file is removed when the run ends.
+operating system when the process dies, kill -9 included; the file is removed when the run ends. A run
+that opened the file just before its owner removed it would lock a file nobody else can find, so after
+``flock`` a run checks that the path still names the file it locked, and starts again if not.
 Where ``fcntl`` does not exist (Windows) no lock is taken.
 """
 
@@ -37,31 +39,52 @@ class OutputLock:
     def acquire(self) -> "OutputLock":
         if fcntl is None:
             return self
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            fd = os.open(self.file, os.O_RDWR | os.O_CREAT, 0o644)
-        except OSError as exc:
-            raise UserError(f"{self.path}: cannot create the results file (nor its lock {self.file.name}): "
-                            f"{exc.strerror or exc}") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        for _ in range(100):
+            fd = self._open()
             try:
-                holder = os.read(fd, 64).decode(errors="replace").strip() or "?"
-            finally:
-                os.close(fd)
-            raise UserError(f"{self.path}: another explorer run (pid {holder}) is writing this file; wait for it to "
-                            f"finish or choose another output with -o") from None
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                try:
+                    holder = os.read(fd, 64).decode(errors="replace").strip() or "?"
+                finally:
+                    os.close(fd)
+                raise UserError(f"{self.path}: another explorer run (pid {holder}) is writing this file; wait for it "
+                                f"to finish or choose another output with -o") from None
+            if self._current(fd):
+                break
+            # the lock file was removed (its run ended) between our open and our flock: a lock on it
+            # excludes nobody (the next run makes a new file), so take the lock on the file there now
+            os.close(fd)
+        else:  # pragma: no cover - a lock file replaced a hundred times in a row
+            raise UserError(f"{self.path}: cannot take the lock {self.file.name}: it keeps being replaced")
         os.ftruncate(fd, 0)
         os.write(fd, str(os.getpid()).encode())
         self.fd = fd
         return self
 
+    def _open(self) -> int:
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            return os.open(self.file, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise UserError(f"{self.path}: cannot create the results file (nor its lock {self.file.name}): "
+                            f"{exc.strerror or exc}") from None
+
+    def _current(self, fd: int) -> bool:
+        """Whether the lock file's path still names the file ``fd`` is open on."""
+        try:
+            st = os.stat(self.file)
+        except OSError:
+            return False
+        mine = os.fstat(fd)
+        return (st.st_dev, st.st_ino) == (mine.st_dev, mine.st_ino)
+
     def release(self) -> None:
         if self.fd is None:
             return
         try:
-            self.file.unlink(missing_ok=True)  # unlinked while held: the next run makes a fresh one
+            if self._current(self.fd):  # removed while held: a run that opened it meanwhile sees it gone
+                self.file.unlink()      # after its flock (acquire checks) and makes a fresh one
         except OSError:
             pass
         os.close(self.fd)
