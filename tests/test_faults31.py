@@ -326,3 +326,19 @@ def test_the_lock_is_not_removed_from_under_its_next_owner(tmp_path):
         OutputLock(out).acquire()
     b.release()
     assert not lock_path(out).exists()
+
+
+# -- inputs that gave tracebacks (item 7) ---------------------------------------------------------------------
+def test_a_nul_byte_in_a_path_is_one_line(results, tmp_path, capsys):
+    study = tmp_path / "study.toml"
+    study.write_text(SMALL + '[output]\npath = "out\\u0000.h5"\n', encoding="utf-8")
+    code, _, err = cli(capsys, "run", study)
+    assert code == 2 and err.count("\n") == 1 and "NUL byte" in err, err
+    study.write_text(SMALL.replace('"jansen"', '"leg\\u0000.toml"'), encoding="utf-8")
+    code, _, err = cli(capsys, "run", study, "-o", tmp_path / "x.h5")
+    assert code == 2 and err.count("\n") == 1 and "\x00" not in err and "leg\\x00.toml" in err, err
+    for args in (["run", tmp_path / "s.toml", "-o", "x\0.h5"], ["plot", results, "--top", "2", "-o", "a\0.png"],
+                 ["export", results, "0", "--format", "svg", "-o", "x\0.svg"], ["show", "r\0.h5", "0"]):
+        code, _, err = cli(capsys, *args)
+        assert code == 2 and err.count("\n") == 1 and "\x00" not in err, (args, err)
+    assert not list(tmp_path.glob("x*"))

@@ -122,6 +122,13 @@ def _catch_signals(command: bool):
     return previous
 
 
+def _one_line(text: str) -> str:
+    """A message as one line: newlines become spaces, other control characters (a NUL, an escape
+    sequence from a name in a file) are shown escaped, not sent to the terminal."""
+    text = " ".join(text.split("\n")).strip()
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)
+
+
 def _interrupted(exc: KeyboardInterrupt) -> int:
     terminated = isinstance(exc, Terminated) or type(exc).__name__ == "Terminated"
     word = "terminated" if terminated else "interrupted"
@@ -155,8 +162,7 @@ def main(argv=None) -> int:
                 _Stop.stopping = True
             raise
     except UserError as exc:
-        msg = " ".join(str(exc).split("\n")).strip()
-        print(f"explorer: error: {msg}", file=sys.stderr)
+        print(f"explorer: error: {_one_line(str(exc))}", file=sys.stderr)
         return getattr(exc, "exit_code", 2)
     except KeyboardInterrupt as exc:
         return _interrupted(exc)
@@ -171,6 +177,11 @@ def main(argv=None) -> int:
         print(f"explorer: error: {what[:400]}", file=sys.stderr)
         return 2
     except Exception as exc:
+        if isinstance(exc, ValueError) and "embedded null byte" in str(exc):  # a path from an input file
+            given = [a for a in (sys.argv[1:] if argv is None else argv) if "\0" in str(a)]
+            what = f"{given[0]!r}: " if given else "a path in the study or mechanism file: "
+            print(f"explorer: error: {what}a file name cannot hold a NUL byte", file=sys.stderr)
+            return 2
         if not _from_h5py(exc):
             raise  # a bug: its traceback is what a report needs
         what = " ".join(str(exc).split()) or type(exc).__name__
