@@ -342,3 +342,38 @@ def test_a_nul_byte_in_a_path_is_one_line(results, tmp_path, capsys):
         code, _, err = cli(capsys, *args)
         assert code == 2 and err.count("\n") == 1 and "\x00" not in err, (args, err)
     assert not list(tmp_path.glob("x*"))
+
+
+def _jansen_text():
+    from importlib import resources
+    return (resources.files("explorer.mechanism") / "builtin" / "jansen.toml").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("old,new,key", [('name = "jansen"', 'name = "jan\\u0001sen"', "name"),
+                                         ('name = "jansen"', 'name = "jan\\u001b[31msen"', "name"),
+                                         ('description = "', 'description = "\\u0007', "description"),
+                                         ('"2" = [-38.0, -7.8]', '"2\\n" = [-38.0, -7.8]', "fixed.2")])
+def test_a_control_character_in_a_name_is_refused_at_load(tmp_path, capsys, old, new, key):
+    mech = tmp_path / "leg.toml"
+    text = _jansen_text()
+    assert old in text
+    mech.write_text(text.replace(old, new, 1), encoding="utf-8")
+    with pytest.raises(explorer.UserError, match=f"leg.toml: {key}"):
+        explorer.load_mechanism(mech)
+    code, _, err = cli(capsys, "export", mech, "--format", "kit", "-o", tmp_path / "kit")
+    assert code == 2 and err.count("\n") == 1 and f"leg.toml: {key}" in err, err
+    assert "\x1b" not in err and "\x07" not in err and "\x01" not in err
+    assert not (tmp_path / "kit").exists()
+
+
+@pytest.mark.filterwarnings("ignore:Glyph")
+def test_svg_is_well_formed_whatever_a_name_holds(tmp_path):
+    """A Mechanism built in Python is not checked by the loader: the SVG writers keep the XML well-formed."""
+    import dataclasses
+    import xml.dom.minidom
+    from explorer.view import build_kit, export_svg, write_kit
+    mech = dataclasses.replace(explorer.load_mechanism("jansen"), name="jan\x01sen\x1b")
+    export_svg(mech, tmp_path / "parts.svg")
+    xml.dom.minidom.parse(str(tmp_path / "parts.svg"))
+    write_kit(build_kit(mech), tmp_path / "kit")
+    xml.dom.minidom.parse(str(tmp_path / "kit" / "parts.svg"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+import unicodedata
 from importlib import resources
 from pathlib import Path
 
@@ -86,7 +87,18 @@ def _point(source: str, key: str, value) -> tuple[float, float]:
 def _string(source: str, key: str, value) -> str:
     if not isinstance(value, str) or not value:
         raise UserError(f"{where(source, key)}: expected a non-empty string, got {value!r}")
+    _printable(source, key, value)
     return value
+
+
+def _printable(source: str, key: str, value: str, allowed: str = "") -> None:
+    """UserError if ``value`` holds a control character (other than those ``allowed``) or a character that
+    XML cannot hold: names are printed, and written into SVG, DXF and HTML files."""
+    for c in value:
+        if c not in allowed and (unicodedata.category(c) in ("Cc", "Cs") or c in "\ufffe\uffff"):
+            raise UserError(f"{where(source, key)}: {value!r} holds the control character U+{ord(c):04X}; names "
+                            f"and descriptions must be printable (they are shown, and written into SVG, DXF and "
+                            f"HTML files)")
 
 
 def _table(source: str, key: str, value) -> dict:
@@ -116,6 +128,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     description = data.get("description", "")
     if not isinstance(description, str):
         raise UserError(f"{where(source, 'description')}: expected a string, got {description!r}")
+    _printable(source, "description", description, allowed="\n\t")
 
     crank, path = (_crank(source, data["crank"]), None) if "crank" in data else (None, _driver(source, data["driver"]))
     tip = crank.tip if crank is not None else path.vertex
@@ -129,7 +142,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     }
     for key, names in (("fixed", fixed), ("guess", guess), ("crank.tip" if crank is not None else "driver.vertex", [tip])):
         for v in names:
-            if not NAME_RE.match(v):
+            if not NAME_RE.fullmatch(v):
                 k = key if key in ("crank.tip", "driver.vertex") else f"{key}.{v}"
                 raise UserError(f"{where(source, k)}: vertex name {v!r} must be 1 to 64 letters, digits or _ . + - "
                                 f"(it names datasets in results files)")
@@ -167,7 +180,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         if a == b:
             raise UserError(f"{where(source, key)}: link joins vertex {a!r} to itself")
         lname = _string(source, f"{key}.name", lt.get("name", f"{a}-{b}"))
-        if not NAME_RE.match(lname):
+        if not NAME_RE.fullmatch(lname):
             raise UserError(f"{where(source, f'{key}.name')}: link name {lname!r} must be 1 to 64 letters, digits or "
                             f"_ . + - (it names a column of results)")
         length = _check_length(source, f"{key}.length", lt["length"])
@@ -223,7 +236,7 @@ def _bodies(source: str, raw, known: set, fixed: dict, seen_pairs: dict, seen_na
             if k not in bt:
                 raise UserError(f"{where(source, f'{key}.{k}')}: missing required key")
         bname = _string(source, f"{key}.name", bt["name"])
-        if not NAME_RE.match(bname) or "." in bname:
+        if not NAME_RE.fullmatch(bname) or "." in bname:
             raise UserError(f"{where(source, f'{key}.name')}: body name {bname!r} must be 1 to 64 letters, digits or "
                             f"_ + - (no '.': it names parameters such as {bname}.P.x)")
         if bname in seen_names:

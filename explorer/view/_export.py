@@ -29,6 +29,7 @@ on the sheet, never turned or mirrored, so the holes of a body sit at its body-f
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -429,6 +430,25 @@ def _f(x: float) -> str:
     return "0" if s in ("-0", "") else s
 
 
+#: characters XML 1.0 cannot hold, escaped or not (C0 controls but tab, newline and return; surrogates;
+#: U+FFFE and U+FFFF)
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+
+
+def xml_safe(root) -> None:
+    """Replace, in every text and attribute of the ElementTree ``root``, the characters XML cannot hold by
+    U+FFFD, so that the document is well-formed whatever a name holds (the mechanism loader refuses such
+    names; a Mechanism built in Python is not checked)."""
+    for el in root.iter():
+        for attr in ("text", "tail"):
+            v = getattr(el, attr)
+            if v and _NOT_XML.search(v):
+                setattr(el, attr, _NOT_XML.sub("\ufffd", v))
+        for k, v in el.attrib.items():
+            if _NOT_XML.search(v):
+                el.attrib[k] = _NOT_XML.sub("\ufffd", v)
+
+
 def svg_text(sheet: Sheet) -> str:
     """The sheet as an SVG document: width and height in mm, viewBox in mm (1 user unit = 1 mm, y down,
     so a point (x, y) of the sheet is drawn at (x, H − y)); one ``<g class="part" data-part=NAME>`` per
@@ -457,6 +477,7 @@ def svg_text(sheet: Sheet) -> str:
                                       "font-family": "sans-serif", "font-size": _f(sheet.text_height),
                                       "fill": LABEL_COLOR})
         t.text = part.name
+    xml_safe(root)
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 
 from ..errors import UserError
-from ._export import CRANK_CENTRE, CUT_COLOR, LABEL_COLOR, STROKE_MM, _f, _hull, _outline, svg_path
+from ._export import CRANK_CENTRE, CUT_COLOR, LABEL_COLOR, STROKE_MM, _f, _hull, _outline, svg_path, xml_safe
 
 #: mm between two parts on a sheet (kerf and a margin), and between the parts and the sheet's edges.
 GAP, MARGIN = 3.0, 5.0
@@ -274,6 +274,7 @@ def svg_text(kit) -> str:
                                                "stroke": LABEL_COLOR, "stroke-width": "0.3"})
             else:
                 text(gs, m, dx, "title")
+    xml_safe(root)
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
