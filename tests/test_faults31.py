@@ -377,3 +377,16 @@ def test_svg_is_well_formed_whatever_a_name_holds(tmp_path):
     xml.dom.minidom.parse(str(tmp_path / "parts.svg"))
     write_kit(build_kit(mech), tmp_path / "kit")
     xml.dom.minidom.parse(str(tmp_path / "kit" / "parts.svg"))
+
+
+def test_where_powers_are_exact_where_finite():
+    import numpy as np
+    import pandas as pd
+    from explorer.gait._filter import evaluate_filter
+    df = pd.DataFrame({"x": [1e64, 1e100, 2e100, 1.0]})
+    assert evaluate_filter(df, "x == 10**100").tolist() == [False, True, False, False]
+    assert evaluate_filter(df, "x >= 10**100").tolist() == [False, True, True, False]
+    assert evaluate_filter(df, "x < 2**-1074 * 10**400").all()           # 10**400 overflows to inf
+    assert not evaluate_filter(df, "x < 10**-400").any()                  # underflows to 0
+    assert evaluate_filter(df, "10**10**10 > x").all()                    # inf, at once
+    assert evaluate_filter(df, "x > -(10**(3*100))").all() and np.isfinite(1e300)
