@@ -390,3 +390,22 @@ def test_where_powers_are_exact_where_finite():
     assert not evaluate_filter(df, "x < 10**-400").any()                  # underflows to 0
     assert evaluate_filter(df, "10**10**10 > x").all()                    # inf, at once
     assert evaluate_filter(df, "x > -(10**(3*100))").all() and np.isfinite(1e300)
+
+
+def test_show_and_report_say_when_a_metric_is_not_one_per_variant(results, tmp_path, capsys):
+    import shutil
+
+    import h5py
+    import numpy as np
+    path = tmp_path / "wide.h5"
+    shutil.copy(results, path)
+    with h5py.File(path, "r+") as f:
+        f["metrics/wide"] = np.zeros((f["status"].shape[0], 2))
+    seal = getattr(explorer.store, "seal", None)
+    if seal is not None:
+        seal(path)  # edited on purpose: re-checksummed
+    code, out, err = cli(capsys, "show", path, "0")
+    assert code == 0 and err.count("\n") == 1, err
+    assert "warning" in err and "metrics/wide has shape (6, 2), not (6,)" in err and "ignored" in err
+    code, out, err = cli(capsys, "report", path, "-o", tmp_path / "r.html")
+    assert code == 0 and "metrics/wide has shape (6, 2), not (6,)" in err, err

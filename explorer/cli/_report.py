@@ -78,6 +78,8 @@ def run(args) -> int:
             raise UserError(f"{name}: expected a whole number >= {least}, got {value}")
     output_path(out, args.force, protect=[args.results])  # the verbs' one policy, before any work
     with open_results(args.results) as res:
+        from ._show import warn_ignored_metrics
+        warn_ignored_metrics(res)
         rep = write_report(res, out, force=args.force, metrics=args.metrics, max_designs=args.max_designs,
                            paths=args.paths, shown=args.shown, points=args.points, seed=args.seed, x=x, y=y, pc_lines=args.lines,
                            vs=args.vs, units=args.units)

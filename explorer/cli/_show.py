@@ -4,6 +4,7 @@ pivots, ...) against the nominal, its metrics and ranks, its status."""
 from __future__ import annotations
 
 import math
+import sys
 
 from ._args import add_variant_arguments, chosen_variant, parse_variant
 from ._rank import add_yield_arguments, yields
@@ -102,12 +103,28 @@ def _robustness_lines(res, args, v: int, ref: int, row, ref_row) -> list[str]:
     return out
 
 
+def warn_ignored_metrics(res) -> None:
+    """One line on stderr per dataset under /metrics that is not one value per variant (shape (N,)): the
+    results reader leaves it out of every frame, which a verb showing "each stored metric" must not do
+    silently."""
+    g = res.file.get("metrics")
+    if g is None:
+        return
+    for key in g.keys():
+        shape = getattr(g[key], "shape", None)
+        if shape != (res.n_variants,):
+            what = f"has shape {shape}" if shape is not None else "is not a dataset"
+            print(f"explorer: warning: {res.filename}: metrics/{key} {what}, not ({res.n_variants},) (one value per "
+                  f"variant): ignored", file=sys.stderr)
+
+
 def run(args) -> int:
     from ..gait import DEFAULT_WEIGHTS, METRICS, SPEED, metric, operating_line, verdict
     from ..store import open_results
 
     chosen = chosen_variant(args, "show", "explorer show RESULTS VARIANT (or --variant N)")
     with open_results(args.results) as res:  # every figure below is a Results call; this verb only formats
+        warn_ignored_metrics(res)
         name, n = res.filename, res.n_variants
         v = parse_variant(chosen, n, name)
         df = res.frame()
