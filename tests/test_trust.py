@@ -338,3 +338,161 @@ def test_simulate_batch_takes_parameters_by_name():
         np.testing.assert_array_equal(got.paths["7"], ref.paths["7"])
     with pytest.raises(UserError, match="no column for link '1-3'"):
         explorer.simulate_batch(m, df.drop(columns="1-3"), None, 24)
+
+
+# -- a disk that fills before the first commit (issue 31 item 2) --------------------------------------------------
+DISK_STUDY = ('[study]\nname = "dfull"\nmechanism = "jansen"\nvariants = 1500\nsteps = 72\n'
+              '[scene]\nmetrics = true\n')
+
+
+def _run_cli(args, prelude=""):
+    import subprocess
+    import sys
+    code = (f"import sys\n{prelude}\nfrom explorer.cli import main\n"
+            f"sys.exit(main({[str(a) for a in args]!r}))")
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("reserve", [True, False])
+def test_a_disk_that_fills_before_the_first_commit_is_resumable(tmp_path, reserve):
+    """A real full disk: an 8 MB tmpfs (mounted where the test may; skipped otherwise), a filler file
+    written after the run's start checks (as another writer would) leaving ~300 kB, so the first
+    commit cannot fit. reserve=True: the commit's space is reserved before it is written (fallocate),
+    so the run stops before writing anything: one line, exit 2, the file intact. reserve=False: as on
+    a filesystem without fallocate (it is made to fail) and with the free-space check fooled, HDF5
+    itself hits ENOSPC in the middle of the first commit and leaves a file no one can read; the
+    resume starts it over (nothing was committed). Either way, once the filler is deleted,
+    ``--resume`` finishes it, and the result equals an uninterrupted run."""
+    import subprocess
+    disk = tmp_path / "small"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8m", "tmpfs", str(disk)], capture_output=True,
+                             text=True)
+    if mounted.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here ({mounted.stderr.strip() or 'mount failed'})")
+    try:
+        study = tmp_path / "dfull.toml"
+        study.write_text(DISK_STUDY, encoding="utf-8")
+        out = disk / "dfull.h5"
+        filler = disk / "filler"
+        # the start checks pass (the disk is empty), then another writer fills it before the first commit
+        prelude = (f"import os, shutil\nimport explorer.study._run as run\nreal = run.chunk_solver\n"
+                   f"def solver(study):\n    solve = real(study)\n"
+                   f"    def first(a, b):\n        if not os.path.exists({str(filler)!r}):\n"
+                   f"            st = os.statvfs({str(disk)!r})\n            free = st.f_bavail * st.f_frsize\n"
+                   f"            with open({str(filler)!r}, 'wb') as fh:\n"
+                   f"                fh.write(bytes(free - 300_000))\n"
+                   f"        return solve(a, b)\n    return first\nrun.chunk_solver = solver\n")
+        if not reserve:
+            prelude += ("import explorer.store._write as w\nimport errno\nw._fallocate = lambda *a, **k: errno.ENOTSUP\n"
+                        "import shutil, collections\nU = collections.namedtuple('U', 'total used free')\n"
+                        "shutil.disk_usage = lambda p: U(1 << 40, 0, 1 << 40)\n")
+        p = _run_cli(["run", study, "-o", out, "-q"], prelude)
+        assert p.returncode == 2, (p.returncode, p.stderr)
+        assert p.stderr.count("\n") == 1 and "disk is full" in p.stderr and "--resume" in p.stderr, p.stderr
+        if reserve:
+            assert "no chunk was committed yet" in p.stderr, p.stderr
+            with explorer.open_results(out) as r:  # the file is as it was created: intact, nothing run
+                assert not r.complete and r.status_counts()["not-run"] == 1500
+        assert not list(disk.glob(".*partial")) and not list(disk.glob(".*lock"))
+        filler.unlink()  # space freed
+        assert main(["run", str(study), "-o", str(out), "--resume", "-q"]) == 0
+        ref = tmp_path / "ref.h5"
+        assert main(["run", str(study), "-o", str(ref), "-q"]) == 0
+        import h5py
+        with explorer.open_results(out) as r, explorer.open_results(ref) as s:
+            assert r.complete and r.frame().equals(s.frame())
+        with h5py.File(out, "r") as a, h5py.File(ref, "r") as b:
+            assert a["paths/7"][...].tobytes() == b["paths/7"][...].tobytes()
+            assert a["chunks/digest"][...].tobytes() == b["chunks/digest"][...].tobytes()
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)
+
+
+def test_a_full_disk_at_the_first_commit_stops_cleanly_and_resumes(tmp_path, monkeypatch):
+    """Simulated (runs everywhere): the space reservation of the first commit fails with ENOSPC, as
+    fallocate(2) answers on a full disk. Nothing of the commit is written, the error is one line
+    saying so, and --resume (space freed: the reservation works again) finishes the file."""
+    import errno
+
+    import explorer.store._write as w
+    study = tmp_path / "d.toml"
+    study.write_text(DISK_STUDY.replace("1500", "40").replace("72", "24"), encoding="utf-8")
+    out = tmp_path / "d.h5"
+    monkeypatch.setattr(w, "_fallocate", lambda *a, **k: errno.ENOSPC)
+    with pytest.raises(UserError, match="the disk is full: committing chunk 1 of 1 needs up to .* no chunk was "
+                                        "committed yet: free some space and run again with --resume") as info:
+        explorer.run_study(study, output=out, progress=False)
+    assert "\n" not in str(info.value)
+    with explorer.open_results(out) as r:
+        assert not r.complete and r.status_counts()["not-run"] == 40
+    monkeypatch.undo()
+    s = explorer.run_study(study, output=out, resume=True, progress=False)
+    assert s.resumed and s.ran == 40
+    with explorer.open_results(out) as r:
+        assert r.complete and r.status_counts().get("not-run", 0) == 0
+
+
+def test_a_write_that_fails_in_the_first_commit_is_started_over_by_resume(tmp_path, monkeypatch):
+    """Simulated: h5py's write of the first commit raises OSError(ENOSPC) (what a full disk does where
+    space cannot be reserved). No chunk was committed, so --resume starts the file over."""
+    import errno
+
+    import h5py
+    study = tmp_path / "d.toml"
+    study.write_text(DISK_STUDY.replace("1500", "40").replace("72", "24"), encoding="utf-8")
+    out = tmp_path / "d.h5"
+    real = h5py.Dataset.__setitem__
+
+    def full(self, key, value):
+        if self.name.startswith("/paths"):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, key, value)
+
+    monkeypatch.setattr(h5py.Dataset, "__setitem__", full)
+    with pytest.raises(OSError):
+        explorer.run_study(study, output=out, progress=False)
+    monkeypatch.undo()
+    s = explorer.run_study(study, output=out, resume=True, progress=False)
+    assert s.resumed and s.ran == 40
+    with explorer.open_results(out) as r:
+        assert r.complete and r.status_counts().get("not-run", 0) == 0
+
+
+def test_resume_demands_only_the_room_still_needed(tmp_path, monkeypatch):
+    """A run with 3 of 4 chunks committed needs room for one more chunk only, not for the whole study."""
+    import shutil
+    from collections import namedtuple
+
+    import h5py
+
+    from explorer.study._output import _check_disk_space, estimated_bytes
+    study = explorer.load_study({"study": {"name": "r", "mechanism": "jansen", "variants": 64, "steps": 24}})
+    out = tmp_path / "r.h5"
+    explorer.run_study(study, output=out, progress=False, chunk_size=16)
+    with h5py.File(out, "r+") as f:  # as if killed after three commits
+        f["chunks/done"][3] = False
+    whole = estimated_bytes(study)
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(1 << 40, 0, whole // 2))
+    with pytest.raises(UserError, match="would write up to"):
+        _check_disk_space(study, out)                     # a fresh run: the whole study
+    _check_disk_space(study, out, resume=True)            # a resume: the 16 variants left fit
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(1 << 40, 0, 1000))
+    with pytest.raises(UserError, match="the 16 variants not yet committed"):
+        _check_disk_space(study, out, resume=True)
+
+
+def test_the_size_estimate_bounds_small_files(tmp_path):
+    """The start check's estimate is an upper bound of the file even for tiny studies (it used to be
+    1.3x-69x under: it counted the data only)."""
+    import os
+
+    from explorer.study._output import estimated_bytes
+    for n, steps in ((1, 36), (20, 36), (100, 72)):
+        study = explorer.load_study({"study": {"name": "e", "mechanism": "jansen", "variants": n, "steps": steps},
+                                     "scene": {"metrics": True}})
+        out = tmp_path / f"e{n}.h5"
+        explorer.run_study(study, output=out, progress=False)
+        assert os.path.getsize(out) <= estimated_bytes(study), n

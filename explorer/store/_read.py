@@ -106,6 +106,7 @@ class Results:
         self.geometry_names = tuple(_text(s) for s in g.attrs["names"]) if g is not None else ()
         self.vertices = tuple(f["paths"].keys()) if "paths" in f else ()
         self._mech = None
+        _check_shapes(f, filename, self.n_variants)
 
     # -- metadata --------------------------------------------------------------------------------------
     @property
@@ -427,6 +428,30 @@ class Results:
     def __repr__(self) -> str:
         state = "complete" if self.complete else "incomplete"
         return f"<Results {self.filename} ({self.n_variants} variants × {self.steps} steps, {state})>"
+
+
+def _check_shapes(f: h5py.File, filename, n: int) -> None:
+    """UserError unless every per-variant dataset has N rows and /status holds only known codes: what a
+    file without checksums (an earlier version's) can still be checked for (issue 31 item 7: a damaged
+    n_variants or status value used to be a traceback)."""
+    if n < 0:
+        raise UserError(f"{filename}: not a readable explorer results file (damaged: n_variants = {n})")
+    bad = []
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and not name.startswith(("chunks", "metrics_partial")) and name != "theta" \
+                and obj.ndim >= 1 and obj.shape[0] != n:
+            bad.append(f"/{name} has {obj.shape[0]} rows")
+
+    f.visititems(visit)
+    if bad or "status" not in f:
+        what = bad[0] if bad else "/status is missing"
+        raise UserError(f"{filename}: not a readable explorer results file (damaged: n_variants = {n} but {what})")
+    codes = np.unique(f["status"][...])
+    unknown = [int(c) for c in codes if int(c) not in FILE_STATUS_NAMES]
+    if unknown:
+        raise UserError(f"{filename}: not a readable explorer results file (damaged: /status holds code "
+                        f"{unknown[0]}, which no run writes)")
 
 
 def _ranked_columns(by, weights, pareto) -> list[str]:

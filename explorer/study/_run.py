@@ -62,7 +62,13 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
 def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chunk_size, t0: float) -> RunSummary:
     resumed = False
     if out.exists():
-        if resume:
+        if resume and _nothing_committed(out, study) is not None:
+            # a run stopped before its first commit (a disk that filled, a kill) holds no result: it is
+            # started over, whatever state its first commit left it in (a failed write can leave the
+            # chunk index pointing past the end of the file, unreadable and unwritable)
+            writer = ResultsWriter.create(out, study, _nothing_committed(out, study), exact_rows=True)
+            resumed = True
+        elif resume:
             writer = ResultsWriter.resume(out, study)
             resumed = True
             if writer.complete:
@@ -111,6 +117,25 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
             writer.close()
     return RunSummary(out, study.name, study.n_variants, study.steps, ran, counts, time.perf_counter() - t0,
                       resumed=resumed)
+
+
+def _nothing_committed(out: Path, study) -> int | None:
+    """The chunk rows of ``out`` if it is a results file of ``study`` (its format and fingerprint) with
+    no chunk committed, else None. Only the root attributes, ``/chunks`` and ``/chunks/done`` are read."""
+    import h5py
+    import numpy as np
+
+    from ..store import FORMAT
+    try:
+        with h5py.File(out, "r") as f:
+            if f.attrs.get("format") != FORMAT or f.attrs.get("study_fingerprint") != study.fingerprint():
+                return None
+            if np.asarray(f["chunks/done"][...], dtype=bool).any():
+                return None
+            rows = int(f["chunks"].attrs["rows"])
+            return rows if 1 <= rows <= study.n_variants else None
+    except Exception:  # noqa: BLE001 - unreadable: ResultsWriter.resume says why
+        return None
 
 
 #: Commit chunks on a background thread while the next chunk is solved (h5py releases the GIL while
