@@ -91,11 +91,16 @@ def _string(source: str, key: str, value) -> str:
     return value
 
 
-def _printable(source: str, key: str, value: str, allowed: str = "") -> None:
-    """UserError if ``value`` holds a control character (other than those ``allowed``) or a character that
-    XML cannot hold: names are printed, and written into SVG, DXF and HTML files."""
+def _printable(source: str, key: str, value: str, text: bool = False) -> None:
+    """UserError if ``value`` holds a control character or a character that XML cannot hold: names are
+    printed, and written into SVG, DXF and HTML files. A ``text`` (the description) may hold tab, newline
+    and the controls XML allows (DEL, C1); a name none."""
     for c in value:
-        if c not in allowed and (unicodedata.category(c) in ("Cc", "Cs") or c in "\ufffe\uffff"):
+        if text and (c in "\t\n\r" or ord(c) >= 0x7F):
+            bad = unicodedata.category(c) == "Cs" or c in "\ufffe\uffff"
+        else:
+            bad = unicodedata.category(c) in ("Cc", "Cs") or c in "\ufffe\uffff"
+        if bad:
             raise UserError(f"{where(source, key)}: {value!r} holds the control character U+{ord(c):04X}; names "
                             f"and descriptions must be printable (they are shown, and written into SVG, DXF and "
                             f"HTML files)")
@@ -128,7 +133,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     description = data.get("description", "")
     if not isinstance(description, str):
         raise UserError(f"{where(source, 'description')}: expected a string, got {description!r}")
-    _printable(source, "description", description, allowed="\n\t")
+    _printable(source, "description", description, text=True)
 
     crank, path = (_crank(source, data["crank"]), None) if "crank" in data else (None, _driver(source, data["driver"]))
     tip = crank.tip if crank is not None else path.vertex
