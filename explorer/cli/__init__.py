@@ -37,7 +37,8 @@ def _is_the_command() -> bool:
 #: Signals (SIGINT, SIGTERM) that arrived while the command was still loading, before ``main``: they are
 #: held, not raised inside an import, and ``main`` reports them as it starts (exit 130 or 143).
 _EARLY: list[int] = []
-if _is_the_command():  # first thing, so that a SIGTERM in the start-up is not a plain kill
+_COMMAND = _is_the_command()
+if _COMMAND:  # first thing, so that a SIGTERM in the start-up is not a plain kill
     for _sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(_sig, lambda signum, frame: _EARLY.append(signum))
 
@@ -141,7 +142,8 @@ def _interrupted(exc: KeyboardInterrupt) -> int:
 def main(argv=None) -> int:
     """Entry point of the ``explorer`` command; returns the exit code (0 ok, 2 user error, 130 Ctrl-C,
     143 SIGTERM)."""
-    command = argv is None and threading.current_thread() is threading.main_thread()
+    # the command itself (not a program calling main, which keeps its own signal handling afterwards)
+    command = argv is None and _COMMAND and threading.current_thread() is threading.main_thread()
     hook = sys.unraisablehook
     previous = None
     try:
