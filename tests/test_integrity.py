@@ -159,9 +159,28 @@ def fuzz(path, capsys, tmp, per_region: int, seed: int, verbs_always: bool) -> d
     return stats
 
 
-def test_quick_fuzz_every_region(files, capsys, tmp_path):
-    """A sample (the default run, < 10 s): every region of the lzf file, a few bytes each."""
-    stats = fuzz(files["lzf"], capsys, tmp_path, per_region=2, seed=1, verbs_always=False)
+def known_weak_bytes(path) -> dict[str, int]:
+    """Bytes the issue found to give numbers from a damaged file before checksums: a chunk-index key of
+    a metric, the study's resolved text (screen thresholds), the nominal design, /theta."""
+    data = path.read_bytes()
+    with h5py.File(path, "r") as f:
+        key = data.find(f["metrics/stride"].id.get_chunk_info(0).byte_offset.to_bytes(8, "little")) - 16
+        theta = f["theta"].id.get_offset() + 8 * 3
+        nominal = data.find(np.asarray(f["variants/lengths"].attrs["nominal"]).tobytes()) + 8 * 2 + 6
+        resolved = data.find(b'"spread"') + 12
+    assert min(key, theta, nominal, resolved) > 0
+    return {"chunk-index key": key, "/theta": theta, "nominal attribute": nominal, "study_resolved": resolved}
+
+
+def test_quick_fuzz_every_region(files, capsys, tmp_path, monkeypatch):
+    """A sample (the default run, < 10 s): every region of the lzf file, one byte each, plus the bytes
+    the issue found weak (each changed in its low bits, the way a value drifts rather than breaks)."""
+    path = files["lzf"]
+    weak = known_weak_bytes(path)
+    real_regions = regions
+    monkeypatch.setitem(globals(), "regions", lambda p: {**real_regions(p),
+                                                           **{k: [(v, v + 1)] for k, v in weak.items()}})
+    stats = fuzz(path, capsys, tmp_path, per_region=1, seed=1, verbs_always=False)
     assert all(n > 0 for n in stats["regions"].values()), stats["regions"]
     assert stats["wrong"] == [], stats["wrong"]
     assert stats["refused"] > 0
