@@ -212,6 +212,8 @@ def test_sensitivity_refuses_a_file_that_names_no_sampling(tmp_path, capsys):
         study = json.loads(f.attrs["study_resolved"])
         del study["perturb"]
         f.attrs["study_resolved"] = json.dumps(study)
+    from explorer.store import seal
+    seal(path)  # an edit on purpose: the file's checksums follow it
     code, out, err = cli(capsys, "sensitivity", path, "--metrics", "travel")
     one_line_error(code, err, str(path), "no sample of the design space")
 
