@@ -170,3 +170,15 @@ def test_forces_are_solved_in_chunks_that_fit():
     rows = _simulate.force_chunk(360, 1001)
     assert 1 <= rows < _simulate.FORCE_CHUNK and rows * 360 * 1001 * 16 <= _simulate.FORCE_MEMORY
     assert _simulate.force_chunk(360, 10**7) == 1
+
+
+def test_a_study_refused_for_memory_writes_no_file(monkeypatch, tmp_path):
+    """A dense study that cannot fit is refused before its results file is made (it used to leave an empty
+    file behind)."""
+    study = {"study": {"name": "big", "mechanism": "jansen", "variants": 3, "steps": 12, "method": "dense"},
+             "perturb": {"spread": 0.01}}
+    monkeypatch.setattr(_simulate, "available_memory", lambda: 10)
+    out = tmp_path / "big.h5"
+    with pytest.raises(UserError, match="method 'dense'"):
+        explorer.run_study(study, output=out, progress=False)
+    assert not out.exists()

@@ -7,9 +7,10 @@ guard_cache()  # before any kernel is loaded from the on-disk cache
 from ._blocks import lu_solve  # noqa: E402
 from ._legs import ground_contact, leg_feet, leg_samples  # noqa: E402
 from ._rows import parallel_rows  # noqa: E402
+from ._simulate import check_dense  # noqa: E402
 from ._simulate import (DEFAULT_TOLERANCE, METHODS, TOLERANCE_RANGE, STATUS_NAMES, Batch, Cycle, Failure, assemble,  # noqa: E402
                         plan_for, simulate, simulate_batch)
 
-__all__ = ["lu_solve", "is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "ground_contact", "leg_feet", "leg_samples",
+__all__ = ["check_dense", "lu_solve", "is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "ground_contact", "leg_feet", "leg_samples",
            "parallel_rows",
            "plan_for", "simulate", "simulate_batch"]

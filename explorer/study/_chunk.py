@@ -4,7 +4,7 @@ does with a range of variants — sample them, solve them, compute the metrics t
 from __future__ import annotations
 
 from ..kernels import simulate_batch
-from ..kernels._simulate import check_dense
+from ..kernels import check_dense
 from ._sample import study_sampler, study_variants
 from ._spec import Study
 from ._yield import YIELD, design_yield

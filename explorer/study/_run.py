@@ -61,6 +61,7 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
 
 def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chunk_size, t0: float) -> RunSummary:
     resumed = False
+    solve = chunk_solver(study)  # before any file is made: what cannot be solved is refused first
     if out.exists():
         if resume and _nothing_committed(out, study) is not None:
             # a run stopped before its first commit (a disk that filled, a kill) holds no result: it is
@@ -87,11 +88,11 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
 
     ran = 0
     try:
-        pending = writer.pending()
-        solve = chunk_solver(study)
-        bar = _progress_bar(progress, writer, pending, study)
-        committer = _Committer(writer, bar, study.steps, threaded=_THREADED)
-        try:
+        bar = committer = None
+        try:  # a signal from here on leaves a resumable file, and says so
+            pending = writer.pending()
+            bar = _progress_bar(progress, writer, pending, study)
+            committer = _Committer(writer, bar, study.steps, threaded=_THREADED)
             for i in pending:
                 a, b = writer.chunk_range(i)
                 lengths, crank, geometry, batch, metrics = solve(a, b)
@@ -100,14 +101,16 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
             committer.close()
         except KeyboardInterrupt as exc:
             with signals_held():  # a second Ctrl-C must not cut the commit in flight (h5py would crash)
-                committer.abort()
+                if committer is not None:
+                    committer.abort()
                 done = int(writer.done.sum())
             what = "terminated" if isinstance(exc, Terminated) else "interrupted"
             raise type(exc)(f"{out}: {what} with {done} of {writer.n_chunks} chunks committed; run again with "
                             f"--resume to finish it") from None
         finally:
             with signals_held():
-                committer.abort()
+                if committer is not None:
+                    committer.abort()
                 if bar is not None:
                     bar.close()
         writer.finish()
