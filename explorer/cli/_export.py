@@ -216,9 +216,9 @@ def run_kit(args) -> int:
     if tolerance_note is None:
         try:
             tolerance_note = design_yield_note(mech)
-        except Exception:  # noqa: BLE001 - the kit does not depend on it; README states the command instead
-            tolerance_note = None
-    if tolerance_note is not None:
+        except UserError as exc:  # the kit does not depend on it: README.txt says why it is missing
+            tolerance_note = f"not computed ({exc}); `explorer tolerance` finds the spread the design takes"
+    if tolerance_note is not None and "explorer tolerance" not in tolerance_note:
         tolerance_note += "; `explorer tolerance` finds the spread it takes"
     kit.tolerance_note = tolerance_note
     paths = write_kit(kit, out, force=args.force)
