@@ -9,6 +9,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .._files import format_size
 from ..errors import UserError, where
 from ..mechanism import Mechanism, Operating, Walker, operating_from_dict
 from ..plan import ATTACH, DYAD, GENERAL, Plan, make_plan
@@ -81,13 +82,6 @@ def available_memory() -> int | None:
         return None
 
 
-def _size(n: float) -> str:
-    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
-        if n >= scale:
-            return f"{n / scale:,.1f} {unit}"
-    return f"{int(n)} bytes"
-
-
 def dense_bytes(n_vertices: int, threads: int | None = None) -> int:
     """Memory the dense method's full-system matrix takes: (2 n_vertices)² doubles per thread."""
     import numba
@@ -99,7 +93,7 @@ def check_memory(need: int, what: str, advice: str) -> None:
     """Refuse, with one line and the estimate, what needs more memory than is available."""
     avail = available_memory()
     if avail is not None and need > avail:
-        raise UserError(f"{what} need about {_size(need)} of memory and {_size(avail)} is available; {advice}")
+        raise UserError(f"{what} need about {format_size(need)} of memory and {format_size(avail)} is available; {advice}")
 
 
 def check_dense(n_vertices: int, method: str) -> None:

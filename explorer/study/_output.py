@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._files import format_size
 from ..errors import UserError, where
 from ..kernels import STATUS_NAMES, assemble
 from ..store import FILE_STATUS_NAMES
@@ -154,7 +155,7 @@ def _check_disk_space(study, out: Path, resume: bool = False) -> None:
     need = estimated_bytes(study) if pending is None else estimated_bytes(study, pending)
     if need > free:
         left = "" if pending is None else f" (the {pending:,} variants not yet committed)"
-        raise UserError(f"{out}: the study would write up to {_size(need)}{left} and {folder} has {_size(free)} "
+        raise UserError(f"{out}: the study would write up to {format_size(need)}{left} and {folder} has {format_size(free)} "
                         f"free; store fewer vertices, steps or variants (or use another disk)")
 
 
@@ -173,13 +174,6 @@ def _pending_rows(out: Path) -> int | None:
             return int(sum(min((i + 1) * rows, n) - i * rows for i in np.flatnonzero(~done)))
     except Exception:  # noqa: BLE001 - unreadable or damaged: its own opening says so
         return None
-
-
-def _size(n: int) -> str:
-    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
-        if n >= scale:
-            return f"{n / scale:,.1f} {unit}"
-    return f"{n} bytes"
 
 
 def _same_file(a: Path, b: Path) -> bool:
