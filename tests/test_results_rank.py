@@ -260,6 +260,8 @@ def test_recompute_refusals(fresh, tmp_path):
     shutil.copyfile(fresh, inc)
     with h5py.File(inc, "r+") as f:
         f.attrs["complete"] = False
+    from explorer.store import seal
+    seal(inc)  # an edit on purpose: the checksums follow it
     before = inc.read_bytes()
     with pytest.raises(UserError, match=r"incomplete results file.*--resume"):
         recompute_metrics(inc, band=0.02)

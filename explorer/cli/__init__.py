@@ -113,6 +113,10 @@ def _catch_signals(command: bool):
         if command:
             if _Stop.stopping:
                 return
+            if _importing(frame):  # raising inside an import leaves that module half made (numba.core missing,
+                # then a traceback from whatever uses it next): let the import finish, and be signalled again
+                _send_again(signum)
+                return
             _Stop.stopping = True
         raise Terminated() if signum == signal.SIGTERM else (Interrupted() if command else KeyboardInterrupt())
 
@@ -121,6 +125,15 @@ def _catch_signals(command: bool):
     if command:
         previous[signal.SIGINT] = signal.signal(signal.SIGINT, stop)
     return previous
+
+
+def _importing(frame) -> bool:
+    """Whether the interrupted code runs inside an import (a frame of importlib's bootstrap on the stack)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _one_line(text: str) -> str:
