@@ -259,6 +259,35 @@ def check(f: h5py.File) -> None:
     _check_series(f, n, rows, done, status)
 
 
+def salvage(f: h5py.File) -> bool:
+    """An interrupted file whose last commit was cut by a kill (kill -9 during HDF5's flush, which is not
+    atomic, can leave a chunk marked done before its digest or the metadata checksum reached the disk):
+    every chunk marked done whose rows do not match their digest is marked not done again (a resume
+    solves it again), the checksum is restamped, and the file must then verify whole. Only for a file
+    that is not complete, opened for writing; True if it now verifies, False otherwise (left for the
+    caller to refuse)."""
+    try:
+        if bool(f.attrs.get("complete", False)) or ATTR not in f.attrs:
+            return False
+        n = int(f.attrs["n_variants"])
+        rows = int(f["chunks"].attrs["rows"])
+        done = np.asarray(f["chunks/done"][...], dtype=bool)
+        digest = f[DIGEST][...]
+        if rows < 1 or len(done) != -(-n // rows) or digest.shape != (len(done), 32):
+            return False
+        ds = per_variant(f, n)
+        for i in np.flatnonzero(done):
+            if chunk_digest(ds, i * rows, min((i + 1) * rows, n)).tobytes() != digest[i].tobytes():
+                done[i] = False
+        f["chunks/done"][...] = done
+        stamp(f)
+        f.flush()
+        check(f)
+        return True
+    except (Damaged, KeyError, ValueError, TypeError, OSError):
+        return False
+
+
 def is_legacy(f: h5py.File) -> bool:
     """True for a file written before checksums existed: neither the ``integrity`` attribute nor
     ``/chunks/digest`` (one damaged byte can remove one of the two, never both: such a file is damaged)."""

@@ -52,7 +52,7 @@ import numpy as np
 from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
 from ._datasets import SCALAR_FILTERS, SERIES_FILTERS, create_dataset, create_group, metric_attrs, now
-from ._integrity import DIGEST, RESTORE, chunk_digest, has_integrity, per_variant, stamp, verify
+from ._integrity import DIGEST, RESTORE, chunk_digest, has_integrity, per_variant, salvage, stamp, verify
 
 __all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
 
@@ -278,7 +278,10 @@ class ResultsWriter:
             try:
                 verify(f, path)
             except UserError as exc:
-                raise UserError(f"{exc}".replace(RESTORE, "use --force to start it over")) from None
+                # a kill during the last commit's flush may leave its marks half written: the chunks that
+                # do not match their digests are solved again; anything else is damage
+                if not salvage(f):
+                    raise UserError(f"{exc}".replace(RESTORE, "use --force to start it over")) from None
         except BaseException:
             f.close()
             raise
