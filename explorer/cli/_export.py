@@ -180,7 +180,7 @@ def run_kit(args) -> int:
                                   f"±{rob.get('tolerance', '?')} {rob.get('unit', '%')} of every design parameter "
                                   f"that still work)")
             source = f"{res.filename}, variant {v} (status {status})"
-            unit = ((res.study or {}).get("operating") or {}).get("unit")
+            unit = res.operating.unit if res.operating is not None else None
         if status != "ok":
             note = f"; note: variant {v} did not solve over its whole cycle ({status})"
     else:

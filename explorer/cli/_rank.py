@@ -106,6 +106,13 @@ def add_yield_arguments(p, rows: str) -> None:
     p.add_argument("--copies", metavar="N", default=None, help="with --yield TOL: copies per design (default 256)")
 
 
+def check_yield_arguments(args) -> None:
+    """--copies only with --yield TOL (a one-line UserError otherwise)."""
+    if args.copies is not None and not args.yield_tol:
+        from ..errors import UserError
+        raise UserError("--copies goes with --yield TOL (without TOL the study's [robustness] table gives the copies)")
+
+
 def yields(res, args, variants) -> tuple[dict, object]:
     """({variant: (yield, standard error)}, Robustness) of ``variants`` for --yield [TOL] [--copies N]."""
     from ..study import results_robustness, results_yield
@@ -141,8 +148,7 @@ def run(args) -> int:
             raise UserError("--ascending/--descending go with --by METRIC, not with the default score")
         mode, weights = "default", dict(DEFAULT_WEIGHTS)
     extra = parse_list(args.columns, "--columns") if args.columns is not None else None
-    if args.copies is not None and not args.yield_tol:
-        raise UserError("--copies goes with --yield TOL (without TOL the study's [robustness] table gives the copies)")
+    check_yield_arguments(args)
 
     unstored = []
     with open_results(args.results) as res:

@@ -7,7 +7,7 @@ import math
 import sys
 
 from ._args import add_variant_arguments, chosen_variant, parse_variant
-from ._rank import add_yield_arguments, yields
+from ._rank import add_yield_arguments, check_yield_arguments, yields
 from ._format import add_units_argument, better, results_si, table
 
 __all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run"]
@@ -76,10 +76,8 @@ def _robustness_lines(res, args, v: int, ref: int, row, ref_row) -> list[str]:
     """Will it survive the workshop: the variant's and the reference's yield ± binomial standard error
     (re-solved with --yield [TOL], else the stored metric with the study's [robustness]), and a warning
     under :data:`YIELD_WARNING`. [] when neither is asked for nor stored."""
-    from ..errors import UserError
     from ..study import results_robustness
-    if args.copies is not None and not args.yield_tol:
-        raise UserError("--copies goes with --yield TOL (without TOL the study's [robustness] table gives the copies)")
+    check_yield_arguments(args)
     if args.yield_tol is not None:
         ys, rb = yields(res, args, [v, ref])
         how = "re-solved now"

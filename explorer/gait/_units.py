@@ -186,7 +186,7 @@ def results_si(res, frame, units: str = "si") -> SI | None:
         raise UserError(f"{res.filename}: units: expected one of {', '.join(UNIT_SYSTEMS)}, got {units!r}")
     if units != "si":
         return None
-    op = si_operating(res.study.get("operating"), res.filename)
+    op = si_operating(res.operating, res.filename)
     mech = res.mechanism
     params = {p: mech.parameter_kind(p) for p in mech.parameters() if p in frame.columns}
     return to_si(frame, list(res.metric_names), op, parameters=params)

@@ -275,6 +275,14 @@ class Results:
         return out
 
     @property
+    def operating(self):
+        """The study's operating point (:class:`explorer.mechanism.Operating`: its ``[operating]`` over the
+        mechanism's, as the run resolved it), or None when neither gave one."""
+        from ..mechanism import operating_from_dict
+        table = self.study.get("operating")
+        return operating_from_dict(table, f"{self.filename} (its study)", "operating") if table else None
+
+    @property
     def screen(self):
         """The buildability screen's thresholds (:class:`explorer.gait.Screen`): the study's
         ``[screen]`` table, else the defaults."""

@@ -285,12 +285,12 @@ def results_robustness(results, text: str | None = None, copies: int | None = No
     ``[robustness]`` table (UserError naming the file if it has none)."""
     mech = results.mechanism
     if text:
-        return parse_tolerance(text, _operating(results), "--yield", mech, copies or DEFAULT_COPIES)
+        return parse_tolerance(text, results.operating, "--yield", mech, copies or DEFAULT_COPIES)
     table = results.study.get("robustness")
     if not table:
         raise UserError(f"{results.filename}: its study has no [robustness] table; give the tolerance to cut "
                         f"copies with (e.g. --yield 0.5%)")
-    return robustness_from_dict(table, f"{results.filename} (its study)", mech, _operating(results))
+    return robustness_from_dict(table, f"{results.filename} (its study)", mech, results.operating)
 
 
 def results_yield(results, variants, robustness: Robustness | None = None) -> YieldResult:
@@ -309,14 +309,6 @@ def results_yield(results, variants, robustness: Robustness | None = None) -> Yi
     st = study.get("study", {})
     return design_yield(mech, L, r, geo, robustness=robustness, steps=results.steps, tolerance=st.get("tolerance"),
                         method=st.get("method", "block"), screen=results.screen)
-
-
-def _operating(results) -> Operating | None:
-    from ..mechanism import operating_from_dict
-    table = results.study.get("operating")
-    if not table:
-        return results.mechanism.operating
-    return operating_from_dict({k: v for k, v in table.items() if v is not None}, str(results.filename), "operating")
 
 
 def parse_tolerance(text: str, operating: Operating | None, source: str, mech: Mechanism, copies: int,

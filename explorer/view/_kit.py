@@ -337,15 +337,9 @@ def design_yield_note(mech: Mechanism, tolerance: float = 0.5, copies: int = 256
     """One line on the tolerance ``mech`` needs: its yield (the share of copies cut with a uniform error of
     ±``tolerance`` % on every design parameter that still turn and pass the buildability screen,
     :func:`explorer.study.design_yield`; a few seconds)."""
-    import numpy as np
-
     from ..study import Robustness, design_yield
-    params = mech.parameters()
-    links = [link.name for link in mech.links]
-    L = np.array([[link.length for link in mech.links]], dtype=np.float64)
-    geo = {k: np.array([float(v)]) for k, v in params.items() if k not in links and k != "crank"}
-    y = design_yield(mech, L, np.array([mech.crank.radius]), geo or None,
-                     robustness=Robustness(float(tolerance), copies=int(copies)))
+    # the design is the mechanism itself: its lengths, and (geometry None) its own crank and coordinates
+    y = design_yield(mech, mech.lengths[None, :], robustness=Robustness(float(tolerance), copies=int(copies)))
     p, se = float(y.share[0]), float(y.se[0])
     return (f"yield {100 * p:.1f} % ± {100 * se:.1f} % at ±{tolerance:g} % on every design parameter (lengths "
             f"relatively, pivots and body points by {tolerance:g} % of the design's size; {copies} copies, "
