@@ -191,7 +191,7 @@ def run_kit(args) -> int:
         mech = load_mechanism(args.results)
         source = f"mechanism {args.results}" + (f" ({mech.source})" if mech.source and mech.source != args.results else "")
     if mech.crank is None:
-        raise UserError(f"{args.results}: {mech.name} is driven along a path, not by a crank: a build kit needs a "
+        raise UserError(f"{args.results}: mechanism {mech.name!r} is driven along a path, not by a crank: a build kit needs a "
                         f"crankshaft (export its parts with --format svg or dxf)")
     scale = args.scale
     if forces and unit:  # the joint forces are those of a machine of the study's own size: build that one

@@ -322,7 +322,9 @@ def parse_tolerance(text: str, operating: Operating | None, source: str, mech: M
     try:
         value = float(s)
     except ValueError:
-        raise UserError(f"{source}: expected a tolerance such as 0.5% (relative), 0.1mm or 0.02 (model units), "
-                        f"got {text!r}") from None
+        value = math.nan
+    if not (math.isfinite(value) and value > 0 and (unit != "%" or value <= 50)):
+        raise UserError(f"{source}: expected a tolerance > 0 such as 0.5% (relative, at most 50%), 0.1mm or 0.02 "
+                        f"(model units), got {text!r}")
     return robustness_from_dict({"tolerance": value, "unit": unit, "copies": copies, "distribution": distribution,
                                  "seed": seed}, source, mech, operating, key="tolerance")
