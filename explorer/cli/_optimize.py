@@ -52,5 +52,100 @@ def run(args) -> int:
                                progress=not args.quiet)
     if not args.quiet:
         print(summary.text())
+        print("\n".join(best_lines(summary)))
         sys.stdout.flush()
     return 0
+
+
+# -- the best design against the nominal ---------------------------------------------------------------
+def best_variant(summary) -> tuple[int, str]:
+    """(variant, how it was chosen) of the design :func:`best_lines` compares with the nominal.
+
+    One objective: the best feasible design. Several: the front member with the best equal-weight
+    score, each objective min-max normalised over the front (1 = its best end, 0 = its worst), the
+    mean over objectives; ties go to the lower variant. ``summary.front`` must not be empty."""
+    import numpy as np
+    front = summary.front
+    if len(summary.objectives) == 1 or len(front) == 1:
+        return int(front["variant"].iloc[0]), "the best feasible design"
+    score = np.zeros(len(front))
+    for o, d in zip(summary.objectives, summary.directions):
+        v = front[o].to_numpy(dtype=np.float64)
+        span = v.max() - v.min()
+        if span > 0:
+            score += (v - v.min()) / span if d == "max" else (v.max() - v) / span
+        else:
+            score += 1.0
+    score /= len(summary.objectives)
+    variants = front["variant"].to_numpy()
+    best = max(range(len(front)), key=lambda i: (score[i], -variants[i]))
+    return int(variants[best]), (f"the front's balanced design: the best mean of its {len(summary.objectives)} "
+                                 f"objectives, each min-max normalised over the {len(front)} front designs")
+
+
+def best_lines(summary) -> list[str]:
+    """Lines saying what the optimisation changed: the best design (:func:`best_variant`) against the
+    nominal (variant 0 when the nominal lies inside the bounds): each searched parameter (nominal →
+    best, change, change %), each objective (nominal, best, change, change % and whether it improved;
+    in SI units when the study's [operating] gives ``unit``, as ``--units si``), and the
+    ``explorer show`` command that prints the comparison in full."""
+    import math
+    import shlex
+
+    from ..gait import SPEED, change_pct, metric, operating_line, results_si
+    from ..store import open_results
+    from ._format import better, table
+    from ._show import parameter_lines
+
+    if summary.front is None or len(summary.front) == 0:
+        return ["no feasible design: nothing to compare with the nominal"]
+    v, how = best_variant(summary)
+    with open_results(summary.path) as res:
+        df = res.frame()
+        mech, nominal, perturbed = res.mechanism, res.nominal, set(res.perturbed)
+        design = res.design(v, frame=df)
+        op = res.operating
+        si = results_si(res, df, "si") if op is not None and op.unit is not None else None
+    row0 = df.iloc[0]
+    # variant 0 is the nominal only when the nominal lies inside the bounds (the optimiser's first design)
+    has_nominal = all(float(row0[p]) == nominal[p] for p in perturbed if p in df.columns)
+    shown = df if si is None else si.frame
+    path = shlex.quote(str(summary.path))
+    lines = ["", f"best design against the nominal: variant {v}, {how}"]
+    if v == 0 and has_nominal:
+        lines.append("  the nominal itself: no design found improves on it")
+        return lines
+    mm = None if si is None else si.operating.unit * 1000.0
+    params = parameter_lines(mech, design, nominal, perturbed, mm)
+    changed = [params[0]] + [ln for ln in params[1:] if "(fixed)" not in ln]  # the searched parameters
+    lines += ["  " + ln for ln in changed]
+    if not has_nominal:
+        lines.append("  the nominal lies outside the [optimize] bounds, so the file does not hold it and its "
+                     "objectives are not known; the parameters above are against it")
+        lines.append(f"  shown in full by: explorer show {path} {v}" + (" --units si" if si is not None else ""))
+        return lines
+    lines.append("")
+    rows = [("objective", "nominal", "best", "change", "change %", "unit", "")]
+    nominal_ok = str(row0["status"]) == "ok"
+    objectives = list(zip(summary.objectives, summary.directions))
+    if si is not None and SPEED in si.converted and "travel" in summary.objectives:  # the walking speed follows travel
+        i = summary.objectives.index("travel")
+        objectives.insert(i + 1, (SPEED, summary.directions[i]))
+    for o, d in objectives:
+        x, r = float(shown[o].iloc[v]), float(shown[o].iloc[0])
+        unit = si.units.get(o, "") if si is not None else (metric(o).unit if metric(o) is not None else "")
+        rtext = f"{r:.6g}" if math.isfinite(r) else "-"
+        if math.isfinite(r):
+            pct = change_pct(x, r)
+            word = "same" if x == r else "better" if (x > r) == (d == "max") else "worse"
+            rows.append((o, rtext, f"{x:.6g}", f"{x - r:+.4g}", f"{pct:+.3g} %" if math.isfinite(pct) else "-",
+                         unit, f"{word} ({better(d)})"))
+        else:
+            rows.append((o, rtext, f"{x:.6g}", "-", "-", unit, f"({better(d)})"))
+    lines += ["  " + ln for ln in table(rows, (False, True, True, True, True, False, False))]
+    if not nominal_ok:
+        lines.append(f"  the nominal did not solve ({row0['status']}): its objectives are not numbers")
+    if si is not None:
+        lines.append("  " + operating_line(si.operating))
+    lines.append(f"  shown in full by: explorer show {path} {v} --vs 0" + (" --units si" if si is not None else ""))
+    return lines
