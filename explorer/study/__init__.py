@@ -18,6 +18,7 @@ which a share of the legs still walks, by bisection; ``design_yield`` / ``result
 from ._cluster import dask_client, require_dask
 from ._dask import run_study_dask
 from ._metrics import recompute_metrics
+from ._hypervolume import REFERENCE as HYPERVOLUME_REFERENCE, Hypervolume, hypervolume_history, hypervolume_per_generation
 from ._objectives import ALGORITHMS, Optimize, feasible_mask, objective_matrix
 from ._optimize import OptimizeSummary, final_front, front_history, optimization_of, run_optimize
 from ._run import RunSummary, Terminated, run_study
@@ -30,7 +31,7 @@ from ._tolerance import PARAMETER_SETS, PARAMETER_WORDS, ToleranceResult, tolera
 from ._yield import (Robustness, YieldResult, design_yield, results_robustness, results_yield,
                      robustness_from_dict)
 
-__all__ = ["dask_client", "require_dask", "INDEX_NAMES", "main_index", "PARAMETER_SETS", "PARAMETER_WORDS", "ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
+__all__ = ["HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_history", "hypervolume_per_generation", "dask_client", "require_dask", "INDEX_NAMES", "main_index", "PARAMETER_SETS", "PARAMETER_WORDS", "ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
            "run_optimize", "Terminated", "BLOCK", "INDEX_METHODS", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
            "RunSummary", "Sampler", "Study", "ToleranceResult", "apply_multipliers", "apply_samples", "builtin_studies",
            "default_study_text", "dumps_toml", "load_study", "recompute_metrics", "run_study", "run_study_dask",

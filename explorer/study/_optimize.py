@@ -36,6 +36,7 @@ from ..store import OutputLock, ResultsWriter
 from ._chunk import design_solver
 from ._cluster import Recipe, check_client, one_thread, warm_everywhere, worker_threads
 from ._designs import designs_from_x, nominal_x, stored_x
+from ._hypervolume import Hypervolume, hypervolume_history
 from ._objectives import objective_matrix
 from ._output import _counts, _state, results_path, validate_study
 from ._spec import Study, load_study
@@ -50,6 +51,9 @@ class OptimizeSummary:
     designs; front : the final Pareto front (or best design) as a DataFrame of variant, generation,
     the parameters and the objectives; stopped_early : the generation after which the algorithm
     stopped on its own (None if it ran every generation); wall_s : seconds this call took.
+    hypervolume : for several objectives, the front's hypervolume after each generation (list of G floats,
+    :mod:`._hypervolume` defines it; [] for one objective); hypervolume_detail : its
+    :class:`~._hypervolume.Hypervolume` (ideal, nadir and reference point in the objectives' units).
     """
 
     path: Path
@@ -68,6 +72,7 @@ class OptimizeSummary:
     resumed: bool = False
     hypervolume: list = field(default_factory=list)
     constraints: tuple = ()
+    hypervolume_detail: Hypervolume | None = None
 
     def __fspath__(self) -> str:
         return str(self.path)
@@ -99,10 +104,23 @@ class OptimizeSummary:
             what = "best design" if len(self.objectives) == 1 else f"Pareto front: {len(front)} designs"
             lines.append(f"  {what} ({self.rank_command()}):")
             lines += ["    " + line for line in front.head(10).to_string(index=False).splitlines()]
+        if self.hypervolume_detail is not None:
+            lines.append("  " + _hypervolume_line(self.hypervolume_detail, self.objectives))
         lines.append(f"  wall {self.wall_s:.2f} s")
         return "\n".join(lines)
 
     __str__ = text
+
+
+def _hypervolume_line(h: Hypervolume, objectives) -> str:
+    """One line: the hypervolume at (up to) eight generations, evenly spaced, and how it is normalised."""
+    G = len(h.values)
+    picks = sorted(set(np.linspace(0, G - 1, min(G, 8)).round().astype(int).tolist())) if G else []
+    gens = ", ".join(f"{g}: {h.values[g]:.4f}" for g in picks)
+    ref = ", ".join(f"{o} {r:.6g}" for o, r in zip(objectives, h.reference))
+    return (f"hypervolume by generation ({gens}; of at most {h.maximum:.4g}: each objective normalised to 0 and "
+            f"1 at the best and worst end of the final front; reference point 1.1 each, i.e. {ref}; every "
+            f"generation in OptimizeSummary.hypervolume)")
 
 
 def _initial(study: Study) -> np.ndarray:
@@ -239,7 +257,7 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
             writer = _create(out, study)
         try:
             evaluate = _dask_evaluator(client, study) if client is not None else _local_evaluator(study)
-            ran, stopped, hv = _search(study, writer, out, evaluate, progress)
+            ran, stopped, _ = _search(study, writer, out, evaluate, progress)
             if not writer.complete:
                 writer.finish()
             counts = _counts(writer)
@@ -249,9 +267,11 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
                 writer.close()
     F, _, feasible = objective_matrix(df, opt, study.screen)
     front = final_front(df, study)
+    hvd = hypervolume_history(df, opt, study.screen) if len(opt.objectives) > 1 else None
+    hv = [] if hvd is None else [float(v) for v in hvd.values]
     return OptimizeSummary(out, study.name, opt.algorithm, opt.objectives, opt.directions, opt.generations, ran,
                            int((df["status"].astype(str) != "not-run").sum()), int(feasible.sum()), counts, front,
-                           time.perf_counter() - t0, stopped, resumed, hv, opt.constraints)
+                           time.perf_counter() - t0, stopped, resumed, hv, opt.constraints, hvd)
 
 
 def _create(out: Path, study: Study) -> ResultsWriter:

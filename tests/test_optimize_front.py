@@ -1,0 +1,187 @@
+"""Issue 28, several objectives and the report of an optimisation: the front's hypervolume per
+generation (against an area-by-sorting sweep for two objectives and inclusion-exclusion for three,
+written plainly here), what ``explorer optimize`` prints about the best design against the nominal
+(every figure checked against the file's rows), and the walking-leg synthesis example."""
+
+from __future__ import annotations
+
+import itertools
+import re
+import shlex
+
+import numpy as np
+import pytest
+
+from explorer import open_results
+from explorer.study import HYPERVOLUME_REFERENCE, hypervolume_per_generation, run_optimize
+
+from clihelp import ok_cli
+
+STUDY = """\
+[study]
+name = "front"
+mechanism = "jansen"
+seed = 5
+steps = 72
+
+[operating]
+unit = 0.01
+rpm = 30
+load = 5
+
+[optimize]
+algorithm = "nsga2"
+population = 12
+generations = 4
+objectives = ["travel", "bob"]
+constraints = ["clearance >= 1"]
+spread = 0.05
+parameters = ["1-3", "2-6", "1-6", "5-7", "crank", "2.x"]
+
+[scene]
+velocities = false
+"""
+
+
+def dominated_by_any(P: np.ndarray) -> np.ndarray:
+    """(n,) bool: rows of P (minimised) that another row dominates, by brute force."""
+    n = len(P)
+    out = np.zeros(n, dtype=bool)
+    for i in range(n):
+        for j in range(n):
+            if j != i and np.all(P[j] <= P[i]) and np.any(P[j] < P[i]):
+                out[i] = True
+                break
+    return out
+
+
+def plain_normalise(F, feasible):
+    """ideal and nadir of the feasible non-dominated rows of F (minimised), brute force."""
+    ok = F[feasible]
+    front = ok[~dominated_by_any(ok)]
+    ideal, nadir = front.min(axis=0), front.max(axis=0)
+    span = np.where(nadir > ideal, nadir - ideal, 1.0)
+    return (F - ideal) / span
+
+
+def area_by_sorting(P: np.ndarray, ref: float) -> float:
+    """The area dominated by 2-D points P (minimised) up to (ref, ref): sort by the first objective and
+    sweep, keeping the lowest second objective seen so far."""
+    P = P[(P[:, 0] < ref) & (P[:, 1] < ref)]
+    if len(P) == 0:
+        return 0.0
+    P = P[np.argsort(P[:, 0], kind="stable")]
+    area, low = 0.0, ref
+    xs = list(P[:, 0]) + [ref]
+    for i in range(len(P)):
+        low = min(low, P[i, 1])
+        area += (xs[i + 1] - xs[i]) * (ref - low)
+    return area
+
+
+def volume_by_inclusion_exclusion(P: np.ndarray, ref: float) -> float:
+    """The volume dominated by points P (minimised) up to (ref, …): the union of the boxes
+    [p, ref] by inclusion-exclusion over every subset (the intersection of boxes is the box of the
+    componentwise max)."""
+    total = 0.0
+    for k in range(1, len(P) + 1):
+        for subset in itertools.combinations(range(len(P)), k):
+            corner = P[list(subset)].max(axis=0)
+            total += (-1) ** (k + 1) * np.prod(np.maximum(ref - corner, 0.0))
+    return total
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("front")
+    study = d / "front.toml"
+    study.write_text(STUDY)
+    return study, run_optimize(study, output=d / "front.h5", progress=False)
+
+
+@pytest.mark.slow
+def test_hypervolume_of_two_objectives_is_the_area_by_sorting(run):
+    _, summary = run
+    with open_results(summary) as res:
+        df = res.frame()
+    feasible = ((df["status"].astype(str) == "ok") & df["travel"].notna() & df["bob"].notna()
+                & df["buildable"].astype(bool) & (df["clearance"] >= 1)).to_numpy()
+    F = np.column_stack([-df["travel"].to_numpy(float), df["bob"].to_numpy(float)])  # travel is maximised
+    Fn = plain_normalise(F, feasible)
+    gen = df["generation"].to_numpy()
+    want = [area_by_sorting(Fn[feasible & (gen <= g)], 1.1) for g in range(4)]
+    assert len(summary.hypervolume) == 4
+    assert np.allclose(summary.hypervolume, want, rtol=1e-12, atol=1e-15)
+    assert want[-1] > 0 and all(b >= a for a, b in zip(want, want[1:]))
+    # the reference point in the metrics' own units: the final front's worst end + 10 % of its range
+    h = summary.hypervolume_detail
+    ok = F[feasible]
+    front = ok[~dominated_by_any(ok)]
+    assert h.reference[0] == pytest.approx(-(front[:, 0].max() + 0.1 * np.ptp(front[:, 0])), rel=1e-12)
+    assert h.reference[1] == pytest.approx(front[:, 1].max() + 0.1 * np.ptp(front[:, 1]), rel=1e-12)
+
+
+def test_hypervolume_of_three_objectives_by_inclusion_exclusion():
+    rng = np.random.default_rng(11)
+    n = 14
+    F = rng.random((n, 3)) * [2.0, 30.0, 0.5] + [1.0, -5.0, 0.0]
+    feasible = rng.random(n) > 0.2
+    F[~feasible] = 1e30
+    gen = np.repeat(np.arange(5), 3)[:n]
+    values, ideal, nadir = hypervolume_per_generation(F, feasible, gen)
+    Fn = plain_normalise(F, feasible)
+    for g in range(5):
+        pts = Fn[feasible & (gen <= g)]
+        assert values[g] == pytest.approx(volume_by_inclusion_exclusion(pts, HYPERVOLUME_REFERENCE), rel=1e-12,
+                                          abs=1e-15), g
+    assert 0 < values[-1] <= HYPERVOLUME_REFERENCE ** 3
+    # no feasible design yet: 0
+    v0, _, _ = hypervolume_per_generation(F, np.zeros(n, dtype=bool), gen)
+    assert np.all(v0 == 0.0)
+
+
+def _number(text: str) -> float:
+    return float(text.replace("%", "").replace("+", ""))
+
+
+@pytest.mark.slow
+def test_optimize_prints_the_best_design_against_the_nominal(run, capsys, tmp_path):
+    study, _ = run
+    out = ok_cli(capsys, "optimize", study, "-o", tmp_path / "cli.h5", "--quiet")
+    assert out == ""
+    out = ok_cli(capsys, "optimize", study, "-o", tmp_path / "cli.h5", "--force")
+    block = out[out.index("best design against the nominal"):]
+    v = int(re.search(r"variant (\d+)", block).group(1))
+    with open_results(tmp_path / "cli.h5") as res:
+        df = res.frame()
+        nominal = res.nominal
+    front_rows = df[df["variant"].isin(run[1].front["variant"])]
+    assert v in set(front_rows["variant"])  # the design shown is on the front
+    # the balanced design: the best mean of the objectives min-max normalised over the front, plainly
+    t, b = front_rows["travel"].to_numpy(float), front_rows["bob"].to_numpy(float)
+    score = ((t - t.min()) / np.ptp(t) + (b.max() - b) / np.ptp(b)) / 2
+    assert int(front_rows["variant"].to_numpy()[np.argmax(score)]) == v
+    row, row0 = df.iloc[v], df.iloc[0]
+    # parameters in mm (unit 0.01 m): value, nominal, change, % of the nominal for a length
+    for p in ("1-3", "2-6", "1-6", "5-7", "crank"):
+        label = p if p == "crank" else f"link {p}"
+        line = next(ln.strip() for ln in block.splitlines() if ln.strip().split("  ")[0] == label)
+        val, nom, change, pct = line[len(label):].split()[:4]
+        assert float(val) == pytest.approx(row[p] * 10.0, abs=5e-5)
+        assert float(nom) == pytest.approx(nominal[p] * 10.0, abs=5e-5)
+        assert _number(pct) == pytest.approx(100 * (row[p] - nominal[p]) / nominal[p], abs=5e-4)
+    # objectives: travel in m/turn (x 0.01), the speed at 30 rpm in m/s, bob in mm (x 10)
+    for name, k, unit in (("travel", 0.01, "m/turn"), ("speed", 0.01 * 30 / 60, "m/s"), ("bob", 10.0, "mm")):
+        src = "travel" if name == "speed" else name
+        line = next(ln for ln in block.splitlines() if ln.strip().startswith(name + " "))
+        nom, best, change, pct, _, u = line.split()[1:7]
+        assert u == unit
+        assert float(nom) == pytest.approx(row0[src] * k, rel=1e-5)
+        assert float(best) == pytest.approx(row[src] * k, rel=1e-5)
+        assert float(pct) == pytest.approx(100 * (row[src] - row0[src]) / abs(row0[src]), rel=1e-2, abs=1e-9)
+    # the command it names runs and shows that variant against the nominal
+    cmd = next(ln for ln in block.splitlines() if "explorer show" in ln).split("shown in full by: ")[1]
+    args = shlex.split(cmd)
+    assert args[:2] == ["explorer", "show"] and args[3:] == [str(v), "--vs", "0", "--units", "si"]
+    shown = ok_cli(capsys, *args[1:])
+    assert f"variant {v} of {len(df)}" in shown
