@@ -50,7 +50,9 @@ def run(args) -> int:
     lines = [f"{out['path']}: computed {len(names)} metric{'s' if len(names) != 1 else ''} "
              f"({', '.join(names)}) for {out['n_variants']:,} variants ({out['ok']:,} ok) with band "
              f"{out['band']:g} in {out['wall_s']:.2f} s"]
-    if out.get("resolved"):
+    if out.get("lean"):
+        lines.append(f"  {out['path']} stores metrics only: re-solved {out['resolved']:,} variants, a chunk at a time")
+    elif out.get("resolved"):
         lines.append(f"  solved the foot velocities of {out['resolved']:,} ok variants again (the file does not "
                      f"store them)")
     if out["also"]:

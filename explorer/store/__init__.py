@@ -30,6 +30,9 @@ Layout (N variants, S = steps, readable with plain h5py)::
     /metrics/<name>        (N,) float64 gait metrics, only those the study asked for; attrs band, units,
                            direction, description, computed (the same whether the run or `explorer
                            metrics` wrote it); /metrics attrs band, description
+    A lean file (``[scene] store = "metrics"``) has root attributes store = "metrics" and series_solve
+    (JSON: how its designs were solved) and no /paths, /velocities, /accelerations, /torque, /forces:
+    Results re-solves the series it is asked for, bit for bit (resolve_series).
     /chunks/done           (n_chunks,) bool; /chunks attr rows: chunk i is variants [i·rows, (i+1)·rows)
     /chunks/digest         (n_chunks, 32) uint8: SHA-256 of chunk i's per-variant rows (not the series),
                            set with done[i]; root attr integrity = "sha256-v1 <hex>": SHA-256 of the
@@ -47,7 +50,7 @@ from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metr
 from ._integrity import seal
 from ._lock import OutputLock
 from ._shards import ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch, write_shard
-from ._read import Results, open_results, probe
+from ._read import RESOLVE_ROWS, Results, lean_file, open_results, probe, resolve_series
 from ._variants import check_variant, is_results, results_band, variant_design, variant_mechanism, variant_row
 from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN,
                      ResultsWriter, chunk_rows, create_metric, fingerprint_diff, hdf5_rows, metrics_group,
@@ -57,4 +60,5 @@ __all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAM
            "STATUS_NOT_RUN", "Results", "ResultsWriter", "check_variant", "chunk_rows", "create_dataset", "create_metric",
            "dataset_spec", "hdf5_rows", "is_results", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe", "results_band", "variant_design",
            "variant_mechanism", "variant_row", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",
-           "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason", "seal"]
+           "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason", "seal",
+           "RESOLVE_ROWS", "lean_file", "resolve_series"]

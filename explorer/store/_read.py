@@ -104,7 +104,15 @@ class Results:
         self.link_names = tuple(_text(s) for s in f["variants/lengths"].attrs["links"])
         g = f["variants"].get("geometry")
         self.geometry_names = tuple(_text(s) for s in g.attrs["names"]) if g is not None else ()
-        self.vertices = tuple(f["paths"].keys()) if "paths" in f else ()
+        #: a lean file (``[scene] store = "metrics"``): no series stored; :meth:`path` and the other
+        #: series readers re-solve the designs they are asked for, bit for bit (:func:`resolve_series`)
+        self.lean = lean_file(f)
+        self._solve = json.loads(self.attrs["series_solve"]) if self.lean else None
+        self._cache: dict = {}  # a lean file's re-solved series: {variant: {(group, vertex): (steps, 2)}}
+        if self.lean:
+            self.vertices = tuple(self._solve["stored"])
+        else:
+            self.vertices = tuple(f["paths"].keys()) if "paths" in f else ()
         self._mech = None
         _check_shapes(f, filename, self.n_variants)
 
@@ -350,6 +358,8 @@ class Results:
     # -- series ----------------------------------------------------------------------------------------
     def _series(self, group: str, variant, vertex) -> np.ndarray:
         vertex = self._vertex(vertex)
+        if self.lean:
+            return self._lean_series(group, variant, vertex)
         if group not in self.file:
             raise UserError(f"{self.filename}: no {group} stored (the study's [scene] did not ask for them)")
         g = self.file[group]
@@ -362,6 +372,14 @@ class Results:
             return g[vertex][variant]
         if isinstance(variant, slice):
             return g[vertex][variant]
+        idx = self._indices(variant)
+        uniq, back = np.unique(idx, return_inverse=True)
+        if uniq.size == 0:
+            return np.empty((0,) + g[vertex].shape[1:])
+        return g[vertex][uniq][back]
+
+    def _indices(self, variant) -> np.ndarray:
+        """Any sequence of variants as (n,) int64 in 0 … N−1, in the order given (UserError otherwise)."""
         # any sequence of variants, in any order, repeats allowed (h5py wants sorted unique indices)
         try:
             idx = np.asarray(variant).astype(np.int64, casting="safe").reshape(-1)
@@ -371,11 +389,86 @@ class Results:
         bad = idx[(idx < -self.n_variants) | (idx >= self.n_variants)]
         if bad.size:
             raise UserError(f"{self.filename}: variant {int(bad[0])} out of range (0 to {self.n_variants - 1})")
-        idx = np.where(idx < 0, idx + self.n_variants, idx)
+        return np.where(idx < 0, idx + self.n_variants, idx)
+
+    def _lean_series(self, group: str, variant, vertex: str) -> np.ndarray:
+        """A lean file's series, re-solved (the same checks and shapes as a stored one)."""
+        solve = self._solve
+        if group not in solve["groups"] and group not in ("torque", "forces"):
+            raise UserError(f"{self.filename}: no {group} stored (the study's [scene] did not ask for them)")
+        if group in ("paths", "velocities", "accelerations") and vertex not in self.vertices:
+            raise UserError(f"{self.filename}: vertex {vertex!r} is not stored "
+                            f"(stored: {', '.join(self.vertices)}; set [scene] vertices)")
+        if isinstance(variant, (int, np.integer)):
+            if not -self.n_variants <= variant < self.n_variants:
+                raise UserError(f"{self.filename}: variant {variant} out of range (0 to {self.n_variants - 1})")
+            return self._resolved(np.array([int(variant) % self.n_variants]), group, vertex)[0]
+        if isinstance(variant, slice):
+            idx = np.arange(self.n_variants)[variant]
+        else:
+            idx = self._indices(variant)
+        return self._resolved(idx, group, vertex)
+
+    def prefetch(self, variants) -> None:
+        """Re-solve ``variants`` (any sequence) of a lean file at once, saying so in one line on stderr,
+        so that the series readers that follow find them solved (nothing for a file that stores its series)."""
+        if self.lean:
+            self._resolved(self._indices(variants), None, None)
+
+    #: Most re-solved series bytes a lean file's :class:`Results` keeps (older variants are dropped first).
+    CACHE_BYTES = 64 << 20
+
+    def _resolved(self, idx: np.ndarray, group, vertex) -> np.ndarray | None:
+        """Series ``group``/``vertex`` of variants ``idx`` (in that order, repeats allowed) of a lean file:
+        those not solved yet are re-solved, in chunks of :data:`RESOLVE_ROWS` designs, saying so in one line
+        on stderr; kept for later reads while they fit in :data:`CACHE_BYTES`. ``group`` None: solve only."""
         uniq, back = np.unique(idx, return_inverse=True)
-        if uniq.size == 0:
-            return np.empty((0,) + g[vertex].shape[1:])
-        return g[vertex][uniq][back]
+        todo = np.array([v for v in uniq.tolist() if v not in self._cache], dtype=np.int64)
+        per = self.steps * 16 * (len(self._solve["vertices"]) * (1 + self._solve["velocities"]
+                                                                  + self._solve["accelerations"])
+                                 + len(self._solve["force_joints"])) + self.steps * 8
+        keep = len(uniq) * per <= self.CACHE_BYTES  # a big read is solved and handed back, not kept
+        got = {}
+        if todo.size:
+            import sys
+            import time
+            t0 = time.perf_counter()
+            for a in range(0, todo.size, RESOLVE_ROWS):
+                part = todo[a:a + RESOLVE_ROWS]
+                batch = resolve_series(self.file, part, mechanism=self.mechanism, solve=self._solve,
+                                       study=self.study, operating=self.operating if self._solve["forces"] else None)
+                for k, v in enumerate(part.tolist()):
+                    rows = _rows_of(batch, self._solve, k)
+                    if keep:
+                        self._cache[v] = rows
+                    elif group is not None:
+                        got[v] = rows[(group, vertex)]
+            print(f"{self.filename} stores metrics only: re-solved {_variant_list(todo)} "
+                  f"({time.perf_counter() - t0:.1f} s){_version_note(self.attrs)}", file=sys.stderr)
+        out = None
+        if group is not None:
+            if not uniq.size:
+                return np.empty((0, self.steps) if group == "torque" else (0, self.steps, 2))
+            key = (group, vertex)
+            out = np.stack([got[v] if v in got else self._cache[v][key] for v in uniq.tolist()])[back]
+        if keep:  # the oldest re-solved variants go first (never those just read)
+            excess = len(self._cache) - max(len(uniq), self.CACHE_BYTES // max(per, 1))
+            wanted = set(uniq.tolist())
+            for v in list(self._cache):
+                if excess <= 0:
+                    break
+                if v not in wanted:
+                    del self._cache[v]
+                    excess -= 1
+        return out
+
+    @property
+    def series_groups(self) -> tuple[str, ...]:
+        """The series groups of the file, of ``("paths", "velocities", "accelerations")``: those stored,
+        or, in a lean file, those a full study would have stored (re-solved when read)."""
+        if self.lean:
+            return tuple(self._solve["groups"])
+        return tuple(g for g in ("paths", "velocities", "accelerations") if g in self.file)
 
     def _vertex(self, vertex) -> str:
         if vertex is not None:
@@ -402,15 +495,19 @@ class Results:
     def torque(self, variant: int) -> np.ndarray:
         """Motor torque of one variant at every crank angle, shape (steps,), N·m (a study with
         ``[scene] forces = true``; positive when the motor does positive work)."""
-        if "torque" not in self.file:
+        if "torque" not in self.file and not (self.lean and self._solve["forces"]):
             raise UserError(f"{self.filename}: no motor torque stored: run the study with [scene] forces = true "
                             f"and an [operating] table")
         v = self.check_variant(variant)
+        if self.lean:
+            return self._resolved(np.array([v]), "torque", None)[0]
         return self.file["torque"][v]
 
     @property
     def force_joints(self) -> tuple[str, ...]:
         """Joints whose reactions are stored (``[scene] force_joints``)."""
+        if self.lean:
+            return tuple(self._solve["force_joints"]) if self._solve["forces"] else ()
         return tuple(self.file["forces"].keys()) if "forces" in self.file else ()
 
     def force(self, variant: int, joint: str) -> np.ndarray:
@@ -420,6 +517,8 @@ class Results:
             raise UserError(f"{self.filename}: no reaction stored for joint {joint!r} (stored: "
                             f"{', '.join(self.force_joints) or 'none; list joints in [scene] force_joints'})")
         v = self.check_variant(variant)
+        if self.lean:
+            return self._resolved(np.array([v]), "forces", joint)[0]
         return self.file["forces"][joint][v]
 
     # -- lifetime --------------------------------------------------------------------------------------
@@ -436,6 +535,93 @@ class Results:
     def __repr__(self) -> str:
         state = "complete" if self.complete else "incomplete"
         return f"<Results {self.filename} ({self.n_variants} variants × {self.steps} steps, {state})>"
+
+
+#: Designs a lean file's readers re-solve per kernel call (a chunk of a study's size: memory stays flat).
+RESOLVE_ROWS = 2048
+
+
+def lean_file(f: h5py.File) -> bool:
+    """Whether an open results file is lean (``[scene] store = "metrics"``: no series stored; root
+    attributes ``store = "metrics"`` and ``series_solve``, how its designs were solved)."""
+    return f.attrs.get("store") == "metrics" and "series_solve" in f.attrs
+
+
+def resolve_series(f: h5py.File, variants, *, mechanism: Mechanism | None = None, solve: dict | None = None,
+                   study: dict | None = None, operating=None, vertices=None, velocities: bool | None = None):
+    """Solve again, from their stored designs, variants of a lean results file ``f`` exactly as the run
+    solved them (its root attribute ``series_solve``: the same vertices, velocities, accelerations,
+    steps, tolerance, method and forces): the :class:`~explorer.kernels.Batch` whose ``paths``,
+    ``velocities``, ``accelerations``, ``torque`` and ``forces`` are, bit for bit, what a study storing
+    its series writes for them (each design is solved apart from the others, whatever the batch).
+
+    variants : (n,) increasing variant indices, or a slice of them. mechanism, solve, study,
+    operating : the file's nominal mechanism, ``series_solve`` and ``study_resolved`` (parsed) and
+    operating point, when the caller has them already (read from ``f`` otherwise). vertices,
+    velocities : solve these vertices, or velocities, where the run did not (``explorer metrics``
+    asking for the foot or its velocities of a study that solved neither); the rest stays the run's."""
+    from ..kernels import simulate_batch
+    if solve is None:
+        solve = json.loads(f.attrs["series_solve"])
+    if study is None:
+        study = json.loads(f.attrs["study_resolved"])
+    if mechanism is None:
+        from ..mechanism import parse_toml
+        mechanism = mechanism_from_dict(parse_toml(str(f.attrs["mechanism"]), "its stored mechanism"),
+                                        "its stored mechanism")
+    rows = variants if isinstance(variants, slice) else np.asarray(variants, dtype=np.int64)
+    lengths = f["variants/lengths"][rows]
+    crank = f["variants/crank"][rows]
+    extra = {}
+    if "variants/geometry" in f:
+        g = f["variants/geometry"]
+        G = g[rows]
+        moved = {_text(n): G[:, j] for j, n in enumerate(g.attrs["names"])}
+        if moved:
+            extra["geometry"] = moved
+    if solve["forces"]:
+        from ..mechanism import operating_from_dict, walker_from_dict
+        if operating is None:
+            operating = operating_from_dict(study["operating"], "its study", "operating")
+        walker = walker_from_dict(study.get("walker") or {}, "its study", "walker", base=mechanism.walker)
+        extra.update(forces=True, operating=operating, walker=walker, force_joints=list(solve["force_joints"]))
+    radii = crank if mechanism.crank is not None else None
+    return simulate_batch(mechanism, lengths, radii, int(solve["steps"]),
+                          vertices=list(solve["vertices"] if vertices is None else vertices),
+                          velocities=bool(solve["velocities"] or velocities), accelerations=bool(solve["accelerations"]),
+                          tolerance=float(solve["tolerance"]), method=str(solve["method"]), **extra)
+
+
+def _rows_of(batch, solve: dict, k: int) -> dict:
+    """{(group, vertex): (steps, 2), ("torque", None): (steps,)} of row ``k`` of a re-solved batch: what a
+    full study stores of it (copies, so that the batch can go)."""
+    out = {}
+    for group in solve["groups"]:
+        series = getattr(batch, group)
+        for v in solve["stored"]:
+            out[(group, v)] = series[v][k].copy()
+    if solve["forces"]:
+        out[("torque", None)] = batch.torque[k].copy()
+        for j in solve["force_joints"]:
+            out[("forces", j)] = batch.forces[j][k].copy()
+    return out
+
+
+def _variant_list(variants: np.ndarray, shown: int = 8) -> str:
+    """"variants 3, 17" / "variant 5" / "1,024 variants (0, 1, … 1023)": what a re-solve says it solved."""
+    vs = [int(v) for v in variants]
+    if len(vs) == 1:
+        return f"variant {vs[0]}"
+    if len(vs) <= shown:
+        return "variants " + ", ".join(map(str, vs))
+    return f"{len(vs):,} variants ({', '.join(map(str, vs[:3]))}, … {vs[-1]})"
+
+
+def _version_note(attrs: dict) -> str:
+    """A note when the file was written by another explorer version (its kernels may round differently)."""
+    from .. import __version__
+    written = str(attrs.get("explorer_version", ""))
+    return f"; written by explorer {written}, re-solved by {__version__}" if written and written != __version__ else ""
 
 
 def _check_shapes(f: h5py.File, filename, n: int) -> None:

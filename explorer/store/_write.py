@@ -115,7 +115,7 @@ class ResultsWriter:
         self.chunk_rows = int(f["chunks"].attrs["rows"])
         self.n_chunks = int(f["chunks/done"].shape[0])
         self.done = np.asarray(f["chunks/done"][...], dtype=bool)
-        self.vertices = tuple(f["paths"].keys())
+        self.vertices = tuple(f["paths"].keys()) if "paths" in f else ()  # none in a lean file
         self.velocities = "velocities" in f
         self.accelerations = "accelerations" in f
         # dataset handles, looked up once (h5py lookups cost ~0.1 ms each, per chunk)
@@ -179,6 +179,10 @@ class ResultsWriter:
             f.attrs["study_fingerprint"] = study.fingerprint()
             f.attrs["mechanism"] = study.mechanism_text()
             f.attrs["mechanism_source"] = mech.source
+            lean = getattr(study, "lean", False)
+            if lean:  # a lean study: no series; how to re-solve them bit for bit (explorer.store.Results)
+                f.attrs["store"] = "metrics"
+                f.attrs["series_solve"] = json.dumps(study.series_solve())
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S
             moved = study.geometry_names
@@ -223,12 +227,12 @@ class ResultsWriter:
 
             for group, wanted in (("paths", True), ("velocities", study.velocities),
                                   ("accelerations", study.accelerations)):
-                if not wanted:
+                if not wanted or lean:
                     continue
                 create_group(f, group)  # vertices in scene order
                 for v in vertices:
                     make(f"{group}/{v}", attrs={"vertex": v})
-            if getattr(study, "forces", False):
+            if getattr(study, "forces", False) and not lean:
                 make("torque", attrs={"operating": json.dumps(study.operating.as_dict())})
                 create_group(f, "forces")
                 for j in study.force_joints:

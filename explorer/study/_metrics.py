@@ -32,7 +32,8 @@ import h5py
 import numpy as np
 
 from ..errors import UserError
-from ..store import STATUS_NOT_RUN, create_metric, hdf5_rows, metrics_group, open_for_update, write_error_reason
+from ..store import (STATUS_NOT_RUN, create_metric, hdf5_rows, lean_file, metrics_group, open_for_update,
+                     resolve_series, write_error_reason)
 from ..store import now as timestamp
 from ..store._integrity import has_integrity, stamp, write_digests
 
@@ -88,7 +89,9 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
 
     Foot velocities that the file does not store (an optimisation's results, a study run with
     ``[scene] velocities = false``) are solved again from each ok variant's stored design, chunk by
-    chunk, with the study's steps, tolerance and method (``resolved``: how many variants; else 0).
+    chunk, with the study's steps, tolerance and method (``resolved``: how many variants; else 0). A
+    lean file (``[scene] store = "metrics"``) stores no series: every variant is solved again, a chunk
+    at a time, exactly as the run solved it (``lean`` True, ``resolved`` N).
 
     Raises UserError for a missing, foreign, incomplete or busy file, an unknown metric, a bad band,
     or a file that lacks the foot path the metrics need (named in the message).
@@ -165,13 +168,16 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
         need_path = [m for m in compute if m != "min_transmission_angle"]  # the others read the foot path
         need_vel = [m for m in compute if m in VELOCITY_METRICS]
         missing, blocked = [], set()
-        if need_path and not ("paths" in f and foot in f["paths"]):
+        # a lean file ([scene] store = "metrics") stores no series: each chunk is solved again as the run
+        # solved it (its series_solve), so the metrics come out as the run's, bit for bit
+        lean = lean_file(f)
+        if need_path and not lean and not ("paths" in f and foot in f["paths"]):
             missing.append(f"/paths/{foot} (the foot path), needed for {', '.join(need_path)}")
             blocked |= set(need_path)
             fix = f"vertex {foot!r} in [scene] vertices"
         # foot velocities not stored (an optimisation, a study run without them): solved again from each
         # variant's stored design, chunk by chunk, as the run solved it (same steps, tolerance, method)
-        resolve = bool(need_vel) and not ("velocities" in f and foot in f["velocities"])
+        resolve = bool(need_vel) and not lean and not ("velocities" in f and foot in f["velocities"])
         if missing:
             possible = [m for m in compute if m not in blocked]
             forced = [m for m in also if m in blocked]
@@ -204,8 +210,12 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             if progress and hasattr(sys.stderr, "isatty") and sys.stderr.isatty() and N > rows:
                 from tqdm import tqdm
                 bar = tqdm(total=N, unit="variant", unit_scale=True, desc="metrics", file=sys.stderr, leave=False)
-            dpath = f["paths"][foot] if need_path else None
-            dvel = f["velocities"][foot] if need_vel and not resolve else None
+            dpath = f["paths"][foot] if need_path and not lean else None
+            dvel = f["velocities"][foot] if need_vel and not resolve and not lean else None
+            if lean:
+                how = json.loads(_text(f.attrs["series_solve"]))
+                lean_vertices = how["vertices"] + ([foot] if foot not in how["vertices"] else [])
+                study_dict = json.loads(_text(f.attrs["study_resolved"]))
             solver = _solver(f) if resolve else None
             resolved = 0
             dstatus, dlen, dcrank = f["status"], f["variants/lengths"], f["variants/crank"]
@@ -225,6 +235,12 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                 vel = dvel[a:b] if dvel is not None else None
                 G = dgeom[a:b] if dgeom is not None else None
                 geometry = {n: G[:, j] for j, n in enumerate(gnames)} if G is not None else None
+                if lean and (need_path or need_vel):  # solved again, a chunk at a time: memory stays one chunk whatever N is
+                    batch = resolve_series(f, slice(a, b), mechanism=mech, solve=how, study=study_dict,
+                                           vertices=lean_vertices, velocities=bool(need_vel))
+                    paths = batch.paths[foot]
+                    vel = batch.velocities.get(foot) if need_vel else None
+                    resolved += b - a
                 if resolve:
                     vel = _velocities(mech, foot, status, dlen[a:b], dcrank[a:b], geometry, S, solver)
                     resolved += int((status == 0).sum())
@@ -261,7 +277,7 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
     finally:
         f.close()
     return {"path": p, "band": band, "metrics": tuple(chosen), "also": tuple(also), "kept": tuple(kept),
-            "n_variants": N, "ok": ok, "resolved": resolved, "wall_s": time.perf_counter() - t0}
+            "n_variants": N, "ok": ok, "resolved": resolved, "lean": lean, "wall_s": time.perf_counter() - t0}
 
 
 def _solver(f: h5py.File) -> dict:

@@ -26,6 +26,7 @@ A study file::
     accelerations = false
     band = 0.01                   # stance band of the gait metrics, in (0, 1)
     metrics = true                # true (all), false, or a list of metric names
+    store = "series"              # or "metrics": a lean study, no series stored (readers re-solve them)
 
     [walker]                      # the walker scene (metrics travel, bob, …); keys left out come from
     legs = 4                      # the mechanism's own [walker] table, else 4 legs evenly spaced
@@ -95,7 +96,7 @@ MAX_VARIANTS = 1_000_000_000
 _SECTIONS = {
     "study": ("name", "mechanism", "variants", "seed", "steps", "tolerance", "method"),
     "perturb": ("method", "spread", "links", "crank", "parameters"),
-    "scene": ("vertices", "velocities", "accelerations", "band", "metrics", "forces", "force_joints"),
+    "scene": ("vertices", "velocities", "accelerations", "band", "metrics", "forces", "force_joints", "store"),
     "walker": ("legs", "phases", "mirrored", "drag", "contact"),
     "operating": OPERATING_KEYS,
     "screen": SCREEN_KEYS,
@@ -106,6 +107,9 @@ _SECTIONS = {
 }
 #: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
 COMPRESSIONS = ("lzf", "gzip", "none")
+#: [scene] store choices: "series" stores every (N, steps, 2) series the scene names; "metrics" (a lean
+#: study) stores the designs, statuses and metrics only, and the readers re-solve the series they need.
+STORES = ("series", "metrics")
 _NAME_RE = re.compile(r"^[A-Za-z0-9._-]+$")
 
 
@@ -121,7 +125,8 @@ class Study:
         ``parameters`` is ``[perturb] parameters`` as written: ``"all"``, a tuple of names, or ``()``
         when absent. :attr:`parameter_names` is the union, in ``mech.parameters()`` order.
     vertices : ``"all"`` or a tuple of vertex names; velocities, accelerations, band, metrics : ``[scene]``
-        (``metrics`` is a bool or a tuple of names).
+        (``metrics`` is a bool or a tuple of names). store : ``[scene] store``, ``"series"`` or
+        ``"metrics"`` (a lean study: designs, statuses and metrics, no series; :attr:`lean`).
     output : the ``[output] path`` as written (relative paths resolve against the working directory
         when the file is opened).
     source : the file the study came from (``builtin:NAME`` or ``<dict>``); text : its TOML text.
@@ -171,6 +176,7 @@ class Study:
     force_joints: tuple = ()
     operating: Operating | None = None
     robustness: Robustness | None = None
+    store: str = "series"
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
 
     # -- derived -------------------------------------------------------------------------------
@@ -209,9 +215,23 @@ class Study:
         return tuple(n for n in self.parameter_names if mech.parameter_kind(n) == "coordinate")
 
     @property
+    def lean(self) -> bool:
+        """A metrics-only study (``[scene] store = "metrics"``): no series are stored."""
+        return self.store == "metrics"
+
+    @property
     def n_series(self) -> int:
-        """(N, steps, 2) datasets stored: every scene vertex's path, velocities, accelerations."""
+        """(N, steps, 2) datasets stored: every scene vertex's path, velocities, accelerations (none
+        for a lean study, :attr:`lean`)."""
+        if self.lean:
+            return 0
         return len(self.vertex_names) * (1 + int(self.velocities) + int(self.accelerations))
+
+    def series_solve(self) -> dict:
+        """How the study's series are solved (:func:`explorer.study._chunk.series_solve`): what a lean
+        results file records so that its readers re-solve the series bit for bit."""
+        from ._chunk import series_solve
+        return series_solve(self)
 
     @property
     def n_parameters(self) -> int:
@@ -241,6 +261,8 @@ class Study:
             "screen": self.screen.as_dict(),
             "output": {"path": self.output, "compression": self.compression},
         }
+        if self.lean:  # only when lean: a study storing its series keeps its fingerprint
+            out["scene"]["store"] = self.store
         if self.forces:  # only when on: a study without forces keeps its fingerprint
             out["scene"]["forces"] = True
             out["scene"]["force_joints"] = list(self.force_joints)
@@ -470,10 +492,11 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
     out = ou.get("path", f"results/{name}.h5")
     out = v.string("output.path", out)
     compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
+    store = v.choice("scene.store", sc.get("store", "series"), STORES)
 
     return dict(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
                 metrics=metrics, output=out, compression=compression, walker=walker, screen=screen, target=target,
-                forces=forces, force_joints=force_joints, operating=operating, robustness=robustness)
+                forces=forces, force_joints=force_joints, operating=operating, robustness=robustness, store=store)
 
 
 def _solver_keys(v: "_Validator", st: dict):

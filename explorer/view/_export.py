@@ -191,16 +191,15 @@ def trajectory_frame(results, variant):
         else:  # the samples' times, t_k = T k / (S − 1), as the solver took them (the file's /theta holds
             S = int(res.steps)  # crank angles 2πk/S whatever the driver)
             cols = {"t": mech.path.duration * np.arange(S, dtype=np.float64) / (S - 1)}
-        groups = [("paths", ("x", "y"))]
-        if "velocities" in res.file:
-            groups.append(("velocities", ("vx", "vy")))
-        if "accelerations" in res.file:
-            groups.append(("accelerations", ("ax", "ay")))
-        for name in order:
-            for group, (cx, cy) in groups:
-                if name not in res.file[group]:
-                    continue
-                a = np.asarray(res.file[group][name][v], dtype=np.float64)
+        groups = [("paths", ("x", "y"), res.path)]
+        stored = res.series_groups
+        if "velocities" in stored:
+            groups.append(("velocities", ("vx", "vy"), res.velocity))
+        if "accelerations" in stored:
+            groups.append(("accelerations", ("ax", "ay"), res.acceleration))
+        for name in order:  # every stored vertex has every stored group (a lean file: re-solved)
+            for group, (cx, cy), read in groups:
+                a = np.asarray(read(v, name), dtype=np.float64)
                 cols[f"{name}.{cx}"], cols[f"{name}.{cy}"] = a[:, 0], a[:, 1]
         return pd.DataFrame(cols)
     finally:

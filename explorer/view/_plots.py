@@ -152,7 +152,9 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     vname = vertex if vertex is not None else mech.foot
     fig = new_figure(figsize, dpi)
     ax = fig.add_subplot()
-    # the nominal, underneath
+    # the nominal, underneath (a lean file re-solves the designs drawn at once, in one line)
+    if getattr(results, "prefetch", None) is not None:
+        results.prefetch([0] + [int(v) for v in (ranked["variant"] if "variant" in ranked.columns else ranked.index)])
     nom = np.asarray(results.path(0, vertex), dtype=np.float64)
     nom_row = df.loc[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
     nom_val = nom_row[by].iloc[0] if by is not None else math.nan

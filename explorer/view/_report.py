@@ -196,8 +196,9 @@ def read_foot_paths(res, variants, points: int = DEFAULT_POINTS, vertex: str | N
     variants = np.asarray(variants, dtype=np.int64).reshape(-1)
     vname = vertex if vertex is not None else (res.mechanism.foot if res.mechanism.foot in res.vertices
                                                else res.vertices[0])
-    ds = res.file["paths"][vname]
-    S = ds.shape[1]
+    lean = getattr(res, "lean", False)  # a lean file: the paths are re-solved, not read
+    ds = None if lean else res.file["paths"][vname]
+    S = int(res.steps) if lean else ds.shape[1]
     if res.mechanism.crank is not None:  # a turn: evenly spaced, the last sample comes back to the first
         keep = np.unique(np.round(np.linspace(0, S, min(points, S), endpoint=False)).astype(np.int64) % S)
     else:  # a path driver's samples run from its start to its end: keep both
@@ -205,6 +206,8 @@ def read_foot_paths(res, variants, points: int = DEFAULT_POINTS, vertex: str | N
     out = np.full((len(variants), len(keep), 2), np.nan)
     if not len(variants):
         return out
+    if lean:
+        return np.asarray(res.path(variants, vname), dtype=np.float64)[:, keep]
     rows = ds.chunks[0] if ds.chunks else 4096
     order = np.argsort(variants, kind="stable")
     sv = variants[order]
