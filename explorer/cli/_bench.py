@@ -1,4 +1,5 @@
-"""``explorer bench accuracy [--variants N] [--spread F] [--seed S] [--tolerances ...] [--steps ...] [-o DIR]``."""
+"""``explorer bench accuracy [--variants N] [--spread F] [--seed S] [--tolerances ...] [--steps ...] [-o DIR]``
+and ``explorer bench rotations [--steps N] [--timing linear|quintic] [--csv FILE] [-o rotations.png]``."""
 
 from __future__ import annotations
 
@@ -68,6 +69,35 @@ def register(sub) -> None:
                    help="directory for accuracy.csv and accuracy.png (default: ./bench-accuracy)")
     a.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
     a.set_defaults(func=run)
+    r = verbs.add_parser(
+        "rotations", help="seed 004's orientation problem: what each way of interpolating a rotation costs",
+        description="Seed 004, problem 1: a tool's orientation from I to R = Rz(45°)·Ry(30°)·Rz(20°) in 10 s. "
+                    "Prints R and the seed's two Z-Y-X Euler sets (28.02/11.17/67.8° and 151.98/191.17/247.8°, "
+                    "R = Rz(phi)·Ry(theta)·Rx(psi)), the issue's two facts (the element-wise midpoint of I and a "
+                    "90° turn has det 0.5; Euler 0->90° on Z-Y-X sweeps 116° for a 90° geodesic), and one row "
+                    "per interpolation (slerp, spline, matrix, Euler Z-Y-X sets 1 and 2, Euler X-Y-Z, "
+                    "axis-angle, the seed's literal axis+angle 4-vector): orthonormality defect (max "
+                    "||R^T R - I||, |det R - 1|), geodesic deviation (max angle to slerp at the same time, "
+                    "degrees), swept angle vs the geodesic's, angular-speed ripple ((max-min)/mean of the "
+                    "rate per unit path fraction), and evaluation time per sample as a ratio to slerp timed "
+                    "in the same run. With -o, draws the frames at t = 0, 2, ..., 10 s as the seed does.")
+    r.add_argument("--steps", type=int, default=1001, metavar="N",
+                   help="samples of the 10 s move for the accuracy columns (default: 1001)")
+    r.add_argument("--timing", choices=("linear", "quintic"), default="linear",
+                   help="timing law of the move: the seed's linear, or the arm's quintic rest-to-rest "
+                        "(default: linear)")
+    r.add_argument("--samples", type=int, default=10_000, metavar="N",
+                   help="samples per timed evaluation (default: 10000)")
+    r.add_argument("--repeat", type=int, default=5, metavar="R", help="timing runs per method, best kept (default: 5)")
+    r.add_argument("--methods", default="all", metavar="ROWS",
+                   help="rows to run, comma-separated: all, or of slerp, spline, matrix, 'euler ZYX set 1', "
+                        "'euler ZYX set 2', 'euler XYZ', axis-angle, 'seed axang 4-vector' (slerp always runs: "
+                        "the time baseline; default: all)")
+    r.add_argument("--csv", default=None, metavar="FILE", help="also write the table as CSV")
+    r.add_argument("-o", "--output", default=None, metavar="FILE.png",
+                   help="draw the interpolated frames, one 3-D panel per method (.png, .pdf or .svg)")
+    r.add_argument("--force", action="store_true", help="overwrite an existing -o or --csv file")
+    r.set_defaults(func=run_rotations)
 
 
 def run(args) -> int:
@@ -102,4 +132,31 @@ def run(args) -> int:
     csv_path = write_csv(report, f"{args.output}/accuracy.csv")
     png_path = plot(report, f"{args.output}/accuracy.png")
     print(f"wrote {csv_path} and {png_path}")
+    return 0
+
+
+def run_rotations(args) -> int:
+    from ..errors import UserError
+    from ._args import output_path
+    from ..bench import _rotations
+
+    for name, value, low in (("--steps", args.steps, 3), ("--samples", args.samples, 1), ("--repeat", args.repeat, 1)):
+        if value < low:
+            raise UserError(f"{name}: expected an integer >= {low}, got {value}")
+    png = output_path(args.output, args.force, formats={".png", ".pdf", ".svg"}) if args.output else None
+    csv_path = output_path(args.csv, args.force, formats={".csv"}, option="--csv") if args.csv else None
+    rows = None
+    if args.methods != "all":
+        rows = [m.strip() for m in args.methods.split(",") if m.strip()]
+        unknown = [m for m in rows if m not in _rotations.ROWS]
+        if unknown or not rows:
+            raise UserError(f"--methods: unknown {', '.join(map(repr, unknown)) or 'empty list'} (known: all, "
+                            f"{', '.join(_rotations.ROWS)})")
+    report = _rotations.rotations_bench(steps=args.steps, timing=args.timing, samples=args.samples,
+                                        repeat=args.repeat, rows=rows)
+    print(_rotations.format_table(report))
+    if csv_path is not None:
+        print(f"wrote {_rotations.write_csv(report, csv_path)}")
+    if png is not None:
+        print(f"wrote {_rotations.plot(report, png)}")
     return 0
