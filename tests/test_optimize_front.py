@@ -8,6 +8,7 @@ from __future__ import annotations
 import itertools
 import re
 import shlex
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -185,3 +186,63 @@ def test_optimize_prints_the_best_design_against_the_nominal(run, capsys, tmp_pa
     assert args[:2] == ["explorer", "show"] and args[3:] == [str(v), "--vs", "0", "--units", "si"]
     shown = ok_cli(capsys, *args[1:])
     assert f"variant {v} of {len(df)}" in shown
+
+
+# -- the walking-leg synthesis example ------------------------------------------------------------------
+EXAMPLE = Path(__file__).resolve().parents[1] / "studies" / "jansen-stance.toml"
+
+
+def arc_match_error(path: np.ndarray, q: np.ndarray) -> float:
+    """The RMS distance from target points q (M, 2) to a closed polyline ``path`` (K, 2, samples in the
+    direction of motion), matched by arc length as the "arc" match is documented: a_0 and a_e the path
+    points closest to q_0 and q_{M-1} (here: the nearest samples of a dense path), q_i compared with the
+    point f_i Λ forward of a_0, f_i the target's cumulative chord length share, Λ the arc from a_0 to a_e."""
+    K = len(path)
+    seg = np.linalg.norm(np.roll(path, -1, axis=0) - path, axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])  # arc length at each sample, closed
+    total = s[-1]
+    i0 = int(np.argmin(np.linalg.norm(path - q[0], axis=1)))
+    ie = int(np.argmin(np.linalg.norm(path - q[-1], axis=1)))
+    lam = (s[ie] - s[i0]) % total or total
+    chords = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+    f = chords / chords[-1]
+    target_s = (s[i0] + f * lam) % total
+    closed = np.vstack([path, path[:1]])
+    x = np.interp(target_s, s, closed[:, 0])
+    y = np.interp(target_s, s, closed[:, 1])
+    assert K > 1000
+    return float(np.sqrt(np.mean((x - q[:, 0]) ** 2 + (y - q[:, 1]) ** 2)))
+
+
+@pytest.mark.slow
+def test_walking_leg_synthesis_example_follows_the_drawn_stance(tmp_path, capsys):
+    from naive import JANSEN_CRANK, JANSEN_LENGTHS, jansen_closed_form
+    import pandas as pd
+    q = pd.read_csv(EXAMPLE.parent / "jansen-stance.csv")[["x", "y"]].to_numpy(float)
+    theta = np.linspace(0.0, 2 * np.pi, 20000, endpoint=False)  # the foot (vertex 7) moves with θ
+
+    def error(lengths, crank):
+        pos, ok, _ = jansen_closed_form(lengths, crank, theta)
+        assert ok.all()
+        return arc_match_error(pos[:, 6], q)
+
+    nominal_error = error(JANSEN_LENGTHS, JANSEN_CRANK)
+    assert nominal_error > 2.0  # the stance is drawn 2.2 units below Jansen's foot path
+    out = ok_cli(capsys, "optimize", EXAMPLE, "-o", tmp_path / "stance.h5")
+    assert "best design against the nominal" in out and "path_error" in out
+    with open_results(tmp_path / "stance.h5") as res:
+        df = res.frame()
+    assert df.loc[0, "path_error"] == pytest.approx(nominal_error, rel=2e-3)  # variant 0 is Jansen's leg
+    ok = df[(df["status"].astype(str) == "ok") & (df["screen"] == "pass") & (df["clearance"] >= 1)
+            & (df["bob"] <= 1)]
+    best = ok.loc[ok["path_error"].idxmin()]
+    links = ["1-3", "3-4", "2-3", "2-4", "4-5", "2-6", "1-6", "5-6", "5-7", "6-7"]
+    best_error = error(best[links].to_numpy(float), float(best["crank"]))
+    # the stored error of the best leg is the plain one of its closed-form foot path
+    assert best["path_error"] == pytest.approx(best_error, rel=2e-3, abs=1e-3)
+    # the search reduces the error by at least 90 % against Jansen's leg, each figure computed here
+    assert best_error <= 0.1 * nominal_error, (best_error, nominal_error)
+    # the printed best design is that one, and it passes the screen and the walker constraints
+    assert f"variant {int(best['variant'])}, the best feasible design" in out
+    row = df.iloc[int(best["variant"])]
+    assert row["screen"] == "pass" and bool(row["buildable"]) and row["clearance"] >= 1 and row["bob"] <= 1

@@ -92,7 +92,7 @@ def best_lines(summary) -> list[str]:
     import math
     import shlex
 
-    from ..gait import SPEED, change_pct, metric, operating_line, results_si
+    from ..gait import SPEED, change_pct, filter_columns, metric, operating_line, results_si
     from ..store import open_results
     from ._format import better, table
     from ._show import parameter_lines
@@ -117,7 +117,10 @@ def best_lines(summary) -> list[str]:
         return lines
     mm = None if si is None else si.operating.unit * 1000.0
     params = parameter_lines(mech, design, nominal, perturbed, mm)
-    changed = [params[0]] + [ln for ln in params[1:] if "(fixed)" not in ln]  # the searched parameters
+    # the searched parameters only (and the note on coordinates only when one is searched)
+    coordinates = any(mech.parameter_kind(p) == "coordinate" for p in perturbed)
+    changed = [params[0]] + [ln for ln in params[1:] if "(fixed)" not in ln
+                             and (coordinates or not ln.startswith("(a coordinate"))]
     lines += ["  " + ln for ln in changed]
     if not has_nominal:
         lines.append("  the nominal lies outside the [optimize] bounds, so the file does not hold it and its "
@@ -125,13 +128,20 @@ def best_lines(summary) -> list[str]:
         lines.append(f"  shown in full by: explorer show {path} {v}" + (" --units si" if si is not None else ""))
         return lines
     lines.append("")
-    rows = [("objective", "nominal", "best", "change", "change %", "unit", "")]
+    rows = [("metric", "nominal", "best", "change", "change %", "unit", "")]
     nominal_ok = str(row0["status"]) == "ok"
     objectives = list(zip(summary.objectives, summary.directions))
     if si is not None and SPEED in si.converted and "travel" in summary.objectives:  # the walking speed follows travel
         i = summary.objectives.index("travel")
         objectives.insert(i + 1, (SPEED, summary.directions[i]))
-    for o, d in objectives:
+    objectives = [(o, d, "") for o, d in objectives]
+    for c in summary.constraints:  # the metrics the constraints name, marked with their constraint
+        for name in filter_columns(c):
+            info = metric(name)
+            if info is not None and name in shown.columns and name not in [o for o, _, _ in objectives]:
+                objectives.append((name, info.direction, f"constraint {c}" + (" (model units)" if si is not None
+                                                                                  else "")))
+    for o, d, note in objectives:
         x, r = float(shown[o].iloc[v]), float(shown[o].iloc[0])
         unit = si.units.get(o, "") if si is not None else (metric(o).unit if metric(o) is not None else "")
         rtext = f"{r:.6g}" if math.isfinite(r) else "-"
@@ -139,9 +149,9 @@ def best_lines(summary) -> list[str]:
             pct = change_pct(x, r)
             word = "same" if x == r else "better" if (x > r) == (d == "max") else "worse"
             rows.append((o, rtext, f"{x:.6g}", f"{x - r:+.4g}", f"{pct:+.3g} %" if math.isfinite(pct) else "-",
-                         unit, f"{word} ({better(d)})"))
+                         unit, note or f"{word} ({better(d)})"))
         else:
-            rows.append((o, rtext, f"{x:.6g}", "-", "-", unit, f"({better(d)})"))
+            rows.append((o, rtext, f"{x:.6g}", "-", "-", unit, note or f"({better(d)})"))
     lines += ["  " + ln for ln in table(rows, (False, True, True, True, True, False, False))]
     if not nominal_ok:
         lines.append(f"  the nominal did not solve ({row0['status']}): its objectives are not numbers")
