@@ -13,9 +13,10 @@ import math
 import numpy as np
 from numba import njit
 
-from ..plan import DYAD, GENERAL
+from ..plan import ATTACH, DYAD, GENERAL, SLIDE
 from ._drive import CRANK
-from ._fast import frame_point
+from ._blocks import OK
+from ._fast import frame_point, slide_root
 from ._step import block_table, generic_context
 from ._sweep import STATUS_INVALID, fast_sweep, generic_sweep
 
@@ -68,7 +69,8 @@ def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
     """Place the driven vertex at (cx, cy) + scale * d[:2], then every block of the block table
     ``tab`` in order by the closed form: a dyad's vertex at the intersection of the circles about its
     parents on the side ``signs[j]`` (the branch: the sign of cross(b − a, p − a)), a body joint by
-    its body's rigid transform of its base pair. Writes P (n_vertices, 2) in place; returns the first
+    its body's rigid transform of its base pair, a SLIDE block's vertex where its circle meets its line
+    on the side ``signs[j]`` (``_fast.slide_root``). Writes P (n_vertices, 2) in place; returns the first
     block it could not place (a dyad whose circles do not meet), or −1.
 
     start: placing a design's start for Newton (the kernels' first sample): then it also stops,
@@ -78,8 +80,15 @@ def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
     P[tip, 1] = cy + scale * d[1]
     for j in range(tab.shape[0]):
         rec = tab[j]
-        if start and (rec.kind == GENERAL or (rec.kind == DYAD and signs[j] == 0.0)):
+        if start and (rec.kind == GENERAL or (rec.kind != ATTACH and signs[j] == 0.0)):
             return j
+        if rec.kind == SLIDE:
+            code, x, y = slide_root(rec, signs[j], P, P[rec.vertex, 0], P[rec.vertex, 1])
+            if code != OK:
+                return j
+            P[rec.vertex, 0] = x
+            P[rec.vertex, 1] = y
+            continue
         a = rec.a
         b = rec.b
         gx = P[b, 0] - P[a, 0]
@@ -115,7 +124,7 @@ def design_setup(topo, designs, i, P_init, crank, d0, signs):
     cx = designs.center[i, 0]
     cy = designs.center[i, 1]
     tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, designs.dist[i],
-                      designs.uv[i], P, cx, cy, designs.scale[i], crank)
+                      designs.uv[i], P, cx, cy, designs.scale[i], crank, topo.slid, topo.slide, designs.slide[i])
     place_closed(tab, topo.tip, cx, cy, designs.scale[i], d0, signs, P, True)
     return P, cx, cy, tab
 
@@ -174,7 +183,8 @@ def generic_batch_jit(topo, drv, opts, P_init, signs, designs, outs):
         else:
             P, cx, cy, tab = design_setup(topo, designs, i, P_init, crank, drv.table[0], signs)
             ctx = generic_context(opts.method, tab, topo.gen_vptr, topo.gen_verts, topo.gen_rptr, topo.gen_rows,
-                                  topo.dist_a, topo.dist_b, topo.att_vpq, L, designs.uv[i], known, designs.fixed[i])
+                                  topo.dist_a, topo.dist_b, topo.att_vpq, L, designs.uv[i], known, designs.fixed[i],
+                                  topo.slide, designs.slide[i])
             shortest = np.inf
             for e in range(L.shape[0]):
                 shortest = min(shortest, L[e])

@@ -18,7 +18,7 @@ Conventions shared by every kernel:
 import numpy as np
 from numba import njit
 
-from ..plan import ROW_ATTACH_X, ROW_DIST
+from ..plan import ROW_ATTACH_X, ROW_DIST, ROW_SLIDE
 
 OK = 0
 INFEASIBLE = 1
@@ -131,6 +131,47 @@ def lu_solve(M, rhs, n):
 
 
 @njit(cache=True)
+def slide_eval(ground, px, py, ax, ay, bx, by, lx, ly, nx, ny, off, L):
+    """A slide equation's residual and partial derivatives: (r, ∂r/∂p (x, y), ∂r/∂a, ∂r/∂b).
+
+    Ground line through (lx, ly) along the unit (nx, ny): r = n × (p − l) − off (a and b unused, their
+    partials 0). Slot along a → b, |b − a| = L: r = cross(b − a, p − a)/L − off (bilinear: affine in
+    each of p, a, b alone, so each partial is free of that vertex's own position)."""
+    if ground:
+        return nx * (py - ly) - ny * (px - lx) - off, -ny, nx, 0.0, 0.0, 0.0, 0.0
+    gx = bx - ax
+    gy = by - ay
+    r = (gx * (py - ay) - gy * (px - ax)) / L - off
+    return r, -gy / L, gx / L, (by - py) / L, (px - bx) / L, (py - ay) / L, (ax - px) / L
+
+
+@njit(cache=True)
+def slide_row(P, k, slide, sd):
+    """:func:`slide_eval` of slide equation k at positions P (n_vertices, 2); slide (n_slide, 3) and sd
+    (n_slide, 6): ``_inputs.Topology.slide`` and ``Designs.slide``."""
+    p = slide[k, 0]
+    a = slide[k, 1]
+    b = slide[k, 2]
+    if a < 0:
+        return slide_eval(True, P[p, 0], P[p, 1], 0.0, 0.0, 0.0, 0.0, sd[k, 0], sd[k, 1], sd[k, 2], sd[k, 3],
+                          sd[k, 4], sd[k, 5])
+    return slide_eval(False, P[p, 0], P[p, 1], P[a, 0], P[a, 1], P[b, 0], P[b, 1], sd[k, 0], sd[k, 1], sd[k, 2],
+                      sd[k, 3], sd[k, 4], sd[k, 5])
+
+
+@njit(cache=True)
+def slide_curvature(V, k, slide, sd):
+    """The slide equation's second-derivative term 2 cross(v_b − v_a, v_p − v_a)/L at rates V (0 for a
+    ground line): its rows obey J·A = −this."""
+    a = slide[k, 1]
+    b = slide[k, 2]
+    if a < 0:
+        return 0.0
+    p = slide[k, 0]
+    return 2.0 * ((V[b, 0] - V[a, 0]) * (V[p, 1] - V[a, 1]) - (V[b, 1] - V[a, 1]) * (V[p, 0] - V[a, 0])) / sd[k, 5]
+
+
+@njit(cache=True)
 def _row_ends(row, dist_a, dist_b, att_vpq):
     """(type, first vertex, second vertex, third vertex or −1) of a GENERAL block's row."""
     typ = row[0]
@@ -141,17 +182,26 @@ def _row_ends(row, dist_a, dist_b, att_vpq):
 
 
 @njit(cache=True)
-def _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M):
+def _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M):
     """Jacobian of a general block's rows w.r.t. its own vertices (columns 2·loc + axis).
 
     A distance row is |p_w − p_u|² − d² (unscaled); an attach row is the x or y component of
-    p_j − p_p − u (p_q − p_p) − v R(p_q − p_p), linear in the positions.
+    p_j − p_p − u (p_q − p_p) − v R(p_q − p_p), linear in the positions; a slide row is
+    :func:`slide_eval`'s residual.
     """
     n = 2 * verts.shape[0]
     for i in range(n):
         for j in range(n):
             M[i, j] = 0.0
     for r in range(rows.shape[0]):
+        if rows[r, 0] == ROW_SLIDE:
+            k = rows[r, 1]
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, k, slide, sd)
+            for c, gx, gy in ((slide[k, 0], jpx, jpy), (slide[k, 1], jax, jay), (slide[k, 2], jbx, jby)):
+                if c >= 0 and loc[c] >= 0:
+                    M[r, 2 * loc[c]] += gx
+                    M[r, 2 * loc[c] + 1] += gy
+            continue
         typ, u, w, z = _row_ends(rows[r], dist_a, dist_b, att_vpq)
         if typ == ROW_DIST:
             gx = P[w, 0] - P[u, 0]
@@ -194,19 +244,19 @@ def _attach_residual(P, row, att_vpq, uv):
 
 
 @njit(cache=True)
-def general_sign(P, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs):
+def general_sign(P, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M, rhs):
     """Sign of the determinant of a general block's Jacobian at P (its branch sign); 0.0 if singular."""
     for j in range(verts.shape[0]):
         loc[verts[j]] = j
-    _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M)
+    _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M)
     for j in range(verts.shape[0]):
         loc[verts[j]] = -1
     return lu_solve(M, rhs, 2 * verts.shape[0])
 
 
 @njit(cache=True)
-def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, L, uv, h, hp, tol, maxit, sign_ref,
-                  want_acc, checks, loc, M, rhs):
+def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, L, uv, slide, sd, h, hp, tol, maxit,
+                  sign_ref, want_acc, checks, loc, M, rhs):
     """Newton on one coupled block (e.g. an Assur triad, or a body inside a loop) with a step limit;
     then its tangent.
 
@@ -220,6 +270,9 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, 
     for r in range(rows.shape[0]):
         if rows[r, 0] == ROW_DIST:
             shortest = min(shortest, L[rows[r, 1]])
+        elif rows[r, 0] == ROW_SLIDE:
+            if slide[rows[r, 1], 1] >= 0:
+                shortest = min(shortest, sd[rows[r, 1], 5])
         else:
             t = rows[r, 1]
             p = att_vpq[t, 1]
@@ -228,6 +281,7 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, 
                 if (dist_a[e] == p and dist_b[e] == q) or (dist_a[e] == q and dist_b[e] == p):
                     shortest = min(shortest, L[e])
     lim = MAX_MOVE * shortest
+    ref = shortest if shortest < np.inf else 1e12 * tol  # a slide row's residual is a distance
     for j in range(nb):
         v = verts[j]
         loc[v] = j
@@ -248,6 +302,10 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, 
                 d2 = L[e] * L[e]
                 rhs[r] = d2 - (gx * gx + gy * gy)
                 worst = max(worst, abs(rhs[r]) / d2)
+            elif rows[r, 0] == ROW_SLIDE:
+                res = slide_row(P1, rows[r, 1], slide, sd)[0]
+                rhs[r] = -res
+                worst = max(worst, abs(res) / ref)
             else:
                 res = _attach_residual(P1, rows[r], att_vpq, uv)
                 rhs[r] = -res
@@ -257,7 +315,7 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, 
         if it >= maxit:
             code = NOCONV
             break
-        _general_jacobian(P1, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M)
+        _general_jacobian(P1, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M)
         if lu_solve(M, rhs, n) == 0.0:
             code = NOCONV
             break
@@ -272,7 +330,7 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, 
         if norm <= tol * tol:  # the correction just kept moved no vertex further than tol: converged
             break
     if code == OK:
-        sgn = general_sign(P1, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs)
+        sgn = general_sign(P1, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M, rhs)
         for j in range(nb):
             loc[verts[j]] = j
         if sgn == 0.0 or (sign_ref != 0.0 and (sgn > 0.0) != (sign_ref > 0.0)):
@@ -285,26 +343,36 @@ def solve_general(P0, V0, Vp, P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, 
                 if mx * mx + my * my > 4.0 * lim * lim:
                     code = SUSPECT
     if code == OK:
-        _general_rates(P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs, False)
+        _general_rates(P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M, rhs, False)
         if want_acc:
-            _general_rates(P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs, True)
+            _general_rates(P1, V1, A1, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M, rhs, True)
     for j in range(nb):
         loc[verts[j]] = -1
     return code, it
 
 
 @njit(cache=True)
-def _general_rates(P, V, A, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M, rhs, accel):
+def _general_rates(P, V, A, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M, rhs, accel):
     """Tangent (accel=False: V) or second derivative (accel=True: A) of a general block's vertices.
 
     Differentiating (p_w − p_u)·(p_w − p_u) = d² once gives (p_w − p_u)·(v_w − v_u) = 0; twice gives
     (p_w − p_u)·(a_w − a_u) = −|v_w − v_u|². An attach row is linear: its rates obey the same row
-    with the rates in place of the positions. Known (upstream) vertices move to the right-hand side.
+    with the rates in place of the positions; a slide row gives J·V = 0 and J·A = −(its curvature
+    term, :func:`slide_curvature`). Known (upstream) vertices move to the right-hand side.
     """
     nb = verts.shape[0]
-    _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, loc, M)
+    _general_jacobian(P, verts, rows, dist_a, dist_b, att_vpq, uv, slide, sd, loc, M)
     R = A if accel else V
     for r in range(rows.shape[0]):
+        if rows[r, 0] == ROW_SLIDE:
+            k = rows[r, 1]
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, k, slide, sd)
+            val = -slide_curvature(V, k, slide, sd) if accel else 0.0
+            for c, gx, gy in ((slide[k, 0], jpx, jpy), (slide[k, 1], jax, jay), (slide[k, 2], jbx, jby)):
+                if c >= 0 and loc[c] < 0:
+                    val -= gx * R[c, 0] + gy * R[c, 1]
+            rhs[r] = val
+            continue
         typ, u, w, z = _row_ends(rows[r], dist_a, dist_b, att_vpq)
         val = 0.0
         if typ == ROW_DIST:

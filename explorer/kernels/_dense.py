@@ -1,7 +1,8 @@
 """The dense reference method: Newton on seed 000's full square system, and its eq. 29–30 tangent.
 
 Unknowns are the x, y of every vertex (2 n_vertices); equations are one squared-length residual per
-distance equation (links, bodies' base pairs), two linear rows per body attach equation, and the
+distance equation (links, bodies' base pairs), two linear rows per body attach equation, one row
+per slide equation (``_blocks.slide_eval``), and the
 coordinate equations of the crank tip and the fixed vertices. No structure is used,
 which makes this the simple, slow reference the block method is checked against.
 """
@@ -9,17 +10,19 @@ which makes this the simple, slow reference the block method is checked against.
 import numpy as np
 from numba import njit
 
-from ._blocks import MAX_MOVE, NOCONV, OK, ROUNDING, lu_solve
+from ._blocks import MAX_MOVE, NOCONV, OK, ROUNDING, lu_solve, slide_curvature, slide_row
 
 
 @njit(cache=True)
-def _assemble(P, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, with_residual):
+def _assemble(P, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, with_residual):
     """Fill M (2nv, 2nv) with the full Jacobian at P; if ``with_residual``, rhs = −F(P) and return the worst scaled residual.
 
-    Rows: the distance equations, then two rows (x, y) per attach equation, then two per known vertex."""
+    Rows: the distance equations, then two rows (x, y) per attach equation, one per slide equation,
+    then two per known vertex."""
     nv = P.shape[0]
     n = 2 * nv
-    nl = link_a.shape[0] + 2 * att_vpq.shape[0]
+    n0 = link_a.shape[0] + 2 * att_vpq.shape[0]
+    nl = n0 + slide.shape[0]
     for i in range(n):
         for j in range(n):
             M[i, j] = 0.0
@@ -62,6 +65,22 @@ def _assemble(P, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, with_
                     res = P[j, 1] - (P[p, 1] + cu * gy + cv * gx)
                 rhs[r] = -res
                 worst = max(worst, abs(res) / np.sqrt(gx * gx + gy * gy))
+    ref = np.inf
+    for e in range(L.shape[0]):
+        ref = min(ref, L[e])
+    for k in range(slide.shape[0]):
+        r = n0 + k
+        res, jpx, jpy, jax, jay, jbx, jby = slide_row(P, k, slide, sd)
+        M[r, 2 * slide[k, 0]] += jpx
+        M[r, 2 * slide[k, 0] + 1] += jpy
+        if slide[k, 1] >= 0:
+            M[r, 2 * slide[k, 1]] += jax
+            M[r, 2 * slide[k, 1] + 1] += jay
+            M[r, 2 * slide[k, 2]] += jbx
+            M[r, 2 * slide[k, 2] + 1] += jby
+        if with_residual:
+            rhs[r] = -res
+            worst = max(worst, abs(res) / ref)
     for k in range(known.shape[0]):
         v = known[k]
         for ax in range(2):
@@ -75,8 +94,8 @@ def _assemble(P, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, with_
 
 
 @njit(cache=True)
-def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, known, known_pos, known_vel, known_acc, h,
-                hp, tol, maxit, want_acc, M, rhs):
+def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, known_vel,
+                known_acc, h, hp, tol, maxit, want_acc, M, rhs):
     """Predict from P0/V0/Vp, then full-system Newton; on success fill P1, V1 (and A1).
 
     ``known`` (n_known,) lists the crank tip then the fixed vertices, with their target positions,
@@ -98,7 +117,7 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, known, k
         P1[known[k], 1] = known_pos[k, 1]
     it = 0
     while True:
-        if _assemble(P1, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, True) <= ROUNDING:
+        if _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, True) <= ROUNDING:
             break
         if it >= maxit or lu_solve(M, rhs, n) == 0.0:
             return NOCONV, it
@@ -113,8 +132,8 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, known, k
         if norm <= tol * tol:  # the correction just kept moved no vertex further than tol: converged
             break
     # seed 000 eq. 29–30: M dV/dθ = B, B = the known vertices' rates, zero for the link and attach rows
-    nl = link_a.shape[0] + 2 * att_vpq.shape[0]
-    _assemble(P1, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, False)
+    nl = link_a.shape[0] + 2 * att_vpq.shape[0] + slide.shape[0]
+    _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, False)
     for e in range(nl):
         rhs[e] = 0.0
     for k in range(known.shape[0]):
@@ -126,9 +145,11 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, known, k
         V1[v, 0] = rhs[2 * v]
         V1[v, 1] = rhs[2 * v + 1]
     if want_acc:
-        _assemble(P1, link_a, link_b, L, att_vpq, uv, known, known_pos, M, rhs, False)
+        _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, False)
         for e in range(nl):
             rhs[e] = 0.0  # attach rows are linear: no curvature term
+        for k in range(slide.shape[0]):
+            rhs[link_a.shape[0] + 2 * att_vpq.shape[0] + k] = -slide_curvature(V1, k, slide, sd)
         for e in range(link_a.shape[0]):
             wx = V1[link_b[e], 0] - V1[link_a[e], 0]
             wy = V1[link_b[e], 1] - V1[link_a[e], 1]

@@ -52,8 +52,12 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
         else np.zeros((N, 0, 2))
     if mech.crank is not None:
         center = np.stack([col("crank.x"), col("crank.y")], axis=-1)
+    elif mech.path.slider is not None:  # a linear actuator: its path moves with its slider's point
+        sl = next(s for s in mech.sliders if s.name == mech.path.slider)
+        center = np.stack([col(f"{sl.name}.x") - sl.point[0], col(f"{sl.name}.y") - sl.point[1]], axis=-1)
     else:
         center = np.zeros((N, 2))
+    slide = slide_numbers(mech, plan, lengths, points, col, N)
     # an attached joint's error is at most (|1 − u| + |u| + 2|v|) times its base pair's: tighten
     # Newton's stopping distance by that much so that every joint keeps the promise
     amp = np.ones(N)
@@ -63,10 +67,41 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
                                          axis=1))
     tol = tolerance * size / amp
     ok = (np.all(np.isfinite(uv), axis=(1, 2)) & np.all(np.isfinite(fixed), axis=(1, 2))
-          & np.all(np.isfinite(center), axis=1) & np.isfinite(tol) & (tol > 0))
+          & np.all(np.isfinite(center), axis=1) & np.isfinite(tol) & (tol > 0)
+          & np.all(np.isfinite(slide), axis=(1, 2)) & np.all(slide[..., 5] > 0, axis=1))
     dist[~ok] = np.nan
     return Designs(np.ascontiguousarray(dist), np.ascontiguousarray(uv), np.ascontiguousarray(fixed),
-                   np.ascontiguousarray(center), np.ascontiguousarray(scale, dtype=np.float64), tol)
+                   np.ascontiguousarray(center), np.ascontiguousarray(scale, dtype=np.float64), tol,
+                   np.ascontiguousarray(slide))
+
+
+def slide_numbers(mech: Mechanism, plan: Plan, lengths: np.ndarray, points: list, col, N: int) -> np.ndarray:
+    """(N, n_slide, 6) each slide equation's line (``_inputs.Designs.slide``): a ground line's point and
+    unit direction, 0, 1; a slot's 0, 0, 0, 0, offset and length |b − a| (its link's length, or the
+    distance of its two joints in their body). NaN where a direction has no length."""
+    out = np.zeros((N, len(plan.slide), 6))
+    out[..., 5] = 1.0
+    for k, si in enumerate(plan.slide_slider):
+        s = mech.sliders[si]
+        if s.ground:
+            dx, dy = col(f"{s.name}.dx"), col(f"{s.name}.dy")
+            n = np.hypot(dx, dy)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out[:, k, 2], out[:, k, 3] = np.where(n > 0, dx / n, np.nan), np.where(n > 0, dy / n, np.nan)
+            out[:, k, 0], out[:, k, 1] = col(f"{s.name}.x"), col(f"{s.name}.y")
+            continue
+        out[:, k, 4] = col(f"{s.name}.offset")
+        pair = frozenset(s.line)
+        for i, link in enumerate(mech.links):
+            if frozenset((link.a, link.b)) == pair:
+                out[:, k, 5] = lengths[:, i]
+                break
+        else:
+            bi = next(i for i, b in enumerate(mech.bodies) if pair <= set(b.joints))
+            body = mech.bodies[bi]
+            pa, pb = points[bi][:, body.joints.index(s.line[0])], points[bi][:, body.joints.index(s.line[1])]
+            out[:, k, 5] = np.hypot(*(pb - pa).T)
+    return out
 
 
 def _columns(mech: Mechanism, geometry: dict | None, N: int):

@@ -2,6 +2,10 @@
 
 * DYAD: one vertex placed by two distances to known vertices (the Jansen leg is five of them), by
   Newton on the 2x2 system with branch tracking, a gap check and the tangent.
+* SLIDE: one vertex placed by a distance to a known vertex c and a slide equation affine in it (a
+  pin–slider dyad), exactly: the line–circle intersection (:func:`slide_root`), the branch the sign
+  of cross(vertex − c, J), J the slide equation's gradient in the vertex; a gap check on the squared
+  distance from c to the vertex's line, and the rates from the 2x2 Jacobian.
 * ATTACH: a rigid body's joint placed from its body's known base pair p, q, exactly: at
   p + u (q − p) + v R(q − p) (R: a quarter turn counter-clockwise), (u, v) being the joint's
   coordinates in the frame of the base pair scaled by its length (``_design``). A rigid transform:
@@ -21,8 +25,8 @@ import math
 
 from numba import njit
 
-from ..plan import DYAD
-from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIGN, SUSPECT, gap_suspect
+from ..plan import ATTACH, DYAD
+from ._blocks import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIGN, SUSPECT, gap_suspect, slide_eval
 
 
 # Below this |sin| of the angle at the placed vertex a dyad is at a fold (its parents' distance at
@@ -191,6 +195,177 @@ def place_dyad(checks, gap, h, c2, ax, ay, bx, by, vax, vay, vbx, vby, ax0, ay0,
     return OK, it, px, py, vx, vy, ex, ey, fx, fy, inv
 
 
+@njit(cache=True)
+def _slide_at(rec, P, x, y):
+    """``_blocks.slide_eval`` of a SLIDE record's slide equation at positions (or rates) P with the
+    block's vertex at (x, y) instead: (r, ∂r/∂p, ∂r/∂a, ∂r/∂b) as seven numbers."""
+    ground = rec.sa < 0
+    px = P[rec.sp, 0]
+    py = P[rec.sp, 1]
+    ax = ay = bx = by = 0.0
+    if not ground:
+        ax = P[rec.sa, 0]
+        ay = P[rec.sa, 1]
+        bx = P[rec.sb, 0]
+        by = P[rec.sb, 1]
+    if rec.role == 0:
+        px = x
+        py = y
+    elif rec.role == 1:
+        ax = x
+        ay = y
+    else:
+        bx = x
+        by = y
+    return slide_eval(ground, px, py, ax, ay, bx, by, rec.lx, rec.ly, rec.nx, rec.ny, rec.off, rec.sl)
+
+
+@njit(cache=True)
+def _role(role, jpx, jpy, jax, jay, jbx, jby):
+    """The partial derivative of a slide equation in the vertex of ``role`` (0 p, 1 a, 2 b)."""
+    if role == 0:
+        return jpx, jpy
+    if role == 1:
+        return jax, jay
+    return jbx, jby
+
+
+@njit(cache=True)
+def _others(rec, R, jpx, jpy, jax, jay, jbx, jby):
+    """Σ ∂r/∂w · R[w] over the slide equation's vertices w other than the block's own (R: rates)."""
+    out = 0.0
+    if rec.role != 0:
+        out += jpx * R[rec.sp, 0] + jpy * R[rec.sp, 1]
+    if rec.sa >= 0:
+        if rec.role != 1:
+            out += jax * R[rec.sa, 0] + jay * R[rec.sa, 1]
+        if rec.role != 2:
+            out += jbx * R[rec.sb, 0] + jby * R[rec.sb, 1]
+    return out
+
+
+@njit(cache=True)
+def slide_root(rec, sign, P, gx, gy):
+    """A SLIDE block's vertex by the closed form: the slide equation with the other vertices known is
+    J·(x − c) + r_c = 0 (r_c: its residual with the vertex at c, the known vertex at distance d), a line;
+    the vertex is where the circle of radius d about c meets it, on the side ``sign`` (the sign of
+    cross(x − c, J)), or, with sign 0, the one nearer (gx, gy). Returns (code, x, y): OK, INFEASIBLE
+    (the circle misses the line) or NOCONV (the line is undefined: J = 0)."""
+    c = rec.a
+    cx = P[c, 0]
+    cy = P[c, 1]
+    rc, jpx, jpy, jax, jay, jbx, jby = _slide_at(rec, P, cx, cy)
+    jx, jy = _role(rec.role, jpx, jpy, jax, jay, jbx, jby)
+    j2 = jx * jx + jy * jy
+    if not j2 > 0.0:
+        return NOCONV, math.nan, math.nan
+    t2 = rec.da2 - rc * rc / j2
+    if t2 < 0.0:
+        return INFEASIBLE, math.nan, math.nan
+    fx = cx - rc * jx / j2
+    fy = cy - rc * jy / j2
+    t = math.sqrt(t2 / j2)
+    # the roots f ± t (−jy, jx); cross(x − c, J) = −(±) t |J|²
+    s = -1.0 if sign > 0.0 else 1.0
+    if sign == 0.0:
+        d1 = (fx - t * jy - gx) ** 2 + (fy + t * jx - gy) ** 2
+        d2 = (fx + t * jy - gx) ** 2 + (fy - t * jx - gy) ** 2
+        s = 1.0 if d1 <= d2 else -1.0
+    return OK, fx - s * t * jy, fy + s * t * jx
+
+
+@njit(cache=True)
+def slide_sign(rec, P):
+    """A SLIDE block's branch at positions P: cross(x − c, J) (J the slide equation's gradient in x)."""
+    v = rec.vertex
+    c = rec.a
+    _, jpx, jpy, jax, jay, jbx, jby = _slide_at(rec, P, P[v, 0], P[v, 1])
+    jx, jy = _role(rec.role, jpx, jpy, jax, jay, jbx, jby)
+    return (P[v, 0] - P[c, 0]) * jy - (P[v, 1] - P[c, 1]) * jx
+
+
+@njit(cache=True)
+def _slide_gap(rec, P, V):
+    """(q, dq/dparameter): the squared distance from the known vertex c to the SLIDE block's line, and its
+    rate, from the known vertices' positions P and rates V (the vertex must stay within √da2 of c: q ≤ da2)."""
+    c = rec.a
+    cx = P[c, 0]
+    cy = P[c, 1]
+    rc, jpx, jpy, jax, jay, jbx, jby = _slide_at(rec, P, cx, cy)
+    jx, jy = _role(rec.role, jpx, jpy, jax, jay, jbx, jby)
+    j2 = jx * jx + jy * jy
+    # r_c's rate: every vertex's partial times its rate, the block's vertex taking c's
+    drc = _others(rec, V, jpx, jpy, jax, jay, jbx, jby) + jx * V[c, 0] + jy * V[c, 1]
+    jj = 0.0  # J·J': J is linear in the other vertices (zero rate for a ground line)
+    if rec.sa >= 0:
+        _, kpx, kpy, kax, kay, kbx, kby = _slide_at(rec, V, V[c, 0], V[c, 1])
+        kx, ky = _role(rec.role, kpx, kpy, kax, kay, kbx, kby)
+        jj = jx * kx + jy * ky
+    return rc * rc / j2, 2.0 * (rc * drc * j2 - rc * rc * jj) / (j2 * j2)
+
+
+@njit(cache=True)
+def slide_rates(rec, P, V, A, want_acc):
+    """The SLIDE block's vertex's tangent into V (and second derivative into A), from the 2x2 system of
+    its distance row (x − c)·(V_x − V_c) = 0 and slide row J·V_x = −Σ others; False if singular."""
+    v = rec.vertex
+    c = rec.a
+    _, jpx, jpy, jax, jay, jbx, jby = _slide_at(rec, P, P[v, 0], P[v, 1])
+    jx, jy = _role(rec.role, jpx, jpy, jax, jay, jbx, jby)
+    ex = P[v, 0] - P[c, 0]
+    ey = P[v, 1] - P[c, 1]
+    det = ex * jy - ey * jx
+    if det == 0.0:
+        return False
+    r1 = ex * V[c, 0] + ey * V[c, 1]
+    r2 = -_others(rec, V, jpx, jpy, jax, jay, jbx, jby)
+    V[v, 0] = (r1 * jy - ey * r2) / det
+    V[v, 1] = (ex * r2 - jx * r1) / det
+    if want_acc:
+        wx = V[v, 0] - V[c, 0]
+        wy = V[v, 1] - V[c, 1]
+        s1 = ex * A[c, 0] + ey * A[c, 1] - (wx * wx + wy * wy)
+        s2 = -_others(rec, A, jpx, jpy, jax, jay, jbx, jby)
+        if rec.sa >= 0:  # the slot's curvature term 2 cross(v_b − v_a, v_p − v_a)/L
+            p = rec.sp
+            a = rec.sa
+            b = rec.sb
+            s2 -= 2.0 * ((V[b, 0] - V[a, 0]) * (V[p, 1] - V[a, 1])
+                         - (V[b, 1] - V[a, 1]) * (V[p, 0] - V[a, 0])) / rec.sl
+        A[v, 0] = (s1 * jy - ey * s2) / det
+        A[v, 1] = (ex * s2 - jx * s1) / det
+    return True
+
+
+@njit(cache=True)
+def slide_step(rec, sign, P0, V0, Vp, P1, V1, A1, h, c2, want_acc, checks):
+    """Place a SLIDE block at the new driver position (its known vertices already placed in P1, V1):
+    the closed form on the branch ``sign``, the gap check between the samples and the move check,
+    then its rates. Returns a step code (``_blocks``)."""
+    v = rec.vertex
+    mx = h * V0[v, 0] + c2 * (V0[v, 0] - Vp[v, 0])
+    my = h * V0[v, 1] + c2 * (V0[v, 1] - Vp[v, 1])
+    if checks and mx * mx + my * my > rec.lim2:
+        return SUSPECT
+    code, x, y = slide_root(rec, sign, P1, P0[v, 0] + mx, P0[v, 1] + my)
+    if code != OK:
+        return code
+    if checks:
+        q0, m0 = _slide_gap(rec, P0, V0)
+        q1, m1 = _slide_gap(rec, P1, V1)
+        if gap_suspect(q0, m0, q1, m1, h, rec.hi2, rec.lo2):
+            return SUSPECT
+        dx = x - P0[v, 0] - mx
+        dy = y - P0[v, 1] - my
+        if dx * dx + dy * dy > rec.lim2:
+            return SUSPECT
+    P1[v, 0] = x
+    P1[v, 1] = y
+    if not slide_rates(rec, P1, V1, A1, want_acc):
+        return SIGN
+    return OK
+
+
 @njit(cache=True, inline="always")
 def fast_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, checks):
     """Place every block of the block table ``ctx`` (DYAD and ATTACH rows) in order at the new driver
@@ -207,7 +382,12 @@ def fast_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, c
         v = rec.vertex
         a = rec.a
         b = rec.b
-        if rec.kind != DYAD:  # ATTACH (the fast step is given no GENERAL row)
+        if rec.kind != DYAD and rec.kind != ATTACH:  # SLIDE (the fast step is given no GENERAL row)
+            code = slide_step(rec, signs[k], P0, V0, Vp, P1, V1, A1, h, c2, want_acc, checks)
+            if code != OK:
+                return code, k, iters
+            continue
+        if rec.kind != DYAD:  # ATTACH
             u = rec.u
             w = rec.v
             P1[v, 0], P1[v, 1] = frame_point(u, w, P1[a, 0], P1[a, 1], P1[b, 0], P1[b, 1])

@@ -57,6 +57,11 @@ from ._blocks import _general_jacobian, _general_rates, general_sign, lu_solve
 from ._design import pair_coordinates
 from ._legs import ground_contact, leg_feet, leg_samples
 
+#: The forces effect refuses mechanisms with sliders (``_simulate.force_setup``): its general blocks
+#: have no slide rows.
+_NO_SLIDE = np.zeros((0, 3), dtype=np.int64)
+_NO_SD = np.zeros((0, 6))
+
 # The general-block solver the kinematics / reactions call (``_kin_general`` / ``_rea_general``); the
 # copies jitted by :func:`_specialise` bind it, or bind a stub for plans without general blocks, so that
 # the common dyad-and-body plans compile without it (measured: the reachable call made the whole
@@ -209,12 +214,12 @@ def _kin_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv
     kernels' own general-block rates (``_blocks._general_rates``); False if its Jacobian is singular."""
     verts = blk_verts[blk_vp[k]:blk_vp[k + 1]]
     rows = gen_rows[blk_rp[k]:blk_rp[k + 1]]
-    if general_sign(P, verts, rows, dist_a, dist_b, att, uv, loc, M, x) == 0.0:
+    if general_sign(P, verts, rows, dist_a, dist_b, att, uv, _NO_SLIDE, _NO_SD, loc, M, x) == 0.0:
         return False
     for j in range(verts.shape[0]):
         loc[verts[j]] = j
-    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, loc, M, x, False)
-    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, loc, M, x, True)
+    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, _NO_SLIDE, _NO_SD, loc, M, x, False)
+    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, _NO_SLIDE, _NO_SD, loc, M, x, True)
     for j in range(verts.shape[0]):
         loc[verts[j]] = -1
     return True
@@ -295,7 +300,7 @@ def _rea_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv
     n = 2 * nb
     for j in range(nb):
         loc[verts[j]] = j
-    _general_jacobian(P, verts, rows, dist_a, dist_b, att, uv, loc, M)
+    _general_jacobian(P, verts, rows, dist_a, dist_b, att, uv, _NO_SLIDE, _NO_SD, loc, M)
     for r in range(n):  # transpose in place
         for c in range(r + 1, n):
             t = M[r, c]

@@ -18,7 +18,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, Plan
+from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, ROW_SLIDE, SLIDE, Plan
 
 Topology = namedtuple("Topology", [
     "kind",       # (nb,) int64, each block's kind (plan._kinds), in solve order
@@ -30,7 +30,7 @@ Topology = namedtuple("Topology", [
     "gen_vptr",   # (n_general + 1,) int64, CSR pointers into gen_verts
     "gen_verts",  # int64, the vertices of each GENERAL block
     "gen_rptr",   # (n_general + 1,) int64, CSR pointers into gen_rows
-    "gen_rows",   # (n_rows, 2) int64, each row's type (ROW_DIST / ROW_ATTACH_X / ROW_ATTACH_Y) and equation
+    "gen_rows",   # (n_rows, 2) int64, each row's type (ROW_DIST / ROW_ATTACH_X / ROW_ATTACH_Y / ROW_SLIDE) and equation
     "dist_a",     # (n_dist,) int64, first vertex of each distance equation (links, then body base pairs)
     "dist_b",     # (n_dist,) int64, second vertex
     "att_vpq",    # (n_attach, 3) int64, joint, base p, base q of each attach equation
@@ -38,6 +38,10 @@ Topology = namedtuple("Topology", [
     "fixed",      # (n_fixed,) int64, the fixed vertices
     "moving",     # int64, vertices whose state the sweep carries from step to step
     "out_idx",    # (n_out,) int64, the vertices written to the outputs, in output order
+    "slid",       # (nb, 4) int64, a SLIDE block's vertex, the known vertex it keeps its distance to, that
+                  # distance equation and its slide equation (index into ``slide``), else −1
+    "slide",      # (n_slide, 3) int64, slider vertex p and line vertices a, b of each slide equation
+                  # (a = b = −1: a ground line)
 ])
 
 Drive = namedtuple("Drive", [
@@ -64,6 +68,8 @@ Designs = namedtuple("Designs", [
     "center",     # (N, 2) float64, the crank centre (0 for a path driver)
     "scale",      # (N,) float64, the crank radius (1 for a path driver)
     "tol",        # (N,) float64, Newton's stopping distance, model units
+    "slide",      # (N, n_slide, 6) float64, each slide equation's line: a ground line's point (x, y) and
+                  # unit direction (nx, ny), then the offset and the slot's length |b − a| (1 for a ground line)
 ])
 
 Outputs = namedtuple("Outputs", [
@@ -81,11 +87,18 @@ Outputs = namedtuple("Outputs", [
 #: closed-form kinds, the numbers its kernel reads. DYAD: vertex, parents a, b, squared lengths to
 #: them, the squared limits of their distance (hi2 = (da+db)², lo2 = (da−db)²), the squared largest
 #: move per step, and whether the between-sample gap check is needed. ATTACH: vertex (the joint),
-#: a, b (the base pair), u, v. GENERAL: ``slot`` indexes ``Topology.gen_vptr``.
+#: a, b (the base pair), u, v. GENERAL: ``slot`` indexes ``Topology.gen_vptr``. SLIDE: vertex, a (= b)
+#: the known vertex at distance √da2, hi2 = da2 and lo2 = −da2 (the limits of the squared distance
+#: from a to the vertex's line), lim2, then its slide equation: slider vertex sp, line vertices sa, sb
+#: (−1: ground), which of them the block places (role 0, 1, 2), and the line's numbers (``Designs.slide``:
+#: lx, ly, nx, ny, off, sl).
 BLOCK_DTYPE = np.dtype([
     ("kind", np.int64), ("vertex", np.int64), ("a", np.int64), ("b", np.int64), ("slot", np.int64),
     ("da2", np.float64), ("db2", np.float64), ("hi2", np.float64), ("lo2", np.float64), ("lim2", np.float64),
     ("gap", np.int64), ("u", np.float64), ("v", np.float64),
+    ("sp", np.int64), ("sa", np.int64), ("sb", np.int64), ("role", np.int64),
+    ("lx", np.float64), ("ly", np.float64), ("nx", np.float64), ("ny", np.float64), ("off", np.float64),
+    ("sl", np.float64),
 ], align=True)
 
 
@@ -101,6 +114,7 @@ def topology(plan: Plan, blocks, moving, out_idx, crank: bool) -> Topology:
     join = np.full(nb, -1, dtype=np.int64)
     attach = np.full(nb, -1, dtype=np.int64)
     gen = np.full(nb, -1, dtype=np.int64)
+    slid = np.full((nb, 4), -1, dtype=np.int64)
     gv, gr, vptr, rptr = [], [], [0], [0]
     fixed = set(plan.fixed.tolist())
     pairs = {frozenset((int(a), int(b))): e for e, (a, b) in enumerate(zip(plan.link_a, plan.link_b))}
@@ -117,16 +131,21 @@ def topology(plan: Plan, blocks, moving, out_idx, crank: bool) -> Topology:
                 join[i] = -2
         elif blk.kind == ATTACH:
             attach[i] = blk.attaches[0][0]
+        elif blk.kind == SLIDE:
+            v = blk.vertices[0]
+            slid[i] = (v, _other(plan, blk.links[0], v), blk.links[0], blk.slides[0])
         else:
             gen[i] = len(vptr) - 1
             gv.extend(blk.vertices)
             gr.extend((ROW_DIST, e) for e in blk.links)
             gr.extend((ROW_ATTACH_X if ax == 0 else ROW_ATTACH_Y, t) for t, ax in blk.attaches)
+            gr.extend((ROW_SLIDE, t) for t in blk.slides)
             vptr.append(len(gv))
             rptr.append(len(gr))
-    assert all(int(kd) in (DYAD, ATTACH, GENERAL) for kd in kind)
+    assert all(int(kd) in (DYAD, ATTACH, GENERAL, SLIDE) for kd in kind)
     return Topology(kind, dyad, join, attach, gen, np.array(vptr, dtype=np.int64), np.array(gv, dtype=np.int64),
                     np.array(rptr, dtype=np.int64), np.array(gr, dtype=np.int64).reshape(-1, 2),
                     plan.link_a, plan.link_b, plan.attach, int(plan.tip), plan.fixed,
-                    np.asarray(moving, dtype=np.int64), np.asarray(out_idx, dtype=np.int64))
+                    np.asarray(moving, dtype=np.int64), np.asarray(out_idx, dtype=np.int64), slid,
+                    np.ascontiguousarray(plan.slide, dtype=np.int64).reshape(-1, 3))
 

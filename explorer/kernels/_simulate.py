@@ -12,7 +12,7 @@ import numpy as np
 from .._files import format_size
 from ..errors import UserError, where
 from ..mechanism import Mechanism, Operating, Walker, operating_from_dict
-from ..plan import ATTACH, DYAD, GENERAL, Plan, make_plan
+from ..plan import ATTACH, DYAD, GENERAL, SLIDE, Plan, make_plan
 from ._blocks import solve_general
 from ._closed import closed_batch_jit
 from ._design import body_points
@@ -20,6 +20,7 @@ from ._design import designs as _designs
 from ._forces import F_OK, force_metrics, no_forces, solve_forces
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
 from ._batch import fast_batch_jit, generic_batch_jit
+from ._fast import slide_root, slide_sign
 from ._codegen import kernel_for, supported
 from ._inputs import Drive, Options, Outputs, topology
 from ._rows import parallel_rows
@@ -230,7 +231,8 @@ class Batch:
 # -- cached per topology and per driver and step count --------------------------------------------
 def _topology(mech: Mechanism) -> tuple:
     return (mech.vertices, tuple((l.a, l.b) for l in mech.links), mech.driven, tuple(mech.fixed),
-            tuple(b.joints for b in mech.bodies))
+            tuple(b.joints for b in mech.bodies), tuple((s.vertex, s.line) for s in mech.sliders),
+            mech.path.slider if mech.path is not None else None)
 
 
 _PLANS: dict = {}
@@ -294,8 +296,9 @@ def _scale(mech: Mechanism) -> float:
 def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
     """Positions (n_vertices, 2) of ``mech`` at its first sample on the branch its guess selects.
 
-    A dyad takes the circle–circle intersection on the same side of its parents as the guess; a body
-    joint follows its base pair rigidly; a general block runs damped Newton from the guess.
+    A dyad takes the circle–circle intersection on the same side of its parents as the guess; a
+    pin–slider (SLIDE) block the line–circle intersection on the guess's side (``_fast.slide_sign``);
+    a body joint follows its base pair rigidly; a general block runs damped Newton from the guess.
     Returns (positions, None) or (partial, Failure).
     """
     plan = plan_for(mech)
@@ -320,6 +323,13 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
             if p is None:
                 return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, math.nan, k)
             P[v] = p
+        elif blk.kind == SLIDE:
+            tab = _slide_table(topo, des, P, k)
+            v = blk.vertices[0]
+            code, x, y = slide_root(tab[k], float(np.sign(slide_sign(tab[k], P))), P, P[v, 0], P[v, 1])
+            if code != 0:
+                return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, math.nan, k)
+            P[v] = x, y
         elif blk.kind == ATTACH:
             j, p, q = plan.attach[blk.attaches[0][0]]
             (u, w), g = uv[blk.attaches[0][0]], P[q] - P[p]
@@ -329,12 +339,21 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
             g = topo.gen[k]
             rows = topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]]
             code, _ = solve_general(P, Z, Z, P1, Z.copy(), Z.copy(), np.array(blk.vertices), rows, plan.link_a,
-                                    plan.link_b, plan.attach, L, uv, 0.0, 0.0, 1e-12 * mech.size, 200, 0.0, False,
-                                    False, loc, M, rhs)
+                                    plan.link_b, plan.attach, L, uv, topo.slide, des.slide[0], 0.0, 0.0,
+                                    1e-12 * mech.size, 200, 0.0, False, False, loc, M, rhs)
             if code != 0:
                 return P, _failure(mech, plan, STATUS_NOCONV, 0.0, math.nan, k)
             P = P1
     return P, None
+
+
+def _slide_table(topo, des, P, k=None):
+    """The nominal design's block table (``_step.block_table``), for its SLIDE rows."""
+    from ._step import block_table
+
+    return block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, des.dist[0],
+                       des.uv[0], P, des.center[0, 0], des.center[0, 1], des.scale[0], False, topo.slid, topo.slide,
+                       des.slide[0])
 
 
 def _largest_general(plan: Plan) -> int:
@@ -465,6 +484,9 @@ def force_setup(mech: Mechanism, operating, walker) -> tuple[Operating, Walker]:
     if mech.crank is None:
         raise UserError(f"{where(mech.source, 'driver')}: forces are computed for crank-driven mechanisms (the motor "
                         f"torque is the crank's); this one is driven by a path")
+    if mech.sliders:
+        raise UserError(f"{where(mech.source, 'sliders')}: forces through sliders are not computed yet (slider "
+                        f"{mech.sliders[0].name!r}); the kinematics (positions, velocities, accelerations) are")
     if isinstance(operating, Operating):
         op = operating
     else:
@@ -493,6 +515,12 @@ def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
     # coupled block's size (``_step.block_signs`` takes scratch of the whole mechanism's, (2 n)²)
     out = np.zeros(plan.n_blocks)
     general = [k for k, blk in enumerate(plan.blocks) if blk.kind == GENERAL]
+    if any(blk.kind == SLIDE for blk in plan.blocks):
+        des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
+        tab = _slide_table(topology(plan, range(plan.n_blocks), [], [], mech.crank is not None), des, P)
+        for k, blk in enumerate(plan.blocks):
+            if blk.kind == SLIDE:
+                out[k] = np.sign(slide_sign(tab[k], P))
     for k, blk in enumerate(plan.blocks):
         if blk.kind == DYAD:
             v = blk.vertices[0]
@@ -510,7 +538,7 @@ def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
             g = topo.gen[k]
             out[k] = general_sign(P, topo.gen_verts[topo.gen_vptr[g]:topo.gen_vptr[g + 1]],
                                   topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]], topo.dist_a, topo.dist_b,
-                                  topo.att_vpq, des.uv[0], loc, M, rhs)
+                                  topo.att_vpq, des.uv[0], topo.slide, des.slide[0], loc, M, rhs)
     return out
 
 

@@ -20,10 +20,11 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from ..plan import ATTACH, DYAD, GENERAL
-from ._blocks import INFEASIBLE, NOCONV, OK, SIGN, SUSPECT, dyad_sign, gap_suspect, general_sign, solve_general
+from ..plan import ATTACH, DYAD, GENERAL, SLIDE
+from ._blocks import (INFEASIBLE, MAX_MOVE, NOCONV, OK, SIGN, SUSPECT, dyad_sign, gap_suspect, general_sign,
+                      solve_general)
 from ._dense import solve_dense
-from ._fast import FOLD_SIN, dyad_fill, fast_step
+from ._fast import FOLD_SIN, dyad_fill, fast_step, slide_sign
 from ._inputs import BLOCK_DTYPE
 
 BLOCK = 0
@@ -37,6 +38,8 @@ GenericContext = namedtuple("GenericContext", [
     "dist_a", "dist_b", "att_vpq",                      # every equation's vertices
     "dist",       # (n_dist,) the distance equations' lengths
     "uv",         # (n_attach, 2) the attach equations' (u, v)
+    "slide",      # (n_slide, 3) the slide equations' vertices (``_inputs.Topology.slide``)
+    "sd",         # (n_slide, 6) their lines (``_inputs.Designs.slide``)
     "known",      # (n_known,) int64: the driven vertex, then the fixed ones (dense)
     "kpos", "kvel", "kacc",  # (n_known, 2) their targets (dense)
     "loc", "M", "rhs",       # scratch
@@ -44,12 +47,13 @@ GenericContext = namedtuple("GenericContext", [
 
 
 @njit(cache=True)
-def block_table(kind, dyad, join, attach, gen, att_vpq, tip, dist, uv, P, cx, cy, scale, crank):
+def block_table(kind, dyad, join, attach, gen, att_vpq, tip, dist, uv, P, cx, cy, scale, crank, slid, slide, sd):
     """The block table of one design: (nb,) records of ``BLOCK_DTYPE`` in plan order.
 
-    kind, dyad, join, attach, gen, att_vpq, tip: the ``_inputs.Topology`` fields; dist (n_dist,) and
-    uv (n_attach, 2): the design's equations; P (n_vertices, 2): its start (fixed vertices in
-    place); (cx, cy), scale: its crank centre and radius; crank: whether the driver is a crank.
+    kind, dyad, join, attach, gen, att_vpq, tip, slid, slide: the ``_inputs.Topology`` fields; dist
+    (n_dist,), uv (n_attach, 2) and sd (n_slide, 6): the design's equations; P (n_vertices, 2): its
+    start (fixed vertices in place); (cx, cy), scale: its crank centre and radius; crank: whether the
+    driver is a crank.
     """
     nb = kind.shape[0]
     tab = np.zeros(nb, dtype=BLOCK_DTYPE)
@@ -71,6 +75,28 @@ def block_table(kind, dyad, join, attach, gen, att_vpq, tip, dist, uv, P, cx, cy
                 qmin = (D - scale) * (D - scale)
                 qmax = (D + scale) * (D + scale)
             dyad_fill(rec, v, a, b, dist[dyad[k, 3]], dist[dyad[k, 4]], qmin, qmax)
+        elif kind[k] == SLIDE:
+            v = slid[k, 0]
+            e = slid[k, 3]
+            d = dist[slid[k, 2]]
+            rec.vertex = v
+            rec.a = slid[k, 1]
+            rec.b = slid[k, 1]
+            rec.da2 = d * d
+            rec.hi2 = d * d
+            rec.lo2 = -d * d
+            rec.lim2 = (MAX_MOVE * d) ** 2
+            rec.gap = 1
+            rec.sp = slide[e, 0]
+            rec.sa = slide[e, 1]
+            rec.sb = slide[e, 2]
+            rec.role = 0 if slide[e, 0] == v else (1 if slide[e, 1] == v else 2)
+            rec.lx = sd[e, 0]
+            rec.ly = sd[e, 1]
+            rec.nx = sd[e, 2]
+            rec.ny = sd[e, 3]
+            rec.off = sd[e, 4]
+            rec.sl = sd[e, 5]
         elif kind[k] == ATTACH:
             t = attach[k]
             rec.vertex = att_vpq[t, 0]
@@ -88,7 +114,8 @@ def _general_solve(ctx, k, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, wan
     g = ctx.table[k].slot
     return solve_general(P0, V0, Vp, P1, V1, A1, ctx.gen_verts[ctx.gen_vptr[g]:ctx.gen_vptr[g + 1]],
                          ctx.gen_rows[ctx.gen_rptr[g]:ctx.gen_rptr[g + 1]], ctx.dist_a, ctx.dist_b, ctx.att_vpq,
-                         ctx.dist, ctx.uv, h, hp, tol, maxit, signs[k], want_acc, checks, ctx.loc, ctx.M, ctx.rhs)
+                         ctx.dist, ctx.uv, ctx.slide, ctx.sd, h, hp, tol, maxit, signs[k], want_acc, checks, ctx.loc,
+                         ctx.M, ctx.rhs)
 
 
 @njit(cache=True)
@@ -135,11 +162,15 @@ def _check_dense(ctx, signs, P0, V0, P1, V1, h, checks):
                 my = P1[v, 1] - P0[v, 1] - h * V0[v, 1]
                 if mx * mx + my * my > lim2:
                     return SUSPECT, k
+        elif rec.kind == SLIDE:
+            sg = slide_sign(rec, P1)
+            if sg == 0.0 or (sg > 0.0) != (signs[k] > 0.0):
+                return SIGN, k
         elif rec.kind != ATTACH:  # ATTACH has no branch
             g = rec.slot
             sg = general_sign(P1, ctx.gen_verts[ctx.gen_vptr[g]:ctx.gen_vptr[g + 1]],
                               ctx.gen_rows[ctx.gen_rptr[g]:ctx.gen_rptr[g + 1]], ctx.dist_a, ctx.dist_b, ctx.att_vpq,
-                              ctx.uv, ctx.loc, ctx.M, ctx.rhs)
+                              ctx.uv, ctx.slide, ctx.sd, ctx.loc, ctx.M, ctx.rhs)
             if sg == 0.0 or (sg > 0.0) != (signs[k] > 0.0):
                 return SIGN, k
     return OK, -1
@@ -159,8 +190,8 @@ def generic_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc
         kpos[0, ax] = P1[tip, ax]
         kvel[0, ax] = V1[tip, ax]
         kacc[0, ax] = A1[tip, ax]
-    code, iters = solve_dense(P0, V0, Vp, P1, V1, A1, ctx.dist_a, ctx.dist_b, ctx.dist, ctx.att_vpq, ctx.uv, known,
-                              kpos, kvel, kacc, h, hp, tol, maxit, want_acc, ctx.M, ctx.rhs)
+    code, iters = solve_dense(P0, V0, Vp, P1, V1, A1, ctx.dist_a, ctx.dist_b, ctx.dist, ctx.att_vpq, ctx.uv, ctx.slide,
+                              ctx.sd, known, kpos, kvel, kacc, h, hp, tol, maxit, want_acc, ctx.M, ctx.rhs)
     for i in range(known.shape[0]):  # the known rows exactly as given
         for ax in range(2):
             P1[known[i], ax] = kpos[i, ax]
@@ -187,7 +218,7 @@ def generic_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc
 
 @njit(cache=True)
 def generic_context(method, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_b, att_vpq, dist, uv,
-                    known, fixed_pos):
+                    known, fixed_pos, slide, sd):
     """The :class:`GenericContext` of one design (scratch included); fixed_pos (n_fixed, 2) are the
     targets of ``known[1:]``."""
     nv = 0
@@ -198,6 +229,9 @@ def generic_context(method, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist
     for t in range(att_vpq.shape[0]):
         for c in range(3):
             nv = max(nv, att_vpq[t, c] + 1)
+    for t in range(slide.shape[0]):
+        for c in range(3):
+            nv = max(nv, slide[t, c] + 1)
     nk = known.shape[0]
     kpos = np.zeros((nk, 2))
     for i in range(1, nk):
@@ -205,12 +239,12 @@ def generic_context(method, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist
         kpos[i, 1] = fixed_pos[i - 1, 1]
     n = 2 * nv
     return GenericContext(method, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_b, att_vpq, dist, uv,
-                          known, kpos, np.zeros((nk, 2)), np.zeros((nk, 2)), np.full(nv, -1, dtype=np.int64),
+                          slide, sd, known, kpos, np.zeros((nk, 2)), np.zeros((nk, 2)), np.full(nv, -1, dtype=np.int64),
                           np.empty((n, n)), np.empty(n))
 
 
 @njit(cache=True)
-def block_signs(P, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_b, att_vpq, uv):
+def block_signs(P, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_b, att_vpq, uv, slide, sd):
     """Branch sign (+1.0 / −1.0, 0.0 if singular or without a branch) of every block at positions P."""
     nb = table.shape[0]
     out = np.zeros(nb)
@@ -222,8 +256,10 @@ def block_signs(P, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_
         rec = table[k]
         if rec.kind == DYAD:
             out[k] = np.sign(dyad_sign(P, rec.vertex, rec.a, rec.b))
+        elif rec.kind == SLIDE:
+            out[k] = np.sign(slide_sign(rec, P))
         elif rec.kind != ATTACH:
             g = rec.slot
             out[k] = general_sign(P, gen_verts[gen_vptr[g]:gen_vptr[g + 1]], gen_rows[gen_rptr[g]:gen_rptr[g + 1]],
-                                  dist_a, dist_b, att_vpq, uv, loc, M, rhs)
+                                  dist_a, dist_b, att_vpq, uv, slide, sd, loc, M, rhs)
     return out

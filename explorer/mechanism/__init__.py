@@ -2,7 +2,11 @@
 
 from ._load import OPERATING_KEYS, WALKER_KEYS, builtin_mechanisms, load_mechanism, mechanism_from_dict, operating_from_dict, parse_toml, walker_from_dict
 from ._toml import dumps_toml, mechanism_toml
-from ._model import LENGTH_RANGE, Body, Crank, Link, Mechanism, Operating, PathDriver, Walker
+from ._model import LENGTH_RANGE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker
 
-__all__ = ["dumps_toml", "mechanism_toml", "LENGTH_RANGE", "OPERATING_KEYS", "WALKER_KEYS", "Body", "Crank", "Link", "Mechanism", "Operating", "PathDriver", "Walker", "builtin_mechanisms", "load_mechanism",
+__all__ = ["dumps_toml", "mechanism_toml", "LENGTH_RANGE", "OPERATING_KEYS", "WALKER_KEYS", "Body", "Crank", "Link", "Mechanism", "Operating", "PathDriver", "Slider", "Walker", "builtin_mechanisms", "load_mechanism",
            "mechanism_from_dict", "operating_from_dict", "parse_toml", "walker_from_dict"]
+
+from ._model import EULER_SEQUENCES, INTERPOLATIONS, Orientation, valid_sequence  # noqa: E402
+
+__all__ += ["EULER_SEQUENCES", "INTERPOLATIONS", "Orientation", "valid_sequence"]

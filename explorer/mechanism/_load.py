@@ -5,14 +5,16 @@ from __future__ import annotations
 import math
 import tomllib
 import unicodedata
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ._model import LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Walker, _check_length, _short
+from ._model import (LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker,
+                     _check_length, _short, actuator_path)
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
-             "operating"}
+             "operating", "sliders"}
 #: Keys of an [operating] table (in a study, or a mechanism file's default), see :class:`Operating`.
 OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation")
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
@@ -20,11 +22,17 @@ WALKER_KEYS = ("legs", "phases", "mirrored", "drag", "contact")
 #: Most legs a walker may have.
 MAX_LEGS = 64
 _DRIVER_KEYS = {"vertex", "path", "start", "end", "center", "radius", "start_angle", "end_angle", "points",
-                "duration", "timing"}
+                "duration", "timing", "slider", "stroke"}
 _PATH_KEYS = {"line": {"start", "end"}, "arc": {"center", "radius", "start_angle", "end_angle"}, "points": {"points"}}
+#: A path driver's orientation keys (a spherical wrist on its vertex, seed 004 problem 1).
+_ORIENTATION_KEYS = {"orientation", "interpolation", "wrist", "wrist_branch", "euler_seq", "euler_set"}
+_DRIVER_KEYS = _DRIVER_KEYS | _ORIENTATION_KEYS
 _CRANK_KEYS = {"center", "radius", "tip", "mass"}
 _LINK_KEYS = {"a", "b", "length", "name", "mass"}
 _BODY_KEYS = {"name", "joints", "mass", "centroid", "inertia"}
+_SLIDER_KEYS = {"name", "vertex", "point", "direction", "line", "offset"}
+#: A linear actuator's [driver] keys (``slider`` instead of ``vertex`` and ``path``).
+_ACTUATOR_KEYS = {"slider", "stroke", "duration", "timing"}
 #: Largest mass (kg) or inertia (kg·m²) accepted: beyond it the forces overflow long before any build.
 _MAX_MASS = 1e12
 
@@ -136,6 +144,8 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     _printable(source, "description", description, text=True)
 
     crank, path = (_crank(source, data["crank"]), None) if "crank" in data else (None, _driver(source, data["driver"]))
+    if path is not None and path.slider is not None:  # a linear actuator drives its slider's vertex
+        path = replace(path, vertex=_actuated_vertex(source, data.get("sliders"), path.slider))
     tip = crank.tip if crank is not None else path.vertex
     fixed = {
         str(k): _point(source, f"fixed.{k}", v)
@@ -200,13 +210,17 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         links.append(Link(lname, a, b, length, mass))
 
     bodies = _bodies(source, data.get("bodies", []), known, fixed, seen_pairs, seen_names)
+    sliders = _sliders(source, data.get("sliders", []), known, fixed, tip, seen_pairs, seen_names,
+                       path.slider if path is not None else None)
+    if path is not None and path.slider is not None:
+        path = actuator_path(path, next(s for s in sliders if s.name == path.slider))
     foot = _string(source, "foot", data["foot"])
     if foot not in known:
         raise UserError(f"{where(source, 'foot')}: unknown vertex {foot!r} (known: {', '.join(vertices)})")
     if foot in fixed:
         raise UserError(f"{where(source, 'foot')}: vertex {foot!r} is fixed; the foot must be a moving vertex")
     _check_degrees_of_freedom(source, tip, "crank.tip" if crank is not None else "driver.vertex", fixed, guess, links,
-                              bodies)
+                              bodies, [s for s in sliders if path is None or s.name != path.slider])
     walker = None
     if "walker" in data:
         if crank is None:
@@ -223,7 +237,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         raise UserError(f"{where(source, 'operating.load')}: a load is carried by a walker's contact foot; this "
                         f"mechanism is driven by a path, got {_short(operating.load)}")
     mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
-                     walker, bodies, link_density, operating)
+                     walker, bodies, link_density, operating, sliders)
     _check_parameter_names(mech)
     return mech
 
@@ -289,6 +303,88 @@ def _bodies(source: str, raw, known: set, fixed: dict, seen_pairs: dict, seen_na
         inertia = _mass(source, f"{key}.inertia", bt["inertia"], "an inertia in kg·m² about the centroid") \
             if "inertia" in bt else None
         out.append(Body(bname, tuple(joints), tuple(points), mass, centroid, inertia))
+    return tuple(out)
+
+
+def _actuated_vertex(source: str, raw, name: str) -> str:
+    """The vertex of the ``[[sliders]]`` table called ``name`` (a linear actuator's), before the sliders
+    are validated: it is the driven vertex."""
+    for i, st in enumerate(raw if isinstance(raw, list) else []):
+        if isinstance(st, dict) and st.get("name") == name:
+            if "point" not in st or "line" in st:
+                raise UserError(f"{where(source, 'driver.slider')}: a linear actuator pushes a slider on a ground line "
+                                f"(with point and direction); {name!r} is a slot, got {name!r}")
+            return _string(source, f"sliders[{i}].vertex", st.get("vertex"))
+    raise UserError(f"{where(source, 'driver.slider')}: no [[sliders]] table is called {name!r}")
+
+
+def _sliders(source: str, raw, known: set, fixed: dict, tip: str, seen_pairs: dict, seen_names: set,
+             actuated: str | None) -> tuple[Slider, ...]:
+    """The ``[[sliders]]`` tables: a vertex on a ground line (``point``, ``direction``) or in a slot
+    (``line = [a, b]``, two vertices one link or body holds, and an ``offset``)."""
+    if not isinstance(raw, list):
+        raise UserError(f"{where(source, 'sliders')}: expected [[sliders]] tables, got {raw!r}")
+    out = []
+    for i, st in enumerate(raw):
+        key = f"sliders[{i}]"
+        _table(source, key, st)
+        _unknown_keys(source, key + ".", st, _SLIDER_KEYS)
+        for k in ("name", "vertex"):
+            if k not in st:
+                raise UserError(f"{where(source, f'{key}.{k}')}: missing required key")
+        name = _string(source, f"{key}.name", st["name"])
+        if not NAME_RE.fullmatch(name) or "." in name:
+            raise UserError(f"{where(source, f'{key}.name')}: slider name {name!r} must be 1 to 64 letters, digits "
+                            f"or _ + - (no '.': it names parameters such as {name}.x)")
+        if name in seen_names:
+            raise UserError(f"{where(source, f'{key}.name')}: {name!r} already names a link, body or slider")
+        seen_names.add(name)
+        v = _string(source, f"{key}.vertex", st["vertex"])
+        if v not in known:
+            raise UserError(f"{where(source, f'{key}.vertex')}: vertex {v!r} is neither driven, fixed, nor in [guess] "
+                            f"(a missing guess or an unknown vertex)")
+        if v in fixed:
+            raise UserError(f"{where(source, f'{key}.vertex')}: vertex {v!r} is fixed; a slider's vertex moves")
+        ground = "point" in st or "direction" in st
+        if ground == ("line" in st):
+            raise UserError(f"{where(source, key)}: give either point and direction (a line fixed to the ground) or "
+                            f"line = [a, b] (a slot in a moving link or body), got keys {', '.join(sorted(st))}")
+        if ground:
+            for k in ("point", "direction"):
+                if k not in st:
+                    raise UserError(f"{where(source, f'{key}.{k}')}: missing required key for a ground slider")
+            if "offset" in st:
+                raise UserError(f"{where(source, f'{key}.offset')}: a ground line takes no offset (move its point), "
+                                f"got {_short(st['offset'])}")
+            point = _point(source, f"{key}.point", st["point"])
+            direction = _point(source, f"{key}.direction", st["direction"])
+            if not LENGTH_RANGE[0] <= math.hypot(*direction) <= LENGTH_RANGE[1]:
+                raise UserError(f"{where(source, f'{key}.direction')}: a direction must have a length from "
+                                f"{LENGTH_RANGE[0]:g} to {LENGTH_RANGE[1]:g}, got {st['direction']!r}")
+            if v == tip and name != actuated:
+                raise UserError(f"{where(source, f'{key}.vertex')}: vertex {v!r} is the driven vertex; a ground line "
+                                f"through it would lock the driver (use [driver] slider = {name!r} for an actuator)")
+            out.append(Slider(name, v, point=point, direction=direction))
+            continue
+        line = st["line"]
+        if not (isinstance(line, list) and len(line) == 2 and all(isinstance(x, str) for x in line)):
+            raise UserError(f"{where(source, f'{key}.line')}: expected [a, b], two vertex names, got {line!r}")
+        for x in line:
+            if x not in known:
+                raise UserError(f"{where(source, f'{key}.line')}: vertex {x!r} is neither driven, fixed, nor in [guess]")
+        a, b = line
+        if v in line or a == b:
+            raise UserError(f"{where(source, f'{key}.line')}: a slot is the line through two other vertices than the "
+                            f"slider's own {v!r}, got {line!r}")
+        if frozenset(line) not in seen_pairs:
+            raise UserError(f"{where(source, f'{key}.line')}: {a} and {b} are not held at a fixed distance by one link "
+                            f"or body; a slot runs along a rigid member (a link's ends or two joints of one body)")
+        offset = st.get("offset", 0.0)
+        if isinstance(offset, bool) or not isinstance(offset, (int, float)) or not math.isfinite(offset) \
+                or abs(offset) > LENGTH_RANGE[1]:
+            raise UserError(f"{where(source, f'{key}.offset')}: expected a finite number of model units, "
+                            f"got {_short(offset)}")
+        out.append(Slider(name, v, line=(a, b), offset=float(offset)))
     return tuple(out)
 
 
@@ -405,13 +501,15 @@ def _driver(source: str, value) -> PathDriver:
     """A [driver] table: one vertex on a line, an arc or a spline through points, with a timing law."""
     t = _table(source, "driver", value)
     _unknown_keys(source, "driver.", t, _DRIVER_KEYS)
+    if "slider" in t:
+        return _actuator(source, t)
     for k in ("vertex", "path", "duration"):
         if k not in t:
             raise UserError(f"{where(source, 'driver.' + k)}: missing required key")
     kind = t["path"]
     if kind not in _PATH_KEYS:
         raise UserError(f"{where(source, 'driver.path')}: expected one of {', '.join(_PATH_KEYS)}, got {kind!r}")
-    other = _DRIVER_KEYS - {"vertex", "path", "duration", "timing"} - _PATH_KEYS[kind]
+    other = _DRIVER_KEYS - {"vertex", "path", "duration", "timing"} - _PATH_KEYS[kind] - _ORIENTATION_KEYS
     for k in sorted(_PATH_KEYS[kind]):
         if k not in t:
             raise UserError(f"{where(source, 'driver.' + k)}: missing required key for path = {kind!r}")
@@ -437,10 +535,33 @@ def _driver(source: str, value) -> PathDriver:
         if not isinstance(pts, list) or len(pts) < 2:
             raise UserError(f"{where(source, 'driver.points')}: expected a list of two or more [x, y] points")
         fields["points"] = tuple(_point(source, f"driver.points[{i}]", p) for i, p in enumerate(pts))
+    if _ORIENTATION_KEYS & set(t):
+        fields["orientation"] = _orientation(source, t)
     return PathDriver(**fields)
 
 
-def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=()) -> None:
+def _actuator(source: str, t: dict) -> PathDriver:
+    """A linear actuator's [driver] table: ``slider`` (a ground slider's name), ``stroke = [s0, s1]``
+    (model units along its line from its point), ``duration`` and ``timing``; its path is set once the
+    slider is read (``_model.actuator_path``)."""
+    for k in sorted(set(t) - _ACTUATOR_KEYS):
+        raise UserError(f"{where(source, 'driver.' + k)}: not used by a linear actuator (it takes "
+                        f"{', '.join(sorted(_ACTUATOR_KEYS))})")
+    for k in ("slider", "stroke", "duration"):
+        if k not in t:
+            raise UserError(f"{where(source, 'driver.' + k)}: missing required key for a linear actuator")
+    stroke = _point(source, "driver.stroke", t["stroke"])
+    if not LENGTH_RANGE[0] <= abs(stroke[1] - stroke[0]) <= LENGTH_RANGE[1]:
+        raise UserError(f"{where(source, 'driver.stroke')}: expected [start, end], two different positions along the "
+                        f"slider's line (model units), got {t['stroke']!r}")
+    timing = t.get("timing", "linear")
+    if timing not in ("linear", "quintic"):
+        raise UserError(f"{where(source, 'driver.timing')}: expected 'linear' or 'quintic', got {timing!r}")
+    return PathDriver(vertex="", kind="line", duration=_check_length(source, "driver.duration", t["duration"]),
+                      timing=timing, slider=_string(source, "driver.slider", t["slider"]), stroke=stroke)
+
+
+def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=(), sliders=()) -> None:
     """Count check: 2 unknowns per guessed vertex, one equation per link that moves something and
     2n − 3 per body of n joints (a rigid shape of n points has 2n coordinates less 3 for its place).
 
@@ -458,7 +579,8 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=
         if sum(j in grounded for j in b.joints) > 1:
             raise UserError(f"{where(source, f'bodies[{i}].joints')}: body {b.name!r} holds two driven or fixed "
                             f"vertices; it would lock the crank or duplicate the ground")
-    touched = {v for l in links for v in (l.a, l.b)} | {j for b in bodies for j in b.joints}
+    touched = {v for l in links for v in (l.a, l.b)} | {j for b in bodies for j in b.joints} \
+        | {s.vertex for s in sliders}
     if tip not in touched:
         raise UserError(f"{where(source, tip_key)}: vertex {tip!r} is on no link; the driver would move nothing")
     for v in guess:
@@ -467,12 +589,112 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=
     for v in fixed:
         if v not in touched:
             raise UserError(f"{where(source, 'fixed.' + v)}: vertex {v!r} is on no link")
-    n_eq, n_unknown = len(links) + sum(2 * len(b.joints) - 3 for b in bodies), 2 * len(guess)
+    n_eq, n_unknown = len(links) + sum(2 * len(b.joints) - 3 for b in bodies) + len(sliders), 2 * len(guess)
     if n_eq != n_unknown:
         dof = n_unknown - n_eq + 1
-        what = "link and body equations" if bodies else "link equations"
+        what = "link, body and slider equations" if bodies or sliders else "link equations"
         raise UserError(
             f"{where(source, 'links')}: {n_eq} {what} for {n_unknown} unknown coordinates gives "
             f"{dof} degrees of freedom; a linkage with one driver needs exactly 1 "
             f"(add or remove {abs(n_unknown - n_eq)} link(s))"
         )
+
+
+def _orientation(source: str, t: dict):
+    """The [driver] orientation keys: keyframes (matrices, Euler angles with a sequence, axis-angle),
+    interpolation, wrist, wrist_branch, euler_seq, euler_set (see :class:`Orientation`)."""
+    import numpy as np
+
+    from ._model import INTERPOLATIONS, Orientation, valid_sequence
+
+    if "orientation" not in t:
+        for k in sorted(_ORIENTATION_KEYS & set(t)):
+            raise UserError(f"{where(source, 'driver.' + k)}: only used with driver.orientation (the wrist's keyframes)")
+    frames = t["orientation"]
+    if not isinstance(frames, list) or len(frames) < 2:
+        raise UserError(f"{where(source, 'driver.orientation')}: expected a list of two or more keyframes "
+                        f"(3x3 matrices, {{euler = [a, b, c], seq = \"ZYX\"}} or {{axis = [x, y, z], angle = a}}), "
+                        f"got {_short(frames)}")
+
+    def seq_of(key, value, upper=False):
+        if not valid_sequence(value) or (upper and not value.isupper()):
+            what = "an intrinsic (upper-case) Euler sequence" if upper else "an Euler sequence"
+            raise UserError(f"{where(source, key)}: expected {what} such as 'ZYZ' or 'ZYX' (three of X/Y/Z, no "
+                            f"axis twice in a row{'' if upper else '; lower case: extrinsic'}), got {_short(value)}")
+        return value
+
+    def numbers(key, value, n):
+        if not (isinstance(value, list) and len(value) == n and all(
+                isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in value)):
+            raise UserError(f"{where(source, key)}: expected {n} finite numbers, got {_short(value)}")
+        return [float(c) for c in value]
+
+    def flag(key, value):
+        if not isinstance(value, bool):
+            raise UserError(f"{where(source, key)}: expected true or false, got {_short(value)}")
+        return value
+
+    from scipy.spatial.transform import Rotation
+
+    mats, given = [], []
+    for i, f in enumerate(frames):
+        key = f"driver.orientation[{i}]"
+        if isinstance(f, dict):
+            kind = "euler" if "euler" in f else "axis" if ("axis" in f or "angle" in f) else None
+            allowed = {"euler": {"euler", "seq", "degrees"}, "axis": {"axis", "angle", "degrees"}}.get(kind)
+            if kind is None:
+                raise UserError(f"{where(source, key)}: expected a 3x3 matrix, {{euler = [a, b, c], seq = \"ZYX\"}} "
+                                f"or {{axis = [x, y, z], angle = a}}, got {_short(f)}")
+            _unknown_keys(source, key + ".", f, allowed)
+            deg = flag(key + ".degrees", f.get("degrees", True))
+            if kind == "euler":
+                if "seq" not in f:
+                    raise UserError(f"{where(source, key + '.seq')}: missing required key (the Euler sequence, e.g. 'ZYX')")
+                seq = seq_of(key + ".seq", f["seq"])
+                raw = numbers(key + ".euler", f["euler"], 3)
+                mats.append(Rotation.from_euler(seq, raw, degrees=deg).as_matrix())
+                given.append((seq, tuple(raw), deg))
+            else:
+                for k in ("axis", "angle"):
+                    if k not in f:
+                        raise UserError(f"{where(source, key + '.' + k)}: missing required key for an axis-angle keyframe")
+                ax = np.array(numbers(key + ".axis", f["axis"], 3))
+                a = f["angle"]
+                if isinstance(a, bool) or not isinstance(a, (int, float)) or not math.isfinite(a):
+                    raise UserError(f"{where(source, key + '.angle')}: expected a finite angle, got {_short(a)}")
+                n = float(np.linalg.norm(ax))
+                if n == 0.0:
+                    raise UserError(f"{where(source, key + '.axis')}: the axis must not be [0, 0, 0]")
+                mats.append(Rotation.from_rotvec(ax / n * (math.radians(a) if deg else float(a))).as_matrix())
+                given.append(None)
+        else:
+            ok = isinstance(f, list) and len(f) == 3 and all(isinstance(r, list) and len(r) == 3 for r in f) and all(
+                isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for r in f for c in r)
+            if not ok:
+                raise UserError(f"{where(source, key)}: expected a 3x3 rotation matrix [[..], [..], [..]], "
+                                f"{{euler = [a, b, c], seq = \"ZYX\"}} or {{axis = [x, y, z], angle = a}}, got {_short(f)}")
+            M = np.array(f, dtype=np.float64)
+            g = M.T @ M - np.eye(3)
+            defect, det = float(np.sqrt((g * g).sum())), float(np.linalg.det(M))
+            if defect > 1e-3 or det <= 0.0:
+                raise UserError(f"{where(source, key)}: not a rotation matrix (||R^T R - I|| = {defect:.3g}, det = "
+                                f"{det:.6g}; a rotation has 0 and 1, within 1e-3)")
+            if defect > 1e-12:  # a matrix printed to a few digits: its nearest rotation
+                U, _, Vt = np.linalg.svd(M)
+                M = U @ Vt
+            mats.append(M)
+            given.append(None)
+    interp = t.get("interpolation", "slerp")
+    if interp not in INTERPOLATIONS:
+        raise UserError(f"{where(source, 'driver.interpolation')}: expected one of {', '.join(INTERPOLATIONS)}, "
+                        f"got {_short(interp)}")
+    wrist = seq_of("driver.wrist", t.get("wrist", "ZYZ"), upper=True)
+    euler_seq = seq_of("driver.euler_seq", t["euler_seq"]) if "euler_seq" in t else ""
+    out = {}
+    for k in ("wrist_branch", "euler_set"):
+        v = t.get(k, 1)
+        if isinstance(v, bool) or v not in (1, 2):
+            raise UserError(f"{where(source, 'driver.' + k)}: expected 1 or 2, got {_short(v)}")
+        out[k] = int(v)
+    return Orientation(tuple(tuple(float(x) for x in M.ravel()) for M in mats), interp, wrist, out["wrist_branch"],
+                       euler_seq, out["euler_set"], tuple(given))

@@ -59,6 +59,40 @@ class Body:
 
 
 @dataclass(frozen=True)
+class Slider:
+    """A prismatic joint: vertex ``vertex`` slides on a line (no friction, no rotation of its own).
+
+    A *ground* line (``line`` None) passes through ``point`` along ``direction`` (model units; only
+    the direction of ``direction`` counts). A *slot* is the line through two vertices ``line = (a, b)``
+    that one rigid member holds at a fixed distance (a link's ends, or two joints of one body),
+    shifted by ``offset`` (model units, to the left of a → b). The equation is one scalar row: the
+    vertex's signed perpendicular distance from the line equals ``offset`` (0 for a ground line).
+
+    Design parameters: a ground line's ``NAME.x``, ``NAME.y`` (the point) and ``NAME.dx``,
+    ``NAME.dy`` (the direction; not for a slider that a linear actuator drives); a slot's
+    ``NAME.offset``.
+    """
+
+    name: str
+    vertex: str
+    point: tuple[float, float] | None = None
+    direction: tuple[float, float] | None = None
+    line: tuple[str, str] | None = None
+    offset: float = 0.0
+
+    @property
+    def ground(self) -> bool:
+        """True for a line fixed to the ground, False for a slot carried by a moving member."""
+        return self.line is None
+
+    def unit(self) -> tuple[float, float]:
+        """A ground line's unit direction."""
+        dx, dy = self.direction
+        n = math.hypot(dx, dy)
+        return dx / n, dy / n
+
+
+@dataclass(frozen=True)
 class Crank:
     """The driver: vertex ``tip`` moves on a circle of ``radius`` about ``center``.
 
@@ -92,6 +126,57 @@ class PathDriver:
     radius: float = 0.0
     start_angle: float = 0.0
     end_angle: float = 0.0
+    orientation: Orientation | None = None  # a spherical wrist on ``vertex`` and its orientation path
+    slider: str | None = None  # a linear actuator: the ground slider it pushes (kind "line" along it)
+    stroke: tuple[float, float] = (0.0, 0.0)  # the actuator's start and end, model units along the slider's line
+
+
+@dataclass(frozen=True)
+class Orientation:
+    """A spherical wrist on a path driver's vertex and the orientation path it follows (seed 004, problem 1).
+
+    keyframes : K ≥ 2 rotation matrices, each 9 floats row by row, reached at path fractions k/(K−1) of
+        the driver's timing law (so at the driver's start, end and evenly between in path fraction).
+    interpolation : one of :data:`INTERPOLATIONS`: "slerp" (the geodesic), "spline" (RotationSpline),
+        "matrix" (element-wise, not a rotation in between), "euler" (linear on Euler angles in
+        ``euler_seq``), "axis-angle" (linear on the rotation vectors).
+    wrist : the wrist's three joint axes in order, an intrinsic Euler sequence (``"ZYZ"``: R = Rz·Ry·Rz).
+    branch : 1 or 2, the wrist's joint solution at the start (1: the middle angle in [−90°, 90°] for a
+        Tait–Bryan sequence, in [0°, 180°] for a proper one; 2: the other), followed by continuity.
+    euler_seq : the "euler" method's sequence ("" = ``wrist``); euler_set : 1 or 2, the first keyframe's
+        solution set when it is not given as angles in that sequence.
+    euler : per keyframe, (sequence, (a, b, c), degrees) as written in the file (angles in degrees when
+        ``degrees`` is true, else radians), or None (a matrix or axis-angle keyframe).
+    """
+
+    keyframes: tuple[tuple[float, ...], ...]
+    interpolation: str = "slerp"
+    wrist: str = "ZYZ"
+    branch: int = 1
+    euler_seq: str = ""
+    euler_set: int = 1
+    euler: tuple = ()
+
+    def matrices(self) -> np.ndarray:
+        """The keyframes as an array (K, 3, 3)."""
+        return np.array(self.keyframes, dtype=np.float64).reshape(-1, 3, 3)
+
+    def euler_radians(self, seq: str) -> list:
+        """Per keyframe, its angles (3,) in radians where it was written as Euler angles in ``seq``, else None."""
+        return [None if g is None or g[0] != seq else (np.radians(g[1]) if g[2] else np.array(g[1], dtype=np.float64))
+                for g in (self.euler or (None,) * len(self.keyframes))]
+
+
+#: Orientation interpolations (:class:`Orientation`), one home: explorer.kernels interpolates them.
+INTERPOLATIONS = ("slerp", "spline", "matrix", "euler", "axis-angle")
+#: The 12 Euler sequences (upper case: intrinsic; the lower-case spelling of each is its extrinsic reading).
+EULER_SEQUENCES = tuple(a + b + c for a in "XYZ" for b in "XYZ" for c in "XYZ" if a != b and b != c)
+
+
+def valid_sequence(seq) -> bool:
+    """True for an Euler sequence such as "ZYZ", "ZYX" or "xyz" (no axis twice in a row, one case)."""
+    return (isinstance(seq, str) and len(seq) == 3 and seq.upper() in EULER_SEQUENCES
+            and (seq.isupper() or seq.islower()))
 
 
 @dataclass(frozen=True)
@@ -201,13 +286,17 @@ class Mechanism:
         that gives none of its own (None: such links are massless).
     operating : Operating or None
         The file's ``[operating]`` table: the default operating point for the forces effect.
+    sliders : tuple[Slider, ...]
+        Prismatic joints (file order): a vertex on a ground line or in a slot of a moving member.
 
     Design parameters
     -----------------
     Every number a designer may vary has a name (:meth:`parameters`): each link's length by its
     name (``"2-6"``); for a crank, its radius ``"crank"`` and centre ``"crank.x"``, ``"crank.y"``;
     each ground pivot's coordinates ``"2.x"``, ``"2.y"``; each body joint's coordinates in its
-    body's frame ``"coupler.P.x"``, ``"coupler.P.y"``.
+    body's frame ``"coupler.P.x"``, ``"coupler.P.y"``; each ground slider's line ``"piston.x"``,
+    ``"piston.y"``, ``"piston.dx"``, ``"piston.dy"`` (its point and direction) and each slot's
+    ``"block.offset"``.
     """
 
     name: str
@@ -224,6 +313,7 @@ class Mechanism:
     bodies: tuple[Body, ...] = ()
     link_density: float | None = None
     operating: Operating | None = None
+    sliders: tuple[Slider, ...] = ()
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -285,6 +375,14 @@ class Mechanism:
         for b in self.bodies:
             for j, (x, y) in zip(b.joints, b.points):
                 out += [(f"{b.name}.{j}.x", float(x)), (f"{b.name}.{j}.y", float(y))]
+        actuated = self.path.slider if self.path is not None else None
+        for s in self.sliders:
+            if s.ground:
+                out += [(f"{s.name}.x", float(s.point[0])), (f"{s.name}.y", float(s.point[1]))]
+                if s.name != actuated:
+                    out += [(f"{s.name}.dx", float(s.direction[0])), (f"{s.name}.dy", float(s.direction[1]))]
+            else:
+                out.append((f"{s.name}.offset", float(s.offset)))
         return out
 
     def parameter_kind(self, name: str) -> str:
@@ -309,6 +407,18 @@ class Mechanism:
             changes["crank"] = replace(out.crank, center=(values.get("crank.x", cx), values.get("crank.y", cy)))
         if any(f"{v}.{a}" in values for v in self.fixed for a in "xy"):
             changes["fixed"] = {v: (values.get(f"{v}.x", x), values.get(f"{v}.y", y)) for v, (x, y) in self.fixed.items()}
+        if self.sliders and any(k.split(".", 1)[0] in {s.name for s in self.sliders} for k in values):
+            sl = []
+            for s in self.sliders:
+                if s.ground:
+                    g = lambda a, d: values.get(f"{s.name}.{a}", d)  # noqa: E731
+                    sl.append(replace(s, point=(g("x", s.point[0]), g("y", s.point[1])),
+                                      direction=(g("dx", s.direction[0]), g("dy", s.direction[1]))))
+                else:
+                    sl.append(replace(s, offset=values.get(f"{s.name}.offset", s.offset)))
+            changes["sliders"] = tuple(sl)
+            if self.path is not None and self.path.slider is not None:
+                changes["path"] = actuator_path(self.path, next(s for s in sl if s.name == self.path.slider))
         if self.bodies and any(k.count(".") == 2 for k in values):
             changes["bodies"] = tuple(
                 replace(b, points=tuple((values.get(f"{b.name}.{j}.x", x), values.get(f"{b.name}.{j}.y", y))
@@ -341,6 +451,14 @@ class Mechanism:
             _check_length(self.source, "crank.radius", crank)
             new_crank = replace(self.crank, radius=float(crank))
         return replace(self, links=links, crank=new_crank)
+
+
+def actuator_path(driver: PathDriver, slider: Slider) -> PathDriver:
+    """A linear actuator's path: ``driver`` (kind "line") from ``point + stroke[0]·n`` to
+    ``point + stroke[1]·n`` along ``slider``'s ground line (n its unit direction)."""
+    (px, py), (nx, ny) = slider.point, slider.unit()
+    s0, s1 = driver.stroke
+    return replace(driver, kind="line", points=((px + s0 * nx, py + s0 * ny), (px + s1 * nx, py + s1 * ny)))
 
 
 def _check_length(source: str, key: str, value) -> float:

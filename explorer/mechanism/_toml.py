@@ -77,6 +77,10 @@ def mechanism_toml(mech: Mechanism, header: str = "") -> str:
         lines += ["[crank]", f"center = {_point(c.center)}", f"radius = {_num(c.radius)}", f"tip = {_str(c.tip)}"]
         if c.mass is not None:
             lines.append(f"mass = {_num(c.mass)}   # kg")
+    elif mech.path.slider is not None:  # a linear actuator
+        d = mech.path
+        lines += ["[driver]", f"slider = {_str(d.slider)}", f"stroke = {_point(d.stroke)}   # along its line",
+                  f"duration = {_num(d.duration)}   # seconds", f"timing = {_str(d.timing)}"]
     else:
         d = mech.path
         lines += ["[driver]", f"vertex = {_str(d.vertex)}", f"path = {_str(d.kind)}"]
@@ -89,6 +93,8 @@ def mechanism_toml(mech: Mechanism, header: str = "") -> str:
         else:
             lines.append("points = [" + ", ".join(_point(p) for p in d.points) + "]")
         lines += [f"duration = {_num(d.duration)}   # seconds", f"timing = {_str(d.timing)}"]
+        if d.orientation is not None:
+            lines += _orientation_lines(d.orientation)
     lines += ["", "[fixed]"]
     lines += [f"{_str(v)} = {_point(mech.fixed[v])}" for v in mech.vertices if v in mech.fixed]
     lines += ["", "[guess]                # positions at the first sample: they pick the assembly (branch)"]
@@ -107,6 +113,12 @@ def mechanism_toml(mech: Mechanism, header: str = "") -> str:
             lines.append(f"centroid = {_point(body.centroid)}")
         if body.inertia is not None:
             lines.append(f"inertia = {_num(body.inertia)}   # kg·m² about the centroid")
+    for sl in mech.sliders:
+        lines += ["", "[[sliders]]", f"name = {_str(sl.name)}", f"vertex = {_str(sl.vertex)}"]
+        if sl.ground:
+            lines += [f"point = {_point(sl.point)}", f"direction = {_point(sl.direction)}"]
+        else:
+            lines += [f"line = [{_str(sl.line[0])}, {_str(sl.line[1])}]", f"offset = {_num(sl.offset)}"]
     if mech.link_density is not None:
         lines += ["", "[mass]", f"link_density = {_num(mech.link_density)}   # kg per metre of link"]
     if mech.operating is not None:
@@ -149,3 +161,23 @@ def _toml_value(v) -> str:
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     return json.dumps(str(v))
+
+
+def _orientation_lines(o) -> list[str]:
+    """The [driver] orientation keys of an :class:`Orientation`: Euler keyframes as written, the others as
+    matrices (floats as repr: read back exactly)."""
+    frames = []
+    for M, g in zip(o.keyframes, o.euler or (None,) * len(o.keyframes)):
+        if g is not None:
+            unit = "" if g[2] else ", degrees = false"
+            frames.append(f"{{ euler = [{', '.join(_num(a) for a in g[1])}], seq = {_str(g[0])}{unit} }}")
+        else:
+            frames.append("[" + ", ".join("[" + ", ".join(_num(x) for x in M[3 * r:3 * r + 3]) + "]" for r in range(3)) + "]")
+    lines = ["orientation = [", *(f"    {f}," for f in frames), "]",
+             f"interpolation = {_str(o.interpolation)}", f"wrist = {_str(o.wrist)}   # the wrist's joint axes (intrinsic)",
+             f"wrist_branch = {o.branch}"]
+    if o.euler_seq:
+        lines.append(f"euler_seq = {_str(o.euler_seq)}")
+    if o.euler_set != 1:
+        lines.append(f"euler_set = {o.euler_set}")
+    return lines

@@ -11,7 +11,7 @@ coupled *general* block.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from itertools import combinations, product
 
 from ..errors import UserError, where
 from ..mechanism import Mechanism
-from ._kinds import ATTACH, DYAD, GENERAL
+from ._kinds import ATTACH, DYAD, GENERAL, SLIDE
 
 #: Most unknown coordinates matched by the plain augmenting-path search (beyond: with a look-ahead,
 #: see ``_matching``). Up to here the plain search costs at most ~0.2 s (a chain of 256 dyads), and
@@ -41,10 +41,11 @@ class Block:
     links : indices of its distance equations (``Plan.link_a``/``link_b``: the mechanism's links,
         then each body's base pair).
     attaches : its attach rows, as (attach equation, axis 0 = x / 1 = y) pairs.
-    kind : DYAD, ATTACH or GENERAL (see ``_kinds``).
+    kind : DYAD, ATTACH, GENERAL or SLIDE (see ``_kinds``).
     depends : indices of earlier blocks it reads positions from.
+    slides : its slide equations (indices into ``Plan.slide``).
 
-    ``len(links) + len(attaches) == 2 * len(vertices)``.
+    ``len(links) + len(attaches) + len(slides) == 2 * len(vertices)``.
     """
 
     vertices: tuple[int, ...]
@@ -52,6 +53,7 @@ class Block:
     kind: int
     depends: tuple[int, ...]
     attaches: tuple[tuple[int, int], ...] = ()
+    slides: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -64,6 +66,9 @@ class Plan:
     attach : (n_attach, 3) int64, (joint, base p, base q) vertex indices of each attach equation;
         attach_body, attach_joint : (n_attach,) the body and the joint's index in it.
     tip : int, index of the crank tip (driven vertex); fixed : (n_fixed,) int64, the fixed vertices.
+    slide : (n_slide, 3) int64, (slider vertex p, line vertex a, line vertex b) of each slide
+        equation, a = b = −1 for a ground line; slide_slider : (n_slide,) its index in
+        ``mech.sliders`` (a slider that a linear actuator drives has no slide equation).
     """
 
     n_vertices: int
@@ -77,6 +82,8 @@ class Plan:
     attach_joint: np.ndarray
     tip: int
     fixed: np.ndarray
+    slide: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
+    slide_slider: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def n_blocks(self) -> int:
@@ -155,15 +162,23 @@ def _plan_with_bases(mech, index, tip, grounded, bases) -> Plan:
                 attach_joint.append(ji)
     link_a = np.array([a for a, _ in ends], dtype=np.int64)
     link_b = np.array([b for _, b in ends], dtype=np.int64)
+    actuated = mech.path.slider if mech.path is not None else None
+    slide, slide_slider = [], []
+    for si, sl in enumerate(mech.sliders):
+        if sl.name != actuated:
+            a, b = (-1, -1) if sl.ground else (index[sl.line[0]], index[sl.line[1]])
+            slide.append((index[sl.vertex], a, b))
+            slide_slider.append(si)
 
     # Unknown coordinates are (vertex, axis). Scalar equations: the distance equations, then two rows
     # per attach equation; each contains every free coordinate of the vertices it names.
     coords = [(v, ax) for v in free for ax in (0, 1)]
     cidx = {c: i for i, c in enumerate(coords)}
     eqs = [("d", e) for e in range(len(ends))] + [("a", (t, ax)) for t in range(len(attach)) for ax in (0, 1)]
+    eqs += [("s", k) for k in range(len(slide))]
     eq_vars = []
     for typ, e in eqs:
-        verts = ends[e] if typ == "d" else attach[e[0]]
+        verts = ends[e] if typ == "d" else attach[e[0]] if typ == "a" else [v for v in slide[e] if v >= 0]
         eq_vars.append([cidx[(int(v), ax)] for v in verts if int(v) not in grounded for ax in (0, 1)])
 
     match_of_coord = _matching(eq_vars, len(coords), lookahead=len(coords) > PLAIN_MATCHING_MAX)
@@ -171,7 +186,7 @@ def _plan_with_bases(mech, index, tip, grounded, bases) -> Plan:
     if unmatched:
         names = sorted({mech.vertices[v] for v, _ in unmatched})
         raise UserError(
-            f"{where(mech.source, 'links')}: the links and bodies do not place vertices {', '.join(names)} "
+            f"{where(mech.source, 'links')}: the links, bodies and sliders do not place vertices {', '.join(names)} "
             f"(some part of the graph is over-constrained while another can move freely)"
         )
 
@@ -190,20 +205,25 @@ def _plan_with_bases(mech, index, tip, grounded, bases) -> Plan:
         rows = [eqs[match_of_coord[c]] for c in comp]
         links = tuple(sorted(e for typ, e in rows if typ == "d"))
         attaches = tuple(sorted(e for typ, e in rows if typ == "a"))
+        slides = tuple(sorted(e for typ, e in rows if typ == "s"))
         depends = tuple(sorted({comp_of[d] for c in comp for d in deps[c]} - {k}))
-        blocks.append(Block(verts, links, _classify(verts, links, attaches, attach), depends, attaches))
+        blocks.append(Block(verts, links, _classify(verts, links, attaches, attach, slides), depends, attaches,
+                            slides))
     fixed = np.array(sorted(grounded - {tip}), dtype=np.int64)
     att = np.array(attach, dtype=np.int64).reshape(-1, 3)
     return Plan(len(mech.vertices), tuple(blocks), len(mech.links), link_a, link_b,
                 np.array(bases, dtype=np.int64).reshape(-1, 2), att, np.array(attach_body, dtype=np.int64),
-                np.array(attach_joint, dtype=np.int64), tip, fixed)
+                np.array(attach_joint, dtype=np.int64), tip, fixed, np.array(slide, dtype=np.int64).reshape(-1, 3),
+                np.array(slide_slider, dtype=np.int64))
 
 
-def _classify(verts, links, attaches, attach) -> int:
-    """The kind of a block (see ``_kinds``): one vertex by two distances, one body joint by its
-    attach equation, or a coupled block."""
+def _classify(verts, links, attaches, attach, slides=()) -> int:
+    """The kind of a block (see ``_kinds``): one vertex by two distances, one vertex by a distance
+    and a slide equation, one body joint by its attach equation, or a coupled block."""
     if len(verts) == 1 and len(links) == 2:
         return DYAD
+    if len(verts) == 1 and len(links) == 1 and len(slides) == 1:
+        return SLIDE
     if len(verts) == 1 and len(attaches) == 2 and attaches[0][0] == attaches[1][0] and attach[attaches[0][0]][0] == verts[0]:
         return ATTACH
     return GENERAL

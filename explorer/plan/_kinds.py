@@ -13,7 +13,13 @@ ATTACH    places one joint of a rigid body whose base pair of joints is   ``_fas
           known: exactly, by the body's rigid transform (no Newton, no    transform, exact (no branch,
           branch: a body never mirrors)                                    no failure)
 GENERAL   couples several vertices (an Assur triad, a body that is part   ``_blocks``: Newton on the
-          of a loop): Newton on the block's rows together                  block, branch = sign of det
+          of a loop, a slot inside a loop): Newton on the block's rows     block, branch = sign of det
+          together
+SLIDE     places one vertex by a distance to a known vertex and a slide   ``_fast``: line–circle
+          equation whose other vertices are known (a pin–slider dyad:      intersection, exact;
+          a connecting rod to a piston, or a slotted link about its        branch = the sign of the
+          pivot through a known slider): the slide equation is affine in   2x2 Jacobian determinant
+          the vertex, so the vertex lies on a known line
 ========  ==============================================================  ===========================
 
 The dyad's arithmetic has one home, ``_fast.place_dyad``; the two closed-form kinds share
@@ -25,8 +31,13 @@ with the same arithmetic.
 Equations come in two forms. A *distance* equation |p_b − p_a| = d (a link, or a body's base pair)
 is one scalar row; an *attach* equation p_j = p_p + u (p_q − p_p) + v R(p_q − p_p) (R: a quarter
 turn counter-clockwise) places body joint j from the body's base pair (p, q) and is two rows, x and
-y. The (u, v) of each attach equation and the lengths of the distance equations are per-variant
-numbers derived from the design parameters (``kernels._design``).
+y. A *slide* equation (a slider, ``Mechanism.sliders``) is one scalar row: the slider vertex p's
+signed distance from its line equals the slot's offset, n × (p − c) − o = 0 for a ground line
+through c along the unit n (o = 0), cross(b − a, p − a)/|b − a| − o = 0 for a slot along a member
+that holds a and b at the fixed distance |b − a| (bilinear: affine in each of p, a, b alone). The
+(u, v) of each attach equation, the lengths of the distance equations and each slide equation's
+line numbers (``Designs.slide``) are per-variant numbers derived from the design parameters
+(``kernels._design``).
 
 How to add a block kind
 -----------------------
@@ -53,14 +64,17 @@ class BlockKind(IntEnum):
     DYAD = 0
     ATTACH = 1
     GENERAL = 2
+    SLIDE = 3
 
 
 DYAD = int(BlockKind.DYAD)
 ATTACH = int(BlockKind.ATTACH)
 GENERAL = int(BlockKind.GENERAL)
+SLIDE = int(BlockKind.SLIDE)
 
-#: Row types of a GENERAL block (``Topology.gen_rows[:, 0]``): a distance equation, or the x / y
-#: row of an attach equation.
+#: Row types of a GENERAL block (``Topology.gen_rows[:, 0]``): a distance equation, the x / y
+#: row of an attach equation, or a slide equation.
 ROW_DIST = 0
 ROW_ATTACH_X = 1
 ROW_ATTACH_Y = 2
+ROW_SLIDE = 3
