@@ -823,6 +823,26 @@ def path_error(foot, target, *, velocity=None, angles=None, match: str = "closes
                       angle_offset=angle_offset).error
 
 
+def path_at(foot, theta, *, velocity=None):
+    """The foot path between its samples at given crank angles: points (N, M, 2), model units, and
+    tangents dF/dθ (N, M, 2), model units per radian, interpolated as the module docstring says (cubic
+    Hermite with ``velocity``, straight segments without). foot : (N, S, 2) at θ_k = 2πk/S; theta :
+    (N, M) or (M,) radians (any real value: taken modulo 2π); velocity : (N, S, 2) or None."""
+    foot = np.ascontiguousarray(foot, dtype=np.float64)
+    if foot.ndim != 3 or foot.shape[2] != 2 or foot.shape[1] < 3:
+        raise ValueError(f"foot: expected shape (N, S, 2) with S >= 3, got {foot.shape}")
+    if velocity is not None:
+        velocity = np.ascontiguousarray(velocity, dtype=np.float64)
+        if velocity.shape != foot.shape:
+            raise ValueError(f"velocity: expected shape {foot.shape} (that of foot), got {velocity.shape}")
+    theta = np.asarray(theta, dtype=np.float64)
+    if theta.ndim == 1:
+        theta = np.broadcast_to(theta, (foot.shape[0], theta.shape[0]))
+    if theta.ndim != 2 or theta.shape[0] != foot.shape[0]:
+        raise ValueError(f"theta: expected shape (N, M) with N = {foot.shape[0]} or (M,), got {theta.shape}")
+    return _at_angles(foot, velocity, theta)
+
+
 def path_residuals(foot, target, *, velocity=None, angles=None, match: str = "closest", ignore=(),
                    angle_offset=None) -> np.ndarray:
     """Distance (model units) from each target point to its match, shape (N, M); the RMS of a row

@@ -4,7 +4,7 @@ objectives, constraints and feasibility of evaluated designs.
 A study file with an ``[optimize]`` table is run by ``explorer optimize`` (:mod:`._optimize`)::
 
     [optimize]
-    algorithm = "nsga2"           # nsga2 | nsga3 (several objectives); de | ga | cmaes (one objective)
+    algorithm = "auto"            # auto (default) | nsga2 | nsga3 (several objectives) | de | ga | cmaes (one)
     population = 40               # designs per generation
     generations = 25              # or: evaluations = 1000 (rounded up to whole generations)
     objectives = ["travel", "bob", "peak_torque"]   # metric names; each metric's direction (max or min)
@@ -18,6 +18,16 @@ A study file with an ``[optimize]`` table is run by ``explorer optimize`` (:mod:
 
     [optimize.bounds]             # or explicit bounds, model units; these override the spread
     "1-3" = [13.0, 17.0]
+
+One objective (``algorithm = "auto"``, or any single-objective algorithm with ``polish = true``):
+``auto`` runs pymoo's DE for the generations, then, when the objective is ``path_error``, *polishes*
+(:mod:`._polish`: bounded least squares on the path residuals, the untimed formulation with one free
+crank angle per target point for ``closest`` matching) the best design and the ``restarts`` next best
+distinct designs of the run, and commits the polished designs as one more generation (number
+``generations``, rows ``generations·P …``). ``auto`` with several objectives is ``nsga2``::
+
+    polish = true                 # default: true for auto with objective path_error, else false
+    restarts = 4                  # polish starts beyond the best (0 … population − 1; default 4)
 
 The seed is ``[study] seed``. ``[perturb]`` does not apply (the optimiser chooses the designs) and is
 refused beside ``[optimize]``.
@@ -39,12 +49,14 @@ from ..errors import UserError, where
 from ..mechanism import Mechanism
 
 #: Algorithms ``[optimize] algorithm`` accepts (pymoo's implementations).
-ALGORITHMS = ("nsga2", "nsga3", "de", "ga", "cmaes")
+ALGORITHMS = ("auto", "nsga2", "nsga3", "de", "ga", "cmaes")
 #: Algorithms that take exactly one objective.
 SINGLE_OBJECTIVE = ("de", "ga", "cmaes")
 #: Keys of the ``[optimize]`` table.
 OPTIMIZE_KEYS = ("algorithm", "population", "generations", "evaluations", "objectives", "constraints", "screen",
-                 "spread", "parameters", "bounds")
+                 "spread", "parameters", "bounds", "polish", "restarts")
+#: Polish starts beyond the best, by default.
+RESTARTS = 4
 #: What the objective of an infeasible design is set to (pymoo needs numbers; constraint domination
 #: ranks every feasible design first, so the value never decides anything).
 INFEASIBLE_VALUE = 1e30
@@ -74,17 +86,32 @@ class Optimize:
     generations: int
     screen: bool = True
     spread: float = 0.1
+    polish: bool = False
+    restarts: int = RESTARTS
+
+    @property
+    def chunks(self) -> int:
+        """Generations in the results file: the algorithm's, and the polished designs' one."""
+        return self.generations + int(self.polish)
 
     @property
     def evaluations(self) -> int:
-        """Designs evaluated (rows of the results file): population × generations."""
-        return self.population * self.generations
+        """Rows of the results file: population × (generations, plus one with ``polish``)."""
+        return self.population * self.chunks
+
+    @property
+    def search(self) -> str:
+        """The pymoo algorithm that runs the generations (``auto``: de for one objective, else nsga2)."""
+        if self.algorithm != "auto":
+            return self.algorithm
+        return "de" if len(self.objectives) == 1 else "nsga2"
 
     def as_dict(self) -> dict:
         return {"algorithm": self.algorithm, "population": self.population, "generations": self.generations,
                 "objectives": list(self.objectives), "constraints": list(self.constraints), "screen": self.screen,
                 "spread": self.spread, "parameters": list(self.parameters),
-                "bounds": {p: [lo, hi] for p, lo, hi in zip(self.parameters, self.lower, self.upper)}}
+                "bounds": {p: [lo, hi] for p, lo, hi in zip(self.parameters, self.lower, self.upper)},
+                "polish": self.polish, "restarts": self.restarts}
 
 
 def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has_target: bool) -> Optimize:
@@ -96,7 +123,7 @@ def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has
     for k in table:
         if k not in OPTIMIZE_KEYS:
             raise UserError(f"{key(k)}: unknown key (allowed in [optimize]: {', '.join(OPTIMIZE_KEYS)})")
-    algorithm = table.get("algorithm", "nsga2")
+    algorithm = table.get("algorithm", "auto")
     if algorithm not in ALGORITHMS:
         raise UserError(f"{key('algorithm')}: expected one of {', '.join(ALGORITHMS)}, got {algorithm!r}")
     population = _integer(table.get("population", 40), key("population"), 4, 100_000)
@@ -128,6 +155,16 @@ def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has
         raise UserError(f"{key('objectives')}: algorithm {algorithm!r} takes one objective, got {len(objectives)} "
                         f"({', '.join(objectives)}); use nsga2 or nsga3 for several")
     directions = tuple(DIRECTIONS[o] for o in objectives)
+    polish = table.get("polish", algorithm == "auto" and objectives == ["path_error"])
+    if not isinstance(polish, bool):
+        raise UserError(f"{key('polish')}: expected true or false, got {polish!r}")
+    if polish and objectives != ["path_error"]:
+        raise UserError(f"{key('polish')}: polish = true needs the one objective 'path_error' (it is least squares "
+                        f"on the path residuals), got {', '.join(objectives)}")
+    if polish and algorithm not in SINGLE_OBJECTIVE + ("auto",):
+        raise UserError(f"{key('polish')}: polish = true runs after a single-objective search (auto, de, ga or "
+                        f"cmaes), not {algorithm!r}")
+    restarts = _integer(table.get("restarts", min(RESTARTS, population - 1)), key("restarts"), 0, population - 1)
 
     constraints = table.get("constraints", [])
     if isinstance(constraints, str):
@@ -188,7 +225,7 @@ def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has
         upper.append(hi)
     return Optimize(parameters=tuple(params), lower=tuple(lower), upper=tuple(upper), objectives=tuple(objectives),
                     directions=directions, constraints=tuple(constraints), algorithm=algorithm, population=population,
-                    generations=generations, screen=screen, spread=float(spread))
+                    generations=generations, screen=screen, spread=float(spread), polish=polish, restarts=restarts)
 
 
 def _integer(value, key: str, lo: int, hi: int) -> int:
@@ -254,4 +291,5 @@ def optimize_from_dict(d: dict, mech: Mechanism) -> Optimize:
                     upper=tuple(float(d["bounds"][p][1]) for p in params), objectives=tuple(d["objectives"]),
                     directions=tuple(DIRECTIONS[o] for o in d["objectives"]), constraints=tuple(d["constraints"]),
                     algorithm=d["algorithm"], population=int(d["population"]), generations=int(d["generations"]),
-                    screen=bool(d["screen"]), spread=float(d["spread"]))
+                    screen=bool(d["screen"]), spread=float(d["spread"]), polish=bool(d.get("polish", False)),
+                    restarts=int(d.get("restarts", RESTARTS)))

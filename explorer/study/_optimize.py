@@ -50,7 +50,10 @@ class OptimizeSummary:
     read back on ``--resume``); evaluations : designs solved over the whole run; feasible : feasible
     designs; front : the final Pareto front (or best design) as a DataFrame of variant, generation,
     the parameters and the objectives; stopped_early : the generation after which the algorithm
-    stopped on its own (None if it ran every generation); wall_s : seconds this call took.
+    stopped on its own (None if it ran every generation); wall_s : seconds this call took; polished :
+    with ``[optimize] polish``, {"starts", "best_before", "best_after", "solved"} (the best objective
+    before and after the polish generation, and the designs its least squares solved; None when the
+    polish generation was read back on --resume), else None.
     hypervolume : for several objectives, the front's hypervolume after each generation (list of G floats,
     :mod:`._hypervolume` defines it; [] for one objective); hypervolume_detail : its
     :class:`~._hypervolume.Hypervolume` (ideal, nadir and reference point in the objectives' units).
@@ -73,6 +76,7 @@ class OptimizeSummary:
     hypervolume: list = field(default_factory=list)
     constraints: tuple = ()
     hypervolume_detail: Hypervolume | None = None
+    polished: dict | None = None
 
     def __fspath__(self) -> str:
         return str(self.path)
@@ -106,6 +110,11 @@ class OptimizeSummary:
             lines += ["    " + line for line in front.head(10).to_string(index=False).splitlines()]
         if self.hypervolume_detail is not None:
             lines.append("  " + _hypervolume_line(self.hypervolume_detail, self.objectives))
+        if self.polished is not None:
+            p = self.polished
+            solved = "read back" if p["solved"] is None else f"{p['solved']:,} designs solved by its least squares"
+            lines.append(f"  polish: {p['starts']} starts (generation {self.generations}; {solved}); best "
+                         f"{self.objectives[0]} {p['best_before']:.6g} -> {p['best_after']:.6g}")
         lines.append(f"  wall {self.wall_s:.2f} s")
         return "\n".join(lines)
 
@@ -142,7 +151,7 @@ def _algorithm(study: Study):
     """The pymoo algorithm of ``[optimize] algorithm``, configured for the study."""
     opt = study.optimize
     P = opt.population
-    name = opt.algorithm
+    name = opt.search
     if name == "nsga2":
         from pymoo.algorithms.moo.nsga2 import NSGA2
         return NSGA2(pop_size=P, sampling=_initial(study))
@@ -257,7 +266,7 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
             writer = _create(out, study)
         try:
             evaluate = _dask_evaluator(client, study) if client is not None else _local_evaluator(study)
-            ran, stopped, _ = _search(study, writer, out, evaluate, progress)
+            ran, stopped, _, polished = _search(study, writer, out, evaluate, progress)
             if not writer.complete:
                 writer.finish()
             counts = _counts(writer)
@@ -271,7 +280,7 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
     hv = [] if hvd is None else [float(v) for v in hvd.values]
     return OptimizeSummary(out, study.name, opt.algorithm, opt.objectives, opt.directions, opt.generations, ran,
                            int((df["status"].astype(str) != "not-run").sum()), int(feasible.sum()), counts, front,
-                           time.perf_counter() - t0, stopped, resumed, hv, opt.constraints, hvd)
+                           time.perf_counter() - t0, stopped, resumed, hv, opt.constraints, hvd, polished=polished)
 
 
 def _create(out: Path, study: Study) -> ResultsWriter:
@@ -376,15 +385,66 @@ def _search(study: Study, writer: ResultsWriter, out: Path, evaluate, progress: 
         for g in range(state["g"], G):
             if not writer.done[g]:
                 writer.write_chunk(g, np.empty((0, len(study.mech.links))), np.empty(0), None, partial=True)
+        polished = _polish_generation(study, writer, results, evaluate) if opt.polish else None
     except KeyboardInterrupt as exc:
         done = int(writer.done.sum())
         what = "terminated" if isinstance(exc, Terminated) else "interrupted"
-        raise type(exc)(f"{out}: {what} with {done} of {G} generations committed; run again with --resume to "
+        raise type(exc)(f"{out}: {what} with {done} of {opt.chunks} generations committed; run again with --resume to "
                         f"finish it (the same final result)") from None
     finally:
         if bar is not None:
             bar.close()
-    return state["ran"], stopped, hv
+    return state["ran"], stopped, hv, polished
+
+
+def _polish_generation(study: Study, writer: ResultsWriter, results: Results, evaluate) -> dict:
+    """The polish after the search (``[optimize] polish``, :mod:`._polish`): least squares from the best
+    feasible design of generations 0 … G−1 and the ``restarts`` next best distinct ones, the polished
+    designs committed as generation G through the chunk runner (rows beyond them not-run). Read from
+    the file, so a resumed run polishes the same starts to the same designs; a committed polish
+    generation is read back. Returns {"starts", "best_before", "best_after", "solved" (None when read
+    back)}."""
+    from ..kernels import simulate_batch
+    from ._chunk import geometry_columns, metric_plan
+    from ._polish import PathResiduals, distinct_best, polish
+    opt = study.optimize
+    P, G = opt.population, opt.generations
+    df = results.frame(rows=(0, G * P))
+    F, _, feasible = objective_matrix(df, opt, study.screen)
+    f = np.where(feasible, F[:, 0], np.inf)
+    before = float(f.min()) if np.isfinite(f).any() else math.nan
+    a, _ = writer.chunk_range(G)
+    if writer.done[G]:
+        new = results.frame(rows=(a, a + P))
+        Fn, _, feas_n = objective_matrix(new, opt, study.screen)
+        run = (new["status"].astype(str) != "not-run").to_numpy()
+        after = float(min(before, Fn[feas_n, 0].min())) if feas_n.any() else before
+        return {"starts": int(run.sum()), "best_before": before, "best_after": after, "solved": None}
+    X = stored_x(df, study)
+    lo, hi = np.array(opt.lower), np.array(opt.upper)
+    pick = distinct_best(X, f, lo, hi, 1 + opt.restarts)
+    mech, target = study.mech, study.target
+    _, metric_vel, _ = metric_plan(study)
+    velocities = study.velocities or metric_vel
+
+    def simulate(Xs):
+        lengths, crank, geometry = designs_from_x(study, Xs)
+        moved = geometry_columns(study, geometry)
+        b = simulate_batch(mech, lengths, crank if mech.crank is not None else None, study.steps,
+                           vertices=[mech.foot], velocities=velocities, tolerance=study.tolerance, method=study.method,
+                           **({"geometry": moved} if moved else {}))
+        return b.paths[mech.foot], (b.velocities.get(mech.foot) if velocities else None), b.status == 0
+
+    res = PathResiduals(simulate, target.points, match=target.match, angles=target.angles, ignore=target.ignore)
+    Xp = np.array([polish(res, X[i], lo, hi).x for i in pick]).reshape(len(pick), len(lo))
+    lengths, crank, geometry = designs_from_x(study, Xp)
+    batch, metrics = evaluate(lengths, crank, geometry) if len(Xp) else (None, None)
+    with signals_held():
+        writer.write_chunk(G, lengths, crank, batch, metrics, geometry=geometry if len(Xp) else None, partial=True)
+    new = results.frame(rows=(a, a + len(Xp)))
+    Fn, _, feas_n = objective_matrix(new, opt, study.screen)
+    after = float(min(before, Fn[feas_n, 0].min())) if feas_n.any() else before
+    return {"starts": len(Xp), "best_before": before, "best_after": after, "solved": res.evaluations}
 
 
 def _progress_value(F, feas, n_obj: int, directions, ref):
