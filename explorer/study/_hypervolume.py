@@ -6,16 +6,16 @@ How it is measured (one definition for the summary, the CLI and the tests):
   solved, every objective a number, passing the screen when ``screen = true``, every constraint
   true) of generations 0 … g: the front found so far, so the figure never goes down.
 * Each objective is taken as pymoo minimises it (negated where the metric is maximised) and
-  normalised by the *final* front, the feasible non-dominated designs of the whole file:
-  f' = (f − ideal) / (nadir − ideal), where ideal and nadir are the best and worst value of that
-  objective on that front (an objective with no spread there, nadir = ideal, is divided by 1). The
-  final front thus spans [0, 1] in every objective.
+  normalised by the fronts of the run: f' = (f − ideal) / (nadir − ideal), where ideal is the best
+  feasible value of that objective in the file and nadir the worst value it takes on any generation's
+  front (the front as it stood after generation g, for every g) (an objective with no spread, nadir =
+  ideal, is divided by 1). Every front of the run thus lies in [0, 1]^M.
 * The reference point is :data:`REFERENCE` = 1.1 in every normalised objective (the nadir plus 10 %
-  of the front's range), so every design of the final front, its extremes included, adds volume;
-  designs of earlier generations beyond it in some objective add none. The largest possible value is
-  1.1^M (a single design at the ideal point): 1.21 for two objectives, 1.331 for three. (The nadir of
-  the final front rather than the worst feasible design: one poor feasible design would otherwise
-  squeeze every figure toward the maximum.)
+  of the range), so every design on any generation's front, its extremes included, adds volume and a
+  generation with a feasible design has a positive figure. The largest possible value is 1.1^M (a
+  single design at the ideal point): 1.21 for two objectives, 1.331 for three. (Not the nadir of
+  every feasible design, which one poor feasible design would push out, squeezing every figure toward
+  the maximum; not the final front's, beyond which a polish generation can leave every earlier front.)
 * A generation with no feasible design so far has hypervolume 0 (the empty set's).
 
 Because the normalisation uses the whole file, the figures are comparable within one run (and are
@@ -31,7 +31,7 @@ import numpy as np
 
 from ._objectives import Optimize, objective_matrix
 
-#: The reference point in every normalised objective (the run's feasible nadir is 1, its ideal 0).
+#: The reference point in every normalised objective (the nadir of the run's fronts is 1, the ideal 0).
 REFERENCE = 1.1
 
 
@@ -40,8 +40,8 @@ class Hypervolume:
     """What :func:`hypervolume_history` gives.
 
     values : (G,) the hypervolume of the feasible designs of generations 0 … g, in the normalised
-    objectives (dimensionless; at most ``REFERENCE ** M``). ideal, nadir : (M,) the best and worst
-    value of each objective on the file's final front, in the objective's own unit and sign as the
+    objectives (dimensionless; at most ``REFERENCE ** M``). ideal, nadir : (M,) the best feasible value
+    of each objective and its worst on any generation's front, in the objective's own unit and sign as the
     metric reads (not negated), the normalisation's 0 and 1. reference : (M,) the reference point in
     the same units (nadir + 10 % of the range, toward the worse side).
     """
@@ -57,21 +57,6 @@ class Hypervolume:
         return REFERENCE ** len(self.ideal)
 
 
-def _normalise(F: np.ndarray, feasible: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(F normalised (n, M), ideal (M,), nadir (M,)) of minimised objectives F by the non-dominated
-    feasible rows."""
-    M = F.shape[1]
-    if not feasible.any():
-        return np.full_like(F, np.nan), np.full(M, np.nan), np.full(M, np.nan)
-    from pymoo.util.nds.non_dominated_sorting import find_non_dominated
-    ok = F[feasible]
-    front = ok[find_non_dominated(ok)]
-    ideal = front.min(axis=0)
-    nadir = front.max(axis=0)
-    span = np.where(nadir > ideal, nadir - ideal, 1.0)
-    return (F - ideal) / span, ideal, nadir
-
-
 def hypervolume_per_generation(F: np.ndarray, feasible: np.ndarray, generation: np.ndarray,
                                n_generations: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The hypervolume of the module docstring from arrays.
@@ -79,7 +64,7 @@ def hypervolume_per_generation(F: np.ndarray, feasible: np.ndarray, generation: 
     F : (n, M) objectives as minimised (maximised metrics negated), any value where infeasible;
     feasible : (n,) bool; generation : (n,) int, each design's generation; n_generations : how many
     generations to report (default max(generation) + 1). Returns (values (G,), ideal (M,), nadir (M,)),
-    ideal and nadir in F's (minimised) sign.
+    ideal and nadir in F's (minimised) sign (NaN when no design is feasible).
     """
     from pymoo.indicators.hv import HV
     from pymoo.util.nds.non_dominated_sorting import find_non_dominated
@@ -88,17 +73,23 @@ def hypervolume_per_generation(F: np.ndarray, feasible: np.ndarray, generation: 
     feasible = np.asarray(feasible, dtype=bool)
     generation = np.asarray(generation, dtype=np.int64)
     G = int(generation.max()) + 1 if n_generations is None and len(generation) else int(n_generations or 0)
-    Fn, ideal, nadir = _normalise(F, feasible)
     M = F.shape[1]
-    hv = HV(ref_point=np.full(M, REFERENCE))
-    values = np.zeros(G)
-    archive = np.empty((0, M))
-    for g in range(G):
-        new = Fn[feasible & (generation == g)]
+    fronts, archive = [], np.empty((0, M))
+    for g in range(G):  # the front after each generation, in the objectives' own units
+        new = F[feasible & (generation == g)]
         if len(new):
             union = np.vstack([archive, new])
             archive = union[find_non_dominated(union)]
-        values[g] = float(hv(archive)) if len(archive) else 0.0
+        fronts.append(archive)
+    values = np.zeros(G)
+    if not feasible.any():
+        return values, np.full(M, np.nan), np.full(M, np.nan)
+    ideal = F[feasible].min(axis=0)
+    nadir = np.vstack(fronts).max(axis=0)
+    span = np.where(nadir > ideal, nadir - ideal, 1.0)
+    hv = HV(ref_point=np.full(M, REFERENCE))
+    for g, front in enumerate(fronts):
+        values[g] = float(hv((front - ideal) / span)) if len(front) else 0.0
     return values, ideal, nadir
 
 

@@ -127,9 +127,9 @@ def _hypervolume_line(h: Hypervolume, objectives) -> str:
     picks = sorted(set(np.linspace(0, G - 1, min(G, 8)).round().astype(int).tolist())) if G else []
     gens = ", ".join(f"{g}: {h.values[g]:.4f}" for g in picks)
     ref = ", ".join(f"{o} {r:.6g}" for o, r in zip(objectives, h.reference))
-    return (f"hypervolume by generation ({gens}; of at most {h.maximum:.4g}: each objective normalised to 0 and "
-            f"1 at the best and worst end of the final front; reference point 1.1 each, i.e. {ref}; every "
-            f"generation in OptimizeSummary.hypervolume)")
+    return (f"hypervolume by generation ({gens}; of at most {h.maximum:.4g}: each objective normalised to 0 at "
+            f"its best feasible value and 1 at its worst on any generation's front; reference point 1.1 each, "
+            f"i.e. {ref}; every generation in OptimizeSummary.hypervolume)")
 
 
 def _initial(study: Study) -> np.ndarray:
