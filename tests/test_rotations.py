@@ -277,3 +277,100 @@ def test_cli_bench_rotations(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--steps: expected an integer >= 3" in err and "--force" in err and "Traceback" not in err
     assert "--methods: unknown 'nope'" in err
+
+
+# -- the arm's wrist: [driver] orientation ------------------------------------------------------------
+ARM_WRIST = '''name = "armw"
+foot = "T"
+[driver]
+vertex = "T"
+path = "line"
+start = [-1.0, 1.0]
+end = [2.0, 1.0]
+duration = 10.0
+timing = "quintic"
+{orientation}
+[fixed]
+O = [0.0, 0.0]
+[guess]
+E = [-0.6, 1.9]
+[[links]]
+a = "O"
+b = "E"
+length = 2.0
+[[links]]
+a = "E"
+b = "T"
+length = 1.0
+'''
+
+
+def _arm(tmp_path, orientation, name="armw.toml"):
+    from explorer.mechanism import load_mechanism
+
+    path = tmp_path / name
+    path.write_text(ARM_WRIST.format(orientation=orientation))
+    return load_mechanism(path), path
+
+
+def test_arm_builtin_wrist_reaches_the_seed_sets_on_both_branches(tmp_path):
+    from explorer.kernels import simulate, wrist_for
+    from explorer.mechanism import load_mechanism, mechanism_from_dict, mechanism_toml, parse_toml
+
+    arm = load_mechanism("arm")
+    o = arm.path.orientation
+    assert o.wrist == "ZYX" and o.interpolation == "slerp" and np.abs(o.matrices()[1] - SEED_R).max() < 1e-12
+    w = wrist_for(arm, steps=201)
+    assert np.allclose(w.t, simulate(arm, steps=201).theta, atol=1e-15)  # the arm's own samples
+    assert np.allclose(w.angles[-1], zyx_by_hand(SEED_R), atol=1e-12) and set(w.sets) == {1}
+    back = mechanism_from_dict(parse_toml(mechanism_toml(arm), "x"), "x")
+    assert back.path == arm.path
+    m, _ = _arm(tmp_path, '''orientation = [[[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+    [[0.3336, -0.8739, 0.3536], [0.8173, 0.4550, 0.3536], [-0.4698, 0.1710, 0.8660]]]
+interpolation = "euler"
+wrist = "ZYX"
+wrist_branch = 2''')
+    w2 = wrist_for(m, steps=101)
+    assert set(w2.sets) == {2}
+    assert np.allclose(np.mod(np.degrees(w2.angles[-1]), 360), [247.8, 151.98, 191.17], atol=0.01)
+    assert np.abs(np.diff(w2.angles, axis=0)).max() < D(3)
+    m3, _ = _arm(tmp_path, 'orientation = [{axis = [0, 1, 0], angle = 60}, {euler = [1.7453292519943295, 0, 0], '
+                           'seq = "YXZ", degrees = false}]\nwrist = "ZYX"', "m3.toml")
+    w3 = wrist_for(m3, steps=101)
+    assert np.allclose(w3.R[0], ry(D(60)), atol=1e-12) and np.allclose(w3.R[-1], ry(D(100)), atol=1e-12)
+    assert len(w3.locks) == 1 and abs(w3.locks[0].s - 0.75) < 1e-6  # pitch passes 90°: flagged
+    assert mechanism_from_dict(parse_toml(mechanism_toml(m3), "y"), "y").path == m3.path
+
+
+@pytest.mark.parametrize("orientation, key, value", [
+    ('orientation = [{euler = [0, 0, 0], seq = "ZYZ"}, {euler = [1, 2, 3], seq = "ZZY"}]',
+     "driver.orientation[1].seq", "'ZZY'"),
+    ('orientation = [[[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[1, 0, 0], [0, 1, 0], [0, 0.5, 1]]]',
+     "driver.orientation[1]", "not a rotation matrix"),
+    ('orientation = [[[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[-1, 0, 0], [0, 1, 0], [0, 0, 1]]]',
+     "driver.orientation[1]", "det = -1"),
+    ('orientation = [{axis = [0, 0, 1], angle = 0}, {axis = [0, 0, 1], angle = 90}]\ninterpolation = "lerp"',
+     "driver.interpolation", "'lerp'"),
+    ('orientation = [{axis = [0, 0, 1], angle = 0}, {axis = [0, 0, 1], angle = 90}]\nwrist = "zyz"',
+     "driver.wrist", "'zyz'"),
+    ('orientation = [{axis = [0, 0, 1], angle = 0}, {axis = [0, 0, 0], angle = 90}]', "driver.orientation[1].axis",
+     "[0, 0, 0]"),
+    ('orientation = [{axis = [0, 0, 1], angle = 0}]', "driver.orientation", "two or more"),
+    ('orientation = [{axis = [0, 0, 1], angle = 0}, {axis = [0, 0, 1], angle = 9}]\nwrist_branch = 3',
+     "driver.wrist_branch", "3"),
+    ('interpolation = "slerp"', "driver.interpolation", "only used with driver.orientation"),
+])
+def test_bad_orientation_is_one_line_naming_file_key_value(tmp_path, capsys, orientation, key, value):
+    from explorer.errors import UserError
+
+    path = tmp_path / "bad.toml"
+    path.write_text(ARM_WRIST.format(orientation=orientation))
+    from explorer.mechanism import load_mechanism
+
+    with pytest.raises(UserError) as e:
+        load_mechanism(path)
+    msg = str(e.value)
+    assert str(path) in msg and key in msg and value in msg and "\n" not in msg
+    assert main(["describe", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert key in err and "Traceback" not in err and len(err.strip().splitlines()) == 1

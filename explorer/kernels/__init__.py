@@ -11,10 +11,11 @@ from ._simulate import check_dense  # noqa: E402
 from ._simulate import (DEFAULT_TOLERANCE, METHODS, TOLERANCE_RANGE, STATUS_NAMES, Batch, Cycle, Failure, assemble,  # noqa: E402
                         plan_for, simulate, simulate_batch)
 from ._wrist import (INTERPOLATIONS, SEQUENCES, GimbalLock, WristPath, check_sequence, euler_sets,  # noqa: E402
-                     interpolate, lock_distance, orthonormality_defect, project, relative_angle, track, wrist_path)
+                     interpolate, lock_distance, orthonormality_defect, project, relative_angle, track, wrist_for,
+                     wrist_path)
 
 __all__ = ["check_dense", "lu_solve", "is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "ground_contact", "leg_feet", "leg_samples",
            "parallel_rows",
            "plan_for", "simulate", "simulate_batch",
            "INTERPOLATIONS", "SEQUENCES", "GimbalLock", "WristPath", "check_sequence", "euler_sets", "interpolate",
-           "lock_distance", "orthonormality_defect", "project", "relative_angle", "track", "wrist_path"]
+           "lock_distance", "orthonormality_defect", "project", "relative_angle", "track", "wrist_for", "wrist_path"]

@@ -443,3 +443,21 @@ def _locks(K, method, kw, wrist, t, s, dist, q, rates, sets, duration, law, tol)
                                   (int(sets[a]), int(sets[b]))))
     closest = min(records, key=lambda g: g.distance) if records else None
     return [g for g in records if g.distance < tol], closest
+
+
+def wrist_for(mech_or_driver, steps: int = 1001, *, method: str | None = None,
+              lock_tolerance: float = math.radians(1.0)) -> WristPath:
+    """The wrist path of a path-driven mechanism (or its :class:`explorer.mechanism.PathDriver`) with a
+    ``[driver] orientation``: its keyframes, interpolation (or ``method``), wrist sequence and branch, timed
+    by the driver's duration and timing law at the same ``steps`` samples as :func:`explorer.kernels.simulate`
+    (t_k = T·k/(steps − 1)). ValueError if it has no orientation."""
+    driver = getattr(mech_or_driver, "path", mech_or_driver)
+    o = getattr(driver, "orientation", None)
+    if o is None:
+        name = getattr(mech_or_driver, "name", "this driver")
+        raise ValueError(f"{name}: no [driver] orientation (a wrist needs orientation keyframes)")
+    seq = o.euler_seq or o.wrist
+    given = o.euler_radians(seq)
+    return wrist_path(o.matrices(), method or o.interpolation, duration=driver.duration, timing_law=driver.timing,
+                      steps=steps, wrist=o.wrist, branch=o.branch, euler_seq=seq, euler_set=o.euler_set,
+                      euler_given=given if any(g is not None for g in given) else None, lock_tolerance=lock_tolerance)
