@@ -248,3 +248,45 @@ def test_walking_leg_synthesis_example_follows_the_drawn_stance(tmp_path, capsys
     assert f"variant {int(best['variant'])}, the best feasible design" in out
     row = df.iloc[int(best["variant"])]
     assert row["screen"] == "pass" and bool(row["buildable"]) and row["clearance"] >= 1 and row["bob"] <= 1
+
+
+# -- the front's polish (several objectives, [optimize] polish = true) -----------------------------------
+@pytest.mark.slow
+def test_front_polish_dominates_its_starts_and_resumes_exactly(tmp_path, monkeypatch):
+    import pandas as pd
+    study = tmp_path / "polish.toml"
+    study.write_text(STUDY.replace("population = 12\ngenerations = 4", "population = 10\ngenerations = 3\n"
+                                                                      "polish = true"))
+    s = run_optimize(study, output=tmp_path / "a.h5", progress=False)
+    with open_results(s) as res:
+        df = res.frame()
+    assert len(df) == 40 and (df["generation"].to_numpy() == np.arange(40) // 10).all()
+    feasible = ((df["status"].astype(str) == "ok") & df["travel"].notna() & df["bob"].notna()
+                & df["buildable"].astype(bool) & (df["clearance"] >= 1)).to_numpy()
+    gen = df["generation"].to_numpy()
+    # the starts: the feasible non-dominated designs of generations 0-2, by brute force
+    search = feasible & (gen < 3)
+    F = np.column_stack([-df["travel"].to_numpy(float), df["bob"].to_numpy(float)])
+    front = set(df["variant"].to_numpy()[search][~dominated_by_any(F[search])])
+    p = s.polished
+    assert p["front"] == len(front) and set(p["from"]) <= front
+    polished = df[(gen == 3) & (df["status"].astype(str) != "not-run")]
+    assert len(polished) == p["improved"] == len(p["from"]) > 0
+    for (_, row), v in zip(polished.iterrows(), p["from"]):
+        start = df.iloc[v]
+        assert feasible[int(row["variant"])]
+        # each polished design dominates the front design it started from
+        assert row["travel"] >= start["travel"] and row["bob"] <= start["bob"]
+        assert row["travel"] > start["travel"] or row["bob"] < start["bob"]
+    assert s.hypervolume[3] > s.hypervolume[2]
+    # stopped during the polish (the search committed), --resume polishes again to the same rows
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr("explorer.study._front_polish.polish_front", interrupted)
+    with pytest.raises(KeyboardInterrupt, match="3 of 4 generations committed"):
+        run_optimize(study, output=tmp_path / "b.h5", progress=False)
+    monkeypatch.undo()
+    s2 = run_optimize(study, output=tmp_path / "b.h5", resume=True, progress=False)
+    assert s2.polished["improved"] == p["improved"]
+    with open_results(s2) as res:
+        pd.testing.assert_frame_equal(res.frame(), df)

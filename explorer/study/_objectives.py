@@ -27,7 +27,13 @@ distinct designs of the run, and commits the polished designs as one more genera
 ``generations``, rows ``generations·P …``). ``auto`` with several objectives is ``nsga2``::
 
     polish = true                 # default: true for auto with objective path_error, else false
+                                  # several objectives: polish the final front instead (below)
     restarts = 4                  # polish starts beyond the best (0 … population − 1; default 4)
+
+Several objectives with ``polish = true`` (:mod:`._front_polish`): after the generations, each design of
+the final front (at most P of them) is polished by SLSQP on the equal-weight sum of its normalised
+objectives, no objective allowed to get worse, and the designs it improves (each dominating the
+design it started from) are committed as the same extra generation. ``restarts`` does not apply.
 
 The seed is ``[study] seed``. ``[perturb]`` does not apply (the optimiser chooses the designs) and is
 refused beside ``[optimize]``.
@@ -158,10 +164,10 @@ def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has
     polish = table.get("polish", algorithm == "auto" and objectives == ["path_error"])
     if not isinstance(polish, bool):
         raise UserError(f"{key('polish')}: expected true or false, got {polish!r}")
-    if polish and objectives != ["path_error"]:
+    if polish and len(objectives) == 1 and objectives != ["path_error"]:
         raise UserError(f"{key('polish')}: polish = true needs the one objective 'path_error' (it is least squares "
-                        f"on the path residuals), got {', '.join(objectives)}")
-    if polish and algorithm not in SINGLE_OBJECTIVE + ("auto",):
+                        f"on the path residuals) or several objectives (the front's polish), got {objectives[0]!r}")
+    if polish and len(objectives) == 1 and algorithm not in SINGLE_OBJECTIVE + ("auto",):
         raise UserError(f"{key('polish')}: polish = true runs after a single-objective search (auto, de, ga or "
                         f"cmaes), not {algorithm!r}")
     restarts = _integer(table.get("restarts", min(RESTARTS, population - 1)), key("restarts"), 0, population - 1)

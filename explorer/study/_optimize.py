@@ -36,6 +36,7 @@ from ..store import OutputLock, ResultsWriter
 from ._chunk import design_solver
 from ._cluster import Recipe, check_client, one_thread, warm_everywhere, worker_threads
 from ._designs import designs_from_x, nominal_x, stored_x
+from ._front_polish import front_polish_generation
 from ._hypervolume import Hypervolume, hypervolume_history
 from ._objectives import objective_matrix
 from ._output import _counts, _state, results_path, validate_study
@@ -110,7 +111,13 @@ class OptimizeSummary:
             lines += ["    " + line for line in front.head(10).to_string(index=False).splitlines()]
         if self.hypervolume_detail is not None:
             lines.append("  " + _hypervolume_line(self.hypervolume_detail, self.objectives))
-        if self.polished is not None:
+        if self.polished is not None and "improved" in self.polished:  # several objectives: the front's polish
+            p = self.polished
+            lines.append(f"  front polish (generation {self.generations}): " + (
+                f"{p['improved']} designs read back" if p["front"] is None else
+                f"{p['improved']} of {p['front']} front designs improved, each dominating the design it started "
+                f"from ({p['evaluations']:,} designs solved)"))
+        elif self.polished is not None:
             p = self.polished
             solved = "read back" if p["solved"] is None else f"{p['solved']:,} designs solved by its least squares"
             lines.append(f"  polish: {p['starts']} starts (generation {self.generations}; {solved}); best "
@@ -385,7 +392,11 @@ def _search(study: Study, writer: ResultsWriter, out: Path, evaluate, progress: 
         for g in range(state["g"], G):
             if not writer.done[g]:
                 writer.write_chunk(g, np.empty((0, len(study.mech.links))), np.empty(0), None, partial=True)
-        polished = _polish_generation(study, writer, results, evaluate) if opt.polish else None
+        polished = None
+        if opt.polish and len(opt.objectives) > 1:  # the front's polish (_front_polish)
+            polished = front_polish_generation(study, writer, results, evaluate, final_front)
+        elif opt.polish:
+            polished = _polish_generation(study, writer, results, evaluate)
     except KeyboardInterrupt as exc:
         done = int(writer.done.sum())
         what = "terminated" if isinstance(exc, Terminated) else "interrupted"
