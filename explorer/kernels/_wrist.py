@@ -37,13 +37,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from ..mechanism import EULER_SEQUENCES as SEQUENCES  # noqa: F401 - re-exported by explorer.kernels
+from ..mechanism import INTERPOLATIONS, valid_sequence  # one home: the mechanism's [driver] orientation
 from ._drive import LINEAR, QUINTIC, timing
-
-#: Interpolation methods, in the bench's order.
-INTERPOLATIONS = ("slerp", "spline", "matrix", "euler", "axis-angle")
-
-#: The 12 valid Euler sequences (intrinsic upper case; lower case is the extrinsic reading of each).
-SEQUENCES = tuple(a + b + c for a in "XYZ" for b in "XYZ" for c in "XYZ" if a != b and b != c)
 
 #: A wrist angle this close (radians) to lock counts as *at* lock: q1/q3 split by continuity.
 _AT_LOCK = 1e-7
@@ -51,8 +47,7 @@ _AT_LOCK = 1e-7
 
 def check_sequence(seq: str) -> str:
     """``seq`` if it is a valid Euler sequence (three of x/y/z, no axis twice in a row, one case), else ValueError."""
-    if (not isinstance(seq, str) or len(seq) != 3 or seq.upper() not in SEQUENCES
-            or not (seq.isupper() or seq.islower())):
+    if not valid_sequence(seq):
         raise ValueError(f"expected an Euler sequence such as 'ZYZ', 'ZYX' or 'xyz' (three of X/Y/Z, no axis "
                          f"twice in a row, all upper case = intrinsic or all lower = extrinsic), got {seq!r}")
     return seq
