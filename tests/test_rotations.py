@@ -260,6 +260,8 @@ def test_cli_bench_rotations(tmp_path, capsys):
     assert "theta = 28.02°, psi = 11.17°, phi = 67.80°" in out
     assert "theta = 151.98°, psi = 191.17°, phi = 247.80°" in out
     assert "det = 0.5000" in out and "sweeps 116.43°" in out
+    # linear on Z-Y-X from (0, 0, 0) to the seed's set 2: the pitch 151.98°·t/10 s passes 90° (lock) at t = 5.922 s
+    assert f"euler ZYX set 2: gimbal lock at t = {10 * 90 / 151.98:.4g} s" in out
     rows = csv.read_text().splitlines()
     assert rows[0].startswith("row,defect_frob") and [r.split(",")[0] for r in rows[1:]] == [
         "slerp", "matrix", "euler ZYX set 2"]
@@ -374,3 +376,26 @@ def test_bad_orientation_is_one_line_naming_file_key_value(tmp_path, capsys, ori
     assert main(["describe", str(path)]) == 2
     err = capsys.readouterr().err
     assert key in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_cli_bench_rotations_on_the_arm_writes_its_wrist(tmp_path, capsys):
+    out = tmp_path / "wrist.csv"
+    assert main(["bench", "rotations", "--mechanism", "arm", "--steps", "201", "--samples", "20", "--repeat", "1",
+                 "--methods", "euler", "--wrist-method", "euler", "--wrist-csv", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "mechanism arm: 2 orientation keyframes over 10 s, wrist ZYX from branch 1" in text
+    assert "quintic timing" in text
+    rows = out.read_text().splitlines()
+    head = rows[0].split(",")
+    data = np.array([[float(x) for x in r.split(",")] for r in rows[1:]])
+    assert head[:5] == ["t_s", "s", "q1_rad", "q2_rad", "q3_rad"] and data.shape == (201, len(head))
+    t, q, rates = data[:, 0], data[:, 2:5], data[:, 5:8]
+    assert np.allclose(t, np.linspace(0, 10, 201), atol=1e-12)
+    set1 = zyx_by_hand(SEED_R)
+    for i in (0, 50, 120, 200):  # linear on the Z-Y-X angles of set 1, timed by the quintic law
+        x = quintic(t[i] / 10)
+        assert np.allclose(q[i], x * set1, atol=1e-12)
+    fd = np.gradient(q, t, axis=0)
+    assert np.abs(rates - fd)[3:-3].max() < 1e-3 * np.abs(fd).max()
+    assert main(["bench", "rotations", "--mechanism", "jansen"]) == 2
+    assert "no [driver] orientation" in capsys.readouterr().err

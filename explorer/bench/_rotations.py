@@ -58,7 +58,7 @@ ROWS = {
 }
 
 COLUMNS = ("row", "defect_frob", "defect_det", "geodesic_dev_deg", "path_deg", "geodesic_deg", "ripple",
-           "us_per_sample", "time_vs_slerp", "mid_angles_deg")
+           "max_rate_rad_s", "gimbal_locks", "branch_changes", "us_per_sample", "time_vs_slerp", "mid_angles_deg")
 
 
 def rz(a):
@@ -103,21 +103,15 @@ def seed_axang_4vector(R, s) -> np.ndarray:
 
 @dataclass
 class RotationsReport:
-    """rows: one dict per method (keys COLUMNS); frames: label -> (6, 3, 3) matrices at the seed's times;
-    facts: the seed's checks (name -> value); meta: what was run."""
+    """rows: one dict per method (keys COLUMNS, + ``locks``: the gimbal-lock lines); frames: label -> (6, 3, 3)
+    matrices at the seed's times (path fractions 0, 0.2, …, 1); wrists: label -> WristPath; facts: the seed's
+    checks (name -> value); meta: what was run."""
 
     rows: list[dict] = field(default_factory=list)
     frames: dict = field(default_factory=dict)
+    wrists: dict = field(default_factory=dict)  # label -> explorer.kernels.WristPath (not the seed's 4-vector row)
     facts: dict = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
-
-
-def _evaluate(label, K, s):
-    method, seq, eset = ROWS[label]
-    if method == "seed-axang":
-        return seed_axang_4vector(K[-1], s)
-    return interpolate(K, s, method, euler_seq=seq or "ZYX", euler_set=eset,
-                       euler_given=_given(label))
 
 
 def _given(label):
@@ -149,91 +143,140 @@ def seed_facts() -> dict:
     }
 
 
-def rotations_bench(*, steps: int = 1001, timing: str = "linear", samples: int = 10_000, repeat: int = 5,
-                    rows=None, progress=None) -> RotationsReport:
+def rotations_bench(*, steps: int = 1001, timing: str | None = None, samples: int = 10_000, repeat: int = 5,
+                    rows=None, mechanism=None, progress=None) -> RotationsReport:
     """Run the seed's problem: every row's accuracy over ``steps`` samples of the 10 s move (``timing`` law:
-    the seed's "linear" or the arm's "quintic"), and its time per sample over ``samples`` evaluations (best
-    of ``repeat``, slerp timed in the same run). ``rows``: labels of :data:`ROWS` to run (default all;
-    slerp always runs, as the time baseline)."""
+    the seed's "linear" (default) or the arm's "quintic"), and its time per sample over ``samples``
+    evaluations (best of ``repeat``, slerp timed in the same run). ``rows``: labels of :data:`ROWS` to run
+    (default all; slerp always runs, as the time baseline).
+
+    ``mechanism`` (a path-driven :class:`~explorer.mechanism.Mechanism` with a ``[driver] orientation``):
+    its keyframes, wrist, branch, duration and timing law (unless ``timing`` is given) instead of the
+    seed's, one row per interpolation (its own Euler sequence and keyframe angles for ``euler``); the rows'
+    wrist follows each method and its gimbal locks are listed."""
     if steps < 3 or samples < 1 or repeat < 1:
         raise ValueError("steps >= 3, samples >= 1 and repeat >= 1")
-    wanted = list(ROWS) if rows is None else ["slerp"] + [r for r in rows if r != "slerp"]
-    unknown = [r for r in wanted if r not in ROWS]
+    if mechanism is not None:
+        o = getattr(mechanism.path, "orientation", None) if mechanism.path is not None else None
+        if o is None:
+            raise ValueError(f"{mechanism.name}: no [driver] orientation to interpolate (its [driver] table needs "
+                             f"orientation keyframes)")
+        seq = o.euler_seq or o.wrist
+        given = o.euler_radians(seq)
+        table = {m: (m, seq, o.euler_set, given if any(g is not None for g in given) else None)
+                 for m in ("slerp", "spline", "matrix", "euler", "axis-angle")}
+        K, wrist, branch = o.matrices(), o.wrist, o.branch
+        duration, law = mechanism.path.duration, timing or mechanism.path.timing
+        name = mechanism.name
+    else:
+        table = {label: (m, q, e, _given(label)) for label, (m, q, e) in ROWS.items()}
+        K, wrist, branch, duration, law, name = np.stack([np.eye(3), seed_rotation()]), "ZYX", 1, DURATION, \
+            timing or "linear", None
+    wanted = list(table) if rows is None else ["slerp"] + [r for r in rows if r != "slerp"]
+    unknown = [r for r in wanted if r not in table]
     if unknown:
-        raise ValueError(f"unknown rows {', '.join(map(repr, unknown))} (known: {', '.join(ROWS)})")
-    R = seed_rotation()
-    K = np.stack([np.eye(3), R])
-    report = RotationsReport(facts=seed_facts(), meta={"steps": steps, "timing": timing, "samples": samples,
-                                                       "repeat": repeat, "duration_s": DURATION})
-    s_seed = np.array(SEED_TIMES) / DURATION
+        raise ValueError(f"unknown rows {', '.join(map(repr, unknown))} (known: {', '.join(table)})")
+    report = RotationsReport(facts=seed_facts(), meta={"steps": steps, "timing": law, "samples": samples,
+                                                       "repeat": repeat, "duration_s": duration, "mechanism": name,
+                                                       "wrist": wrist, "branch": branch, "keyframes": K})
+
+    def evaluate(label, s):
+        method, seq, eset, given = table[label]
+        if method == "seed-axang":
+            return seed_axang_4vector(K[-1], s)
+        return interpolate(K, s, method, euler_seq=seq or wrist, euler_set=eset, euler_given=given)
+
+    s_frames = np.array(SEED_TIMES) / SEED_TIMES[-1]
     s_time = np.linspace(0.0, 1.0, samples)
     times = {}
     for label in wanted:
         best = math.inf
-        _evaluate(label, K, s_time[:8])  # warm (imports, caches)
+        evaluate(label, s_time[:8])  # warm (imports, caches)
         for _ in range(repeat):
             t0 = time.perf_counter()
-            _evaluate(label, K, s_time)
+            evaluate(label, s_time)
             best = min(best, time.perf_counter() - t0)
         times[label] = best / samples * 1e6
     from scipy.spatial.transform import Rotation
 
     for label in wanted:
-        method, seq, eset = ROWS[label]
+        method, seq, eset, given = table[label]
         if progress:
             progress(f"rotations: {label}")
-        report.frames[label] = _evaluate(label, K, s_seed)
+        report.frames[label] = evaluate(label, s_frames)
+        locks, max_rate, changes = (), math.nan, 0
         if method == "seed-axang":
             s = np.linspace(0.0, 1.0, steps)
-            M = seed_axang_4vector(R, s)
+            M = seed_axang_4vector(K[-1], s)
             used = project(M)
             frob, det = orthonormality_defect(M)
-            geo = interpolate(K, s, "slerp")
-            dev = relative_angle(used, geo)
+            dev = relative_angle(used, interpolate(K, s, "slerp"))
             path = float(relative_angle(used[:-1], used[1:]).sum())
             ds = relative_angle(used[:-1], used[1:]) * (steps - 1)  # swept angle per unit path fraction
             ripple = float((ds.max() - ds.min()) / ds.mean())
-            geod = float(relative_angle(K[0], K[1]))
+            geod = float(relative_angle(K[0], K[-1]))
         else:
-            w = wrist_path(K, method, duration=DURATION, timing_law=timing, steps=steps, wrist="ZYX",
-                           euler_seq=seq, euler_set=eset, euler_given=_given(label))
+            w = wrist_path(K, method, duration=duration, timing_law=law, steps=steps, wrist=wrist, branch=branch,
+                           euler_seq=seq, euler_set=eset, euler_given=given)
             frob, det, dev, path, ripple, geod = (w.defect_frob, w.defect_det, w.geodesic_deviation, w.path_angle,
                                                   w.ripple, w.geodesic_angle)
-        mid = project(report.frames[label][3:4])  # t = 6 s
+            locks, changes = w.locks, int((np.diff(w.sets) != 0).sum())
+            max_rate = float(np.abs(w.rates).max())
+            report.wrists[label] = w
+        mid = project(report.frames[label][3:4])  # the seed's t = 6 s (s = 0.6)
         report.rows.append({
             "row": label, "defect_frob": float(np.abs(frob).max()), "defect_det": float(np.abs(det).max()),
             "geodesic_dev_deg": math.degrees(float(np.max(dev))), "path_deg": math.degrees(path),
-            "geodesic_deg": math.degrees(geod), "ripple": ripple, "us_per_sample": times[label],
+            "geodesic_deg": math.degrees(geod), "ripple": ripple, "max_rate_rad_s": max_rate,
+            "gimbal_locks": len(locks), "branch_changes": changes, "us_per_sample": times[label],
             "time_vs_slerp": times[label] / times["slerp"],
-            "mid_angles_deg": tuple(np.round(Rotation.from_matrix(mid).as_euler("ZYX", degrees=True)[0], 3)),
+            "mid_angles_deg": tuple(np.round(Rotation.from_matrix(mid).as_euler(wrist, degrees=True)[0], 3)),
+            "locks": tuple(str(g) for g in locks),
         })
     return report
 
 
 def format_table(report: RotationsReport) -> str:
-    """The facts and the per-method table as text."""
+    """The facts (the seed's, or the mechanism's keyframes) and the per-method table as text, then every
+    gimbal lock a row's wrist meets."""
     f = report.facts
     m = report.meta
-    lines = ["seed 004 problem 1: orientation from I to R = Rz(45°)·Ry(30°)·Rz(20°) in 10 s",
-             "R =", *("  " + "  ".join(f"{v:8.4f}" for v in row) for row in f["R"]),
-             f"  the seed prints R12 = -0.8379 (typo for {f['R'][0, 1]:.4f}; its printed matrix has "
-             f"||R^T R - I|| = {f['R_printed_defect']:.3f})",
-             "Euler sets (seed's 'absolute XYZ', R = Rz(phi)·Ry(theta)·Rx(psi), scipy intrinsic 'ZYX'):",
-             "  set 1: theta = {:.2f}°, psi = {:.2f}°, phi = {:.2f}°".format(*f["set1_theta_psi_phi"]),
-             "  set 2: theta = {:.2f}°, psi = {:.2f}°, phi = {:.2f}°".format(*f["set2_theta_psi_phi"]),
-             f"geodesic angle I -> R: {f['geodesic_deg']:.3f}°",
-             f"element-wise midpoint of I and a 90° turn: det = {f['matrix_midpoint_det_90deg']:.4f}",
-             f"Euler Z-Y-X 0 -> 90° on all three: sweeps {f['euler_zyx_0_to_90_sweep_deg']:.2f}° for a "
-             f"{f['euler_zyx_0_to_90_geodesic_deg']:.2f}° geodesic",
-             "",
-             f"{m['steps']} samples, {m['timing']} timing; time per sample over {m['samples']} samples, best of "
-             f"{m['repeat']}, ratio to slerp in the same run",
-             f"{'method':<20} {'|RtR-I|':>9} {'|det-1|':>9} {'geo dev°':>9} {'swept°':>8} {'geodesic°':>9} "
-             f"{'ripple':>7} {'µs/sample':>10} {'x slerp':>8}  ZYX angles at 6 s (°)"]
+    if m.get("mechanism") is None:
+        lines = ["seed 004 problem 1: orientation from I to R = Rz(45°)·Ry(30°)·Rz(20°) in 10 s",
+                 "R =", *("  " + "  ".join(f"{v:8.4f}" for v in row) for row in f["R"]),
+                 f"  the seed prints R12 = -0.8379 (typo for {f['R'][0, 1]:.4f}; its printed matrix has "
+                 f"||R^T R - I|| = {f['R_printed_defect']:.3f})",
+                 "Euler sets (seed's 'absolute XYZ', R = Rz(phi)·Ry(theta)·Rx(psi), scipy intrinsic 'ZYX'):",
+                 "  set 1: theta = {:.2f}°, psi = {:.2f}°, phi = {:.2f}°".format(*f["set1_theta_psi_phi"]),
+                 "  set 2: theta = {:.2f}°, psi = {:.2f}°, phi = {:.2f}°".format(*f["set2_theta_psi_phi"]),
+                 f"geodesic angle I -> R: {f['geodesic_deg']:.3f}°",
+                 f"element-wise midpoint of I and a 90° turn: det = {f['matrix_midpoint_det_90deg']:.4f}",
+                 f"Euler Z-Y-X 0 -> 90° on all three: sweeps {f['euler_zyx_0_to_90_sweep_deg']:.2f}° for a "
+                 f"{f['euler_zyx_0_to_90_geodesic_deg']:.2f}° geodesic"]
+    else:
+        from scipy.spatial.transform import Rotation
+
+        K = m["keyframes"]
+        lines = [f"mechanism {m['mechanism']}: {len(K)} orientation keyframes over {m['duration_s']:g} s, wrist "
+                 f"{m['wrist']} from branch {m['branch']}"]
+        for k, M in enumerate(K):
+            lines.append(f"  keyframe {k}: {m['wrist']} angles "
+                         f"{', '.join(f'{a:.3f}' for a in Rotation.from_matrix(M).as_euler(m['wrist'], degrees=True))}°")
+    lines += ["",
+              f"{m['steps']} samples, {m['timing']} timing; time per sample over {m['samples']} samples, best of "
+              f"{m['repeat']}, ratio to slerp in the same run; wrist {m['wrist']}",
+              f"{'method':<20} {'|RtR-I|':>9} {'|det-1|':>9} {'geo dev°':>9} {'swept°':>8} {'geodesic°':>9} "
+              f"{'ripple':>7} {'rate rad/s':>10} {'locks':>5} {'µs/sample':>10} {'x slerp':>8}  "
+              f"{m['wrist']} angles at s = 0.6 (°)"]
     for r in report.rows:
+        rate = "-" if math.isnan(r["max_rate_rad_s"]) else f"{r['max_rate_rad_s']:.3g}"
         lines.append(f"{r['row']:<20} {r['defect_frob']:9.2e} {r['defect_det']:9.2e} {r['geodesic_dev_deg']:9.3f} "
-                     f"{r['path_deg']:8.3f} {r['geodesic_deg']:9.3f} {r['ripple']:7.3f} {r['us_per_sample']:10.3f} "
-                     f"{r['time_vs_slerp']:8.2f}  {', '.join(f'{a:.2f}' for a in r['mid_angles_deg'])}")
+                     f"{r['path_deg']:8.3f} {r['geodesic_deg']:9.3f} {r['ripple']:7.3f} {rate:>10} "
+                     f"{r['gimbal_locks']:5d} {r['us_per_sample']:10.3f} {r['time_vs_slerp']:8.2f}  "
+                     f"{', '.join(f'{a:.2f}' for a in r['mid_angles_deg'])}")
+    for r in report.rows:
+        for line in r["locks"]:
+            lines.append(f"{r['row']}: {line}")
     return "\n".join(lines)
 
 
@@ -246,7 +289,7 @@ def write_csv(report: RotationsReport, path) -> Path:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
             w.writeheader()
             for r in report.rows:
-                w.writerow({**r, "mid_angles_deg": " ".join(f"{a:g}" for a in r["mid_angles_deg"])})
+                w.writerow({**{k: r[k] for k in COLUMNS}, "mid_angles_deg": " ".join(f"{a:g}" for a in r["mid_angles_deg"])})
 
     return write_replacing(Path(path), write)
 
@@ -286,3 +329,26 @@ def plot(report: RotationsReport, path) -> Path:
     from .._files import write_replacing
 
     return write_replacing(path, lambda tmp: fig.savefig(tmp))
+
+
+#: Columns of :func:`write_wrist_csv` (SI: seconds, radians, radians per second).
+WRIST_COLUMNS = ("t_s", "s", "q1_rad", "q2_rad", "q3_rad", "q1_rate_rad_s", "q2_rate_rad_s", "q3_rate_rad_s", "set",
+                 "omega_rad_s", "geodesic_deviation_rad", "defect_frob", "defect_det")
+
+
+def write_wrist_csv(wrist, path) -> Path:
+    """One :class:`explorer.kernels.WristPath` as CSV, one row per sample (:data:`WRIST_COLUMNS`); a joint
+    rate is ``inf`` at an exact gimbal lock (q1 and q3 split undefined)."""
+    from .._files import write_replacing
+
+    cols = np.column_stack([wrist.t, wrist.s, wrist.angles, wrist.rates, wrist.sets, wrist.omega,
+                            wrist.geodesic_deviation, wrist.defect_frob, wrist.defect_det])
+
+    def write(tmp):
+        with Path(tmp).open("w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow(WRIST_COLUMNS)
+            for row in cols:
+                w.writerow([repr(float(x)) if i != 8 else int(x) for i, x in enumerate(row)])
+
+    return write_replacing(Path(path), write)

@@ -83,9 +83,18 @@ def register(sub) -> None:
                     "in the same run. With -o, draws the frames at t = 0, 2, ..., 10 s as the seed does.")
     r.add_argument("--steps", type=int, default=1001, metavar="N",
                    help="samples of the 10 s move for the accuracy columns (default: 1001)")
-    r.add_argument("--timing", choices=("linear", "quintic"), default="linear",
+    r.add_argument("--timing", choices=("linear", "quintic"), default=None,
                    help="timing law of the move: the seed's linear, or the arm's quintic rest-to-rest "
-                        "(default: linear)")
+                        "(default: linear, or the --mechanism's own)")
+    r.add_argument("--mechanism", default=None, metavar="NAME|FILE",
+                   help="instead of the seed's move, a path-driven mechanism's [driver] orientation (e.g. arm): its "
+                        "keyframes, wrist, branch, duration and timing, one row per interpolation")
+    r.add_argument("--wrist-csv", default=None, metavar="FILE",
+                   help="also write the wrist's series for one method (--wrist-method) as CSV: t, s, the three "
+                        "joint angles on the tracked branch and their rates (SI), the solution set, angular speed, "
+                        "geodesic deviation, orthonormality defect")
+    r.add_argument("--wrist-method", default=None, metavar="ROW",
+                   help="the row --wrist-csv writes (default: the mechanism's own interpolation, or slerp)")
     r.add_argument("--samples", type=int, default=10_000, metavar="N",
                    help="samples per timed evaluation (default: 10000)")
     r.add_argument("--repeat", type=int, default=5, metavar="R", help="timing runs per method, best kept (default: 5)")
@@ -145,18 +154,38 @@ def run_rotations(args) -> int:
             raise UserError(f"{name}: expected an integer >= {low}, got {value}")
     png = output_path(args.output, args.force, formats={".png", ".pdf", ".svg"}) if args.output else None
     csv_path = output_path(args.csv, args.force, formats={".csv"}, option="--csv") if args.csv else None
+    mech = None
+    known = list(_rotations.ROWS)
+    if args.mechanism is not None:
+        from ..mechanism import INTERPOLATIONS, load_mechanism
+
+        mech = load_mechanism(args.mechanism)
+        if mech.path is None or mech.path.orientation is None:
+            raise UserError(f"--mechanism: {mech.name} has no [driver] orientation (the wrist's keyframes) to "
+                            f"interpolate")
+        known = list(INTERPOLATIONS)
     rows = None
     if args.methods != "all":
         rows = [m.strip() for m in args.methods.split(",") if m.strip()]
-        unknown = [m for m in rows if m not in _rotations.ROWS]
+        unknown = [m for m in rows if m not in known]
         if unknown or not rows:
             raise UserError(f"--methods: unknown {', '.join(map(repr, unknown)) or 'empty list'} (known: all, "
-                            f"{', '.join(_rotations.ROWS)})")
+                            f"{', '.join(known)})")
+    own = mech.path.orientation.interpolation if mech is not None else "slerp"
+    wrist_row = args.wrist_method or own
+    if args.wrist_csv is not None and (wrist_row not in known or wrist_row == "seed axang 4-vector"):
+        raise UserError(f"--wrist-method: expected one of {', '.join(k for k in known if k != 'seed axang 4-vector')}, "
+                        f"got {wrist_row!r}")
+    if rows is not None and args.wrist_csv is not None and wrist_row not in rows:
+        rows.append(wrist_row)
+    wrist_csv = output_path(args.wrist_csv, args.force, formats={".csv"}, option="--wrist-csv") if args.wrist_csv else None
     report = _rotations.rotations_bench(steps=args.steps, timing=args.timing, samples=args.samples,
-                                        repeat=args.repeat, rows=rows)
+                                        repeat=args.repeat, rows=rows, mechanism=mech)
     print(_rotations.format_table(report))
     if csv_path is not None:
         print(f"wrote {_rotations.write_csv(report, csv_path)}")
+    if wrist_csv is not None:
+        print(f"wrote {_rotations.write_wrist_csv(report.wrists[wrist_row], wrist_csv)}")
     if png is not None:
         print(f"wrote {_rotations.plot(report, png)}")
     return 0
