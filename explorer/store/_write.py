@@ -183,6 +183,10 @@ class ResultsWriter:
             if lean:  # a lean study: no series; how to re-solve them bit for bit (explorer.store.Results)
                 f.attrs["store"] = "metrics"
                 f.attrs["series_solve"] = json.dumps(study.series_solve())
+            lean = getattr(study, "lean", False)
+            if lean:  # a lean study: no series; how to re-solve them bit for bit (explorer.store.Results)
+                f.attrs["store"] = "metrics"
+                f.attrs["series_solve"] = json.dumps(study.series_solve())
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S
             moved = study.geometry_names
@@ -533,7 +537,7 @@ def fingerprint_diff(old: dict, new: dict) -> str:
     for key, value in new.items():
         if isinstance(value, dict):
             was = old.get(key, {}) if isinstance(old.get(key), dict) else {}
-            out += [f"{key}.{k}" for k in value if was.get(k) != value[k]]
+            out += [f"{key}.{k}" for k in dict.fromkeys([*value, *was]) if was.get(k) != value.get(k)]
         elif old.get(key) != value:
             out.append(words.get(key, key))
     return "differs in " + ", ".join(out) if out else "its layout differs"
