@@ -399,3 +399,21 @@ def test_cli_bench_rotations_on_the_arm_writes_its_wrist(tmp_path, capsys):
     assert np.abs(rates - fd)[3:-3].max() < 1e-3 * np.abs(fd).max()
     assert main(["bench", "rotations", "--mechanism", "jansen"]) == 2
     assert "no [driver] orientation" in capsys.readouterr().err
+
+
+def test_describe_shows_the_wrist_and_its_gimbal_lock(tmp_path, capsys):
+    _, path = _arm(tmp_path, 'orientation = [{axis = [0, 1, 0], angle = 60}, {axis = [0, 1, 0], angle = 100}]\n'
+                             'wrist = "ZYX"\ninterpolation = "axis-angle"')
+    assert main(["describe", str(path)]) == 0
+    out = capsys.readouterr().out
+    lo, hi = 0.0, 10.0
+    for _ in range(80):  # pitch 60° + 40°·s(t) reaches 90° at s = 0.75 of the quintic law
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if quintic(mid / 10) < 0.75 else (lo, mid)
+    assert "wrist: spherical, joints ZYX (branch 1), axis-angle through 2 keyframes" in out
+    assert f"wrist: gimbal lock at t = {lo:.4g} s (s = 0.75)" in out and "from set 1 to set 2" in out
+    assert main(["describe", str(path), "--format", "json"]) == 0
+    import json
+
+    w = json.loads(capsys.readouterr().out)["driver"]["wrist"]
+    assert abs(w["gimbal_locks"][0]["t"] - lo) < 1e-5 and np.allclose(w["end_deg"], [0, 100, 0], atol=1e-9)

@@ -24,7 +24,8 @@ def register(sub) -> None:
                     "default); the buildability screen's default thresholds; the masses and the [operating] "
                     "table where the file gives them; and the solve plan: the blocks solved one after another "
                     "(DYAD: one joint from two distances, closed form; ATTACH: a body joint placed rigidly from "
-                    "its body's two known joints; GENERAL: several joints solved together by Newton). "
+                    "its body's two known joints; GENERAL: several joints solved together by Newton; SLIDE: one "
+                    "joint from a distance and a slider's line, closed form). "
                     "--format json prints the same as one JSON object.",
         epilog="examples: explorer describe jansen; explorer describe klann --format json; "
                "explorer describe my-leg.toml")
@@ -44,10 +45,9 @@ def _builtins() -> str:
 
 # -- the description as data ----------------------------------------------------------------------------
 
-_KIND_NAMES = {0: "DYAD", 1: "ATTACH", 2: "GENERAL"}
-_KIND_TEXT = {"DYAD": "one joint from two distances to known joints (closed form)",
-              "ATTACH": "a body joint placed rigidly from its body's two known joints (exact)",
-              "GENERAL": "joints coupled in a loop, solved together (Newton)"}
+def _kind_name(kind: int) -> str:
+    from ..plan import BlockKind
+    return BlockKind(int(kind)).name
 
 
 def _pt(p) -> list[float]:
@@ -66,7 +66,28 @@ def _driver(mech) -> dict:
                    end_angle=math.degrees(d.end_angle))
     else:
         out["points"] = [_pt(p) for p in d.points]
+    if getattr(d, "orientation", None) is not None:
+        out["wrist"] = _wrist(mech)
     return out
+
+
+def _wrist(mech) -> dict:
+    """The spherical wrist of a path driver with [driver] orientation: its joints, interpolation, keyframes
+    (the wrist's angles, degrees) and the gimbal locks on its path (at 1,001 samples)."""
+    from scipy.spatial.transform import Rotation
+
+    from ..kernels import wrist_for
+
+    o = mech.path.orientation
+    w = wrist_for(mech)
+    lock = [{"t": g.t, "middle_deg": math.degrees(g.middle), "from_lock_deg": math.degrees(g.distance),
+             "sets": list(g.sets), "text": str(g)} for g in w.locks]
+    c = w.closest
+    return {"joints": o.wrist, "branch": o.branch, "interpolation": o.interpolation,
+            "keyframes_deg": [list(Rotation.from_matrix(M).as_euler(o.wrist, degrees=True)) for M in o.matrices()],
+            "end_deg": [math.degrees(a) for a in w.angles[-1]], "gimbal_locks": lock,
+            "closest_to_lock": None if c is None else {"t": c.t, "from_lock_deg": math.degrees(c.distance)},
+            "path_deg": math.degrees(w.path_angle), "geodesic_deg": math.degrees(w.geodesic_angle)}
 
 
 def _plan(mech) -> tuple[list[dict], dict]:
@@ -78,7 +99,7 @@ def _plan(mech) -> tuple[list[dict], dict]:
     n_links = plan.n_links
     steps, placed_by = [], {}
     for i, b in enumerate(plan.blocks):
-        kind = _KIND_NAMES.get(int(b.kind), str(int(b.kind)))
+        kind = _kind_name(b.kind)
         placed = [names[v] for v in b.vertices]
         equations, used = [], set()
         for e in b.links:
@@ -96,6 +117,11 @@ def _plan(mech) -> tuple[list[dict], dict]:
             used.update((j, p, q))
             body = mech.bodies[int(plan.attach_body[a])]
             equations.append(f"body {body.name}: {names[j]} rigidly from {names[p]}, {names[q]}")
+        for k in b.slides:
+            sl = mech.sliders[int(plan.slide_slider[k])]
+            used.update(int(v) for v in plan.slide[k] if v >= 0)
+            equations.append(f"slider {sl.name}: {sl.vertex} on " + (f"the line through {_pt(sl.point)}" if sl.ground
+                                                                      else f"the slot {sl.line[0]}-{sl.line[1]}"))
         known = [names[v] for v in sorted(used - set(b.vertices))]
         steps.append({"step": i + 1, "kind": kind, "places": placed, "from": known, "equations": equations,
                       "after": [int(d) + 1 for d in b.depends]})
@@ -259,6 +285,18 @@ def text(d: dict) -> str:
                 "points": lambda: f"a cubic spline through {len(drv['points'])} points"}[drv["path"]]()
         out.append(f"path driver: vertex {drv['vertex']} along {what} in {_g(drv['duration'])} s "
                    f"({drv['timing']} timing)")
+        if "wrist" in drv:
+            w = drv["wrist"]
+            frames = "; ".join(", ".join(f"{a:.2f}" for a in k) for k in w["keyframes_deg"])
+            out.append(f"wrist: spherical, joints {w['joints']} (branch {w['branch']}), {w['interpolation']} through "
+                       f"{len(w['keyframes_deg'])} keyframes ({w['joints']} angles, °: {frames}); it sweeps "
+                       f"{w['path_deg']:.2f}° (geodesic {w['geodesic_deg']:.2f}°) and ends at "
+                       f"{', '.join(f'{a:.2f}' for a in w['end_deg'])}°")
+            for g in w["gimbal_locks"]:
+                out.append(f"wrist: {g['text']}")
+            if not w["gimbal_locks"] and w["closest_to_lock"] is not None:
+                c = w["closest_to_lock"]
+                out.append(f"wrist: no gimbal lock (closest {c['from_lock_deg']:.2f}° from it, at t = {c['t']:.4g} s)")
 
     # links and bodies
     rows = [("link", "a", "b", "length")] + [(lk["name"], lk["a"], lk["b"], _g(lk["length"])) for lk in d["links"]]
@@ -335,8 +373,9 @@ def text(d: dict) -> str:
         after = f"; after step {', '.join(map(str, s['after']))}" if s["after"] else ""
         out.append(f"  {s['step']}. {s['kind']:<7} places {', '.join(s['places'])} from "
                    f"{', '.join(s['from']) or '-'}: {'; '.join(s['equations'])}{after}")
+    from ..plan import KIND_TEXT
     for k in counts:
-        out.append(f"  ({k}: {_KIND_TEXT.get(k, '')})")
+        out.append(f"  ({k}: {KIND_TEXT.get(k, '')})")
     return "\n".join(out)
 
 
