@@ -183,10 +183,6 @@ class ResultsWriter:
             if lean:  # a lean study: no series; how to re-solve them bit for bit (explorer.store.Results)
                 f.attrs["store"] = "metrics"
                 f.attrs["series_solve"] = json.dumps(study.series_solve())
-            lean = getattr(study, "lean", False)
-            if lean:  # a lean study: no series; how to re-solve them bit for bit (explorer.store.Results)
-                f.attrs["store"] = "metrics"
-                f.attrs["series_solve"] = json.dumps(study.series_solve())
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S
             moved = study.geometry_names

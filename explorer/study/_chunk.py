@@ -75,28 +75,6 @@ def series_solve(study: Study) -> dict:
             "force_joints": list(study.force_joints), "stored": list(study.vertex_names), "groups": groups}
 
 
-def series_solve(study: Study) -> dict:
-    """How ``study``'s designs are solved, as plain JSON-able values: ``steps``, ``tolerance``,
-    ``method``, ``vertices`` (the solved vertices: the scene's, plus the foot when metrics are asked
-    for), ``velocities`` and ``accelerations`` (solved), ``forces`` and ``force_joints``; and what a
-    full study stores of it: ``stored`` (the scene's vertices) and ``groups`` (``paths``, and
-    ``velocities`` / ``accelerations`` when the scene asks for them). :func:`design_solver` solves
-    with exactly these arguments, and a lean results file records them (root attribute
-    ``series_solve``) so that its readers re-solve any design bit for bit
-    (:meth:`explorer.store.Results.path`)."""
-    mech = study.mech
-    _, metric_vel, want_metrics = metric_plan(study)
-    vertices = list(study.vertex_names)
-    if want_metrics and mech.foot not in vertices:
-        vertices.append(mech.foot)
-    groups = ["paths"] + (["velocities"] if study.velocities else []) + (["accelerations"] if study.accelerations
-                                                                        else [])
-    return {"steps": int(study.steps), "tolerance": float(study.tolerance), "method": study.method,
-            "vertices": vertices, "velocities": bool(study.velocities or metric_vel),
-            "accelerations": bool(study.accelerations), "forces": bool(study.forces),
-            "force_joints": list(study.force_joints), "stored": list(study.vertex_names), "groups": groups}
-
-
 def design_solver(study: Study):
     """solve(lengths, crank, geometry) → (batch, metrics) for given designs of ``study``'s mechanism:
     lengths (n, n_links) in ``mech.links`` order, crank radii (n,), geometry (n, g) of the coordinates

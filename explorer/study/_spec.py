@@ -27,7 +27,6 @@ A study file::
     band = 0.01                   # stance band of the gait metrics, in (0, 1)
     metrics = true                # true (all), false, or a list of metric names
     store = "series"              # or "metrics": a lean study, no series stored (readers re-solve them)
-    store = "series"              # or "metrics": a lean study, no series stored (readers re-solve them)
 
     [walker]                      # the walker scene (metrics travel, bob, …); keys left out come from
     legs = 4                      # the mechanism's own [walker] table, else 4 legs evenly spaced
@@ -111,9 +110,6 @@ COMPRESSIONS = ("lzf", "gzip", "none")
 #: [scene] store choices: "series" stores every (N, steps, 2) series the scene names; "metrics" (a lean
 #: study) stores the designs, statuses and metrics only, and the readers re-solve the series they need.
 STORES = ("series", "metrics")
-#: [scene] store choices: "series" stores every (N, steps, 2) series the scene names; "metrics" (a lean
-#: study) stores the designs, statuses and metrics only, and the readers re-solve the series they need.
-STORES = ("series", "metrics")
 _NAME_RE = re.compile(r"^[A-Za-z0-9._-]+$")
 
 
@@ -130,7 +126,6 @@ class Study:
         when absent. :attr:`parameter_names` is the union, in ``mech.parameters()`` order.
     vertices : ``"all"`` or a tuple of vertex names; velocities, accelerations, band, metrics : ``[scene]``
         (``metrics`` is a bool or a tuple of names). store : ``[scene] store``, ``"series"`` or
-        ``"metrics"`` (a lean study: designs, statuses and metrics, no series; :attr:`lean`). store : ``[scene] store``, ``"series"`` or
         ``"metrics"`` (a lean study: designs, statuses and metrics, no series; :attr:`lean`).
     output : the ``[output] path`` as written (relative paths resolve against the working directory
         when the file is opened).
@@ -266,8 +261,6 @@ class Study:
             "screen": self.screen.as_dict(),
             "output": {"path": self.output, "compression": self.compression},
         }
-        if self.lean:  # only when lean: a study storing its series keeps its fingerprint
-            out["scene"]["store"] = self.store
         if self.lean:  # only when lean: a study storing its series keeps its fingerprint
             out["scene"]["store"] = self.store
         if self.forces:  # only when on: a study without forces keeps its fingerprint
@@ -499,7 +492,6 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
     out = ou.get("path", f"results/{name}.h5")
     out = v.string("output.path", out)
     compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
-    store = v.choice("scene.store", sc.get("store", "series"), STORES)
     store = v.choice("scene.store", sc.get("store", "series"), STORES)
 
     return dict(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
