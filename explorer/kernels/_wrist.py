@@ -270,7 +270,8 @@ class GimbalLock:
     ``distance`` (rad) of the middle angle from lock there, ``middle`` (rad) the middle joint angle there on
     the tracked branch, ``t_from``/``t_to`` (s) the span within the lock tolerance, ``peak_rate`` (rad/s) the
     largest joint rate over that span, ``jump`` (rad) the largest q1/q3 change between the two samples
-    around it, ``sets`` (before, after) the solution set on each side."""
+    around it, ``sets`` (before, after) the solution set on each side; ``locked`` False for a closest approach
+    that stays outside the lock tolerance."""
 
     t: float
     s: float
@@ -281,12 +282,17 @@ class GimbalLock:
     peak_rate: float
     jump: float
     sets: tuple[int, int]
+    locked: bool = True  # False: only the closest approach (:attr:`WristPath.closest`), outside the tolerance
 
     def __str__(self) -> str:
+        if not self.locked:
+            return (f"no gimbal lock: closest at t = {self.t:.4g} s (s = {self.s:.4g}), middle joint "
+                    f"{math.degrees(self.middle):.3f}°, {math.degrees(self.distance):.3g}° from lock")
         cross = f", the wrist passes from set {self.sets[0]} to set {self.sets[1]}" if self.sets[0] != self.sets[1] else ""
         return (f"gimbal lock at t = {self.t:.4g} s (s = {self.s:.4g}): middle joint {math.degrees(self.middle):.3f}°, "
                 f"{math.degrees(self.distance):.3g}° from lock, within tolerance from t = {self.t_from:.4g} to "
-                f"{self.t_to:.4g} s, joint rates up to {self.peak_rate:.3g} rad/s{cross}")
+                f"{self.t_to:.4g} s, joint rates up to {self.peak_rate:.3g} rad/s, the outer joints turn by up to "
+                f"{math.degrees(self.jump):.3g}° between two samples there{cross}")
 
 
 @dataclass(frozen=True)
@@ -298,9 +304,11 @@ class WristPath:
     joint angles (rad) on the tracked branch, rates : (S, 3) their rates (rad/s); sets : (S,) 1 or 2.
     omega : (S,) angular speed |ω| (rad/s); geodesic_deviation : (S,) angle (rad) between R_used and the
     slerp (geodesic) rotation at the same time; defect_frob : (S,) ‖RᵀR − I‖_F, defect_det : (S,) det R − 1.
-    path_angle : total rotation swept (rad, the path's length in rotation angle); geodesic_angle : the
-    geodesic's (rad, sum over keyframe segments). ripple : (max − min)/mean of the angular rate per unit
-    path fraction |ω|/ṡ (0 for slerp; the timing law's own speed profile divided out). locks : the gimbal
+    path_angle : total rotation swept (rad, the path's length in rotation angle, summed between samples: a
+    keyframe's corner between two samples is cut); geodesic_angle : the geodesic's (rad, sum over keyframe
+    segments). ripple : (max − min)/mean of the angular rate per unit path fraction |ω|/ṡ (the timing law's
+    own speed profile divided out; 0 for slerp between two keyframes, whose segments through more keyframes
+    differ in length). locks : the gimbal
     locks (within ``lock_tolerance``); closest : the closest approach to lock (always reported).
     """
 
@@ -410,10 +418,13 @@ def _locks(K, method, kw, wrist, t, s, dist, q, rates, sets, duration, law, tol)
 
     S = len(t)
     events = []
+    lowest = int(np.argmin(dist))
     for k in range(S):
         left = dist[k - 1] if k > 0 else math.inf
         right = dist[k + 1] if k < S - 1 else math.inf
         if not (dist[k] <= left and dist[k] <= right) or (k > 0 and dist[k] == left):
+            continue
+        if k != lowest and dist[k] > 2.0 * tol:  # refine only the closest approach and the minima near lock
             continue
         a, b = s[max(k - 1, 0)], s[min(k + 1, S - 1)]
         if b > a:
@@ -435,9 +446,9 @@ def _locks(K, method, kw, wrist, t, s, dist, q, rates, sets, duration, law, tol)
         peak = float(r.max(initial=0.0))
         tl = t_of(x) if 0.0 < x < 1.0 else (0.0 if x <= 0.0 else duration)
         records.append(GimbalLock(tl, x, dmin, float(q[k, 1]), float(t[k0]), float(t[k1]), peak, jump,
-                                  (int(sets[a]), int(sets[b]))))
+                                  (int(sets[a]), int(sets[b])), bool(dmin < tol)))
     closest = min(records, key=lambda g: g.distance) if records else None
-    return [g for g in records if g.distance < tol], closest
+    return [g for g in records if g.locked], closest
 
 
 def wrist_for(mech_or_driver, steps: int = 1001, *, method: str | None = None,
