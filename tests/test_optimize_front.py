@@ -190,6 +190,30 @@ def test_optimize_prints_the_best_design_against_the_nominal(run, capsys, tmp_pa
     assert f"variant {v} of {len(df)}" in shown
 
 
+
+@pytest.mark.slow
+def test_best_design_when_the_nominal_lies_outside_the_bounds(tmp_path, capsys):
+    """The file does not hold the nominal: the parameters are compared with it, the objectives are not,
+    and the show command has no --vs 0."""
+    text = STUDY.replace('parameters = ["1-3", "2-6", "1-6", "5-7", "crank", "2.x"]',
+                         'parameters = ["1-3"]\n\n[optimize.bounds]\n"1-3" = [50.5, 51.5]')
+    text = text.replace("population = 12\ngenerations = 4", "population = 4\ngenerations = 1")
+    study = tmp_path / "outside.toml"
+    study.write_text(text.replace("[operating]\nunit = 0.01\nrpm = 30\nload = 5\n", ""))
+    out = ok_cli(capsys, "optimize", study, "-o", tmp_path / "o.h5")
+    block = out[out.index("best design against the nominal"):]
+    with open_results(tmp_path / "o.h5") as res:
+        df = res.frame()
+    v = int(re.search(r"variant (\d+)", block).group(1))
+    assert df.loc[0, "1-3"] != 50.0 and 50.5 <= df.loc[v, "1-3"] <= 51.5
+    line = next(ln.strip() for ln in block.splitlines() if ln.strip().startswith("link 1-3"))
+    val, nom, change, pct = line[len("link 1-3"):].split()[:4]
+    assert float(val) == pytest.approx(df.loc[v, "1-3"], abs=5e-5) and float(nom) == 50.0
+    assert _number(pct) == pytest.approx(100 * (df.loc[v, "1-3"] - 50.0) / 50.0, abs=5e-4)
+    assert "outside the [optimize] bounds" in block and "link 2-6" not in block  # only the searched ones
+    assert block.rstrip().endswith(f"explorer show {tmp_path / 'o.h5'} {v}")
+
+
 # -- the walking-leg synthesis example ------------------------------------------------------------------
 EXAMPLE = Path(__file__).resolve().parents[1] / "studies" / "jansen-stance.toml"
 

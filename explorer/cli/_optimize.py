@@ -9,7 +9,7 @@ import sys
 def register(sub) -> None:
     p = sub.add_parser(
         "optimize", help="search the design space: multi-objective optimisation or path synthesis of a study "
-                         "with an [optimize] table (pymoo: nsga2, nsga3, de, ga, cmaes)",
+                         "with an [optimize] table (pymoo: auto, nsga2, nsga3, de, ga, cmaes; then an optional polish)",
         description="Run the search a study file's [optimize] table describes: its design parameters and bounds, "
                     "objectives (metric names; each metric's direction comes from `explorer metrics --list`), "
                     "constraints (the --where filter language over metrics and parameters), the algorithm, "
@@ -17,7 +17,15 @@ def register(sub) -> None:
                     "one committed chunk of an ordinary results file (a `generation` column is added), so rank, "
                     "show, plot, animate and open_results(...).frame() work on it unchanged. Designs that fail "
                     "(assembly, branch, no convergence), fail the buildability screen or break a constraint are "
-                    "infeasible and never on a front. Example: explorer optimize studies/jansen-optimize.toml",
+                    "infeasible and never on a front. With [optimize] polish = true one more generation holds the "
+                    "polished designs (one objective path_error: least squares on the path residuals; several "
+                    "objectives: each front design moved downhill on the weighted sum of the objectives, none "
+                    "worse). The summary gives the front (or best design), for several objectives the "
+                    "hypervolume by generation, and then the best design against the nominal: each searched "
+                    "parameter, each objective and constrained metric (nominal, best, change, %; SI units when "
+                    "the study's [operating] gives unit) and the `explorer show` command that compares them. "
+                    "Examples: explorer optimize studies/jansen-optimize.toml; explorer optimize "
+                    "studies/jansen-stance.toml (a leg whose foot follows a drawn stance)",
         epilog="Resume: a run stopped at any moment (Ctrl-C, kill -9) finishes with --resume to the same final "
                "file as an uninterrupted run: the algorithm is replayed from its seed and committed generations are "
                "read back instead of solved. See `explorer plot RESULTS --front` for how the front moved.")
