@@ -322,7 +322,7 @@ def plot(report: RotationsReport, path) -> Path:
         ax.set_xlabel("x")
         ax.set_ylabel("y")
         ax.set_zlabel("z")
-        ax.view_init(elev=35, azim=170)
+        ax.view_init(elev=35, azim=80)  # MATLAB view([170 35]): its azimuth counts from -y, matplotlib's from +x
         ax.set_title(label, fontsize=11)
     fig.suptitle("seed 004: frames at t = 0 (r), 2 (g), 4 (b), 6 (m), 8 (c), 10 s (k)", fontsize=12)
 
