@@ -5,7 +5,7 @@ and time (``explorer bench rotations``):
 
 * the seed's R, built from cos/sin as the seed does (its printed R has R₁₂ = −0.8379, a transposed-digit
   typo for −0.8739: the seed's own element-wise interpolation ran on that matrix, whose
-  ‖RᵀR − I‖ is 0.05);
+  ‖RᵀR − I‖ is 0.066);
 * the seed's two "absolute XYZ" Euler sets θ/ψ/φ = 28.02°/11.17°/67.8° and 151.98°/191.17°/247.8°: they
   are R = Rz(φ)·Ry(θ)·Rx(ψ), i.e. scipy's intrinsic ``"ZYX"`` sequence (= extrinsic ``"xyz"``: turns about
   the fixed X, then Y, then Z axes) with angles (φ, θ, ψ); the seed prints them in the order θ (Y), ψ (X),
