@@ -117,6 +117,12 @@ class SynthesisProblem:
         precision points), model units squared; 0 where an exact solution exists.
     verified : which of the fields above were checked against a published source.
     note : anything else a reader needs.
+    phase : the timed angles are θ2_i = φ + angles[i] with the start angle φ a design variable in [0, 2π]
+        (the closed curve timed at 20° steps), not fixed.
+    published : the best value the literature publishes, with its budget, as text.
+
+    A problem without timing has one more design variable per point, its crank angle θ2_i (the
+    "untimed" formulation), in [0, 2π]; :attr:`n_variables` counts them.
     """
 
     name: str
@@ -129,10 +135,22 @@ class SynthesisProblem:
     best_error: float
     verified: dict = field(default_factory=dict)
     note: str = ""
+    phase: bool = False
+    published: str = ""
 
     @property
     def timed(self) -> bool:
         return self.angles is not None
+
+    @property
+    def free(self) -> tuple:
+        """The variables of :data:`VARIABLES` the problem searches (those whose bounds differ)."""
+        return tuple(v for v in VARIABLES if self.bounds[v][0] != self.bounds[v][1])
+
+    @property
+    def n_variables(self) -> int:
+        """Design variables as the literature counts them: the free ones, φ, one angle per point untimed."""
+        return len(self.free) + int(self.phase) + (0 if self.timed else len(self.points))
 
     def target_spec(self, **extra) -> dict:
         """The problem as a study file's target table (:func:`explorer.gait._path.load_target`):
@@ -203,8 +221,104 @@ TIMED_FIVE = SynthesisProblem(
           "residual at the level of the data's 3-decimal rounding; see CONSISTENT_TIMED_FIVE."),
 )
 
-#: The problems, by name.
-PROBLEMS = {p.name: p for p in (VERTICAL_LINE, TIMED_FIVE)}
+_NGUYEN_VAN = ("Nguyen-Van, S., et al., a hybrid DE/Jaya method, Symmetry 14(2) 381 (2022); its code and the 50 "
+               "runs it stores: github.com/sy-nguyen-van/DE_Jaya_Synthesis_Four_Bar_Mechanisms (commit a18dcd4)")
+
+#: The 18 points of the closed curve, as written in Case3/Objf3.m of the Nguyen-Van repository
+#: ("CD=[0.5, 1.1; 0.4, 1.1; 0.3, 1.1; 0.2, 1.0; 0.1, 0.9; 0.05, 0.75; 0.02, 0.6; 0.0, 0.5; 0.0, 0.4;
+#: 0.03, 0.3; 0.1, 0.25; 0.15, 0.2; 0.2, 0.3; 0.3, 0.4; 0.4, 0.5; 0.5, 0.7; 0.6, 0.9; 0.6, 1.0]").
+CLOSED_POINTS = ((0.5, 1.1), (0.4, 1.1), (0.3, 1.1), (0.2, 1.0), (0.1, 0.9), (0.05, 0.75), (0.02, 0.6), (0.0, 0.5),
+                 (0.0, 0.4), (0.03, 0.3), (0.1, 0.25), (0.15, 0.2), (0.2, 0.3), (0.3, 0.4), (0.4, 0.5), (0.5, 0.7),
+                 (0.6, 0.9), (0.6, 1.0))
+_CLOSED_BOUNDS = {"r1": (0.0, 50.0), "r2": (0.0, 50.0), "r3": (0.0, 50.0), "r4": (0.0, 50.0),
+                  "rcx": (-50.0, 50.0), "rcy": (-50.0, 50.0), "theta0": (0.0, 2.0 * math.pi),
+                  "x0": (-50.0, 50.0), "y0": (-50.0, 50.0)}
+
+TIMED_FIVE_ORIGIN = SynthesisProblem(
+    name="timed-five",
+    source=_NGUYEN_VAN + ", Case2 (Objf2.m, Mechanisms.m); the problem of Cabrera, Simon & Prado, MMT 37 (2002)",
+    points=TIMED_FIVE.points,
+    angles=TIMED_FIVE.angles,
+    bounds={"r1": (0.0, 50.0), "r2": (0.0, 50.0), "r3": (0.0, 50.0), "r4": (0.0, 50.0),
+            "rcx": (-50.0, 50.0), "rcy": (-50.0, 50.0), "theta0": (0.0, 0.0), "x0": (0.0, 0.0), "y0": (0.0, 0.0)},
+    budget="5,000 evaluations (the issue's table)",
+    evaluations=5000,
+    best_error=7.4158e-7,
+    verified={"points": "Case2/Objf2.m: Cdx=[3, 2.759, 2.372, 1.890, 1.355]; Cdy=[3, 3.363, 3.663, 3.862, 3.943]",
+              "angles": "Case2/Objf2.m: Teta2=[pi/6;pi/4;pi/3;5*pi/12;pi/2]",
+              "bounds": "Additional-functions/Mechanisms.m case 'Case2': nvars = 6, r1..r4 in [0, 50], rcx, rcy in "
+                        "[-50, 50]; Objf2.m adds no rotation or translation (θ0 = x0 = y0 = 0)",
+              "best_error": "the issue's best known (7.4158e-7); this benchmark reaches it (see README)"},
+    note=("Six variables r1..r4, rcx, rcy; the ground link along +x from the origin. The repository's Cons2.m "
+          "adds order conditions between the links that this benchmark does not impose; explorer needs a crank "
+          "that turns a full cycle instead."),
+    published="1.924e-6 in 1 of 50 runs (5,000 evaluations), Nguyen-Van et al. 2022",
+)
+
+VERTICAL_LINE = SynthesisProblem(
+    name=VERTICAL_LINE.name, source=VERTICAL_LINE.source + "; " + _NGUYEN_VAN + ", Case1 (Objf1.m, Mechanisms.m)",
+    points=VERTICAL_LINE.points, angles=None,
+    bounds={"r1": (0.0, 60.0), "r2": (0.0, 60.0), "r3": (0.0, 60.0), "r4": (0.0, 60.0),
+            "rcx": (-60.0, 60.0), "rcy": (-60.0, 60.0), "theta0": (0.0, 2.0 * math.pi),
+            "x0": (-60.0, 60.0), "y0": (-60.0, 60.0)},
+    budget="100,000 evaluations (the issue's table)", evaluations=100_000, best_error=0.0,
+    verified={**VERTICAL_LINE.verified,
+              "points": "Case1/Objf1.m: Cdx=[20 20 20 20 20 20]; Cdy=[20 25 30 35 40 45] (and IMECE2019-10262)",
+              "bounds": "Additional-functions/Mechanisms.m case 'Case1': nvars = 15; r1..r4 in [0, 60]; rcx, rcy, "
+                        "x0, y0 in [-60, 60]; θ0 and the six θ2_i in [0, 2π] (Objf1.m: x = [r1 r2 r3 r4 rcx rcy "
+                        "x0 y0 θ0 θ2_1 … θ2_6])"},
+    note=VERTICAL_LINE.note + (" Cons1.m requires a Grashof linkage whose crank is the shortest link and the "
+                               "θ2_i in increasing order (sequence.m); the order is reported, not imposed."),
+    published="8.84e-29 in 2 of 50 runs (100,000 evaluations), Nguyen-Van et al. 2022",
+)
+
+CLOSED_TIMED = SynthesisProblem(
+    name="closed-timed",
+    source=_NGUYEN_VAN + ", Case3 (Objf3.m, Cons3.m, Mechanisms.m)",
+    points=CLOSED_POINTS,
+    angles=tuple(i * math.pi / 9 for i in range(18)),
+    bounds=_CLOSED_BOUNDS,
+    budget="5,000 evaluations (the issue's table)",
+    evaluations=5000,
+    best_error=9.03e-3,
+    verified={"points": "Case3/Objf3.m (CLOSED_POINTS)",
+              "angles": "Case3/Objf3.m: teta2 = x(10) + (i-1)*(pi/9): 20° steps from a free start angle",
+              "bounds": "Mechanisms.m case 'Case3': nvars = 10; r1..r4 in [0, 50]; rcx, rcy, x0, y0 in [-50, 50]; "
+                        "θ0 and the start angle in [0, 2π]",
+              "best_error": "the issue's best known (9.03e-3)"},
+    note=("Ten variables: the nine and the start angle φ (timed angles θ2_i = φ + 20°·i). Cons3.m asks for a "
+          "Grashof linkage only (the crank-is-shortest test is commented out); explorer turns the crank a full "
+          "cycle, so its designs are crank-rockers or double cranks."),
+    phase=True,
+    published="1.608e-2, on its box bound (5,000 evaluations), Nguyen-Van et al. 2022",
+)
+
+CLOSED_UNTIMED = SynthesisProblem(
+    name="closed-untimed",
+    source=("Bulatović, R.R., et al., Mechanism and Machine Theory 95 (2016) (the published mechanism, 4.96e-3); "
+            "the points of " + _NGUYEN_VAN + ", Case3"),
+    points=CLOSED_POINTS,
+    angles=None,
+    bounds=_CLOSED_BOUNDS,
+    budget=None,
+    evaluations=None,
+    best_error=3.14e-3,
+    verified={"points": "Case3/Objf3.m of the Nguyen-Van repository (the same 18 points)",
+              "bounds": "those of Case3 (Mechanisms.m) for the nine; the 18 θ2_i in [0, 2π]; Bulatović's own "
+                        "bounds NOT verified",
+              "budget": False,
+              "best_error": "the issue's best known (3.14e-3)"},
+    note=("27 variables: the nine and one crank angle per point. The literature requires the points in order "
+          "along the path; explorer's free angles do not impose it, the benchmark reports whether it holds."),
+    published="4.96e-3 (the published mechanism of Bulatović et al., MMT 95, 2016)",
+)
+
+#: The problems, by name: the issue's four (vertical-line, timed-five, closed-timed, closed-untimed) and the
+#: nine-variable timed five (``timed-five-free``: θ0, x0, y0 free) the pylinkage comparison was built on.
+TIMED_FIVE = SynthesisProblem(**{**TIMED_FIVE.__dict__, "name": "timed-five-free"})
+PROBLEMS = {p.name: p for p in (VERTICAL_LINE, TIMED_FIVE_ORIGIN, CLOSED_TIMED, CLOSED_UNTIMED, TIMED_FIVE)}
+#: The issue's four.
+LITERATURE = ("vertical-line", "timed-five", "closed-timed", "closed-untimed")
 
 #: A four-bar (the variables of :data:`VARIABLES`, and its branch) through TIMED_FIVE's points at their
 #: crank angles, found for this file by least squares from random starts (scipy): sum of squared
