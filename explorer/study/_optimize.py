@@ -14,6 +14,12 @@ refused), and the run goes on from the first generation not committed: the final
 uninterrupted run's, whenever the previous run was stopped (kill -9 included: a chunk is committed
 atomically or not at all).
 
+With ``[optimize] polish`` (the default of ``algorithm = "auto"`` on ``path_error``), one more
+generation, number G = ``generations``, holds the polished designs (:mod:`._polish`: least squares from
+the best feasible design of generations 0 … G−1 and the ``restarts`` next best distinct ones), solved
+by the same chunk runner; its starts are read from the file, so ``--resume`` polishes them to the same
+designs. Its rows beyond the polished designs are "not-run".
+
 A generation the algorithm fills with fewer designs than the population (CMA-ES's first: its start
 point alone) leaves the rest of its rows "not-run"; so does every generation after an algorithm that
 stops early (CMA-ES when its step size has collapsed). The summary says so.
