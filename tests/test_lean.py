@@ -173,3 +173,31 @@ def test_lean_is_in_the_fingerprint_and_the_default_unchanged(tmp_path):
         run_study(spec, output=L.filename, resume=True, progress=False)
     with h5py.File(L.filename, "r") as f:
         assert "paths" not in f and f.attrs["store"] == "metrics"
+
+
+@pytest.mark.slow
+def test_lean_on_dask_is_stitched_and_resolves(tmp_path):
+    """A lean study on a Dask cluster: lean shards (no series), stitched into one lean file whose frame is
+    the single-process lean run's, and whose re-solved series are the full study's, bit for bit."""
+    distributed = pytest.importorskip("distributed", reason='dask.distributed is not installed (pip install "explorer[dask]")')
+    import logging
+    spec = study("jansen", vertices=["7"])
+    spec["study"]["variants"] = 400
+    F, L = both(tmp_path, spec)
+    lean_spec = copy.deepcopy(spec)
+    lean_spec["scene"]["store"] = "metrics"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None,
+                                  silence_logs=logging.CRITICAL) as cluster, distributed.Client(cluster) as client:
+        out = run_study(lean_spec, output=tmp_path / "dask" / "lean.h5", client=client, shard_size=128,
+                        progress=False)
+    shards = sorted((tmp_path / "dask" / "lean.shards").glob("shard-*.h5"))
+    assert len(shards) == 4
+    for s in shards:
+        with h5py.File(s, "r") as f:
+            assert f.attrs["store"] == "metrics" and "paths" not in f and "velocities" not in f
+    with F, L, open_results(out) as D:
+        assert D.lean and D.file.attrs["shards"] == "lean.shards"
+        assert D.frame().equals(L.frame())
+        vs = [399, 0, 130, 257]
+        assert np.array_equal(D.path(vs), F.path(vs), equal_nan=True)
+        assert np.array_equal(D.velocity(vs), F.velocity(vs), equal_nan=True)
