@@ -249,6 +249,12 @@ def test_bad_sequence_and_method_are_refused():
     with pytest.raises(ValueError, match="interpolation: expected one of"):
         interpolate(np.stack([np.eye(3)] * 2), [0.5], "lerp")
     assert set(INTERPOLATIONS) == {"slerp", "spline", "matrix", "euler", "axis-angle"}
+    K = np.stack([np.eye(3), SEED_R])
+    for kw, match in (({"euler_set": 0}, "euler_set"), ({"branch": 3}, "branch"), ({"steps": 2}, "steps"),
+                      ({"lock_tolerance": 0.0}, "lock_tolerance"), ({"wrist": "XXY"}, "Euler sequence"),
+                      ({"timing_law": "cubic"}, "timing")):
+        with pytest.raises(ValueError, match=match):
+            wrist_path(K, "euler", **kw)
 
 
 # -- the bench verb -----------------------------------------------------------------------------------
@@ -417,3 +423,25 @@ def test_describe_shows_the_wrist_and_its_gimbal_lock(tmp_path, capsys):
 
     w = json.loads(capsys.readouterr().out)["driver"]["wrist"]
     assert abs(w["gimbal_locks"][0]["t"] - lo) < 1e-5 and np.allclose(w["end_deg"], [0, 100, 0], atol=1e-9)
+
+
+def _omega_by_hand(A, B, h):
+    """Body angular velocity (3,) from A to B over h: the axis-angle of AᵀB from its skew part and trace."""
+    M = A.T @ B
+    th = math.acos(np.clip((np.trace(M) - 1) / 2, -1, 1))
+    v = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]]) / 2
+    return v / math.sin(th) * th / h if th > 0 else np.zeros(3)
+
+
+def test_spline_through_three_keyframes_has_a_continuous_angular_rate():
+    K = np.stack([np.eye(3), rz(D(80)) @ ry(D(20)), rz(D(90)) @ rx(D(70))])
+    h = 1e-5
+    for method, continuous in (("spline", True), ("slerp", False)):
+        R = interpolate(K, np.array([0.0, 0.5, 1.0]), method)
+        assert np.abs(R - K).max() < 1e-12  # through every keyframe
+        a = interpolate(K, np.array([0.5 - 2 * h, 0.5 - h, 0.5, 0.5 + h, 0.5 + 2 * h]), method)
+        # the body angular velocity just before and just after the middle keyframe, in the keyframe's frame
+        before = _omega_by_hand(a[1], a[2], h)
+        after = _omega_by_hand(a[2], a[3], h)
+        jump = np.linalg.norm(after - before) / np.linalg.norm(after)
+        assert (jump < 1e-3) if continuous else (jump > 0.1), (method, jump)

@@ -135,6 +135,10 @@ def keyframe_euler(keyframes, seq: str, euler_set: int = 1, given=None) -> np.nd
     (as the user wrote them), else keyframe 0 in set ``euler_set`` (1 or 2) and each later one the set and
     turn nearest the previous keyframe's angles."""
     K = np.asarray(keyframes, dtype=np.float64)
+    if euler_set not in (1, 2):
+        raise ValueError(f"euler_set: expected 1 or 2, got {euler_set!r}")
+    if given is not None and len(given) != len(K):
+        raise ValueError(f"euler_given: expected {len(K)} entries (one per keyframe, angles or None), got {len(given)}")
     sets = euler_sets(K, seq)
     out = np.empty((len(K), 3))
     for k in range(len(K)):
@@ -365,6 +369,10 @@ def wrist_path(keyframes, method: str = "slerp", *, duration: float = 10.0, timi
         raise ValueError(f"steps: expected an integer >= 3, got {steps!r}")
     if not (duration > 0.0 and math.isfinite(duration)):
         raise ValueError(f"duration: expected a positive number of seconds, got {duration!r}")
+    if not (0.0 < lock_tolerance < math.pi / 2):
+        raise ValueError(f"lock_tolerance: expected an angle in (0, π/2) radians, got {lock_tolerance!r}")
+    if branch not in (1, 2):
+        raise ValueError(f"branch: expected 1 or 2, got {branch!r}")
     law = _law(timing_law)
     K = np.asarray(keyframes, dtype=np.float64)
     t = duration * np.arange(steps) / (steps - 1)
