@@ -50,8 +50,15 @@ def _batch(mech, spread, n, seed, steps=180):
 
 
 def test_every_built_in_leg_is_checked():
+    """Every built-in whose plan the generator writes out; those with sliders (SLIDE blocks) it refuses."""
     builtin = Path(explorer.__file__).parent / "mechanism" / "builtin"
-    assert set(LEGS) == {p.stem for p in builtin.glob("*.toml")}
+    names = {p.stem for p in builtin.glob("*.toml")}
+    sliding = {n for n in names if explorer.load_mechanism(n).sliders}
+    assert sliding == {"slidercrank", "whitworth"} and set(LEGS) == names - sliding
+    for n in sliding:
+        mech = explorer.load_mechanism(n)
+        with pytest.raises(explorer.UserError, match="kernel 'generated'"):
+            explorer.simulate_batch(mech, mech.lengths[None], steps=12, kernel="generated")
 
 
 @pytest.mark.parametrize("velocities", [True, False])

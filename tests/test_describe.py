@@ -114,7 +114,8 @@ def test_json_parameters_roles_and_plan(name, capsys):
         assert d["driver"]["kind"] == "path" and d["driver"]["vertex"] == mech.path.vertex
         assert d["walker"] is None and d["screen"] is None
     plan = plan_for(mech)
-    kinds = {0: "DYAD", 1: "ATTACH", 2: "GENERAL"}
+    from explorer.plan import BlockKind
+    kinds = {int(k): k.name for k in BlockKind}
     assert [s["kind"] for s in d["plan"]] == [kinds[int(b.kind)] for b in plan.blocks]
     assert [s["places"] for s in d["plan"]] == [[mech.vertices[v] for v in b.vertices] for b in plan.blocks]
     placed = [v for s in d["plan"] for v in s["places"]]

@@ -76,7 +76,7 @@ def test_nominal_transmission_angle(jansen):
     # every vertex and an operating point (simulate_batch(..., forces=True))
     from explorer.gait import FORCE_METRICS, ROBUSTNESS_METRICS
     assert list(got) == [m for m in METRICS if m != "path_error" and m not in FORCE_METRICS
-                         and m not in ROBUSTNESS_METRICS]
+                         and m not in ROBUSTNESS_METRICS and m != "quick_return"]  # a slider's metric
     ref = naive_transmission(c1440.positions, mech)
     assert got["min_transmission_angle"][0] == pytest.approx(ref, abs=0.01)
     assert len(fourbar_loops(mech)) == 2

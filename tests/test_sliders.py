@@ -126,6 +126,37 @@ def test_whitworth_matches_closed_form():
     assert dense.ok and np.max(np.abs(dense.accelerations - cyc.accelerations)) <= 1e-9 * mech.size
 
 
+BODY_ARM = """[[bodies]]
+name = "arm"
+joints = { O4 = [0.0, 0.0], K = [1.0, 0.0], B = [3.5, 0.0] }
+"""
+
+
+def test_slot_in_a_body_with_an_offset():
+    """Whitworth with its arm a three-joint body and the slot along two of its joints (O4, K), shifted
+    0.3 to the left: cross(K − O4, A − O4)/|K − O4| = 0.3, so the arm's angle is φ = atan2(A − O4) −
+    asin(0.3/|A − O4|) (the root on A's side), B = 3.5 (cos φ, sin φ)."""
+    text = builtin_text("whitworth")
+    arm = text[text.index("[[links]]\nname = \"arm\""):text.index("[[links]]\nname = \"rod\"")]
+    text = (text.replace(arm, BODY_ARM).replace('line = ["O4", "B"]', 'line = ["O4", "K"]\noffset = 0.3')
+            .replace("[guess]", "[guess]\nK = [0.9, 0.5]", 1))
+    mech = mechanism_from_dict(parse_toml(text, "w.toml"), "w.toml")
+    assert SLIDE in [b.kind for b in plan_for(mech).blocks]
+    cyc = simulate(mech, steps=360, accelerations=True)
+    assert cyc.ok
+    A = cyc.path("A")
+    phi = np.arctan2(A[:, 1], A[:, 0]) - np.arcsin(0.3 / np.hypot(A[:, 0], A[:, 1]))
+    B = 3.5 * np.stack([np.cos(phi), np.sin(phi)], axis=-1)
+    C = np.stack([B[:, 0] + np.sqrt(49.0 - B[:, 1] ** 2), np.zeros_like(phi)], axis=-1)
+    assert np.max(np.abs(cyc.path("B") - B)) <= TIGHT * mech.size
+    assert np.max(np.abs(cyc.path("C") - C)) <= TIGHT * mech.size
+    assert np.max(np.abs(cyc.velocity("C") - d4(C, 2 * np.pi / 360))) <= 1e-5 * mech.size  # d4: O(h⁴)
+    # the offset is a design parameter: moved back to 0 it is the built-in's arm
+    back = simulate(mech.with_parameters({"block.offset": 0.0}), steps=90)
+    _, B0, _ = whitworth_closed_form(back.theta)
+    assert np.max(np.abs(back.path("B") - B0)) <= TIGHT * mech.size
+
+
 def test_whitworth_quick_return_ratio():
     """The ram's cutting stroke (along −x, the line's direction) takes (π + 2β) of crank, the return
     (π − 2β), β = arcsin(O2O4 / O2A): a ratio of 2, read off the solved ram's dead centres."""
@@ -139,6 +170,21 @@ def test_whitworth_quick_return_ratio():
     assert abs(cutting - (np.pi + 2 * beta)) <= 2 * (2 * np.pi / steps)
     ratio = cutting / (2 * np.pi - cutting)
     assert abs(ratio - 2.0) <= 0.01
+
+
+def test_quick_return_metric():
+    """The metric from the one table: a slider-crank's outward stroke takes π + asin(c/(a + b)) −
+    asin(c/(b − a)) of crank, Whitworth's cutting stroke π + 2β; not applicable to a foot off a slider."""
+    from explorer.gait import available_metrics, compute_metrics
+
+    for name, forward in (("slidercrank", np.pi + math.asin(1 / 5.4) - math.asin(1 / 2.6)),
+                          ("whitworth", np.pi + 2 * math.asin(0.5))):
+        mech = load_mechanism(name)
+        cyc = simulate(mech, steps=720)
+        got = compute_metrics(cyc.path(mech.foot)[None], cyc.velocity(mech.foot)[None], [0], ["quick_return"],
+                              mechanism=mech)["quick_return"][0]
+        assert got == pytest.approx(forward / (2 * np.pi - forward), rel=1e-4), name
+    assert "no foot on a ground slider" in available_metrics(load_mechanism("fourbar"))["quick_return"]
 
 
 # -- a slot on a moving link inside a coupled loop: one GENERAL block with slide rows -----------------

@@ -24,7 +24,8 @@ def register(sub) -> None:
                     "default); the buildability screen's default thresholds; the masses and the [operating] "
                     "table where the file gives them; and the solve plan: the blocks solved one after another "
                     "(DYAD: one joint from two distances, closed form; ATTACH: a body joint placed rigidly from "
-                    "its body's two known joints; GENERAL: several joints solved together by Newton). "
+                    "its body's two known joints; GENERAL: several joints solved together by Newton; SLIDE: one "
+                    "joint from a distance and a slider's line, closed form). "
                     "--format json prints the same as one JSON object.",
         epilog="examples: explorer describe jansen; explorer describe klann --format json; "
                "explorer describe my-leg.toml")
@@ -44,10 +45,9 @@ def _builtins() -> str:
 
 # -- the description as data ----------------------------------------------------------------------------
 
-_KIND_NAMES = {0: "DYAD", 1: "ATTACH", 2: "GENERAL"}
-_KIND_TEXT = {"DYAD": "one joint from two distances to known joints (closed form)",
-              "ATTACH": "a body joint placed rigidly from its body's two known joints (exact)",
-              "GENERAL": "joints coupled in a loop, solved together (Newton)"}
+def _kind_name(kind: int) -> str:
+    from ..plan import BlockKind
+    return BlockKind(int(kind)).name
 
 
 def _pt(p) -> list[float]:
@@ -99,7 +99,7 @@ def _plan(mech) -> tuple[list[dict], dict]:
     n_links = plan.n_links
     steps, placed_by = [], {}
     for i, b in enumerate(plan.blocks):
-        kind = _KIND_NAMES.get(int(b.kind), str(int(b.kind)))
+        kind = _kind_name(b.kind)
         placed = [names[v] for v in b.vertices]
         equations, used = [], set()
         for e in b.links:
@@ -117,6 +117,11 @@ def _plan(mech) -> tuple[list[dict], dict]:
             used.update((j, p, q))
             body = mech.bodies[int(plan.attach_body[a])]
             equations.append(f"body {body.name}: {names[j]} rigidly from {names[p]}, {names[q]}")
+        for k in b.slides:
+            sl = mech.sliders[int(plan.slide_slider[k])]
+            used.update(int(v) for v in plan.slide[k] if v >= 0)
+            equations.append(f"slider {sl.name}: {sl.vertex} on " + (f"the line through {_pt(sl.point)}" if sl.ground
+                                                                      else f"the slot {sl.line[0]}-{sl.line[1]}"))
         known = [names[v] for v in sorted(used - set(b.vertices))]
         steps.append({"step": i + 1, "kind": kind, "places": placed, "from": known, "equations": equations,
                       "after": [int(d) + 1 for d in b.depends]})
@@ -368,8 +373,9 @@ def text(d: dict) -> str:
         after = f"; after step {', '.join(map(str, s['after']))}" if s["after"] else ""
         out.append(f"  {s['step']}. {s['kind']:<7} places {', '.join(s['places'])} from "
                    f"{', '.join(s['from']) or '-'}: {'; '.join(s['equations'])}{after}")
+    from ..plan import KIND_TEXT
     for k in counts:
-        out.append(f"  ({k}: {_KIND_TEXT.get(k, '')})")
+        out.append(f"  ({k}: {KIND_TEXT.get(k, '')})")
     return "\n".join(out)
 
 

@@ -321,6 +321,8 @@ def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
                    "or explorer.study.design_yield")
         elif "mechanism" in needs and mechanism is None:
             why = "needs the mechanism (mechanism=, lengths=, crank=)"
+        elif BY_NAME[m].group == "slider" and mechanism is not None and _foot_slider(mechanism) is None:
+            why = f"mechanism {mechanism.name!r} has no foot on a ground slider (a slider's metric)"
         elif m == "min_transmission_angle" and not fourbar_loops(mechanism):
             why = f"mechanism {mechanism.name!r} has no crank-driven four-bar loop"
         elif mechanism is not None and not has_crank:
@@ -540,7 +542,48 @@ def _target_group(ctx: _Context, wanted: list[str]) -> dict:
 #: wanted names) -> {name: (N,)}. A new metric is a row of the table and its column in its group's kernel;
 #: a new group is a row here. (The ``forces`` group comes from the forces effect of the kernels,
 #: ``simulate_batch(..., forces=True)``, which needs every vertex: :func:`_available` says so.)
-GROUPS = {"leg": _leg_group, "walker": _walker_group, "screen": _screen_group, "target": _target_group}
+def _foot_slider(mech):
+    """The ground slider the foot runs on, or None."""
+    return next((s for s in mech.sliders if s.vertex == mech.foot and s.ground), None)
+
+
+def quick_return(mech, paths, status=None, geometry=None) -> np.ndarray:
+    """(N,) the quick-return ratio of a foot on a ground slider: the crank angle from the dead centre
+    nearest the line's −direction end to the one at its +direction end (the forward stroke), over the
+    rest of the turn (the return). Dead centres are the extremes of s(θ) = (foot − point)·n over the
+    samples, each refined by the parabola through its sample and their neighbours. NaN where not ok.
+
+    paths (N, S, 2) at θ_k = 2πk/S; geometry: the variants' ``<slider>.x``, ``.y``, ``.dx``, ``.dy``."""
+    sl = _foot_slider(mech)
+    paths = np.asarray(paths, dtype=np.float64)
+    N, S = paths.shape[:2]
+    g = geometry or {}
+    col = {k: np.broadcast_to(np.asarray(g.get(f"{sl.name}.{k}", v), dtype=np.float64), (N,))
+           for k, v in (("x", sl.point[0]), ("y", sl.point[1]), ("dx", sl.direction[0]), ("dy", sl.direction[1]))}
+    norm = np.hypot(col["dx"], col["dy"])
+    s = ((paths[:, :, 0] - col["x"][:, None]) * col["dx"][:, None]
+         + (paths[:, :, 1] - col["y"][:, None]) * col["dy"][:, None]) / norm[:, None]
+    out = np.full(N, np.nan)
+    for i in range(N):
+        if not np.all(np.isfinite(s[i])) or (status is not None and status[i] != 0):
+            continue
+        ends = []
+        for k in (int(np.argmin(s[i])), int(np.argmax(s[i]))):
+            a, b, c = s[i, (k - 1) % S], s[i, k], s[i, (k + 1) % S]
+            den = a - 2.0 * b + c
+            ends.append((k + (0.5 * (a - c) / den if den != 0.0 else 0.0)) * 2.0 * np.pi / S)
+        forward = (ends[1] - ends[0]) % (2.0 * np.pi)
+        if 0.0 < forward < 2.0 * np.pi:
+            out[i] = forward / (2.0 * np.pi - forward)
+    return out
+
+
+def _slider_group(ctx: _Context, wanted: list[str]) -> dict:
+    return {"quick_return": quick_return(ctx.mechanism, ctx.cpaths, ctx.status, ctx.geometry)}
+
+
+GROUPS = {"leg": _leg_group, "walker": _walker_group, "screen": _screen_group, "target": _target_group,
+          "slider": _slider_group}
 
 def _geometry(geometry, mechanism, N: int) -> dict | None:
     """``geometry`` checked: {coordinate parameter name of ``mechanism``: (N,) float64}, or None."""

@@ -15,6 +15,8 @@ leg        single-leg metrics of one foot path with a stance *band* (``y ≤ y_m
            kept for comparison with published figures; those with ``band`` in ``needs`` depend on it.
 screen     what the buildability screen reads (:mod:`explorer.gait._screen`).
 
+slider     a foot that runs on a ground slider (a slider-crank's piston, a shaper's ram): ``quick_return``
+           (:mod:`explorer.gait._metrics`); not applicable to any other foot.
 target     path synthesis: the foot path against a study's ``[target]`` points (:mod:`explorer.gait._path`).
 robustness ``yield``: the share of copies of a design, cut with a manufacturing error on every design
            parameter (a study's ``[robustness]`` table), that assemble over the whole turn and pass the
@@ -102,6 +104,10 @@ TABLE: tuple[Metric, ...] = (
     _m("foot_headroom", "length", "max", "screen",
        "how far the foot's highest point stays below the crank axle and every ground pivot", "mechanism", "crank"),
     _m("self_crossings", "count", "min", "screen", "times the foot path crosses itself"),
+    # -- a foot on a ground slider ----------------------------------------------------------------------
+    _m("quick_return", "1", "max", "slider",
+       "crank angle of the foot slider's forward stroke (along its line's direction) / that of its return stroke, "
+       "between the two dead centres of its travel (a shaper's cutting / return time)", "mechanism", "crank"),
     # -- path synthesis ---------------------------------------------------------------------------------
     _m("path_error", "length", "min", "target",
        "RMS distance from the [target] points to their matches on the foot path (timed, closest or by arc "

@@ -41,18 +41,30 @@ line numbers (``Designs.slide``) are per-variant numbers derived from the design
 
 How to add a block kind
 -----------------------
-1. Give it a number here (``BlockKind`` and the module constant), and recognise it in
-   ``_blt.make_plan`` where blocks are classified (``_classify``).
+1. Give it a number here (``BlockKind``, the module constant and its phrase in ``KIND_TEXT``, which
+   ``explorer describe`` prints), and recognise it in ``_blt.make_plan`` where blocks are classified
+   (``_classify``). If it needs a new *equation type* (as the slide equation did), also: the
+   equation's vertices as a ``Plan`` array, its rows in ``_blt._plan_with_bases`` (``eqs`` and
+   ``eq_vars``, and a field of ``Block`` listing a block's equations of that type), the mechanism's
+   part in ``kernels._simulate._topology`` (the plan cache key), and its per-variant numbers as a field
+   of ``kernels._inputs.Designs`` (filled in ``kernels._design.designs``).
 2. Give it what it reads: fields of the per-variant block table (``kernels._inputs.BLOCK_DTYPE``,
    filled in ``kernels._step.block_table``) and, for topology it needs beyond a row, a field of
    ``kernels._inputs.Topology`` (built in ``kernels._inputs.topology``).
 3. Write its kernel: a branch of ``kernels._fast.fast_step``'s loop if it is a closed form (and of
-   ``kernels._batch.place_closed``), else a module like ``kernels._blocks`` called from
-   ``kernels._step._blocks_step`` (and its branch check in ``_check_dense`` / ``block_signs``).
-   Plans with the new kind run on these general kernels (``kernels._codegen.supported`` says no)
-   until ``_codegen`` writes it out too (a template beside ``_DYAD`` and ``_ATTACH``, checked bit
-   for bit against the general kernel in ``tests/test_codegen.py``).
-4. Test it against an independent reference in ``tests/`` (see ``tests/test_bodies.py``).
+   ``kernels._batch.place_closed``, with its ``start`` rule), else a module like ``kernels._blocks``
+   called from ``kernels._step._blocks_step``; its branch check in ``kernels._step._check_dense`` and
+   ``block_signs``; the nominal's first assembly and branch signs in ``kernels._simulate.assemble`` and
+   ``_signs``. A new equation type is also a GENERAL row type (``ROW_*`` below: ``kernels._blocks``'
+   ``_general_jacobian``, ``_general_rates`` and ``solve_general``'s residual) and rows of the dense
+   method (``kernels._dense``). Plans with the new kind run on these general kernels
+   (``kernels._codegen.supported`` says no) until ``_codegen`` writes it out too (a template beside
+   ``_DYAD`` and ``_ATTACH``, checked bit for bit against the general kernel in
+   ``tests/test_codegen.py``).
+4. The forces effect (``kernels._forces``) has its own per-kind velocities, accelerations and
+   reactions: add the kind there, or refuse it in one line in ``kernels._simulate.force_setup``.
+5. Test it against an independent reference in ``tests/`` (see ``tests/test_bodies.py``,
+   ``tests/test_sliders.py``).
 """
 
 from enum import IntEnum
@@ -66,6 +78,14 @@ class BlockKind(IntEnum):
     GENERAL = 2
     SLIDE = 3
 
+
+#: What a block of each kind does, in a phrase (``explorer describe`` prints it).
+KIND_TEXT = {
+    "DYAD": "one joint from two distances to known joints (closed form)",
+    "ATTACH": "a body joint placed rigidly from its body's two known joints (exact)",
+    "GENERAL": "joints coupled in a loop, solved together (Newton)",
+    "SLIDE": "one joint from a distance to a known joint and a slider's line (closed form)",
+}
 
 DYAD = int(BlockKind.DYAD)
 ATTACH = int(BlockKind.ATTACH)
