@@ -13,7 +13,8 @@ Rows (configurations = variants × crank steps; the default study is 10,000 × 3
   - with ``--cold``: ``explorer run`` on an empty Numba cache (``NUMBA_CACHE_DIR`` set to a new
     folder), which compiles every kernel the run needs, once (not best-of);
   - with ``--chunks``: end-to-end time per chunk size (how the default chunk size was chosen);
-  - with ``--compression``: size and write/read speed of the stored paths per HDF5 filter;
+  - with ``--compression``: size, write CPU cost and read speed of the stored paths per HDF5 filter
+    (explorer's [output] compression choices and other candidates; the table in explorer/store/_write.py);
   - with ``--memory``: peak traced memory of run_study at N and 4N (flat in N).
 The machines are shared and noisy: read the ratios, not the absolute figures. Each figure is the
 best of --repeat runs after a warm-up run.
@@ -173,26 +174,36 @@ def _compression(mech, L, c, S, study, tmp: Path, n: int = 4096) -> None:
     data = [np.ascontiguousarray(b.paths[mech.foot]), np.ascontiguousarray(b.velocities[mech.foot])]
     raw = sum(d.nbytes for d in data)
     rows = explorer.store.hdf5_rows(S)
-    print(f"\nHDF5 filters on {n:,} foot paths + velocities ({raw / 1e6:.0f} MB raw, chunks of {rows} rows)")
-    for name, f_kw in [("none", {}), ("lzf", {"compression": "lzf"}),
-                       ("lzf + shuffle", {"compression": "lzf", "shuffle": True}),
-                       ("gzip 1 + shuffle", {"compression": "gzip", "compression_opts": 1, "shuffle": True}),
-                       ("gzip 4 + shuffle", {"compression": "gzip", "compression_opts": 4, "shuffle": True})]:
+    print(f"\nHDF5 filters on {n:,} foot paths + velocities ({raw / 1e6:.0f} MB raw, chunks of {rows} rows, "
+          f"Fletcher-32 on each; read back bit for bit)")
+    import hdf5plugin
+    from explorer.store._datasets import SERIES_FILTERS  # the filters [output] compression names
+    B = hdf5plugin.Blosc
+    candidates = [(f"{name} (explorer's)", kw) for name, kw in SERIES_FILTERS.items()] + [
+        ("lzf, no shuffle", {"compression": "lzf", "fletcher32": True}),
+        ("gzip 4 + shuffle", {"compression": "gzip", "compression_opts": 4, "shuffle": True, "fletcher32": True}),
+        ("blosc lz4 1 + shuffle", {**B(cname="lz4", clevel=1, shuffle=B.SHUFFLE), "fletcher32": True}),
+        ("blosc lz4 5 + bitshuffle", {**B(cname="lz4", clevel=5, shuffle=B.BITSHUFFLE), "fletcher32": True}),
+        ("blosc zstd 1 + shuffle", {**B(cname="zstd", clevel=1, shuffle=B.SHUFFLE), "fletcher32": True}),
+        ("blosc zstd 3 + shuffle", {**B(cname="zstd", clevel=3, shuffle=B.SHUFFLE), "fletcher32": True}),
+        ("shuffle + zstd 1", {"shuffle": True, **hdf5plugin.Zstd(clevel=1), "fletcher32": True}),
+        ("blosc lz4hc 3 + shuffle", {**B(cname="lz4hc", clevel=3, shuffle=B.SHUFFLE), "fletcher32": True})]
+    for name, f_kw in candidates:
         p = tmp / "c.h5"
-        tw, tr = [], []
-        for _ in range(2):
-            t = time.perf_counter()
+        cpu, tr = [], []
+        for _ in range(3):
+            t = time.process_time()
             with h5py.File(p, "w") as f:
                 for i, d in enumerate(data):
                     f.create_dataset(str(i), data=d, chunks=(rows, S, 2), **f_kw)
-            tw.append(time.perf_counter() - t)
+            cpu.append(time.process_time() - t)
             t = time.perf_counter()
             with h5py.File(p, "r") as f:
                 for i in range(len(data)):
-                    f[str(i)][...]
+                    assert np.array_equal(f[str(i)][...].view(np.uint64), data[i].view(np.uint64)), name
             tr.append(time.perf_counter() - t)
         size = p.stat().st_size
-        print(f"  {name:<18s} size {size / raw:5.3f} of raw   write {raw / min(tw) / 1e6:6.0f} MB/s   "
+        print(f"  {name:<28s} size {size / raw:5.3f} of raw   write {raw / min(cpu) / 1e6:6.0f} MB per CPU-s   "
               f"read {raw / min(tr) / 1e6:6.0f} MB/s")
         p.unlink()
 

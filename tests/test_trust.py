@@ -378,7 +378,7 @@ def test_a_disk_that_fills_before_the_first_commit_is_resumable(tmp_path, reserv
         filler = disk / "filler"
         # the start checks pass (the disk is empty), then another writer fills it before the first commit
         prelude = (f"import os, shutil\nimport explorer.study._run as run\nreal = run.chunk_solver\n"
-                   f"def solver(study):\n    solve = real(study)\n"
+                   f"def solver(study, *args):\n    solve = real(study, *args)\n"
                    f"    def first(a, b):\n        if not os.path.exists({str(filler)!r}):\n"
                    f"            st = os.statvfs({str(disk)!r})\n            free = st.f_bavail * st.f_frsize\n"
                    f"            with open({str(filler)!r}, 'wb') as fh:\n"

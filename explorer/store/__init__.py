@@ -42,8 +42,10 @@ Layout (N variants, S = steps, readable with plain h5py)::
 
 Every dataset is one row of the table :data:`explorer.store._datasets.DATASETS` (dtype, shape rule,
 storage, fill, units, description) and is created by its one function, ``create_dataset``.
-Every (N, ...) dataset is chunked along N and compressed (lzf + shuffle for the (N, S, 2) series,
-chosen by measurement: see :mod:`explorer.store._write`).
+Every (N, ...) dataset is chunked along N and compressed (for the (N, S, 2) series, by default Blosc's
+LZ4 with byte shuffle, chosen by measurement: see :mod:`explorer.store._write`; root attribute
+series_filter). Blosc and Zstandard are HDF5 plugin filters: explorer registers them (``hdf5plugin``);
+plain h5py reads such a file after ``import hdf5plugin``.
 """
 
 from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metric_attrs, now

@@ -11,25 +11,33 @@ uninterrupted run. ``/chunks/done`` is contiguous and uncompressed, so setting a
 in-place write of one byte. HDF5 has no journal: the one window left is a kill in the middle of a
 flush's few metadata writes (well under a millisecond per commit).
 
-Compression (measured on this shared 2-core box on 4,096 real ±2 % Jansen foot paths + velocities,
-float64, 360 steps, HDF5 chunks of 128 rows; benchmarks/bench_study.py --compression re-measures):
+Compression (measured on this shared 2-core box, load 1.2-1.3, on 4,096 real ±2 % Jansen foot paths +
+velocities, float64, 360 steps, 47 MB raw, HDF5 chunks of 128 rows, Fletcher-32 on every filter, read
+back bit for bit; ``python benchmarks/bench_study.py --compression`` re-measures):
 
-    filter         size/raw    write cost               read
-    none           1.00        ~1,000 MB per CPU-s       ~1,700-2,400 MB/s
-    lzf            0.96-1.00   ~50-67 MB/s               ~190-345 MB/s
-    lzf+shuffle    0.80-0.85   ~60-104 MB per CPU-s      ~220-290 MB/s
-    gzip1+shuffle  0.77-0.81   ~37-44 MB per CPU-s       ~120-250 MB/s
-    gzip4+shuffle  0.76-0.80   ~25-38 MB/s               ~160-257 MB/s
-    gzip4          0.90        ~23-26 MB/s
-
-(ranges: repeated runs on a busy machine, and two kernel versions whose low-order bits differ).
+    [output] compression  filters                      size/raw  write cost         read
+    blosc (default)       Blosc LZ4 5 + byte shuffle   0.83      ~640-770 MB/CPU-s  ~890-1,170 MB/s
+    zstd                  shuffle + Zstandard 3        0.80      ~320 MB/CPU-s      ~710 MB/s
+    lzf                   lzf + shuffle                0.85      ~92 MB/CPU-s       ~310 MB/s
+    gzip                  gzip 1 + shuffle             0.81      ~47 MB/CPU-s       ~260 MB/s
+    none                  (Fletcher-32 only)           1.00      ~1,070 MB/CPU-s    ~1,240 MB/s
+    (not offered)         Blosc LZ4 1 + shuffle        0.85      ~800 MB/CPU-s      ~1,020 MB/s
+                          Blosc LZ4 5 + bitshuffle     0.83      ~610 MB/CPU-s      ~840 MB/s
+                          Blosc Zstd 1 / 3 + shuffle   0.86/0.82 ~310 / ~190 MB/CPU-s
+                          shuffle + Zstandard 1        0.81      ~410 MB/CPU-s      ~740 MB/s
+                          Blosc LZ4HC 3 + shuffle      0.80      ~49 MB/CPU-s
 
 Smooth float64 series keep little redundancy beyond the sign/exponent and high mantissa bytes,
-which shuffle groups together; without shuffle neither codec finds much. gzip+shuffle saves only
-3-4 % more space than lzf+shuffle at 2.5x its CPU cost (the default study's 115 MB of paths and
-velocities: ~1.2 CPU-s with lzf+shuffle, ~3 CPU-s with gzip 1+shuffle), so the (N, steps, 2)
-datasets use **lzf + shuffle**. HDF5 chunks of (128, steps, 2) (≈ 0.7 MiB at 360 steps; 8 to 512
-rows compress alike) keep reading one variant's path cheap (~2-9 ms).
+which a byte shuffle groups together; the low mantissa bytes are noise to every codec, so no codec
+gets below ~0.8 (float32 or a lossy codec would, but the stored values are the kernels' bit for bit).
+What differs is the cost: on 2 cores the kernels use both, so every CPU-second of compression is
+wall time added to the run. Blosc's LZ4 behind its own shuffle is both smaller than lzf + shuffle
+(0.83 vs 0.85) and eight times cheaper: 100,000 × 360 foot paths and velocities (1.15 GB raw) cost
+~1.6 CPU-s with it against ~12 with lzf, so it is the default. "zstd" saves 3 % more space at twice
+the CPU. Both are HDF5 plugin filters (32001, 32015) from the ``hdf5plugin`` package, a core
+dependency: explorer registers them on import; plain h5py reads these files after ``import
+hdf5plugin`` (the root attribute ``series_filter`` says so). HDF5 chunks of (128, steps, 2) (≈ 0.7
+MiB at 360 steps; 8 to 512 rows compress alike) keep reading one variant's path cheap (~2-9 ms).
 
 Study chunks of 2,048 variants: the kernels' throughput is flat above ~512 variants per call
 (8,192 variants in calls of 128 → 8,192: 1.17 → 0.92 CPU-s, best at 2,048-4,096), a commit costs a
@@ -51,7 +59,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
-from ._datasets import SCALAR_FILTERS, SERIES_FILTERS, create_dataset, create_group, metric_attrs, now
+from ._datasets import SCALAR_FILTERS, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group, metric_attrs, now
 from ._integrity import DIGEST, RESTORE, chunk_digest, has_integrity, per_variant, salvage, stamp, verify
 
 __all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
@@ -62,10 +70,9 @@ FORMAT_VERSION = 1
 STATUS_NOT_RUN = -1
 #: Every status code that can appear in ``/status``: the kernels' codes plus ``-1: not-run``.
 FILE_STATUS_NAMES = {**{int(k): v for k, v in STATUS_NAMES.items()}, STATUS_NOT_RUN: "not-run"}
-#: Filters of the (N, steps, 2) datasets by the study's ``[output] compression`` (the default, lzf, chosen
-#: by measurement: see the module docstring; on the default study, 10,000 x 360 foot paths and velocities on
-#: 2 cores, "none" writes 118 MB in 0.9 s end to end and "lzf" 99 MB in 3.0 s), and of the small per-variant
-#: datasets: defined beside the dataset table, :mod:`explorer.store._datasets`.
+#: Filters of the (N, steps, 2) datasets by the study's ``[output] compression`` (the default, blosc, chosen
+#: by measurement: see the module docstring), and of the small per-variant datasets: defined beside the
+#: dataset table, :mod:`explorer.store._datasets`.
 #: (re-exported here for older imports)
 #: Target size of one HDF5 chunk of a path-like dataset, bytes.
 HDF5_CHUNK_BYTES = 1 << 20
@@ -185,6 +192,7 @@ class ResultsWriter:
                 f.attrs["series_solve"] = json.dumps(study.series_solve())
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S
+            f.attrs["series_filter"] = f"{study.compression}: {SERIES_FILTER_WORDS[study.compression]}"
             moved = study.geometry_names
             dims = {"N": N, "S": S, "links": len(mech.links), "k": len(moved), "chunks": n_chunks}
 
@@ -342,11 +350,11 @@ class ResultsWriter:
         if self._geometry is not None:
             self._geometry[a:b] = geometry
         for d, group, v in self._series:
-            d[a:b] = getattr(batch, group)[v]
+            _write_rows(d, a, b, getattr(batch, group)[v])
         if self._torque is not None:
-            self._torque[a:b] = batch.torque
+            _write_rows(self._torque, a, b, batch.torque)
         for d, j in self._forces:
-            d[a:b] = batch.forces[j]
+            _write_rows(d, a, b, batch.forces[j])
         g = f["metrics"]
         new = [name for name in (metrics or {}) if name not in g]
         for name in new:  # self-describing from the first write, as `explorer metrics` writes it
@@ -481,6 +489,18 @@ class ResultsWriter:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def _write_rows(d: h5py.Dataset, a: int, b: int, values) -> None:
+    """d[a:b] = values, one HDF5 chunk per call. h5py holds the GIL while HDF5 filters and writes, so a
+    commit thread writing a whole study chunk in one call (16 HDF5 chunks, 20-200 ms) keeps the
+    solver's threads from picking up their next block of rows; in calls of one HDF5 chunk (~1.5 ms
+    with Blosc) the GIL is free between calls, and the runner shortens the interpreter's switch
+    interval so that a waiting thread gets it at the next one (explorer.study._run)."""
+    h = d.chunks[0] if d.chunks is not None else b - a
+    for lo in range(a, b, h):
+        hi = min(lo + h, b)
+        d[lo:hi] = values[lo - a:hi - a]
 
 
 class DiskFull(UserError):

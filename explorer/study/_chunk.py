@@ -3,6 +3,8 @@ does with a range of variants — sample them, solve them, compute the metrics t
 
 from __future__ import annotations
 
+import time
+
 from ..kernels import simulate_batch
 from ..kernels import check_dense
 from ._sample import study_sampler, study_variants
@@ -75,10 +77,12 @@ def series_solve(study: Study) -> dict:
             "force_joints": list(study.force_joints), "stored": list(study.vertex_names), "groups": groups}
 
 
-def design_solver(study: Study):
+def design_solver(study: Study, timer: dict | None = None):
     """solve(lengths, crank, geometry) → (batch, metrics) for given designs of ``study``'s mechanism:
     lengths (n, n_links) in ``mech.links`` order, crank radii (n,), geometry (n, g) of the coordinates
     in ``study.geometry_names`` order. What a sampled study and an optimiser's generation both run.
+    timer : optional dict to which the wall seconds of ``"solve"`` (the kernels) and ``"metrics"`` (the
+    metrics, yield included) are added.
 
     Solves only what the scene asks for: its vertices (plus the foot when metrics are asked for),
     velocities when stored or needed by a metric, accelerations when stored, and the forces effect
@@ -93,7 +97,10 @@ def design_solver(study: Study):
     vertices, velocities = how["vertices"], how["velocities"]
     want_yield = wants_yield(study)
 
+    clock = time.perf_counter
+
     def solve(lengths, crank, geometry):
+        t0 = clock()
         radii = crank if mech.crank is not None else None  # a path driver has no crank radius (NaN column)
         moved = geometry_columns(study, geometry)
         extra = {"geometry": moved} if moved else {}  # only a study that moves coordinates passes them
@@ -104,6 +111,7 @@ def design_solver(study: Study):
                                **extra)
         foot = mech.foot
         metrics = None
+        t1 = clock()
         if want_metrics:
             metrics = compute_study_metrics(study, batch.paths[foot], batch.velocities.get(foot), batch.status,
                                             lengths, crank, geometry)
@@ -113,20 +121,27 @@ def design_solver(study: Study):
             y = design_yield(mech, lengths, crank, moved, robustness=study.robustness, steps=study.steps,
                              tolerance=study.tolerance, method=study.method, screen=study.screen)
             metrics = {**(metrics or {}), YIELD: y.share}
+        if timer is not None:
+            timer["solve"] = timer.get("solve", 0.0) + (t1 - t0)
+            timer["metrics"] = timer.get("metrics", 0.0) + (clock() - t1)
         return batch, metrics
 
     return solve
 
 
-def chunk_solver(study: Study):
+def chunk_solver(study: Study, timer: dict | None = None):
     """solve(a, b) → (lengths, crank, geometry, batch, metrics) for variants [a, b) of a sampled
     ``study`` (:func:`design_solver` on its sampled designs); geometry is (n, g), the perturbed
-    coordinates in ``study.geometry_names`` order ((n, 0) if none)."""
+    coordinates in ``study.geometry_names`` order ((n, 0) if none). timer : optional dict to which the
+    wall seconds of ``"sample"``, ``"solve"`` and ``"metrics"`` are added."""
     sampler = study_sampler(study)
-    solve_designs = design_solver(study)
+    solve_designs = design_solver(study, timer)
 
     def solve(a: int, b: int):
+        t0 = time.perf_counter()
         lengths, crank, geometry = study_variants(study, a, b, sampler)
+        if timer is not None:
+            timer["sample"] = timer.get("sample", 0.0) + (time.perf_counter() - t0)
         batch, metrics = solve_designs(lengths, crank, geometry)
         return lengths, crank, geometry, batch, metrics
 

@@ -30,6 +30,9 @@ class RunSummary:
     counts : {status name: variants} over the whole file (they add up to N).
     wall_s : seconds this call took. resumed : True if it finished an existing file.
     already_complete : True if ``resume`` found the file complete and did nothing.
+    timings : {stage: wall seconds} of this call (``explorer.study._run.STAGES``: sample, solve,
+        metrics on the main thread; write on the commit thread, overlapping them; wait, the main
+        thread blocked on the commit thread); empty when nothing ran.
     """
 
     path: Path
@@ -41,6 +44,7 @@ class RunSummary:
     wall_s: float = 0.0
     resumed: bool = False
     already_complete: bool = False
+    timings: dict = field(default_factory=dict)
 
     def __fspath__(self) -> str:
         return str(self.path)

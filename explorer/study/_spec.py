@@ -106,7 +106,7 @@ _SECTIONS = {
     "robustness": ROBUSTNESS_KEYS,
 }
 #: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
-COMPRESSIONS = ("lzf", "gzip", "none")
+COMPRESSIONS = ("blosc", "zstd", "lzf", "gzip", "none")
 #: [scene] store choices: "series" stores every (N, steps, 2) series the scene names; "metrics" (a lean
 #: study) stores the designs, statuses and metrics only, and the readers re-solve the series they need.
 STORES = ("series", "metrics")
@@ -165,7 +165,7 @@ class Study:
     output: str
     source: str
     text: str
-    compression: str = "lzf"
+    compression: str = "blosc"
     mechanism_path: str | None = None
     parameters: object = ()
     walker: Walker | None = None
@@ -491,7 +491,7 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
 
     out = ou.get("path", f"results/{name}.h5")
     out = v.string("output.path", out)
-    compression = v.choice("output.compression", ou.get("compression", "lzf"), COMPRESSIONS)
+    compression = v.choice("output.compression", ou.get("compression", "blosc"), COMPRESSIONS)
     store = v.choice("scene.store", sc.get("store", "series"), STORES)
 
     return dict(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
