@@ -2,7 +2,7 @@
 
     python benchmarks/bench_synthesis.py [--problem all|vertical-line|timed-five|closed-timed|closed-untimed]
                                          [--seeds 10] [--population 40] [--generations 30] [--starts 8]
-                                         [--seconds 50] [--steps 360] [--de-only]
+                                         [--seconds 40] [--steps 360] [--de-only]
 
 The problems, their sources and what was verified are in ``_synthesis_problems.py``; ``all`` runs the
 issue's four. Each is searched in the source's own parametrisation (r1 … r4, rcx, rcy, θ0, x0, y0 within
@@ -15,7 +15,8 @@ explorer's ``auto`` (as ``[optimize] algorithm = "auto"`` runs it): pymoo DE, ``
 ``generations`` from a Latin hypercube, then ``explorer.study.polish`` (bounded least squares on the
 residuals, Jacobian by one batched finite difference per iteration) from the ``starts`` best distinct
 designs DE evaluated; then restart rounds (DE from a fresh seed, polish) while the seed has run for less
-than ``--seconds``. ``--de-only`` is the baseline: DE alone, population × generations.
+than ``--seconds`` (a round begun runs to its end). ``--de-only`` is the baseline: DE alone,
+population × generations.
 
 Printed per problem over seeds 0 … n−1: success (the literature's objective, the sum of squared
 distances, within 1 % of the best known; below 1e-6 where the best known is 0), median, worst and best,
@@ -251,8 +252,8 @@ def main(argv=None):
     ap = arguments(__doc__)
     ap.add_argument("--seeds", type=int, default=10, help="seeds 0 … n-1 per problem (default 10)")
     ap.add_argument("--starts", type=int, default=8, help="polish starts per round (default 8)")
-    ap.add_argument("--seconds", type=float, default=50.0,
-                    help="restart rounds begin while a seed has run less than this (default 50)")
+    ap.add_argument("--seconds", type=float, default=40.0,
+                    help="restart rounds begin while a seed has run less than this (default 40)")
     ap.add_argument("--de-only", action="store_true", help="the baseline: pymoo DE alone, population x generations")
     ap.set_defaults(population=40, generations=30)
     a = ap.parse_args(argv)
