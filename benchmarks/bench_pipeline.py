@@ -15,7 +15,8 @@ For each size N (the default study's ±2 % Jansen variants × 360 steps, foot + 
 
 Columns: wall seconds of the whole run, then the run's own timers (``RunSummary.timings``): sample,
 solve, metrics (the main thread, in turn), write (the commit thread, overlapping the main thread) and
-wait (the main thread blocked on the commit thread), then the file size and the ratio to ``kernels``.
+wait (the main thread blocked on the commit thread), the commit thread's CPU seconds (wr CPU), then the
+file size and the ratio to ``kernels``.
 Each figure is the best of --repeat rounds (a round runs every mode once, in turn, so that the modes
 share the machine's load) after one warm-up at a small size; the machines are shared and noisy: read
 the ratios, and the load printed with them.
@@ -116,7 +117,7 @@ def main(argv=None) -> None:
     for m in modes:  # warm-up: load every kernel, touch the disk
         MODES[m](min(sizes[0], 2048), argparse.Namespace(**{**vars(a), "repeat": 1}), out)
     head = (f"{'N':>9s} {'mode':<8s} {'wall s':>7s} {'sample':>7s} {'solve':>7s} {'metrics':>7s} {'write':>7s} "
-            f"{'wait':>7s} {'file MB':>8s} {'M cfg/s':>8s} {'x kernels':>9s}")
+            f"{'wait':>7s} {'wr CPU':>7s} {'file MB':>8s} {'M cfg/s':>8s} {'x kernels':>9s}")
     print(head)
     for n in sizes:
         best: dict = {}
@@ -130,9 +131,9 @@ def main(argv=None) -> None:
         base = best["kernels"][1]
         for m in modes:
             study, wall, summary, size = best[m]
-            t = summary.timings if summary is not None else {}
+            t = getattr(summary, "timings", None) or {}
             cells = " ".join(f"{t[k]:7.2f}" if k in t else f"{'':7s}"
-                             for k in ("sample", "solve", "metrics", "write", "wait"))
+                             for k in ("sample", "solve", "metrics", "write", "wait", "write_cpu"))
             print(f"{n:>9,d} {m:<8s} {wall:7.2f} {cells} {size:8.0f} {n * study.steps / wall / 1e6:8.2f} "
                   f"{wall / base:9.2f}", flush=True)
         print(f"{'':9s} ({_load()})")

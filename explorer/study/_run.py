@@ -148,8 +148,9 @@ def _nothing_committed(out: Path, study) -> int | None:
 
 #: The stages a run's wall time is broken into (``RunSummary.timings``, seconds): sampling the designs,
 #: the kernels, the metrics (on the main thread, in turn), writing (the commit thread, overlapping them)
-#: and ``wait``, the main thread blocked on the commit thread (the writes the solve did not hide).
-STAGES = ("sample", "solve", "metrics", "write", "wait")
+#: and ``wait``, the main thread blocked on the commit thread (the writes the solve did not hide);
+#: ``write_cpu``: the CPU seconds of the commit thread (filters, checksums, HDF5), whatever core ran it.
+STAGES = ("sample", "solve", "metrics", "write", "wait", "write_cpu")
 
 #: Commit chunks on a background thread while the next chunk is solved. Off: commit inline (for
 #: measurement). h5py holds the GIL while HDF5 compresses and writes, so the writer commits one HDF5
@@ -178,9 +179,10 @@ class _Committer:
 
     def _commit(self, item) -> None:
         i, lengths, crank, geometry, batch, metrics = item
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         self.writer.write_chunk(i, lengths, crank, batch, metrics, geometry=geometry)
         self.timer["write"] = self.timer.get("write", 0.0) + (time.perf_counter() - t0)
+        self.timer["write_cpu"] = self.timer.get("write_cpu", 0.0) + (time.thread_time() - c0)
         if self.bar is not None:
             self.bar.update(len(crank) * self.steps)
 
