@@ -395,9 +395,11 @@ def _check_parameter_names(mech: Mechanism) -> None:
     for name, _ in mech.parameter_items():
         if name in seen:
             key = next((f"links[{i}].name" for i, l in enumerate(mech.links) if l.name == name),
-                       next((f"fixed.{v}" for v in mech.fixed if name in (f"{v}.x", f"{v}.y")), "bodies"))
+                       next((f"fixed.{v}" for v in mech.fixed if name in (f"{v}.x", f"{v}.y")),
+                            next((f"sliders[{i}].name" for i, sl in enumerate(mech.sliders)
+                                  if name.startswith(sl.name + ".")), "bodies")))
             raise UserError(f"{where(mech.source, key)}: two design parameters would be called {name!r} (a link, the "
-                            f"crank's or a ground pivot's coordinates, a body joint's); rename the link or vertex")
+                            f"crank's or a ground pivot's coordinates, a body joint's, a slider's); rename the link or vertex")
         seen.add(name)
 
 
