@@ -157,6 +157,29 @@ def test_slot_in_a_body_with_an_offset():
     assert np.max(np.abs(back.path("B") - B0)) <= TIGHT * mech.size
 
 
+def test_swinging_block_slot_through_a_ground_pivot():
+    """The oscillating-cylinder inversion: the rod A-E slides through a block pivoted at the ground pivot
+    O4, i.e. the slot A-E's line passes through O4 always: E = A + 5 (O4 − A)/|O4 − A|."""
+    mech = mechanism_from_dict({
+        "name": "swing", "foot": "E", "crank": {"center": [0.0, 0.0], "radius": 1.0, "tip": "A"},
+        "fixed": {"O4": [3.0, 0.0]}, "guess": {"E": [5.5, 0.5]},
+        "links": [{"a": "A", "b": "E", "length": 5.0}],
+        "sliders": [{"name": "block", "vertex": "O4", "line": ["A", "E"]}]})
+    assert [b.kind for b in plan_for(mech).blocks] == [SLIDE]
+    cyc = simulate(mech, steps=360, accelerations=True)
+    assert cyc.ok
+    A = cyc.path("A")
+    g = np.array([3.0, 0.0]) - A
+    E = A + 5.0 * g / np.linalg.norm(g, axis=1)[:, None]
+    assert np.max(np.abs(cyc.path("E") - E)) <= TIGHT * mech.size
+    h = 2 * np.pi / 360
+    assert np.max(np.abs(cyc.velocity("E") - d4(E, h))) <= 1e-6 * mech.size
+    acc = cyc.accelerations[:, mech.vertex_index("E")]
+    assert np.max(np.abs(acc - d4(d4(E, h), h))) <= 1e-5 * mech.size
+    dense = simulate(mech, steps=360, method="dense")
+    assert dense.ok and np.max(np.abs(dense.positions - cyc.positions)) <= 1e-11 * mech.size
+
+
 def test_whitworth_quick_return_ratio():
     """The ram's cutting stroke (along −x, the line's direction) takes (π + 2β) of crank, the return
     (π − 2β), β = arcsin(O2O4 / O2A): a ratio of 2, read off the solved ram's dead centres."""

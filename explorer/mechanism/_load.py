@@ -343,12 +343,12 @@ def _sliders(source: str, raw, known: set, fixed: dict, tip: str, seen_pairs: di
         if v not in known:
             raise UserError(f"{where(source, f'{key}.vertex')}: vertex {v!r} is neither driven, fixed, nor in [guess] "
                             f"(a missing guess or an unknown vertex)")
-        if v in fixed:
-            raise UserError(f"{where(source, f'{key}.vertex')}: vertex {v!r} is fixed; a slider's vertex moves")
         ground = "point" in st or "direction" in st
         if ground == ("line" in st):
             raise UserError(f"{where(source, key)}: give either point and direction (a line fixed to the ground) or "
                             f"line = [a, b] (a slot in a moving link or body), got keys {', '.join(sorted(st))}")
+        if ground and v in fixed:  # (a fixed vertex in a slot is a swinging block: the slot turns through it)
+            raise UserError(f"{where(source, f'{key}.vertex')}: vertex {v!r} is fixed; a slider on a ground line moves")
         if ground:
             for k in ("point", "direction"):
                 if k not in st:
