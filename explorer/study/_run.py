@@ -156,8 +156,9 @@ STAGES = ("sample", "solve", "metrics", "write", "wait", "write_cpu")
 #: measurement). h5py holds the GIL while HDF5 compresses and writes, so the writer commits one HDF5
 #: chunk per call (ResultsWriter.write_chunk) and, while the thread runs, the interpreter's switch
 #: interval is cut from 5 ms to :data:`SWITCH_INTERVAL`: a kernel thread finishing its block of rows
-#: then waits for the GIL at most about one HDF5 chunk's write instead of 5 ms (on 2 cores, 50,000
-#: variants with velocities: 1.7x -> 1.2x the kernels' time; benchmarks/bench_pipeline.py).
+#: then waits for the GIL at most about one HDF5 chunk's write instead of 5 ms (on the shared 2-core
+#: machine, 50,000 variants x 360 steps with velocities, Blosc, load ~2.8: 1.71x the kernels' time with a
+#: 5 ms interval, 1.19x with 0.2 ms; benchmarks/bench_pipeline.py).
 _THREADED = True
 #: The switch interval while the commit thread runs, s (restored after the run).
 SWITCH_INTERVAL = 2e-4
