@@ -40,11 +40,11 @@ def both(tmp_path, spec: dict, tag: str = ""):
 
 
 def test_every_builtin_is_leaned():
-    """The test below covers every built-in mechanism there is."""
-    assert set(builtin_mechanisms()) == {"arm", "fourbar", "hoeken", "jansen", "klann", "strider"}
+    """The test below runs on every built-in mechanism there is (the list is read when it is collected)."""
+    assert {"arm", "fourbar", "hoeken", "jansen", "klann", "strider"} <= set(builtin_mechanisms())
 
 
-@pytest.mark.parametrize("mechanism", ["arm", "fourbar", "hoeken", "jansen", "klann", "strider"])
+@pytest.mark.parametrize("mechanism", builtin_mechanisms())
 def test_resolved_series_equal_stored_ones(tmp_path, mechanism, capfd):
     F, L = both(tmp_path, study(mechanism))
     with F, L:
