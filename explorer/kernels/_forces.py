@@ -5,9 +5,11 @@ Model (the contract)
 The crank turns at the constant speed ω = rpm·2π/60 (rad/s). Coordinates are every vertex's position
 (the vertex formulation of seed 000); the constraints are the plan's distance equations
 φ = ½(|p_b − p_a|² − d²) (links, then each body's base pair), its attach equations
-j − p − (u·I + w·R)(q − p) = 0 (a body joint from its base pair; R the quarter turn) and, outside
-the plan, the fixed vertices and the crank tip (prescribed). Masses enter through a constant mass
-matrix on those coordinates:
+j − p − (u·I + w·R)(q − p) = 0 (a body joint from its base pair; R the quarter turn), its slide
+equations (``_blocks.slide_eval``: a slider's signed distance from its line; the multiplier times the
+equation's gradient is its guide's push — the frame's for a ground line, the slotted member's for a
+slot — normal to the line: no friction) and, outside the plan, the fixed vertices and the crank tip
+(prescribed). Masses enter through a constant mass matrix on those coordinates:
 
 * a link of mass m (a uniform bar) adds m/6·[[2, 1], [1, 2]] on its two ends and m·g/2 of weight
   on each end (exact for a rigid uniform bar: its kinetic energy is m/6·(|ȧ|² + ȧ·ḃ + |ḃ|²));
@@ -22,8 +24,8 @@ Velocities and accelerations come block by block in plan order from the position
 constraint equations differentiated once and twice: linear solves with the block's Jacobian). The
 Lagrange equations Φ_qᵀ·λ = M·q̈ − Q are then solved for the multipliers block by block in *reverse*
 plan order (the Jacobian is block-lower-triangular, so its transpose is block-upper-triangular):
-each block's own Jacobian transposed, 2x2 for a dyad, the identity for a body joint. What is left on
-the fixed vertices is the frame's force on the mechanism; on the crank tip, the crank's force f on
+each block's own Jacobian transposed, 2x2 for a dyad or a pin–slider (SLIDE) block, the identity for a
+body joint. What is left on the fixed vertices is the frame's force on the mechanism; on the crank tip, the crank's force f on
 the tip pin, whence the motor torque τ = (tip − c) × f + m_c·g·(tip − c)_x / 2 (positive when the
 motor does positive work: along the crank's counter-clockwise turn).
 
@@ -52,15 +54,10 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, Plan
-from ._blocks import _general_jacobian, _general_rates, general_sign, lu_solve
+from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, ROW_SLIDE, SLIDE, Plan
+from ._blocks import _general_jacobian, _general_rates, general_sign, lu_solve, slide_curvature, slide_row
 from ._design import pair_coordinates
 from ._legs import ground_contact, leg_feet, leg_samples
-
-#: The forces effect refuses mechanisms with sliders (``_simulate.force_setup``): its general blocks
-#: have no slide rows.
-_NO_SLIDE = np.zeros((0, 3), dtype=np.int64)
-_NO_SD = np.zeros((0, 6))
 
 # The general-block solver the kinematics / reactions call (``_kin_general`` / ``_rea_general``); the
 # copies jitted by :func:`_specialise` bind it, or bind a stub for plans without general blocks, so that
@@ -113,6 +110,8 @@ class ForceTables:
     foot: int
     foot_inc: int
     inc_member: tuple  # (K,) member names, for people: link / body name, "crank", "frame", "ground"
+    slide: np.ndarray = None  # (n_slide, 3) each slide equation's p, a, b (``Plan.slide``)
+    sinc: np.ndarray = None  # (n_slide, 3) the incidences of its guide (the frame, or the slot's member) at p, a, b
 
 
 def force_tables(mech, plan: Plan) -> ForceTables:
@@ -143,6 +142,16 @@ def force_tables(mech, plan: Plan) -> ForceTables:
     fixed_inc = np.array([incidence("frame", v) for v in fixed], dtype=np.int64)
     foot = mech.vertex_index(mech.foot)
     foot_inc = incidence("ground", foot)
+    sinc = np.full((len(plan.slide), 3), -1, dtype=np.int64)
+    for k, (si, pab) in enumerate(zip(plan.slide_slider, plan.slide)):
+        sl = mech.sliders[si]
+        if sl.ground:  # the guide is the frame
+            sinc[k, 0] = incidence("frame", pab[0])
+            continue
+        pair = frozenset(sl.line)
+        member = next((lk.name for lk in mech.links if frozenset((lk.a, lk.b)) == pair), None) \
+            or next(b.name for b in mech.bodies if pair <= set(b.joints))
+        sinc[k] = [incidence(member, v) for v in pab]
     nblk = plan.n_blocks
     blk_kind = np.array([b.kind for b in plan.blocks], dtype=np.int64)
     blk_v = np.array([b.vertices[0] for b in plan.blocks], dtype=np.int64)
@@ -153,19 +162,23 @@ def force_tables(mech, plan: Plan) -> ForceTables:
             blk_e[k] = b.links
         elif b.kind == ATTACH:
             blk_e[k, 0] = b.attaches[0][0]
+        elif b.kind == SLIDE:
+            blk_e[k] = b.links[0], b.slides[0]
         else:
             verts += list(b.vertices)
             for e in b.links:
                 rows.append((ROW_DIST, e))
             for t, axis in b.attaches:
                 rows.append((ROW_ATTACH_X if axis == 0 else ROW_ATTACH_Y, t))
+            for t in b.slides:
+                rows.append((ROW_SLIDE, t))
         vp.append(len(verts))
         rp.append(len(rows))
     i64 = lambda x: np.asarray(x, dtype=np.int64)  # noqa: E731
     return ForceTables(blk_kind, blk_v, blk_e, i64(vp), i64(verts), i64(rp), i64(rows).reshape(-1, 2),
                        i64(plan.link_a), i64(plan.link_b), i64(plan.attach).reshape(-1, 3), i64([v for _, v in inc]),
                        dinc, ainc, body_pq, body_inc, int(plan.tip), tip_inc, fixed, fixed_inc, foot, foot_inc,
-                       tuple(m for m, _ in inc))
+                       tuple(m for m, _ in inc), i64(plan.slide).reshape(-1, 3), sinc)
 
 
 # -- small dense solves -------------------------------------------------------------------------------
@@ -209,24 +222,24 @@ def _row_grad(kind, rid, axis, v, P, dist_a, dist_b, att, uv, out):
 
 
 @njit(cache=True, nogil=True)
-def _kin_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, V, A, loc, M, x, g):
+def _kin_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, V, A, loc, M, x, g, slide, sd):
     """Velocities and accelerations of general block k's vertices (see :func:`_kinematics`), by the
     kernels' own general-block rates (``_blocks._general_rates``); False if its Jacobian is singular."""
     verts = blk_verts[blk_vp[k]:blk_vp[k + 1]]
     rows = gen_rows[blk_rp[k]:blk_rp[k + 1]]
-    if general_sign(P, verts, rows, dist_a, dist_b, att, uv, _NO_SLIDE, _NO_SD, loc, M, x) == 0.0:
+    if general_sign(P, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M, x) == 0.0:
         return False
     for j in range(verts.shape[0]):
         loc[verts[j]] = j
-    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, _NO_SLIDE, _NO_SD, loc, M, x, False)
-    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, _NO_SLIDE, _NO_SD, loc, M, x, True)
+    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M, x, False)
+    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M, x, True)
     for j in range(verts.shape[0]):
         loc[verts[j]] = -1
     return True
 
 
 def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv,
-                tip, cx, cy, P, V, A, loc, M, x, g, tol):
+                tip, cx, cy, P, V, A, loc, M, x, g, tol, slide, sd):
     """Velocities V and accelerations A (nv, 2), per radian and per radian², of every vertex at one
     sample from its positions P, block by block in plan order; fixed vertices still, the tip on its
     circle about (cx, cy). Returns the first block whose Jacobian is singular, or −1."""
@@ -283,15 +296,62 @@ def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist
             gy = A[q, 1] - A[p, 1]
             A[j, 0] = A[p, 0] + u * gx - w * gy
             A[j, 1] = A[p, 1] + u * gy + w * gx
+        elif kind == 3:  # SLIDE: (v − c)·(V_v − V_c) = 0 and the slide row J·V = 0 (see _fast.slide_rates)
+            v = blk_v[k]
+            e = blk_e[k, 0]
+            s = blk_e[k, 1]
+            c = dist_a[e] if dist_b[e] == v else dist_b[e]
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, slide, sd)
+            jx, jy = _slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby)
+            ex = P[v, 0] - P[c, 0]
+            ey = P[v, 1] - P[c, 1]
+            det = ex * jy - ey * jx
+            if not (abs(det) > tol * (abs(ex * jy) + abs(ey * jx))):
+                return k
+            r1 = ex * V[c, 0] + ey * V[c, 1]
+            r2 = -_slide_others(slide, s, v, V, jpx, jpy, jax, jay, jbx, jby)
+            V[v, 0] = (r1 * jy - ey * r2) / det
+            V[v, 1] = (ex * r2 - jx * r1) / det
+            wx = V[v, 0] - V[c, 0]
+            wy = V[v, 1] - V[c, 1]
+            r1 = ex * A[c, 0] + ey * A[c, 1] - (wx * wx + wy * wy)
+            r2 = -_slide_others(slide, s, v, A, jpx, jpy, jax, jay, jbx, jby) - slide_curvature(V, s, slide, sd)
+            A[v, 0] = (r1 * jy - ey * r2) / det
+            A[v, 1] = (ex * r2 - jx * r1) / det
         else:  # GENERAL: J_bb x_b = −J_bk x_k (− the quadratic terms of the distance rows, for A)
             if not general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, V,
-                                A, loc, M, x, g):
+                                A, loc, M, x, g, slide, sd):
                 return k
     return -1
 
 
 @njit(cache=True, nogil=True)
-def _rea_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, R, loc, M, x, g, lam_d, lam_a):
+def _slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby):
+    """The slide row s's partial derivative in vertex v (one of its p, a, b)."""
+    if slide[s, 0] == v:
+        return jpx, jpy
+    if slide[s, 1] == v:
+        return jax, jay
+    return jbx, jby
+
+
+@njit(cache=True, nogil=True)
+def _slide_others(slide, s, v, X, jpx, jpy, jax, jay, jbx, jby):
+    """Σ ∂r/∂w · X[w] over slide row s's vertices w other than v."""
+    out = 0.0
+    if slide[s, 0] != v:
+        out += jpx * X[slide[s, 0], 0] + jpy * X[slide[s, 0], 1]
+    if slide[s, 1] >= 0:
+        if slide[s, 1] != v:
+            out += jax * X[slide[s, 1], 0] + jay * X[slide[s, 1], 1]
+        if slide[s, 2] != v:
+            out += jbx * X[slide[s, 2], 0] + jby * X[slide[s, 2], 1]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _rea_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, R, loc, M, x, g, lam_d, lam_a,
+                 slide, sd, lam_s):
     """The multipliers of general block k (see :func:`_reactions`): its Jacobian (the kernels' own,
     ``_blocks._general_jacobian``) transposed; False if it is singular."""
     verts = blk_verts[blk_vp[k]:blk_vp[k + 1]]
@@ -300,7 +360,7 @@ def _rea_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv
     n = 2 * nb
     for j in range(nb):
         loc[verts[j]] = j
-    _general_jacobian(P, verts, rows, dist_a, dist_b, att, uv, _NO_SLIDE, _NO_SD, loc, M)
+    _general_jacobian(P, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M)
     for r in range(n):  # transpose in place
         for c in range(r + 1, n):
             t = M[r, c]
@@ -316,6 +376,15 @@ def _rea_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv
             loc[verts[j]] = -1
         return False
     for r in range(n):  # store the multipliers; push what the rows put on vertices outside the block
+        if rows[r, 0] == ROW_SLIDE:
+            s = rows[r, 1]
+            lam_s[s] = x[r]
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, slide, sd)
+            for vv, gx, gy in ((slide[s, 0], jpx, jpy), (slide[s, 1], jax, jay), (slide[s, 2], jbx, jby)):
+                if vv >= 0 and loc[vv] < 0:
+                    R[vv, 0] -= gx * x[r]
+                    R[vv, 1] -= gy * x[r]
+            continue
         kind_r = 0 if rows[r, 0] == ROW_DIST else 1
         rid = rows[r, 1]
         ax = 0 if rows[r, 0] != ROW_ATTACH_Y else 1
@@ -338,7 +407,7 @@ def _rea_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv
 
 
 def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att,
-               uv, dinc, ainc, P, R, F, loc, M, x, g, lam_d, lam_a):
+               uv, dinc, ainc, P, R, F, loc, M, x, g, lam_d, lam_a, slide, sd, sinc, lam_s):
     """Solve Φ_qᵀ λ = R block by block in reverse plan order. R (nv, 2) comes holding M q̈ − Q (with the
     members' own parts already written, negated, into the incidence forces F (K, 2)); it leaves holding
     what the plan's constraints do not carry: the crank's force on the tip and the frame's on each fixed
@@ -392,9 +461,35 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_
             R[p, 1] += ly - aty
             R[q, 0] += atx
             R[q, 1] += aty
+        elif kind == 3:  # SLIDE: λ_d (v − c) + λ_s J = R_v
+            v = blk_v[k]
+            e = blk_e[k, 0]
+            s = blk_e[k, 1]
+            c = dist_a[e] if dist_b[e] == v else dist_b[e]
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, slide, sd)
+            jx, jy = _slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby)
+            ex = P[v, 0] - P[c, 0]
+            ey = P[v, 1] - P[c, 1]
+            det = ex * jy - ey * jx
+            if det == 0.0:
+                return k
+            rx = R[v, 0]
+            ry = R[v, 1]
+            l1 = (rx * jy - ry * jx) / det
+            l2 = (ex * ry - ey * rx) / det
+            lam_d[e] = l1
+            lam_s[s] = l2
+            R[v, 0] = 0.0
+            R[v, 1] = 0.0
+            R[c, 0] += ex * l1
+            R[c, 1] += ey * l1
+            for vv, gx, gy in ((slide[s, 0], jpx, jpy), (slide[s, 1], jax, jay), (slide[s, 2], jbx, jby)):
+                if vv >= 0 and vv != v:
+                    R[vv, 0] -= gx * l2
+                    R[vv, 1] -= gy * l2
         else:
             if not general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, R,
-                           loc, M, x, g, lam_d, lam_a):
+                           loc, M, x, g, lam_d, lam_a, slide, sd, lam_s):
                 return k
     # every row's pull on its member's pins: (∂c/∂q_v)ᵀ λ
     for e in range(dist_a.shape[0]):
@@ -419,13 +514,23 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_
         F[ainc[t, 1], 1] -= ly - aty
         F[ainc[t, 2], 0] -= atx
         F[ainc[t, 2], 1] -= aty
+    for s in range(slide.shape[0]):  # a slider's guide pushes normal to its line, no friction
+        _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, slide, sd)
+        ls = lam_s[s]
+        F[sinc[s, 0], 0] += jpx * ls
+        F[sinc[s, 0], 1] += jpy * ls
+        if slide[s, 1] >= 0:
+            F[sinc[s, 1], 0] += jax * ls
+            F[sinc[s, 1], 1] += jay * ls
+            F[sinc[s, 2], 0] += jbx * ls
+            F[sinc[s, 2], 1] += jby * ls
     return -1
 
 
 def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b,
                    att, inc_vertex, dinc, ainc, body_pq, body_inc, body_mass, tip, tip_inc, fixed, fixed_inc, foot,
-                   foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight, out_idx,
-                   P, status, uv, center, link_mass, body_cuv, body_J, crank_mass,
+                   foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight, out_idx, slide, sinc,
+                   P, status, uv, sdes, center, link_mass, body_cuv, body_J, crank_mass,
                    torque, fsel, finc, vout, aout, pin_peak, shake_peak, travel, code, code_sample, code_block):
     """Per variant i (rows last): positions P[i] (S, nv, 2), model units, of an ok variant (status 0)
     → torque[i] (S,) N·m, fsel[i] (S, n_sel, 2) N (leg 0's reaction at each joint in ``sel``),
@@ -436,7 +541,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
     ``out_idx``, when asked for (second axis 0 otherwise). Shared: the :class:`ForceTables`
     arrays, body_mass (nb,) kg, sel (n_sel,), the walker's legs (base, frac, sign, mirrored), drag,
     unit (m per model unit), omega (rad/s), gravity (m/s²), weight (N on the contact foot). Per row:
-    uv (n_att, 2), center (2,), link_mass (n_links,) kg, body_cuv (nb, 2) centroids in base-pair
+    uv (n_att, 2), sdes (n_slide, 6) the slide equations' lines (``Designs.slide``), center (2,), link_mass (n_links,) kg, body_cuv (nb, 2) centroids in base-pair
     coordinates, body_J (nb,) kg (the base-pair inertia, see the module), crank_mass kg."""
     N = P.shape[0]
     S = P.shape[1]
@@ -460,6 +565,8 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
     Au = np.empty((nv, 2))
     Fu = np.empty((K, 2))
     uvi = np.empty((att.shape[0], 2))
+    sdi = np.empty((slide.shape[0], 6))
+    lam_s = np.zeros(slide.shape[0])
     # zeros: without a load only the first right-hand side is ever written, and the others are read
     # with weight 0 (0 × uninitialised memory could be NaN)
     Fi = np.zeros((S, 3, K, 2))
@@ -497,6 +604,9 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
         for t in range(att.shape[0]):
             uvi[t, 0] = uv[i, t, 0]
             uvi[t, 1] = uv[i, t, 1]
+        for t in range(slide.shape[0]):
+            for c6 in range(6):
+                sdi[t, c6] = sdes[i, t, c6]
         cx = center[i, 0]
         cy = center[i, 1]
         mc = crank_mass[i]
@@ -507,7 +617,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                 Pu[v, 0] = Pi[u, v, 0]
                 Pu[v, 1] = Pi[u, v, 1]
             blk = kinematics(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a,
-                             dist_b, att, uvi, tip, cx, cy, Pu, Vu, Au, loc, M, x, g, 1e-13)
+                             dist_b, att, uvi, tip, cx, cy, Pu, Vu, Au, loc, M, x, g, 1e-13, slide, sdi)
             for v in range(nv):
                 V[u, v, 0] = Vu[v, 0]
                 V[u, v, 1] = Vu[v, 1]
@@ -649,7 +759,8 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                     Fu[foot_inc, 0] += ex
                     Fu[foot_inc, 1] += Fy
                 blk = reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a,
-                                dist_b, att, uvi, dinc, ainc, Pu, R, Fu, loc, M, x, g, lam_d, lam_a)
+                                dist_b, att, uvi, dinc, ainc, Pu, R, Fu, loc, M, x, g, lam_d, lam_a, slide, sdi,
+                                sinc, lam_s)
                 if blk >= 0:
                     code[i] = F_SINGULAR
                     code_sample[i] = u
@@ -922,8 +1033,10 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
     shared = (tb.blk_kind, tb.blk_v, tb.blk_e, tb.blk_vp, tb.blk_verts, tb.blk_rp, tb.gen_rows,
               tb.dist_a, tb.dist_b, tb.att, tb.inc_vertex, tb.dinc, tb.ainc, tb.body_pq, tb.body_inc, body_mass,
               tb.tip, tb.tip_inc, tb.fixed, tb.fixed_inc, tb.foot, tb.foot_inc, sel, base, frac, sign, mirrored,
-              float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight, out_idx)
-    rows = (np.ascontiguousarray(P), np.ascontiguousarray(status), des.uv, des.center, link_mass, body_cuv, body_J,
+              float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight, out_idx, tb.slide,
+              tb.sinc)
+    rows = (np.ascontiguousarray(P), np.ascontiguousarray(status), des.uv, des.slide, des.center, link_mass, body_cuv,
+            body_J,
             crank_mass, torque, fsel, finc, vout, aout, pin_peak, shake, travel, code, csample, cblock)
     kernel = forces_any if np.any(tb.blk_kind == GENERAL) else forces_fast
     parallel_rows(kernel, shared, rows)

@@ -484,9 +484,6 @@ def force_setup(mech: Mechanism, operating, walker) -> tuple[Operating, Walker]:
     if mech.crank is None:
         raise UserError(f"{where(mech.source, 'driver')}: forces are computed for crank-driven mechanisms (the motor "
                         f"torque is the crank's); this one is driven by a path")
-    if mech.sliders:
-        raise UserError(f"{where(mech.source, 'sliders')}: forces through sliders are not computed yet (slider "
-                        f"{mech.sliders[0].name!r}); the kinematics (positions, velocities, accelerations) are")
     if isinstance(operating, Operating):
         op = operating
     else:
