@@ -363,6 +363,24 @@ def test_forces_through_a_ground_slider_balance_energy():
     assert np.max(np.abs(guide[:, 0])) == 0.0 and np.max(np.abs(guide[:, 1])) > 0.1
 
 
+def test_forces_through_a_slot_inside_a_loop_balance_energy():
+    """The coupled block's slide rows in the forces effect: heavy links, energy from the plain Newton."""
+    data = slot_loop()
+    data["links"][0]["mass"], data["links"][1]["mass"] = 0.3, 0.7
+    mech = mechanism_from_dict(data)
+    cyc = simulate(mech, steps=720, forces=True, operating={"unit": 0.1, "rpm": 30, "gravity": 9.81},
+                   tolerance=1e-12)
+    assert cyc.ok
+    th = cyc.theta
+    ref = slot_loop_newton(th)
+    h = th[1] - th[0]
+    D = np.broadcast_to(np.array([4.0, 3.0]), ref[:, :2].shape)
+    pos = {"D": D, "E": ref[:, :2], "F": ref[:, 2:]}
+    vel = {"D": np.zeros_like(D), "E": d4(ref[:, :2], h), "F": d4(ref[:, 2:], h)}
+    want = energy_torque(th, pos, vel, [("D", "E", 0.3), ("E", "F", 0.7)], 0.1, np.pi, 9.81)
+    assert np.max(np.abs(cyc.torque - want)) <= 1e-4 * np.max(np.abs(want))
+
+
 def test_forces_through_a_slot_balance_energy():
     """Whitworth with a heavy arm and rod: the slot and the ram's guide do no work."""
     text = builtin_text("whitworth").replace('length = 3.5', 'length = 3.5\nmass = 0.8').replace(
