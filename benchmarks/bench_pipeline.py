@@ -11,6 +11,8 @@ For each size N (the default study's ±2 % Jansen variants × 360 steps, foot + 
   - ``series``: ``run_study`` with the scene's series stored and no metrics (``[scene] metrics = false``):
     sampling + kernels + writing: the ratio to ``kernels`` is the pipeline's overhead;
   - ``metrics``: ``run_study`` of the default scene (series and every metric);
+  - ``lean``: the same stored lean (``[scene] store = "metrics"``: designs, statuses, metrics, no series);
+    ``--modes lean --million`` is the million-design row (``benchmarks/bench_lean.py`` adds peak memory);
   - further modes are one function each (:data:`MODES`): ``mode(n, args, out) -> (study, summary)``.
 
 Columns: wall seconds of the whole run, then the run's own timers (``RunSummary.timings``): sample,
@@ -81,8 +83,14 @@ def metrics(n: int, a, out: Path):
     return _run(study_for(n, a.compression), a, out)
 
 
+def lean(n: int, a, out: Path):
+    """run_study of the default scene stored lean ([scene] store = "metrics"): designs, statuses and every
+    metric, no series (peak memory per size: benchmarks/bench_lean.py)."""
+    return _run(study_for(n, a.compression, store="metrics"), a, out)
+
+
 #: Modes by name: fn(n, args, out) -> (study, wall s, RunSummary or None), one timed call each.
-MODES = {"kernels": kernels, "series": series, "metrics": metrics}
+MODES = {"kernels": kernels, "series": series, "metrics": metrics, "lean": lean}
 
 
 def _load() -> str:
