@@ -1,12 +1,14 @@
 """Structural analysis: block-lower-triangular (BLT) order of a linkage's equations.
 
-Equations are the links and the rigid bodies' equations (see ``_kinds``); unknowns are the x and
-y of every vertex that is neither fixed nor the crank tip. A maximum matching pairs each equation with an unknown it contains; Tarjan's strongly
-connected components of the resulting dependency graph, emitted dependencies first, are the blocks.
-Each block is solved after the blocks it reads from. A vertex placed by two links to already-known
-vertices is a *dyad* (a 2x2 block with a closed-form twin); a body joint placed by its body's known
-base pair is an *attach* block (exact); anything else, such as an Assur class III triad, is one
-coupled *general* block.
+Equations are the links, the rigid bodies' equations and the sliders' slide equations (see
+``_kinds``); unknowns are the x and y of every vertex that is neither fixed nor the driven vertex.
+A maximum matching pairs each equation with an unknown it contains; Tarjan's strongly connected
+components of the resulting dependency graph, emitted dependencies first, are the blocks. Each block
+is solved after the blocks it reads from. A vertex placed by two links to already-known vertices is
+a *dyad* (a 2x2 block with a closed-form twin); a body joint placed by its body's known base pair is
+an *attach* block (exact); a vertex placed by a link to a known vertex and a slide equation whose
+other vertices are known is a *slide* block (a pin–slider dyad, exact); anything else, such as an
+Assur class III triad or a slot inside a loop, is one coupled *general* block.
 """
 
 from __future__ import annotations
