@@ -83,6 +83,8 @@ def screen_line(summary: dict, included: bool) -> str:
     """One line on what the buildability screen removed (or would have, with --include-screened)."""
     if not summary["applied"] and summary.get("path_driven"):
         return "buildability screen: not applicable (a mechanism driven along a path is no leg)"
+    if not summary["applied"] and summary.get("not_applicable"):
+        return f"buildability screen: not applicable ({summary['not_applicable']})"
     if not summary["applied"]:
         return ("buildability screen: not applied (this file stores none of min_transmission_angle, foot_headroom, "
                 "self_crossings; recompute them with `explorer metrics RESULTS --metrics all`)")

@@ -305,6 +305,12 @@ def foot_headroom(mech, paths, status=None, geometry=None) -> np.ndarray:
 
 
 # -- public ------------------------------------------------------------------------------------------
+#: Metric groups that describe a foot that lifts and steps: not applicable when the foot is the sliding
+#: vertex of a ground slider (a piston, a ram: its path is a segment of a fixed line, so stance, stride,
+#: slip, clearance ... and the screen's headroom and self-crossings have no meaning there).
+FOOT_ON_LINE_GROUPS = ("walker", "leg", "screen")
+
+
 def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
     """{metric: None if it can be computed here, else why not}."""
     has_crank = mechanism is not None and mechanism.crank is not None
@@ -323,6 +329,10 @@ def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
             why = "needs the mechanism (mechanism=, lengths=, crank=)"
         elif BY_NAME[m].group == "slider" and mechanism is not None and _foot_slider(mechanism) is None:
             why = f"mechanism {mechanism.name!r} has no foot on a ground slider (a slider's metric)"
+        elif BY_NAME[m].group in FOOT_ON_LINE_GROUPS and mechanism is not None and _foot_slider(mechanism) is not None:
+            sl = _foot_slider(mechanism)
+            why = (f"the foot {mechanism.foot!r} of mechanism {mechanism.name!r} runs on the ground slider {sl.name!r}: "
+                   f"a stroke along a fixed line, not a foot that lifts and steps (walker, leg and screen metrics)")
         elif m == "min_transmission_angle" and not fourbar_loops(mechanism):
             why = f"mechanism {mechanism.name!r} has no crank-driven four-bar loop"
         elif mechanism is not None and not has_crank:

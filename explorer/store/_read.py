@@ -280,6 +280,9 @@ class Results:
         from ..gait import screen_counts
         out = screen_counts(self.frame() if df is None else df, self.screen)
         out["path_driven"] = self.mechanism.crank is None
+        if not out["path_driven"]:  # a foot on a ground slider: the screen's inputs do not apply (the reason)
+            from ..gait import available_metrics
+            out["not_applicable"] = available_metrics(self.mechanism)["foot_headroom"]
         return out
 
     @property
@@ -346,6 +349,15 @@ class Results:
             raise UserError(f"{self.filename}: mechanism {self.mechanism.name!r} is driven along a path: gait metrics "
                             f"do not apply to it; rank by a column such as iterations (--by iterations: the fewest "
                             f"Newton iterations first)")
+        from ..gait import available_metrics, metric
+        why = available_metrics(self.mechanism)  # a metric the mechanism cannot have (a foot on a ground slider)
+        never = [n for n in missing if why[n] is not None and metric(n).group in ("walker", "leg", "screen", "slider")]
+        if never:
+            usable = [m for m in stored if why.get(m) is None] or [m for m in METRICS if why[m] is None]
+            s = "s" if len(never) > 1 else ""
+            hint = f"; rank by a metric it has: --by {usable[0]}" if usable else ""
+            raise UserError(f"{self.filename}: metric{s} {', '.join(never)} do{'' if s else 'es'} not apply: "
+                            f"{why[never[0]]}{hint}")
         if not stored:
             raise UserError(f"{self.filename}: no gait metrics stored; compute them with "
                             f"`explorer metrics {self.filename}` (no re-solving) or set [scene] metrics = true "

@@ -524,9 +524,10 @@ def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st,
     opt = parse_optimize(data["optimize"], source, mech, known, has_target="target" in data)
     common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base,
                                data.get("operating"), data.get("robustness"))
-    from ..gait import CHECKS
+    from ..gait import CHECKS, available_metrics
     from ._objectives import metrics_needed
-    needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check.inputs))
+    why_not = available_metrics(mech)  # the screen reads only the inputs the mechanism has (none: a foot on a slider)
+    needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check.inputs if why_not.get(col) is None))
     from ..gait import metric
     forced = [m for m in needed if metric(m) is not None and metric(m).group == "forces"]
     if forced and not common["forces"]:
