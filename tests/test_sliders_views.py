@@ -77,3 +77,20 @@ def test_slider_study_runs_and_rank_says_what_it_lacks(tmp_path):
     bad["scene"]["metrics"] = ["slip"]
     with pytest.raises(UserError, match="scene.metrics.*slip.*ground slider 'piston'"):
         run_study(bad, output=tmp_path / "bad.h5", progress=False)
+
+
+# -- 2. show labels slider parameters by their slider ------------------------------------------------
+def test_show_labels_slider_parameters():
+    """Whitworth's slot offset and ram line are labelled by their sliders, never "joint"; a ground
+    line's direction has no % of size and stays unitless in mm (--units si), its point is scaled."""
+    from explorer.cli._show import parameter_lines
+
+    mech = load_mechanism("whitworth")
+    design = {"ram.y": 0.35, "block.offset": -0.07, "ram.dy": 0.1}
+    lines = parameter_lines(mech, design, {}, {"ram.y", "block.offset"}, mm_per_unit=10.0)
+    assert not any(line.startswith("joint") for line in lines)
+    row = {line.split("  ")[0].strip(): line.split() for line in lines[1:] if "  " in line}
+    assert row["slider ram point y"][-7:] == ["3.5000", "0.0000", "+3.5000", "+5.000", "%", "of", "size"]  # 0.35·10 mm; 0.35/7
+    assert row["slot block offset"][-7:] == ["-0.7000", "0.0000", "-0.7000", "-1.000", "%", "of", "size"]
+    assert row["slider ram direction y (fixed) (no unit)"][-4:] == ["0.1000", "0.0000", "+0.1000", "-"]
+    assert "slider ram point x (fixed)" in row and "slider ram direction x (fixed) (no unit)" in row

@@ -37,6 +37,20 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+def slider_labels(mech) -> dict[str, str]:
+    """{parameter: label} of the sliders' parameters: a ground line's point ("slider ram point x") and
+    direction ("slider ram direction x"), a slot's offset ("slot block offset")."""
+    out = {}
+    for sl in mech.sliders:
+        if sl.ground:
+            for a in "xy":
+                out[f"{sl.name}.{a}"] = f"slider {sl.name} point {a}"
+                out[f"{sl.name}.d{a}"] = f"slider {sl.name} direction {a}"
+        else:
+            out[f"{sl.name}.offset"] = f"slot {sl.name} offset"
+    return out
+
+
 def parameter_lines(mech, design: dict, nominal: dict, perturbed, mm_per_unit: float | None = None) -> list[str]:
     """The table of every design parameter of ``mech`` (``Mechanism.parameters`` order): the variant's
     value (``design``, :meth:`Results.design`), the nominal (``nominal``, else the mechanism's), the
@@ -47,6 +61,7 @@ def parameter_lines(mech, design: dict, nominal: dict, perturbed, mm_per_unit: f
     unit = "" if mm_per_unit is None else " [mm]"
     size = mech.size
     pivots = {f"{v}.{a}" for v in mech.fixed for a in "xy"}
+    sliders = slider_labels(mech)
     rows = [("parameter", "value" + unit, "nominal" + unit, "change" + unit, "change %")]
     for p, mech_nominal in mech.parameters().items():
         nom = float(nominal.get(p, mech_nominal))
@@ -56,11 +71,17 @@ def parameter_lines(mech, design: dict, nominal: dict, perturbed, mm_per_unit: f
             pct = f"{100.0 * d / nom:+.3f} %" if nom else "-"
             label = p if p == "crank" else f"link {p}"
         else:
-            pct = f"{100.0 * d / size:+.3f} % of size"
-            label = f"pivot {p}" if p in pivots else (p if p in ("crank.x", "crank.y") else f"joint {p}")
+            # a ground line's direction counts only by its angle: no % of the mechanism's size
+            pct = "-" if p in sliders and p.endswith((".dx", ".dy")) else f"{100.0 * d / size:+.3f} % of size"
+            label = (f"pivot {p}" if p in pivots else sliders[p] if p in sliders
+                     else p if p in ("crank.x", "crank.y") else f"joint {p}")
         if p not in perturbed:
             label += " (fixed)"
-        rows.append((label, f"{val * k:.4f}", f"{nom * k:.4f}", f"{d * k:+.4f}", pct))
+        kk = k
+        if pct == "-" and p in sliders:  # a direction: no unit, never in mm
+            kk = 1.0
+            label += " (no unit)" if unit else ""
+        rows.append((label, f"{val * kk:.4f}", f"{nom * kk:.4f}", f"{d * kk:+.4f}", pct))
     out = table(rows, (False, True, True, True, True))
     if any(mech.parameter_kind(p) == "coordinate" for p in mech.parameters()):
         out.append(f"(a coordinate's change is in % of the mechanism's size, {size * k:g}{' mm' if unit else ''}: "

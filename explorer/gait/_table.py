@@ -14,6 +14,9 @@ walker     the walker scene: the leg replicated with crank phase offsets, the bo
 leg        single-leg metrics of one foot path with a stance *band* (``y ≤ y_min + band·height``),
            kept for comparison with published figures; those with ``band`` in ``needs`` depend on it.
 screen     what the buildability screen reads (:mod:`explorer.gait._screen`).
+           walker, leg and screen are not applicable to a foot that is the sliding vertex of a ground
+           slider (its path is a stroke along a fixed line: ``FOOT_ON_LINE_GROUPS`` in
+           :mod:`explorer.gait._metrics`), as no gait metric applies to a mechanism driven along a path.
 
 slider     a foot that runs on a ground slider (a slider-crank's piston, a shaper's ram): ``quick_return``
            (:mod:`explorer.gait._metrics`); not applicable to any other foot.
