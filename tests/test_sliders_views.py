@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 from importlib import resources
 
+import numpy as np
 import pytest
 
 from explorer import UserError, load_mechanism, open_results, run_study, simulate
@@ -94,3 +95,77 @@ def test_show_labels_slider_parameters():
     assert row["slot block offset"][-7:] == ["-0.7000", "0.0000", "-0.7000", "-1.000", "%", "of", "size"]
     assert row["slider ram direction y (fixed) (no unit)"][-4:] == ["0.1000", "0.0000", "+0.1000", "-"]
     assert "slider ram point x (fixed)" in row and "slider ram direction x (fixed) (no unit)" in row
+
+
+# -- 3. the drawings show a ground slider's guide and a slot ------------------------------------------
+def test_guide_segment_of_the_slider_crank_over_its_travel():
+    """The piston's guide: y = 1, from the closed form's lowest to highest x at the same crank angles,
+    lengthened by 10 % of the stroke at each end; mirrored about the crank centre for a mirrored leg."""
+    from explorer.view._draw import guide_segments
+
+    mech = load_mechanism("slidercrank")
+    cyc = simulate(mech, steps=90, velocities=False)
+    th = cyc.theta
+    s = 1.4 * np.sin(th) - 1.0
+    x = 1.4 * np.cos(th) + np.sqrt(16.0 - s * s)  # x = a cos θ + √(b² − (a sin θ − c)²)
+    stroke = x.max() - x.min()
+    want = [[x.min() - 0.1 * stroke, 1.0], [x.max() + 0.1 * stroke, 1.0]]
+    got = guide_segments(mech, cyc.positions)
+    assert got.shape == (1, 2, 2)
+    np.testing.assert_allclose(got[0], want, atol=1e-9)
+
+
+def test_slot_segment_by_hand():
+    """A slot a → b with the slider's vertex off it by the offset: the groove runs through the vertex
+    parallel to a → b, from a's projection to b's (a = (0, 0), b = (3, 4), the vertex 1 along and 0.5
+    to the left: the groove from (−0.4, 0.3) to (2.6, 4.3)); past b it reaches the vertex."""
+    from explorer.view._draw import slot_segments
+
+    mech = load_mechanism("whitworth")
+    P = np.zeros((len(mech.vertices), 2))
+    idx = mech.vertex_index
+    P[idx("B")] = (3.0, 4.0)
+    P[idx("A")] = 0.2 * np.array([3.0, 4.0]) + 0.5 * np.array([-0.8, 0.6])
+    np.testing.assert_allclose(slot_segments(mech, P), [[[-0.4, 0.3], [2.6, 4.3]]], atol=1e-12)
+    P[idx("A")] = (4.5, 6.0)  # beyond b on the line
+    np.testing.assert_allclose(slot_segments(mech, P), [[[0.0, 0.0], [4.5, 6.0]]], atol=1e-12)
+
+
+def _pixels(fig, color, tol=6):
+    fig.canvas.draw()
+    img = np.asarray(fig.canvas.buffer_rgba())[:, :, :3].astype(int)
+    rgb = np.array([int(color[i:i + 2], 16) for i in (1, 3, 5)])
+    return np.argwhere(np.abs(img - rgb).sum(axis=2) <= tol)
+
+
+def test_rendered_frames_show_the_guide_and_the_slot():
+    """A slider-crank frame has the guide's grey pixels on the line y = 1 beyond the foot path's ends;
+    a Whitworth frame has the slot's pixels along the arm O4 → B, between the two."""
+    from explorer.view import LinkageAnimation
+    from explorer.view._draw import GUIDE_COLOR, SLOT_COLOR
+
+    anim = LinkageAnimation(load_mechanism("slidercrank"), cycles=1, frames=4, steps=72)
+    grey = _pixels(anim.fig, GUIDE_COLOR)
+    assert len(grey) > 20
+    xmax = np.sqrt(5.4 ** 2 - 1.0)  # the outer dead centre (a + b)² = x² + c²
+    (c0, r0), (c1, _) = anim.data_to_pixels(np.array([[xmax, 1.0], [xmax + 0.25, 1.0]]))
+    beyond = grey[(grey[:, 1] > c0 + 2) & (grey[:, 1] < c1)]  # the guide's pad past the stroke
+    assert len(beyond) > 0 and np.all(np.abs(beyond[:, 0] - r0) <= 3)
+
+    mech = load_mechanism("whitworth")
+    anim = LinkageAnimation(mech, cycles=1, frames=12, steps=72)
+    anim.draw_frame(2)  # θ = 60°: the arm clear of the crank (at 90° the crank lies on it)
+    k = anim.frame_index(2)
+    P = anim.cycle.positions[k]
+    o4, b = anim.data_to_pixels(P[[mech.vertex_index("O4"), mech.vertex_index("B")]])
+    d = b - o4
+
+    def groove():  # light pixels within 1.5 px of the arm's axis, its middle 80 %
+        light = _pixels(anim.fig, SLOT_COLOR, tol=45)[:, ::-1].astype(float)  # (column, row)
+        t = (light - o4) @ d / (d @ d)
+        off = np.abs((light - o4) @ np.array([-d[1], d[0]])) / np.hypot(*d)
+        return int(((t > 0.1) & (t < 0.9) & (off <= 1.5)).sum())
+
+    with_slot = groove()
+    anim.legs_artists[0].slots.set_visible(False)
+    assert with_slot > 0.4 * np.hypot(*d) and groove() < 0.3 * with_slot  # the groove, not the background

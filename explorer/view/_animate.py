@@ -324,9 +324,9 @@ class LinkageAnimation:
         # stance stays visible on top of it
         ground = ax.axhline(ymin, color=STANCE_COLOR, lw=1.0, alpha=0.6, zorder=1)
         ground.set_transform(ground.get_transform() + ScaledTranslation(0.0, -1.6 / 72, fig.dpi_scale_trans))
-        draw_ground(ax, mech, mirrored=False)
+        draw_ground(ax, mech, mirrored=False, positions=valid)
         if any(self._mirrored):
-            draw_ground(ax, mech, mirrored=True, crank_circle=False, label=None)
+            draw_ground(ax, mech, mirrored=True, crank_circle=False, label=None, positions=valid)
         # moving: one LegArtists per leg, the first in front
         if arrow_scale is None:
             # the fastest foot speed draws 0.3 × the path's width (the 95th percentile: a rate blowing

@@ -3,7 +3,9 @@
 :class:`LegArtists` owns the moving parts of one leg (links, crank, joints, foot, velocity arrow);
 ``update(P, v)`` moves them with ``set_data`` / ``set_offsets`` only, so an animation never clears or
 re-creates anything (seed 003 found that redrawing everything per frame is what makes it slow).
-:func:`draw_ground` and :func:`draw_path` add the static parts once.
+:func:`draw_ground` and :func:`draw_path` add the static parts once. Sliders: a ground slider's guide
+is a dashed line over its vertex's travel (:func:`guide_segments`, static), a slot a thin groove along
+its member (:func:`slot_segments`, moving), each sliding vertex a square block.
 
 Positions are (n_vertices, 2) arrays in the mechanism's vertex order, model units. A leg can be drawn
 mirrored about the vertical line through its crank centre (the hind legs of seed 001's four-legged
@@ -28,6 +30,9 @@ ARROW_COLOR = "#2ca02c"
 FOOT_PATH_COLOR = "#ff7f0e"
 GROUND_COLOR = "#000000"
 STANCE_COLOR = "#8c564b"
+#: A ground slider's guide (dashed, over its travel) and a slot (a thin groove along its member).
+GUIDE_COLOR = "#7f7f7f"
+SLOT_COLOR = "#d9d9d9"
 
 
 def mirror_positions(P: np.ndarray, cx: float) -> np.ndarray:
@@ -69,6 +74,49 @@ def hull_order(points) -> list[int]:
     return hull + hull[:1]
 
 
+def slot_segments(mech: Mechanism, P: np.ndarray) -> np.ndarray:
+    """(n_slots, 2, 2) the slots of ``mech`` at positions ``P`` (n_vertices, 2), in ``mech.sliders``
+    order (slots only): each the line through its slider's vertex parallel to the slot's a → b (the
+    vertex is on it in a solved configuration, whatever the offset, so a mirrored leg needs no sign
+    flip), from the first to the last of a, b and the vertex projected onto it. Model units."""
+    P = np.asarray(P, dtype=np.float64)
+    out = np.full((sum(not sl.ground for sl in mech.sliders), 2, 2), np.nan)
+    k = 0
+    for sl in mech.sliders:
+        if sl.ground:
+            continue
+        a, b = P[mech.vertex_index(sl.line[0])], P[mech.vertex_index(sl.line[1])]
+        v = P[mech.vertex_index(sl.vertex)]
+        d = b - a
+        n = math.hypot(d[0], d[1])
+        if n > 0:
+            u = d / n
+            t = ((a - v) @ u, (b - v) @ u, 0.0)
+            out[k] = v + np.outer([min(t), max(t)], u)
+        k += 1
+    return out
+
+
+def guide_segments(mech: Mechanism, positions: np.ndarray, pad: float = 0.1) -> np.ndarray:
+    """(n_ground_sliders, 2, 2) the ground sliders' guides of ``mech`` (``mech.sliders`` order, ground
+    lines only): each a segment of its line (``point``, ``direction``) over the travel of its vertex in
+    ``positions`` (S, n_vertices, 2; non-finite rows skipped), from the lowest to the highest
+    projection along the direction, lengthened by ``pad`` × the stroke at both ends (a stroke of zero,
+    or no finite position: ``pad`` × the mechanism's size, about the line's point). Model units."""
+    pos = np.asarray(positions, dtype=np.float64)
+    ground = [sl for sl in mech.sliders if sl.ground]
+    out = np.empty((len(ground), 2, 2))
+    for k, sl in enumerate(ground):
+        p = np.asarray(sl.point, dtype=np.float64)
+        u = np.asarray(sl.unit())
+        v = pos[:, mech.vertex_index(sl.vertex)]
+        t = (v[np.isfinite(v).all(axis=1)] - p) @ u
+        lo, hi = (float(t.min()), float(t.max())) if t.size else (0.0, 0.0)
+        e = pad * (hi - lo) if hi > lo else pad * mech.size
+        out[k] = p + np.outer([lo - e, hi + e], u)
+    return out
+
+
 class LegArtists:
     """The moving artists of one leg on ``ax``: create once, then :meth:`update` per frame.
 
@@ -106,11 +154,19 @@ class LegArtists:
                        for b in mech.bodies]
         # one polyline with NaN breaks draws every link and body in a single artist
         self._seg = np.full((3 * nl + sum(len(lp) + 1 for lp in self._loops), 2), np.nan)
+        # sliders: each slot a thin groove along its member, each sliding vertex a square block
+        self._n_slots = sum(not sl.ground for sl in mech.sliders)
+        self._slot = np.full((3 * self._n_slots, 2), np.nan)
+        self._blocks = np.array([mech.vertex_index(sl.vertex) for sl in mech.sliders], dtype=np.int64)
         self._crank = np.empty((2, 2))
         (self.links,) = ax.plot([], [], "-", color=link_color, lw=linewidth, alpha=alpha, solid_capstyle="round",
                                 zorder=zorder, label=label)
         (self.crank,) = ax.plot([], [], "-", color=CRANK_COLOR, lw=linewidth * 1.8, alpha=alpha,
                                 solid_capstyle="round", zorder=zorder + 0.1)
+        (self.slots,) = ax.plot([], [], "-", color=SLOT_COLOR, lw=max(linewidth * 0.45, 0.8), alpha=alpha,
+                                solid_capstyle="round", zorder=zorder + 0.15)
+        (self.blocks,) = ax.plot([], [], "s", ms=8.5, mfc=SLOT_COLOR, mec=link_color, mew=1.4, alpha=alpha,
+                                 zorder=zorder + 0.18)
         (self.joints,) = ax.plot([], [], "o", ms=5.5, mfc=JOINT_FACE, mec=link_color, mew=1.4, alpha=alpha,
                                  zorder=zorder + 0.2)
         (self.foot,) = ax.plot([], [], "o", ms=8, color=FOOT_COLOR, alpha=alpha, zorder=zorder + 0.3)
@@ -122,7 +178,7 @@ class LegArtists:
 
     @property
     def artists(self) -> list:
-        return [self.links, self.crank, self.joints, self.foot, self.arrow]
+        return [self.links, self.crank, self.slots, self.blocks, self.joints, self.foot, self.arrow]
 
     def set_visible(self, visible: bool) -> None:
         if visible != self._visible:
@@ -153,6 +209,13 @@ class LegArtists:
             self._crank[0] = self._center
             self._crank[1] = P[self._tip]
             self.crank.set_data(self._crank[:, 0], self._crank[:, 1])
+        if self._n_slots:
+            seg = slot_segments(self.mech, P)
+            self._slot[0::3] = seg[:, 0]
+            self._slot[1::3] = seg[:, 1]
+            self.slots.set_data(self._slot[:, 0], self._slot[:, 1])
+        if len(self._blocks):
+            self.blocks.set_data(P[self._blocks, 0], P[self._blocks, 1])
         self.joints.set_data(P[:, 0], P[:, 1])
         f = P[self._foot]
         self.foot.set_data([f[0]], [f[1]])
@@ -170,9 +233,11 @@ class LegArtists:
 
 
 def draw_ground(ax: Axes, mech: Mechanism, *, mirrored: bool = False, crank_circle: bool = True,
-                zorder: float = 2.0, label: str | None = "ground pivots") -> list:
+                zorder: float = 2.0, label: str | None = "ground pivots", positions: np.ndarray | None = None) -> list:
     """Static parts: the ground pivots (triangles), the crank centre and the crank circle (a path driver
-    has neither: its path is drawn as the driven vertex's trajectory instead)."""
+    has neither: its path is drawn as the driven vertex's trajectory instead), and with ``positions``
+    (S, n_vertices, 2: the configurations drawn) each ground slider's guide, dashed over its travel
+    (:func:`guide_segments`)."""
     fixed = np.array(list(mech.fixed.values()), dtype=np.float64).reshape(-1, 2)
     if mech.crank is None:
         crank_circle = False
@@ -186,6 +251,13 @@ def draw_ground(ax: Axes, mech: Mechanism, *, mirrored: bool = False, crank_circ
     out = []
     (p,) = ax.plot(pts[:, 0], pts[:, 1], "^", ms=10, color=GROUND_COLOR, zorder=zorder, label=label)
     out.append(p)
+    if positions is not None and any(sl.ground for sl in mech.sliders):
+        seg = guide_segments(mech, positions)
+        if mirrored and cx is not None:
+            seg = mirror_positions(seg, cx)
+        xy = np.concatenate([np.vstack([s, [[np.nan, np.nan]]]) for s in seg])
+        (g,) = ax.plot(xy[:, 0], xy[:, 1], "--", color=GUIDE_COLOR, lw=1.6, zorder=zorder)
+        out.append(g)
     if crank_circle:
         t = np.linspace(0.0, 2.0 * np.pi, 97)
         r = mech.crank.radius
