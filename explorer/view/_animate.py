@@ -41,7 +41,7 @@ from ..errors import UserError
 from ..kernels import Cycle, simulate
 from ..mechanism import Mechanism, load_mechanism
 from ..store import is_results, variant_mechanism
-from ._draw import (ARROW_COLOR, CRANK_COLOR, FOOT_PATH_COLOR, GROUND_COLOR, STANCE_COLOR, LegArtists, draw_ground,
+from ._draw import (ARROW_COLOR, CRANK_COLOR, FOOT_PATH_COLOR, GROUND_COLOR, GUIDE_COLOR, STANCE_COLOR, LegArtists, draw_ground,
                     draw_path, mirror_positions, mirror_velocity)
 from .._files import write_replacing
 from ._plots import check_output, new_figure
@@ -322,8 +322,10 @@ class LinkageAnimation:
         ymin = min(np.nanmin(p[:, 1]) for p in paths)
         # the ground: under the lowest foot point, shifted down by the path's half width so that the
         # stance stays visible on top of it
-        ground = ax.axhline(ymin, color=STANCE_COLOR, lw=1.0, alpha=0.6, zorder=1)
-        ground.set_transform(ground.get_transform() + ScaledTranslation(0.0, -1.6 / 72, fig.dpi_scale_trans))
+        # (none under a foot that runs on a ground slider: a piston or a ram does not stand on the ground)
+        if not any(sl.ground and sl.vertex == mech.foot for sl in mech.sliders):
+            ground = ax.axhline(ymin, color=STANCE_COLOR, lw=1.0, alpha=0.6, zorder=1)
+            ground.set_transform(ground.get_transform() + ScaledTranslation(0.0, -1.6 / 72, fig.dpi_scale_trans))
         draw_ground(ax, mech, mirrored=False, positions=valid)
         if any(self._mirrored):
             draw_ground(ax, mech, mirrored=True, crank_circle=False, label=None, positions=valid)
@@ -354,7 +356,11 @@ class LinkageAnimation:
                   f"foot velocity dF/dθ (× {self.arrow_scale:.2g} rad)" if crank else
                   f"tip velocity (× {self.arrow_scale:.2g} s)", "crank" if crank else "(driven along its path)",
                   "ground pivots"]
-        fig.legend(handles, labels, loc="outside lower center", ncols=4, fontsize="small", frameon=False)
+        if any(sl.ground for sl in mech.sliders):
+            handles.append(Line2D([], [], color=GUIDE_COLOR, lw=1.6, ls="--"))
+            labels.append("slider guide")
+        fig.legend(handles, labels, loc="outside lower center", ncols=4 if len(labels) <= 4 else 3, fontsize="small",
+                   frameon=False)
         # The title is static (drawn into the background once); only the short clock text to its right
         # changes per frame. A fixed title position (y given): matplotlib would otherwise move it past
         # the hidden axes.
