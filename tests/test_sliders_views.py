@@ -169,3 +169,13 @@ def test_rendered_frames_show_the_guide_and_the_slot():
     with_slot = groove()
     anim.legs_artists[0].slots.set_visible(False)
     assert with_slot > 0.4 * np.hypot(*d) and groove() < 0.3 * with_slot  # the groove, not the background
+
+
+def test_no_walker_load_on_a_foot_on_a_ground_slider(tmp_path):
+    """[operating] load rides on a walker's contact foot: refused for a piston, naming the key."""
+    study = {"study": {"name": "sc", "mechanism": "slidercrank", "variants": 2, "steps": 36},
+             "perturb": {"method": "uniform", "spread": 0.02, "links": "all"},
+             "scene": {"forces": True}, "operating": {"unit": 0.01, "rpm": 60.0, "load": 2.0}}
+    with pytest.raises(UserError, match=r"operating\.load.*ground slider 'piston'"):
+        run_study(study, output=tmp_path / "sc.h5", progress=False)
+    assert not (tmp_path / "sc.h5").exists()

@@ -483,6 +483,10 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
     elif operating is not None and operating.load and mech.crank is None:
         raise UserError(f"{where(source, 'operating.load')}: a load rides on a walker's contact foot; mechanism "
                         f"{mech.name!r} is driven along a path")
+    rail = next((sl for sl in mech.sliders if sl.ground and sl.vertex == mech.foot), None)
+    if operating is not None and operating.load and rail is not None:
+        raise UserError(f"{where(source, 'operating.load')}: a load rides on a walker's contact foot; the foot "
+                        f"{mech.foot!r} of mechanism {mech.name!r} runs on the ground slider {rail.name!r}")
 
     robustness = robustness_from_dict(rb, source, mech, operating) if rb is not None else None
     if robustness is None and isinstance(metrics, tuple) and YIELD in metrics:
