@@ -159,7 +159,8 @@ class Posed:
         return np.where(np.isfinite(f), f, np.inf)
 
 
-def auto(posed, seed, *, population=40, generations=60, starts=4, budget=None, deadline_s=None):
+def auto(posed, seed, *, population=40, generations=60, starts=4, budget=None, deadline_s=None, batch=0,
+         lm_iterations=80):
     """explorer's ``algorithm = "auto"`` on a posed problem: pymoo DE (``population`` × ``generations``)
     from a Latin hypercube, then :func:`explorer.study.polish` from the ``starts`` best distinct designs
     it evaluated; repeated from fresh seeds (restarts) while fewer than ``budget`` designs were solved
@@ -167,7 +168,7 @@ def auto(posed, seed, *, population=40, generations=60, starts=4, budget=None, d
     from pymoo.algorithms.soo.nonconvex.de import DE
     from pymoo.core.evaluator import Evaluator
     from pymoo.core.problem import Problem
-    from explorer.study import distinct_best, polish
+    from explorer.study import batched_lm, distinct_best, polish
 
     lo, hi = posed.lower, posed.upper
     best_f, best_x, solved, rounds = np.inf, None, 0, 0
@@ -201,6 +202,14 @@ def auto(posed, seed, *, population=40, generations=60, starts=4, budget=None, d
         X, f = np.vstack(seen_X), np.concatenate(seen_f)
         solved += len(X)
         before = posed.residuals.evaluations
+        if batch:  # batched LM from the final population and a Latin hypercube of the box, then finish
+            pop = algo.pop.get("X")
+            pop = np.vstack([pop, X[distinct_best(X, f, lo, hi, batch // 2, distinct=0.02)]])
+            extra = max(batch - len(pop), 0)
+            u = (rng.permuted(np.tile(np.arange(extra), (len(lo), 1)), axis=1).T + rng.random((extra, len(lo))))
+            S0 = np.vstack([pop, lo + u / max(extra, 1) * (hi - lo)])
+            lm = batched_lm(posed.residuals, S0, lo, hi, iterations=lm_iterations)
+            X, f = np.vstack([X, lm.X]), np.concatenate([f, lm.cost])
         for i in distinct_best(X, f, lo, hi, starts):
             r = polish(posed.residuals, X[i], lo, hi)
             if r.cost < best_f:
@@ -254,6 +263,9 @@ def main(argv=None):
     ap.add_argument("--starts", type=int, default=8, help="polish starts per round (default 8)")
     ap.add_argument("--seconds", type=float, default=40.0,
                     help="restart rounds begin while a seed has run less than this (default 40)")
+    ap.add_argument("--batch", type=int, default=0,
+                    help="batched LM starts per round (final DE population + Latin hypercube); 0: none (default 0)")
+    ap.add_argument("--lm-iterations", type=int, default=80, help="batched LM iterations (default 80)")
     ap.add_argument("--de-only", action="store_true", help="the baseline: pymoo DE alone, population x generations")
     ap.set_defaults(population=40, generations=30)
     a = ap.parse_args(argv)
@@ -274,7 +286,8 @@ def main(argv=None):
                 f, x, n, rounds = de_only(posed, seed, a.population, a.generations)
             else:
                 f, x, n, rounds = auto(posed, seed, population=a.population, generations=a.generations,
-                                       starts=a.starts, budget=10**12, deadline_s=a.seconds)
+                                       starts=a.starts, budget=10**12, deadline_s=a.seconds, batch=a.batch,
+                                       lm_iterations=a.lm_iterations)
             rows.append((f, x, n, rounds, time.perf_counter() - t0))
         f = np.array([r[0] for r in rows])
         ok = sum(success(p, v) for v in f)

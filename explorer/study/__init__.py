@@ -20,7 +20,7 @@ from ._dask import run_study_dask
 from ._metrics import recompute_metrics
 from ._hypervolume import REFERENCE as HYPERVOLUME_REFERENCE, Hypervolume, hypervolume_history, hypervolume_per_generation
 from ._objectives import ALGORITHMS, Optimize, feasible_mask, objective_matrix
-from ._polish import PathResiduals, PolishResult, distinct_best, multistart, polish
+from ._polish import BatchedLMResult, PathResiduals, PolishResult, batched_lm, distinct_best, multistart, polish
 from ._optimize import OptimizeSummary, final_front, front_history, optimization_of, run_optimize
 from ._run import RunSummary, Terminated, run_study
 from ._sample import (BLOCK, Sampler, apply_multipliers, apply_samples, saltelli_design, sample_variants,
@@ -38,5 +38,5 @@ __all__ = ["HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_history", "hyper
            "default_study_text", "dumps_toml", "load_study", "recompute_metrics", "run_study", "run_study_dask",
            "saltelli_design", "sample_variants", "sensitivity", "sensitivity_frame", "study_from_dict", "study_sampler",
            "study_variants", "summary_frame", "tolerance", "tolerance_summary", "variant_count",
-           "PathResiduals", "PolishResult", "distinct_best", "multistart", "polish",
+           "BatchedLMResult", "PathResiduals", "PolishResult", "batched_lm", "distinct_best", "multistart", "polish",
            "Robustness", "YieldResult", "design_yield", "results_robustness", "results_yield", "robustness_from_dict"]

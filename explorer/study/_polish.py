@@ -257,3 +257,194 @@ def distinct_best(X, f, lower, upper, k: int, distinct: float = DISTINCT) -> lis
 def multistart(res: PathResiduals, starts, lower, upper, *, max_nfev: int = MAX_NFEV) -> list[PolishResult]:
     """:func:`polish` from each start (rows of ``starts`` (s, k)), in order."""
     return [polish(res, x, lower, upper, max_nfev=max_nfev) for x in np.atleast_2d(starts)]
+
+
+# ---------------------------------------------------------------------------------------------
+# batched bounded Levenberg–Marquardt: K starts advanced together, one batch solve per iteration
+# ---------------------------------------------------------------------------------------------
+
+#: Default most iterations of :func:`batched_lm` (each one batch solve of the active starts).
+LM_ITERATIONS = 80
+#: A start stops when its accepted step moves every parameter by less than this share of its scale.
+LM_XTOL = 1e-10
+#: A start stops when its cost fell by less than this fraction over the last LM_STALL iterations.
+LM_FTOL = 1e-10
+LM_STALL = 8
+
+
+@dataclass
+class BatchedLMResult:
+    """Starts polished together. X : (K, k) design parameters; theta : (K, M) free crank angles
+    (radians, untimed formulation; modulo 2π) or None; cost : (K,) sums of squared residuals (inf for a
+    start that does not solve); start_cost : (K,) the same at the starts; iterations : (K,) iterations
+    each start took part in; evaluations : designs solved (every batch row); calls : batch solves."""
+
+    X: np.ndarray
+    theta: np.ndarray | None
+    cost: np.ndarray
+    start_cost: np.ndarray
+    iterations: np.ndarray
+    evaluations: int
+    calls: int
+
+
+def _batch_rows(res: PathResiduals, X, theta):
+    """Residuals (n, m) of designs X (n, k) with per-row free angles theta (n, M) (untimed) or None,
+    and the solved (foot, velocity, ok). Rows of designs that fail hold NaN."""
+    from ..gait import path_at
+    if res.form == "distance" or theta is None:
+        return res.rows(X)
+    foot, vel, ok = res._solve(X)
+    n, M = len(X), len(res.target)
+    R = np.full((n, 2 * M), np.nan)
+    idx = np.flatnonzero(ok)
+    if len(idx):
+        pts, _ = path_at(foot[idx], theta[idx], velocity=None if vel is None else vel[idx])
+        R[idx] = (pts - res.target[None]).reshape(len(idx), 2 * M)
+    R[~np.all(np.isfinite(R), axis=1)] = np.nan
+    return R, (foot, vel, ok)
+
+
+def batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = LM_ITERATIONS,
+               xtol: float = LM_XTOL, ftol: float = LM_FTOL) -> BatchedLMResult:
+    """Bounded Levenberg–Marquardt from K starts (rows of ``starts`` (K, k)) at once, the design
+    parameters held in [lower, upper] (k,).
+
+    Every iteration is ONE batch solve of the active starts' trial points and their forward-difference
+    copies (K_active · (1 + k) designs, steps as :func:`polish`'s): the trial's residuals decide
+    acceptance (gain ratio ρ = actual / predicted decrease), and an accepted trial's Jacobian is ready
+    from the same batch. Per start: damping λ (Marquardt scaling diag(JᵀJ)) updated by Nielsen's rule;
+    a parameter on a bound whose gradient points outwards is held (projected step), the rest of the
+    step clipped into the box. The untimed formulation's free angles (start: each point's closest
+    match) have exact Jacobian columns (the path's tangent). A start stops when its accepted step is
+    below ``xtol`` × (|z| + xtol) in every coordinate, when its cost fell by less than ``ftol`` (relative)
+    over the last 8 iterations, when λ > 1e16, or after ``iterations``. Deterministic. Finish the best
+    few with :func:`polish` for the last digits."""
+    from ..gait import path_at
+    lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
+    Z0 = np.clip(np.atleast_2d(np.asarray(starts, dtype=np.float64)), lo, hi)
+    K, k = Z0.shape
+    if K == 0:
+        raise ValueError("batched_lm: no starts")
+    if not (iterations >= 1 and xtol > 0 and ftol >= 0):
+        raise ValueError("batched_lm: iterations >= 1, xtol > 0, ftol >= 0")
+    ev0 = res.evaluations
+    M = len(res.target)
+    free = res.free_angles
+    calls = 0
+    theta = None
+    if free:  # each point's closest match on every start's path: one batch solve
+        from ..gait import path_match
+        foot, vel, ok = res._solve(Z0)
+        calls += 1
+        theta = np.full((K, M), np.nan)
+        idx = np.flatnonzero(ok)
+        if len(idx):
+            theta[idx] = path_match(foot[idx], res.target, velocity=None if vel is None else vel[idx],
+                                    match="closest").theta
+    step = FD_STEP * np.maximum(np.abs(Z0), 1e-2 * (hi - lo))  # (K, k), fixed per start
+    n = k + (M if free else 0)
+    m = res.m()
+    X = Z0.copy()
+    TH = None if theta is None else theta.copy()
+    cost = np.full(K, np.inf)
+    J = np.zeros((K, m, n))
+    r = np.zeros((K, m))
+    lam = np.full(K, 1e-3)
+    nu = np.full(K, 2.0)
+    its = np.zeros(K, dtype=np.int64)
+    history = np.full((K, LM_STALL + 1), np.inf)
+    active = np.ones(K, dtype=bool)
+    if free:
+        active &= np.all(np.isfinite(theta), axis=1)
+
+    def evaluate(idx, Xt, Tt):
+        """Residuals (len(idx), m) at trial points and their Jacobians (len(idx), m, n)."""
+        nonlocal calls
+        s = step[idx]
+        h = np.where(Xt + s <= hi, s, -s)
+        B = np.repeat(Xt[:, None, :], k + 1, axis=1)  # (a, 1 + k, k)
+        B[:, 1 + np.arange(k), np.arange(k)] += h
+        Tb = None if Tt is None else np.repeat(Tt[:, None, :], k + 1, axis=1).reshape(-1, M)
+        R, (foot, vel, ok) = _batch_rows(res, B.reshape(-1, k), Tb)
+        calls += 1
+        R = R.reshape(len(idx), k + 1, m)
+        base = R[:, 0]
+        cols = (R[:, 1:] - base[:, None]) / h[:, :, None]  # (a, k, m)
+        cols[~np.isfinite(cols)] = 0.0
+        Jt = np.zeros((len(idx), m, n))
+        Jt[:, :, :k] = np.transpose(cols, (0, 2, 1))
+        if Tt is not None:
+            good = np.flatnonzero(np.all(np.isfinite(base), axis=1))
+            if len(good):
+                f0 = foot.reshape(len(idx), k + 1, *foot.shape[1:])[good, 0]
+                v0 = None if vel is None else vel.reshape(len(idx), k + 1, *vel.shape[1:])[good, 0]
+                _, tan = path_at(f0, Tt[good], velocity=v0)
+                a = np.arange(M)
+                Jt[good[:, None], 2 * a, k + a] = tan[:, :, 0]
+                Jt[good[:, None], 2 * a + 1, k + a] = tan[:, :, 1]
+        return base, Jt
+
+    # the starts themselves
+    idx = np.flatnonzero(active)
+    if len(idx):
+        base, Jt = evaluate(idx, X[idx], None if TH is None else TH[idx])
+        fin = np.all(np.isfinite(base), axis=1)
+        c = np.where(fin, np.sum(np.where(fin[:, None], base, 0.0) ** 2, axis=1), np.inf)
+        cost[idx], r[idx], J[idx] = c, np.where(fin[:, None], base, 0.0), Jt
+        active[idx[~fin]] = False
+    start_cost = cost.copy()
+    history[:, -1] = cost
+    xlo = np.concatenate([lo, np.full(n - k, -np.inf)])
+    xhi = np.concatenate([hi, np.full(n - k, np.inf)])
+    for _ in range(iterations):
+        idx = np.flatnonzero(active)
+        if len(idx) == 0:
+            break
+        Ja, ra = J[idx], r[idx]
+        Z = X[idx] if TH is None else np.concatenate([X[idx], TH[idx]], axis=1)
+        A = np.einsum("amp,amq->apq", Ja, Ja)
+        g = np.einsum("amp,am->ap", Ja, ra)
+        d = np.maximum(np.diagonal(A, axis1=1, axis2=2), 1e-12 * np.max(np.diagonal(A, axis1=1, axis2=2), axis=1,
+                                                                           keepdims=True) + 1e-300)
+        eps = 1e-12 * (xhi - xlo)
+        eps = np.where(np.isfinite(eps), eps, 0.0)
+        held = ((Z <= xlo + eps) & (g > 0)) | ((Z >= xhi - eps) & (g < 0))
+        Ad = A + lam[idx, None, None] * np.einsum("ap,pq->apq", d, np.eye(n))
+        rhs = np.where(held, 0.0, -g)
+        Ad[held[:, :, None] & np.ones((1, 1, n), bool)] = 0.0
+        Ad[held[:, None, :] & np.ones((1, n, 1), bool)] = 0.0
+        Ad[:, np.arange(n), np.arange(n)] += held * 1.0
+        try:
+            delta = np.linalg.solve(Ad, rhs[:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            delta = np.stack([np.linalg.lstsq(Ad[i], rhs[i], rcond=None)[0] for i in range(len(idx))])
+        Zt = np.clip(Z + delta, xlo, xhi)
+        s = Zt - Z
+        pred = -(2.0 * np.einsum("ap,ap->a", g, s) + np.einsum("ap,apq,aq->a", s, A, s))
+        base, Jt = evaluate(idx, Zt[:, :k], None if TH is None else Zt[:, k:])
+        its[idx] += 1
+        fin = np.all(np.isfinite(base), axis=1)
+        ct = np.where(fin, np.sum(np.where(fin[:, None], base, 0.0) ** 2, axis=1), np.inf)
+        rho = np.where(pred > 0, (cost[idx] - ct) / np.where(pred > 0, pred, 1.0), -1.0)
+        acc = fin & (ct < cost[idx]) & (rho > 0)
+        ia, ir = idx[acc], idx[~acc]
+        X[ia] = Zt[acc, :k]
+        if TH is not None:
+            TH[ia] = Zt[acc, k:]
+        cost[ia], r[ia], J[ia] = ct[acc], base[acc], Jt[acc]
+        ra_ = rho[acc]
+        lam[ia] *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * ra_ - 1.0) ** 3)
+        nu[ia] = 2.0
+        lam[ir] *= nu[ir]
+        nu[ir] *= 2.0
+        history[idx] = np.concatenate([history[idx, 1:], cost[idx, None]], axis=1)
+        small = np.all(np.abs(s[acc]) <= xtol * (np.abs(Zt[acc]) + xtol), axis=1)
+        stall = history[ia, 0] - history[ia, -1] <= ftol * history[ia, -1]
+        done = np.zeros(len(idx), bool)
+        done[acc] = small | stall | (cost[ia] == 0.0)
+        done |= lam[idx] > 1e16
+        active[idx[done]] = False
+    if TH is not None:
+        TH = np.mod(TH, 2.0 * math.pi)
+    return BatchedLMResult(X, TH, cost, start_cost, its, res.evaluations - ev0, calls)
