@@ -179,3 +179,19 @@ def test_no_walker_load_on_a_foot_on_a_ground_slider(tmp_path):
     with pytest.raises(UserError, match=r"operating\.load.*ground slider 'piston'"):
         run_study(study, output=tmp_path / "sc.h5", progress=False)
     assert not (tmp_path / "sc.h5").exists()
+
+
+def test_describe_names_slider_parameters_and_what_does_not_apply():
+    """describe says what each slider parameter is (never "in body ...'s frame") and that a foot on a
+    ground slider has no walker, leg or screen metric."""
+    from explorer.cli._describe import describe, text
+
+    out = text(describe(load_mechanism("whitworth")))
+    assert "in body" not in out
+    lines = {line.split()[0]: line for line in out.splitlines() if line.startswith("  ") and line.split()}
+    assert lines["block.offset"].endswith("offset of slider block's slot O4-B (to its left)")
+    assert lines["ram.dy"].endswith("slider ram's line: its direction y")
+    assert lines["ram.x"].endswith("slider ram's line: its point x")
+    assert "walker, leg and screen metrics: not applicable (the foot C runs on the ground slider ram" in out
+    assert "buildability screen (default" not in out
+    assert "buildability screen (default" in text(describe(load_mechanism("jansen")))

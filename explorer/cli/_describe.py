@@ -193,6 +193,11 @@ def describe(mech) -> dict:
         "joints": joints,
         "links": links,
         "bodies": bodies,
+        "sliders": [{"name": sl.name, "vertex": sl.vertex, "ground": sl.ground,
+                     "point": _pt(sl.point) if sl.ground else None,
+                     "direction": _pt(sl.direction) if sl.ground else None,
+                     "line": list(sl.line) if not sl.ground else None, "offset": float(sl.offset)}
+                    for sl in mech.sliders],
         "parameters": params,
         "parameter_kinds": {p: mech.parameter_kind(p) for p in params},
         "walker": walker,
@@ -233,6 +238,13 @@ def _meaning(d: dict, p: str) -> str:
     if p in ("crank.x", "crank.y"):
         return f"crank centre {p[-1]}"
     head, axis = p.rsplit(".", 1)
+    sliders = {sl["name"]: sl for sl in d.get("sliders", ())}
+    if head in sliders:
+        sl = sliders[head]
+        if axis == "offset":
+            return f"offset of slider {head}'s slot {'-'.join(sl['line'])} (to its left)"
+        what = "direction" if axis in ("dx", "dy") else "point"
+        return f"slider {head}'s line: its {what} {axis[-1]}"
     fixed = {j["name"] for j in d["joints"] if j["role"] == "fixed"}
     if head in fixed:
         return f"ground pivot {head} {axis}"
@@ -317,6 +329,7 @@ def text(d: dict) -> str:
     # walker and screen
     out.append("")
     w = d["walker"]
+    rail = next((sl for sl in d.get("sliders", ()) if sl["ground"] and sl["vertex"] == d["foot"]), None)
     if w is None:
         out.append("walker scene: none (a walker needs a crank; this mechanism is driven along a path)")
         out.append("buildability screen: not applicable (no gait: the mechanism is driven along a path)")
@@ -328,6 +341,10 @@ def text(d: dict) -> str:
         out.append(f"  mirrored legs: {', '.join(mir) if mir else 'none'} (of 0 to {w['legs'] - 1}); "
                    f"drag {_g(w['drag'])} × weight; contact within {_g(w['contact'])} × crank radius of the ground")
         s = d["screen"]
+    if w is not None and rail is not None:  # the legs still set what the forces effect drives
+        out.append(f"walker, leg and screen metrics: not applicable (the foot {d['foot']} runs on the ground slider "
+                   f"{rail['name']}: a stroke along a fixed line; quick_return applies)")
+    elif w is not None:
         out.append("buildability screen (default thresholds; a study's [screen] table overrides them)")
         out.append(f"  min_transmission_angle {_g(s['min_transmission_angle'])}°; "
                    f"min_foot_headroom {_g(s['min_foot_headroom'])}; "
