@@ -94,6 +94,32 @@ def test_generated_kernel_equals_the_general_sweep_bit_for_bit(name, velocities)
     assert bool(gen.velocities) == bool(ref.velocities) == velocities
 
 
+@pytest.mark.parametrize("velocities", [True, False])
+def test_generated_kernel_reports_invalid_lengths_as_the_general_sweep(velocities):
+    """The generated kernel writes an invalid design's outputs itself (no _batch._invalid): status
+    invalid, NaN rows, no iterations, exactly as the general kernel, around valid designs."""
+    mech = explorer.load_mechanism("jansen")
+    L = np.repeat(mech.lengths[None], 6, axis=0).astype(float)
+    L[1, 2] = -1.0
+    L[2, 0] = np.nan
+    L[3, 4] = np.inf
+    L[4, 1] = 0.0
+    _codegen._BY_TOPOLOGY.clear()
+    gen = explorer.simulate_batch(mech, L, None, 36, kernel="generated", vertices="all", velocities=velocities)
+    assert len(_codegen._BY_TOPOLOGY) == 1, "the generated kernel was not used"
+    ref = explorer.simulate_batch(mech, L, None, 36, kernel="general", vertices="all", velocities=velocities)
+    invalid = np.array([False, True, True, True, True, False])
+    assert ((gen.status != 0) == invalid).all() and (gen.iterations[invalid] == 0).all()
+    for field in ("status", "iterations", "fail_block", "fail_theta", "fail_theta_end"):
+        np.testing.assert_array_equal(getattr(gen, field), getattr(ref, field), err_msg=field)
+    for v in ref.paths:
+        assert np.isnan(gen.paths[v][invalid]).all() and not np.isnan(gen.paths[v][~invalid]).any()
+        np.testing.assert_array_equal(gen.paths[v], ref.paths[v], err_msg=v)
+        if velocities:
+            assert np.isnan(gen.velocities[v][invalid]).all()
+            np.testing.assert_array_equal(gen.velocities[v], ref.velocities[v], err_msg=v)
+
+
 def _assert_same(gen, ref):
     for field in ("status", "iterations", "fail_block", "fail_theta", "fail_theta_end"):
         np.testing.assert_array_equal(getattr(gen, field), getattr(ref, field), err_msg=field)

@@ -65,7 +65,7 @@ def design_start(P_init, fixed, fixed_pos):
 
 
 @njit(cache=True)
-def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
+def place_closed(tab, tip, cx, cy, scale, d, signs, P, start, sliders=True):
     """Place the driven vertex at (cx, cy) + scale * d[:2], then every block of the block table
     ``tab`` in order by the closed form: a dyad's vertex at the intersection of the circles about its
     parents on the side ``signs[j]`` (the branch: the sign of cross(b − a, p − a)), a body joint by
@@ -75,7 +75,11 @@ def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
 
     start: placing a design's start for Newton (the kernels' first sample): then it also stops,
     leaving that vertex and the later ones where they were, at a coupled (GENERAL) block or a dyad
-    with no branch to keep (sign 0), which Newton places from there."""
+    with no branch to keep (sign 0), which Newton places from there.
+
+    sliders: None for a table without SLIDE blocks (the generated kernels'): Numba then prunes the
+    SLIDE branch when it compiles this (an argument typed None is a compile-time constant), and the
+    slider code is not compiled; a SLIDE row would then be reported as not placed."""
     P[tip, 0] = cx + scale * d[0]
     P[tip, 1] = cy + scale * d[1]
     for j in range(tab.shape[0]):
@@ -83,6 +87,8 @@ def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
         if start and (rec.kind == GENERAL or (rec.kind != ATTACH and signs[j] == 0.0)):
             return j
         if rec.kind == SLIDE:
+            if sliders is None:
+                return j
             code, x, y = slide_root(rec, signs[j], P, P[rec.vertex, 0], P[rec.vertex, 1])
             if code != OK:
                 return j
@@ -110,7 +116,7 @@ def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
 
 
 @njit(cache=True)
-def design_setup(topo, designs, i, P_init, crank, d0, signs):
+def design_setup(topo, designs, i, P_init, crank, d0, signs, sliders=True):
     """Design i's start, crank centre and block table: (P, cx, cy, table).
 
     The start is the design assembled at the first sample (driver values d0, (6,)) on the nominal's
@@ -119,13 +125,23 @@ def design_setup(topo, designs, i, P_init, crank, d0, signs):
     the nominal's configuration, a design far from it could converge to the mirror root and be
     reported as a branch failure although it assembles on the nominal's branch.) Vertices the closed
     form cannot place (beyond a coupled block, or where the design cannot assemble) keep the nominal's
-    positions, and Newton starts there; fixed vertices are the design's own."""
+    positions, and Newton starts there; fixed vertices are the design's own.
+
+    sliders: None for a plan without SLIDE blocks: the slider code of :func:`place_closed` and
+    ``_step.block_table`` is then left out of the compiled code (pruned by Numba as the argument's
+    type is None: about 1 CPU-s less on a cold cache for the generated kernels, which take no sliders)."""
     P = design_start(P_init, topo.fixed, designs.fixed[i])
     cx = designs.center[i, 0]
     cy = designs.center[i, 1]
-    tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, designs.dist[i],
-                      designs.uv[i], P, cx, cy, designs.scale[i], crank, topo.slid, topo.slide, designs.slide[i])
-    place_closed(tab, topo.tip, cx, cy, designs.scale[i], d0, signs, P, True)
+    if sliders is None:
+        tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip,
+                          designs.dist[i], designs.uv[i], P, cx, cy, designs.scale[i], crank, None, None, None)
+        place_closed(tab, topo.tip, cx, cy, designs.scale[i], d0, signs, P, True, None)
+    else:
+        tab = block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip,
+                          designs.dist[i], designs.uv[i], P, cx, cy, designs.scale[i], crank, topo.slid, topo.slide,
+                          designs.slide[i])
+        place_closed(tab, topo.tip, cx, cy, designs.scale[i], d0, signs, P, True)
     return P, cx, cy, tab
 
 

@@ -53,7 +53,8 @@ def block_table(kind, dyad, join, attach, gen, att_vpq, tip, dist, uv, P, cx, cy
     kind, dyad, join, attach, gen, att_vpq, tip, slid, slide: the ``_inputs.Topology`` fields; dist
     (n_dist,), uv (n_attach, 2) and sd (n_slide, 6): the design's equations; P (n_vertices, 2): its
     start (fixed vertices in place); (cx, cy), scale: its crank centre and radius; crank: whether the
-    driver is a crank.
+    driver is a crank. slid, slide and sd are None for a plan without SLIDE blocks: Numba then prunes
+    the SLIDE branch (an argument typed None is a compile-time constant) and does not compile it.
     """
     nb = kind.shape[0]
     tab = np.zeros(nb, dtype=BLOCK_DTYPE)
@@ -76,6 +77,8 @@ def block_table(kind, dyad, join, attach, gen, att_vpq, tip, dist, uv, P, cx, cy
                 qmax = (D + scale) * (D + scale)
             dyad_fill(rec, v, a, b, dist[dyad[k, 3]], dist[dyad[k, 4]], qmin, qmax)
         elif kind[k] == SLIDE:
+            if slid is None:  # a plan without sliders: this code is pruned, not compiled (_batch.design_setup)
+                continue
             v = slid[k, 0]
             e = slid[k, 3]
             d = dist[slid[k, 2]]
