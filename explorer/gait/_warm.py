@@ -8,6 +8,12 @@ cache yet; it compiles the metric kernels into the shared cache while the runner
 solver, and the runner's first chunk then loads them. The kernels' argument types do not depend on
 the study (``compute_metrics`` hands them contiguous float64 arrays and int64 codes), so any walking
 path compiles the same signatures; tests/test_cache.py checks that a study's call then hits the cache.
+
+It starts with one piece of the solver, the dyad's arithmetic (``explorer.kernels.warm_dyad``, ~2
+CPU-s): its argument types are scalars, the same for every plan, and the runner's own compile of
+the solver reaches it only after its imports, the drive table and the design setup, by which time
+this process has put it in the cache, so the runner loads it. (The rest of the solver cannot be
+taken over this way: the runner needs it sooner, or it is the generated kernel itself.)
 """
 
 from __future__ import annotations
@@ -18,10 +24,14 @@ import numpy as np
 
 
 def warm() -> None:
-    """Compute every metric of two synthetic foot paths of the built-in Jansen leg (compiling every
-    metric kernel into the on-disk cache)."""
+    """Compile the dyad's arithmetic (the part of the solver whose types are the same for every
+    study, see the module's docstring), then compute every metric of two synthetic foot paths of the
+    built-in Jansen leg (compiling every metric kernel into the on-disk cache)."""
+    from ..kernels import warm_dyad
     from ..mechanism import load_mechanism
     from ._metrics import compute_metrics
+
+    warm_dyad()  # first: the runner's compile of the solver needs it a few seconds from now
 
     mech = load_mechanism("jansen")
     S = 72

@@ -590,6 +590,17 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
     return outs.pos, outs.vel, outs.acc, outs.status, outs.fail_t, outs.fail_end, fbl, outs.iters
 
 
+def warm_dyad() -> None:
+    """Compile the dyad's arithmetic (``_fast.place_dyad``, with ``_blocks.gap_suspect``) into the
+    on-disk kernel cache, for a warm-up process (``explorer.gait._warm``): it is called here once, on
+    numbers it settles at once, with the argument types every solver kernel (generated or general)
+    calls it with, so a cold ``explorer run``, whose own compile of the solver reaches it seconds
+    later, loads it from the cache instead of compiling it (1.7-2 CPU-s)."""
+    from ._fast import place_dyad
+
+    place_dyad(True, True, *([0.0] * 31), 1)
+
+
 def _by_name(mech: Mechanism, lengths, crank, geometry):
     """Parameters given by name — a pandas DataFrame or a dict {name: (N,) values} — as an (N, n_links)
     array in ``mech.links`` order, the crank radii and the geometry (column order does not matter; a
