@@ -14,7 +14,14 @@ version also carries, and :func:`verify` checks before a verb reads anything:
   [i·rows, min((i+1)·rows, N)) of every per-variant dataset that is not a series (``/variants/*``,
   ``/status``, ``/fail_*``, ``/iterations``, ``/metrics/*``), read back from the file after the
   rows were flushed. A damaged chunk-index key (which makes HDF5 read the fill value, NaN, for a
-  chunk it can no longer find), a skipped filter or a changed value all change it.
+  chunk it can no longer find), a skipped filter or a changed value all change it. Computed and
+  verified in one streaming pass (:func:`digests`): each dataset read in blocks of about
+  :data:`READ_ROWS` rows on its HDF5 chunk boundaries, every chunk's hash fed with ``update`` (the same
+  bytes in the same order as hashing the rows whole, so the digests are those of files written before),
+  so memory does not grow with N nor with the chunk (a stitched file's chunk is a whole shard).
+  A stitched file's shards are checked at open for their own metadata checksum and series chunk index;
+  their rows are verified once, through the study file's digests (one pass, not two), and the stitch
+  checks each shard's own chunk digests in the pass that computes the study file's.
 * the series (``/paths``, ``/velocities``, ``/accelerations``, ``/torque``, ``/forces``): every
   HDF5 chunk of a committed row that was run (status not -1) is in the chunk index, at an aligned
   offset, with no filter skipped (Fletcher-32 then checks its bytes when it is read).
@@ -167,13 +174,87 @@ def per_variant(f: h5py.File, n: int) -> list[tuple[str, h5py.Dataset]]:
     return sorted(out)
 
 
-def chunk_digest(datasets, a: int, b: int) -> np.ndarray:
-    """SHA-256 (32 uint8) of rows [a, b) of ``datasets`` (from :func:`per_variant`), as stored."""
-    h = hashlib.sha256()
+#: Rows of one dataset read at a time by the digests (rounded to whole HDF5 chunks of the dataset): the
+#: memory of a verification or a stitch is this many rows of the widest per-variant dataset (~4 MB for
+#: ``/variants/lengths`` of 8 links), whatever N or the chunk size.
+READ_ROWS = 1 << 16
+
+
+def _step(d: h5py.Dataset, block: int) -> int:
+    """Rows per read of ``d``: ``block`` rounded down to whole HDF5 chunks (at least one chunk)."""
+    c = d.chunks[0] if d.chunks else 0
+    return max(c, block // c * c) if c else max(1, block)
+
+
+#: Chunk cache per dataset for a file opened to be verified or stitched (``h5py.File(..., rdcc_nbytes=)``):
+#: the digests read each HDF5 chunk once, whole, and hold every per-variant dataset open, so HDF5 2.0's
+#: default, 8 MiB per open dataset, kept ~250 MB resident for the ~30 datasets of a lean file.
+READ_CACHE_BYTES = 1 << 20
+
+
+def _bytes(values: np.ndarray):
+    v = np.ascontiguousarray(values)
+    return v.tobytes() if v.dtype.kind == "O" else v.reshape(-1).view(np.uint8)  # no copy
+
+
+def digests(datasets, ranges, block: int | None = None) -> list[bytes]:
+    """SHA-256 of rows [a, b) of ``datasets`` (from :func:`per_variant`), as stored, for each (a, b) of
+    ``ranges`` (sorted, not overlapping): the digests :func:`chunk_digest` gives one by one, computed in
+    one pass that reads each dataset in blocks of about ``block`` rows (default :data:`READ_ROWS`) on its
+    HDF5 chunk boundaries and feeds every range's hash (``hashlib``'s ``update`` over the same bytes in
+    the same order: the name of each dataset, then its rows; files written before the streaming verify).
+    Memory: one block of one dataset, whatever N and the range sizes."""
+    return digests_many(datasets, [ranges], block)[0]
+
+
+def digests_many(datasets, lists, block: int | None = None) -> list[list[bytes]]:
+    """:func:`digests` of several lists of ranges (each sorted, not overlapping; one list may overlap
+    another: a shard's chunks and the shard whole) in one pass over the rows: each block read feeds
+    every list's hashes."""
+    block = int(block or READ_ROWS)
+    lists = [[(int(a), int(b)) for a, b in rs] for rs in lists]
+    hs = [[hashlib.sha256() for _ in rs] for rs in lists]
+    spans: list[list[int]] = []  # the union of every range, merged: what is read
+    for a, b in sorted(r for rs in lists for r in rs):
+        if spans and a <= spans[-1][1]:
+            spans[-1][1] = max(spans[-1][1], b)
+        elif b > a:
+            spans.append([a, b])
     for name, d in datasets:
-        h.update(b"\0" + name.encode("utf-8", "surrogatepass") + b"\0")
-        h.update(np.ascontiguousarray(d[a:b]).tobytes())
-    return np.frombuffer(h.digest(), dtype=np.uint8)
+        head = b"\0" + name.encode("utf-8", "surrogatepass") + b"\0"
+        for h in (h for row in hs for h in row):
+            h.update(head)
+        step = _step(d, block)
+        ptr = [0] * len(lists)
+        for lo, hi in spans:
+            p = lo
+            while p < hi:
+                q = min(hi, (p // step + 1) * step)  # to the next HDF5 chunk boundary of ``step`` rows
+                values = d[p:q]
+                for m, rs in enumerate(lists):
+                    k = ptr[m]
+                    while k < len(rs) and rs[k][0] < q:
+                        a, b = rs[k]
+                        if min(b, q) > max(a, p):
+                            hs[m][k].update(_bytes(values[max(a, p) - p:min(b, q) - p]))
+                        if b > q:
+                            break
+                        k += 1
+                    ptr[m] = k
+                p = q
+    return [[h.digest() for h in row] for row in hs]
+
+
+def chunk_digest(datasets, a: int, b: int) -> np.ndarray:
+    """SHA-256 (32 uint8) of rows [a, b) of ``datasets`` (from :func:`per_variant`), as stored: for each
+    dataset in order, its name between NUL bytes, then the bytes of its rows (read in blocks:
+    :func:`digests`)."""
+    return np.frombuffer(digests(datasets, [(a, b)])[0], dtype=np.uint8)
+
+
+def _done_ranges(done: np.ndarray, rows: int, n: int) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    idx = np.flatnonzero(done)
+    return idx, [(int(i) * rows, min((int(i) + 1) * rows, n)) for i in idx]
 
 
 def write_digests(f: h5py.File, chunks=None) -> None:
@@ -183,11 +264,25 @@ def write_digests(f: h5py.File, chunks=None) -> None:
     n = int(f.attrs["n_variants"])
     rows = int(f["chunks"].attrs["rows"])
     done = np.asarray(f["chunks/done"][...], dtype=bool)
-    ds = per_variant(f, n)
-    digest = f[DIGEST]
-    for i in (range(len(done)) if chunks is None else chunks):
-        if done[i]:
-            digest[i] = chunk_digest(ds, i * rows, min((i + 1) * rows, n))
+    if chunks is not None:
+        keep = np.zeros_like(done)
+        keep[list(chunks)] = True
+        done &= keep
+    idx, ranges = _done_ranges(done, rows, n)
+    if len(idx):
+        table = np.array(f[DIGEST][...], dtype=np.uint8)
+        for i, got in zip(idx, digests(per_variant(f, n), ranges)):
+            table[i] = np.frombuffer(got, dtype=np.uint8)
+        f[DIGEST][...] = table
+
+
+def _status(f: h5py.File, n: int) -> np.ndarray:
+    d = f["status"]
+    out = np.empty(n, dtype=np.int8)
+    step = _step(d, 1 << 20)
+    for a in range(0, n, step):
+        out[a:a + step] = d[a:min(a + step, n)]
+    return out
 
 
 # -- verification -------------------------------------------------------------------------------------------
@@ -221,8 +316,12 @@ def _check_series(f: h5py.File, n: int, rows: int, done: np.ndarray, status: np.
                     raise Damaged(f"/{name}: the chunk of rows {start}..{stop - 1} is missing from its chunk index")
 
 
-def check(f: h5py.File) -> None:
-    """Raise :class:`Damaged` if ``f`` (which has an ``integrity`` attribute) does not verify."""
+def check(f: h5py.File, digest_rows: bool = True) -> None:
+    """Raise :class:`Damaged` if ``f`` (which has an ``integrity`` attribute) does not verify: the
+    metadata checksum, the chunk table, the digest of every committed chunk's per-variant rows (read
+    in blocks: memory flat in N) and the series' chunk index. ``digest_rows=False`` leaves out the
+    rows' digests: only for a shard of a stitched file, whose rows the study file's own digests cover
+    when they are read through it (:func:`~explorer.store._shards.check_sources`)."""
     stored = f.attrs[ATTR]
     stored = stored if isinstance(stored, bytes) else str(stored).encode()
     if not stored.startswith(SCHEME):
@@ -236,27 +335,15 @@ def check(f: h5py.File) -> None:
     if rows < 1 or len(done) != -(-n // rows) or digest.shape != (len(done), 32):
         raise Damaged("its chunk table does not fit its number of variants")
     ds = per_variant(f, n)
-    names = dict(ds)
-    if "status" not in names:
+    if "status" not in dict(ds):
         raise Damaged("it has no /status of one entry per variant")
-    block = max(1, (1 << 16) // rows) * rows  # read in blocks of whole chunks (memory flat in N)
-    status = np.empty(n, dtype=np.int8)
-    for a0 in range(0, n, block):
-        b0 = min(a0 + block, n)
-        cache = [(name, d[a0:b0]) for name, d in ds]
-        status[a0:b0] = dict(cache)["status"]
-        for i in range(a0 // rows, -(-b0 // rows)):
-            if not done[i]:
-                continue
-            a, b = i * rows - a0, min((i + 1) * rows, n) - a0
-            h = hashlib.sha256()
-            for name, values in cache:
-                h.update(b"\0" + name.encode("utf-8", "surrogatepass") + b"\0")
-                h.update(np.ascontiguousarray(values[a:b]).tobytes())
-            if h.digest() != digest[i].tobytes():
-                raise Damaged(f"the data of variants {i * rows}..{min((i + 1) * rows, n) - 1} "
-                              f"do not match their checksum")
-    _check_series(f, n, rows, done, status)
+    idx, ranges = _done_ranges(done, rows, n) if digest_rows else (np.zeros(0, dtype=np.intp), [])
+    for i, got in zip(idx, digests(ds, ranges)):  # streamed: memory flat in N and in the chunk size
+        if got != digest[i].tobytes():
+            raise Damaged(f"the data of variants {i * rows}..{min((i + 1) * rows, n) - 1} "
+                          f"do not match their checksum")
+    if any(top in f for top in SERIES):
+        _check_series(f, n, rows, done, _status(f, n))
 
 
 def salvage(f: h5py.File) -> bool:
@@ -275,9 +362,9 @@ def salvage(f: h5py.File) -> bool:
         digest = f[DIGEST][...]
         if rows < 1 or len(done) != -(-n // rows) or digest.shape != (len(done), 32):
             return False
-        ds = per_variant(f, n)
-        for i in np.flatnonzero(done):
-            if chunk_digest(ds, i * rows, min((i + 1) * rows, n)).tobytes() != digest[i].tobytes():
+        idx, ranges = _done_ranges(done, rows, n)
+        for i, got in zip(idx, digests(per_variant(f, n), ranges)):
+            if got != digest[i].tobytes():
                 done[i] = False
         f["chunks/done"][...] = done
         stamp(f)

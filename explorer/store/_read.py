@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import UserError
 from ..mechanism import Mechanism, mechanism_from_dict
 from ..plan import fourbar_loops, grashof_batch
-from ._integrity import verify, warn_legacy
+from ._integrity import READ_CACHE_BYTES, verify, warn_legacy
 from ._write import FILE_STATUS_NAMES, FORMAT
 
 if TYPE_CHECKING:
@@ -36,7 +36,7 @@ def open_results(path) -> "Results":
     if not p.is_file():
         raise UserError(f"{p}: no such results file")
     try:
-        f = h5py.File(p, "r")
+        f = h5py.File(p, "r", rdcc_nbytes=READ_CACHE_BYTES)  # the verification holds every dataset open
     except OSError as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         if "unable to lock" in msg.lower():

@@ -46,7 +46,7 @@ import numpy as np
 
 from ..errors import UserError
 from ._datasets import create_dataset
-from ._integrity import chunk_digest, has_integrity, per_variant, stamp
+from ._integrity import DIGEST, READ_CACHE_BYTES, digests_many, has_integrity, per_variant, stamp
 from ._write import FORMAT, ResultsWriter, chunk_rows, hdf5_rows
 
 #: Name of the shard-layout file in a shards folder.
@@ -285,7 +285,7 @@ def stitch(output, folder, plan: ShardPlan) -> None:
         elif these != metric_names:
             raise RuntimeError(f"{folder / n}: metrics {sorted(these)} differ from shard 0's {sorted(metric_names)}")
     tmp = out.with_name(f".{out.name}.{os.getpid()}.partial")
-    with h5py.File(folder / names[0], "r") as src0:
+    with h5py.File(folder / names[0], "r", rdcc_nbytes=READ_CACHE_BYTES) as src0:
         try:
             with h5py.File(tmp, "w") as f:
                 for k, v in src0.attrs.items():
@@ -307,14 +307,35 @@ def stitch(output, folder, plan: ShardPlan) -> None:
                 if has_integrity(src0):  # the digest of each shard's per-variant rows, read from the shard
                     digest = create_dataset(f, "chunks/digest", {"chunks": plan.n_shards})
                     for i, n in enumerate(names):
-                        with (h5py.File(folder / n, "r") if i else _borrowed(src0)) as src:
-                            digest[i] = chunk_digest(per_variant(src, plan.n_variants), *plan.range(i))
+                        with (h5py.File(folder / n, "r", rdcc_nbytes=READ_CACHE_BYTES) if i else _borrowed(src0)) as src:
+                            digest[i] = _shard_digest(src, folder / n, plan, i)
                     stamp(f)
             _fsync(tmp)
             os.replace(tmp, out)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
+
+
+def _shard_digest(src: h5py.File, path: Path, plan: ShardPlan, i: int) -> np.ndarray:
+    """The study file's digest of shard ``i`` (its per-variant rows [a, b) whole), computed in the same
+    pass over the rows (read in blocks: memory flat in the shard size) as the shard's own per-chunk
+    digests, which must match what the worker stored: a shard damaged since it was written is refused
+    here, not baked into the study file's checksums."""
+    a, b = plan.range(i)
+    rows = plan.chunk_rows
+    done = np.asarray(src["chunks/done"][...], dtype=bool)
+    stored = src[DIGEST][...]
+    first, last = a // rows, -(-b // rows)
+    if not done[first:last].all():
+        raise RuntimeError(f"{path}: shard {i} has chunks not committed")
+    chunks = [(c * rows, min((c + 1) * rows, plan.n_variants)) for c in range(first, last)]
+    own, whole = digests_many(per_variant(src, plan.n_variants), [chunks, [(a, b)]])
+    for c, got in zip(range(first, last), own):
+        if got != stored[c].tobytes():
+            raise UserError(f"{path}: damaged shard file: the data of variants {c * rows}..{min((c + 1) * rows, b) - 1} "
+                            f"do not match their checksum; delete it and run the study again with --resume")
+    return np.frombuffer(whole[0], dtype=np.uint8)
 
 
 @contextlib.contextmanager
@@ -389,15 +410,15 @@ def check_sources(f: h5py.File, path) -> None:
         if not found:
             raise UserError(f"{path}: shard file {base / rel} is missing; a sharded results file needs its "
                             f"{folder}/ folder beside it (move or copy the two together)")
-        if has_integrity(f):  # the shard's own checksums: its series' chunk index is read only through it
-            _verify_shard(found[0], path)
+        if has_integrity(f):  # the shard's own metadata checksum, and its series' chunk index (read only
+            _verify_shard(found[0], path)  # through it); its rows: the study file's digests, read through it
 
 
 def _verify_shard(shard: Path, path) -> None:
     from ._integrity import Damaged, check
     try:
-        with h5py.File(shard, "r") as s:
-            check(s)
+        with h5py.File(shard, "r", rdcc_nbytes=READ_CACHE_BYTES) as s:
+            check(s, digest_rows=False)
     except Damaged as exc:
         raise UserError(f"{path}: damaged shard file {shard}: {exc}; run the study again or restore the "
                         f"file from a copy") from None
