@@ -69,3 +69,47 @@ def test_small_blocks_verify_and_still_refuse_a_changed_row(lean, tmp_path, monk
     lo = 100 // rows * rows
     with pytest.raises(UserError, match=f"damaged: the data of variants {lo}..{lo + rows - 1} do not match"):
         explorer.open_results(bad)
+
+
+def _stitched(folder):
+    """STUDY cut into shards of 64 variants (chunks of 16), written and stitched without a cluster."""
+    from explorer.store import ShardPlan, plan_shards, shards_folder, stitch, write_shard
+    from explorer.study import load_study
+    from explorer.study._chunk import chunk_solver
+    study = load_study(STUDY)
+    out = folder / "stitched.h5"
+    plan = plan_shards(study, workers=2, shard_size=64, chunk_size=16)
+    assert (plan.n_shards, plan.shard_rows, plan.chunk_rows) == (3, 64, 16)
+    shards = shards_folder(out)
+    plan.write(shards)
+    for i in range(plan.n_shards):
+        write_shard(shards, plan, i, study, chunk_solver(study))
+    stitch(out, shards, plan)
+    return out, shards, ShardPlan.read(shards)
+
+
+def test_stitched_file_rows_are_verified_once_and_damage_is_refused(lean, tmp_path):
+    from explorer.store import stitch
+    out, shards, plan = _stitched(tmp_path)
+    with explorer.open_results(out) as r, explorer.open_results(lean) as ref:
+        assert r.frame().equals(ref.frame())  # the same designs and metrics as the single-process file
+    with h5py.File(out, "r") as f:  # the study file's digest of shard 1 is its rows whole
+        ds = _integrity.per_variant(f, 150)
+        assert bytes(f["chunks/digest"][1]) == whole_digest(ds, 64, 128)
+    shard = shards / "shard-00001.h5"
+    clean = shard.read_bytes()
+    with h5py.File(shard, "r+") as f:  # one metric of variant 70 changed in the shard, not resealed
+        name = sorted(f["metrics"].keys())[0]
+        v = f["metrics"][name][70]
+        f["metrics"][name][70] = (v if np.isfinite(v) else 0.0) + 1.0
+    # the shard's rows are not hashed again at open: the study file's digest of them refuses the change
+    with pytest.raises(UserError, match="damaged: the data of variants 64..127 do not match their checksum"):
+        explorer.open_results(out)
+    # nor is a shard damaged before the stitch baked into the study file's checksums
+    with pytest.raises(UserError, match="damaged shard file: the data of variants 64..79 do not match"):
+        stitch(tmp_path / "again.h5", shards, plan)
+    shard.write_bytes(clean)
+    with h5py.File(shard, "r+") as f:  # a shard attribute changed: its own metadata checksum
+        f.attrs["shard_host"] = "elsewhere"
+    with pytest.raises(UserError, match="damaged shard file .*metadata or attributes do not match"):
+        explorer.open_results(out)
