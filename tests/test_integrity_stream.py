@@ -88,6 +88,7 @@ def _stitched(folder):
     return out, shards, ShardPlan.read(shards)
 
 
+@pytest.mark.slow
 def test_stitched_file_rows_are_verified_once_and_damage_is_refused(lean, tmp_path):
     from explorer.store import stitch
     out, shards, plan = _stitched(tmp_path)
