@@ -29,6 +29,15 @@ distinct designs of the run, and commits the polished designs as one more genera
     polish = true                 # default: true for auto with objective path_error, else false
                                   # several objectives: polish the final front instead (below)
     restarts = 4                  # polish starts beyond the best (0 … population − 1; default 4)
+    polish_starts = 64            # designs advanced together by the batched Levenberg–Marquardt first
+                                  # (0 … 100,000; default 64; 0: none)
+
+With ``polish_starts`` = K > 0 the polish first advances the K best distinct feasible designs of the
+run together by a batched bounded Levenberg–Marquardt (:func:`._polish.batched_lm`: one batch solve of
+K·(1 + k) designs per iteration), then finishes the best ``1 + restarts`` distinct answers with the
+least squares. With constraints or the screen, each polished design is committed beside points on the
+way back to the design it started from (half, a quarter, … of the step, as the generation's rows
+allow), so the best *feasible* design the polish reached is kept.
 
 Several objectives with ``polish = true`` (:mod:`._front_polish`): after the generations, each design of
 the final front (at most P of them) is polished by SLSQP on the equal-weight sum of its normalised
@@ -60,9 +69,11 @@ ALGORITHMS = ("auto", "nsga2", "nsga3", "de", "ga", "cmaes")
 SINGLE_OBJECTIVE = ("de", "ga", "cmaes")
 #: Keys of the ``[optimize]`` table.
 OPTIMIZE_KEYS = ("algorithm", "population", "generations", "evaluations", "objectives", "constraints", "screen",
-                 "spread", "parameters", "bounds", "polish", "restarts")
+                 "spread", "parameters", "bounds", "polish", "restarts", "polish_starts")
 #: Polish starts beyond the best, by default.
 RESTARTS = 4
+#: Designs the batched Levenberg–Marquardt of the polish advances together, by default.
+POLISH_STARTS = 64
 #: What the objective of an infeasible design is set to (pymoo needs numbers; constraint domination
 #: ranks every feasible design first, so the value never decides anything).
 INFEASIBLE_VALUE = 1e30
@@ -94,6 +105,7 @@ class Optimize:
     spread: float = 0.1
     polish: bool = False
     restarts: int = RESTARTS
+    polish_starts: int = 0
 
     @property
     def chunks(self) -> int:
@@ -117,7 +129,7 @@ class Optimize:
                 "objectives": list(self.objectives), "constraints": list(self.constraints), "screen": self.screen,
                 "spread": self.spread, "parameters": list(self.parameters),
                 "bounds": {p: [lo, hi] for p, lo, hi in zip(self.parameters, self.lower, self.upper)},
-                "polish": self.polish, "restarts": self.restarts}
+                "polish": self.polish, "restarts": self.restarts, "polish_starts": self.polish_starts}
 
 
 def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has_target: bool) -> Optimize:
@@ -171,6 +183,7 @@ def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has
         raise UserError(f"{key('polish')}: polish = true runs after a single-objective search (auto, de, ga or "
                         f"cmaes), not {algorithm!r}")
     restarts = _integer(table.get("restarts", min(RESTARTS, population - 1)), key("restarts"), 0, population - 1)
+    polish_starts = _integer(table.get("polish_starts", POLISH_STARTS), key("polish_starts"), 0, 100_000)
 
     constraints = table.get("constraints", [])
     if isinstance(constraints, str):
@@ -231,7 +244,8 @@ def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has
         upper.append(hi)
     return Optimize(parameters=tuple(params), lower=tuple(lower), upper=tuple(upper), objectives=tuple(objectives),
                     directions=directions, constraints=tuple(constraints), algorithm=algorithm, population=population,
-                    generations=generations, screen=screen, spread=float(spread), polish=polish, restarts=restarts)
+                    generations=generations, screen=screen, spread=float(spread), polish=polish, restarts=restarts,
+                    polish_starts=polish_starts)
 
 
 def _integer(value, key: str, lo: int, hi: int) -> int:
@@ -298,4 +312,4 @@ def optimize_from_dict(d: dict, mech: Mechanism) -> Optimize:
                     directions=tuple(DIRECTIONS[o] for o in d["objectives"]), constraints=tuple(d["constraints"]),
                     algorithm=d["algorithm"], population=int(d["population"]), generations=int(d["generations"]),
                     screen=bool(d["screen"]), spread=float(d["spread"]), polish=bool(d.get("polish", False)),
-                    restarts=int(d.get("restarts", RESTARTS)))
+                    restarts=int(d.get("restarts", RESTARTS)), polish_starts=int(d.get("polish_starts", 0)))

@@ -15,8 +15,10 @@ uninterrupted run's, whenever the previous run was stopped (kill -9 included: a 
 atomically or not at all).
 
 With ``[optimize] polish`` (the default of ``algorithm = "auto"`` on ``path_error``), one more
-generation, number G = ``generations``, holds the polished designs (:mod:`._polish`: least squares from
-the best feasible design of generations 0 … G−1 and the ``restarts`` next best distinct ones), solved
+generation, number G = ``generations``, holds the polished designs (:mod:`._polish`: the batched
+Levenberg–Marquardt from the ``polish_starts`` best distinct feasible designs of generations 0 … G−1,
+then least squares from the best of its answers and the ``restarts`` next best distinct ones; with
+constraints or the screen, also points on the way back to each start), solved
 by the same chunk runner; its starts are read from the file, so ``--resume`` polishes them to the same
 designs. Its rows beyond the polished designs are "not-run".
 
@@ -415,15 +417,18 @@ def _search(study: Study, writer: ResultsWriter, out: Path, evaluate, progress: 
 
 
 def _polish_generation(study: Study, writer: ResultsWriter, results: Results, evaluate) -> dict:
-    """The polish after the search (``[optimize] polish``, :mod:`._polish`): least squares from the best
-    feasible design of generations 0 … G−1 and the ``restarts`` next best distinct ones, the polished
+    """The polish after the search (``[optimize] polish``, :mod:`._polish`): the batched
+    Levenberg–Marquardt from the ``polish_starts`` best distinct feasible designs of generations 0 … G−1
+    (none when 0), then least squares from the best of its answers and the ``restarts`` next best
+    distinct ones (with constraints or the screen, each beside points half, a quarter, … of the way
+    back to its start, as the P rows allow, so the best feasible design reached is kept), the polished
     designs committed as generation G through the chunk runner (rows beyond them not-run). Read from
     the file, so a resumed run polishes the same starts to the same designs; a committed polish
     generation is read back. Returns {"starts", "best_before", "best_after", "solved" (None when read
     back)}."""
     from ..kernels import simulate_batch
     from ._chunk import geometry_columns, metric_plan
-    from ._polish import PathResiduals, distinct_best, polish
+    from ._polish import PathResiduals, batched_lm, distinct_best, polish
     opt = study.optimize
     P, G = opt.population, opt.generations
     df = results.frame(rows=(0, G * P))
@@ -439,7 +444,6 @@ def _polish_generation(study: Study, writer: ResultsWriter, results: Results, ev
         return {"starts": int(run.sum()), "best_before": before, "best_after": after, "solved": None}
     X = stored_x(df, study)
     lo, hi = np.array(opt.lower), np.array(opt.upper)
-    pick = distinct_best(X, f, lo, hi, 1 + opt.restarts)
     mech, target = study.mech, study.target
     _, metric_vel, _ = metric_plan(study)
     velocities = study.velocities or metric_vel
@@ -453,7 +457,21 @@ def _polish_generation(study: Study, writer: ResultsWriter, results: Results, ev
         return b.paths[mech.foot], (b.velocities.get(mech.foot) if velocities else None), b.status == 0
 
     res = PathResiduals(simulate, target.points, match=target.match, angles=target.angles, ignore=target.ignore)
-    Xp = np.array([polish(res, X[i], lo, hi).x for i in pick]).reshape(len(pick), len(lo))
+    pool_x, pool_f, pool_origin = X, f, X
+    if opt.polish_starts > 0:  # the batched LM from the K best distinct feasible designs, then the finish
+        first = distinct_best(X, f, lo, hi, opt.polish_starts, distinct=0.02)
+        if first:
+            lm = batched_lm(res, X[first], lo, hi)
+            pool_x, pool_f, pool_origin = lm.X, lm.cost, X[first]
+    pick = distinct_best(pool_x, pool_f, lo, hi, 1 + opt.restarts)
+    starts, origin = pool_x[pick], pool_origin[pick]
+    Xp = np.array([polish(res, x, lo, hi).x for x in starts]).reshape(len(starts), len(lo))
+    if len(Xp) and (opt.constraints or opt.screen):
+        # feasibility is not the least squares': commit points on the way back to each design's origin
+        # (half the step, a quarter, ...) beside it, so the best feasible design reached is kept
+        per = P // len(Xp)
+        t = 0.5 ** np.arange(per)
+        Xp = (origin[:, None, :] + t[None, :, None] * (Xp - origin)[:, None, :]).reshape(-1, len(lo))
     lengths, crank, geometry = designs_from_x(study, Xp)
     batch, metrics = evaluate(lengths, crank, geometry) if len(Xp) else (None, None)
     with signals_held():
@@ -461,7 +479,7 @@ def _polish_generation(study: Study, writer: ResultsWriter, results: Results, ev
     new = results.frame(rows=(a, a + len(Xp)))
     Fn, _, feas_n = objective_matrix(new, opt, study.screen)
     after = float(min(before, Fn[feas_n, 0].min())) if feas_n.any() else before
-    return {"starts": len(Xp), "best_before": before, "best_after": after, "solved": res.evaluations}
+    return {"starts": len(starts), "best_before": before, "best_after": after, "solved": res.evaluations}
 
 
 def _progress_value(F, feas, n_obj: int, directions, ref):
