@@ -391,9 +391,11 @@ def check_sources(f: h5py.File, path) -> None:
     """Raise a UserError if a stitched study file ``f`` (at ``path``) cannot reach one of its shards.
 
     HDF5 reads a missing virtual-dataset source as fill values (NaN, "not-run") without a word;
-    this names the first missing shard instead. Each shard of a file with checksums is verified too
-    (its own metadata checksum, chunk digests and chunk index). Called by
-    :func:`~explorer.store.open_results`.
+    this names the first missing shard instead. Each shard of a file with checksums is verified too:
+    its own metadata checksum and its series' chunk index; its rows are not hashed again here (that
+    would read every row twice): the study file's digest of each shard, checked next by
+    :func:`~explorer.store._integrity.verify` through the virtual datasets, covers the bytes a reader
+    gets. Called by :func:`~explorer.store.open_results`.
     """
     folder = f.attrs.get("shards")
     if folder is None:
