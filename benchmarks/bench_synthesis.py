@@ -2,7 +2,8 @@
 
     python benchmarks/bench_synthesis.py [--problem all|vertical-line|timed-five|closed-timed|closed-untimed]
                                          [--seeds 10] [--population 40] [--generations 30] [--starts 8]
-                                         [--seconds 40] [--steps 360] [--de-only]
+                                         [--seconds 40] [--steps 360] [--de-only] [--batch 0]
+                                         [--lm-iterations 80]
 
 The problems, their sources and what was verified are in ``_synthesis_problems.py``; ``all`` runs the
 issue's four. Each is searched in the source's own parametrisation (r1 … r4, rcx, rcy, θ0, x0, y0 within
@@ -15,7 +16,11 @@ explorer's ``auto`` (as ``[optimize] algorithm = "auto"`` runs it): pymoo DE, ``
 ``generations`` from a Latin hypercube, then ``explorer.study.polish`` (bounded least squares on the
 residuals, Jacobian by one batched finite difference per iteration) from the ``starts`` best distinct
 designs DE evaluated; then restart rounds (DE from a fresh seed, polish) while the seed has run for less
-than ``--seconds`` (a round begun runs to its end). ``--de-only`` is the baseline: DE alone,
+than ``--seconds`` (a round begun runs to its end). ``--batch K``: after each DE round,
+``explorer.study.batched_lm`` (``--lm-iterations``) advances K starts together first: the round's final
+population, its K/2 best distinct evaluated designs and a Latin hypercube of the box from the seed's
+generator filling up to K; the ``--starts`` best distinct answers of DE and the LM are then polished
+(0, the default, is 28a's auto; the README text says what K = 128 gave). ``--de-only`` is the baseline: DE alone,
 population × generations.
 
 Printed per problem over seeds 0 … n−1: success (the literature's objective, the sum of squared
