@@ -588,7 +588,8 @@ def _rms(p, q, scale, phi, t):
 # public
 # ---------------------------------------------------------------------------------------------
 
-def _check(foot, velocity, target, angles, match, ignore, angle_offset):
+def _foot_and_velocity(foot, velocity):
+    """foot (N, S, 2) and velocity (the same shape, or None) as contiguous float64, or a ValueError."""
     foot = np.ascontiguousarray(foot, dtype=np.float64)
     if foot.ndim != 3 or foot.shape[2] != 2 or foot.shape[1] < 3:
         raise ValueError(f"foot: expected shape (N, S, 2) with S >= 3, got {foot.shape}")
@@ -596,6 +597,11 @@ def _check(foot, velocity, target, angles, match, ignore, angle_offset):
         velocity = np.ascontiguousarray(velocity, dtype=np.float64)
         if velocity.shape != foot.shape:
             raise ValueError(f"velocity: expected shape {foot.shape} (that of foot), got {velocity.shape}")
+    return foot, velocity
+
+
+def _check(foot, velocity, target, angles, match, ignore, angle_offset):
+    foot, velocity = _foot_and_velocity(foot, velocity)
     target = np.ascontiguousarray(target, dtype=np.float64)
     if target.ndim != 2 or target.shape[1] != 2 or target.shape[0] < 1:
         raise ValueError(f"target: expected shape (M, 2) with M >= 1, got {target.shape}")
@@ -828,13 +834,7 @@ def path_at(foot, theta, *, velocity=None):
     tangents dF/dθ (N, M, 2), model units per radian, interpolated as the module docstring says (cubic
     Hermite with ``velocity``, straight segments without). foot : (N, S, 2) at θ_k = 2πk/S; theta :
     (N, M) or (M,) radians (any real value: taken modulo 2π); velocity : (N, S, 2) or None."""
-    foot = np.ascontiguousarray(foot, dtype=np.float64)
-    if foot.ndim != 3 or foot.shape[2] != 2 or foot.shape[1] < 3:
-        raise ValueError(f"foot: expected shape (N, S, 2) with S >= 3, got {foot.shape}")
-    if velocity is not None:
-        velocity = np.ascontiguousarray(velocity, dtype=np.float64)
-        if velocity.shape != foot.shape:
-            raise ValueError(f"velocity: expected shape {foot.shape} (that of foot), got {velocity.shape}")
+    foot, velocity = _foot_and_velocity(foot, velocity)
     theta = np.asarray(theta, dtype=np.float64)
     if theta.ndim == 1:
         theta = np.broadcast_to(theta, (foot.shape[0], theta.shape[0]))
