@@ -242,6 +242,25 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     return mech
 
 
+def _named_table(source: str, key: str, t, allowed, required, seen_names: set, what: str, example: str,
+                 clash: str) -> str:
+    """Check one ``[[bodies]]`` or ``[[sliders]]`` table's keys and name (a parameter prefix, unique among
+    links, bodies and sliders: added to ``seen_names``); returns the name."""
+    _table(source, key, t)
+    _unknown_keys(source, key + ".", t, allowed)
+    for k in required:
+        if k not in t:
+            raise UserError(f"{where(source, f'{key}.{k}')}: missing required key")
+    name = _string(source, f"{key}.name", t["name"])
+    if not NAME_RE.fullmatch(name) or "." in name:
+        raise UserError(f"{where(source, f'{key}.name')}: {what} name {name!r} must be 1 to 64 letters, digits or "
+                        f"_ + - (no '.': it names parameters such as {example.format(name)})")
+    if name in seen_names:
+        raise UserError(f"{where(source, f'{key}.name')}: {name!r} already names {clash}")
+    seen_names.add(name)
+    return name
+
+
 def _bodies(source: str, raw, known: set, fixed: dict, seen_pairs: dict, seen_names: set) -> tuple[Body, ...]:
     """The ``[[bodies]]`` tables: a name and ``joints = { J = [x, y], ... }`` in the body's own frame."""
     if not isinstance(raw, list):
@@ -249,18 +268,8 @@ def _bodies(source: str, raw, known: set, fixed: dict, seen_pairs: dict, seen_na
     out = []
     for i, bt in enumerate(raw):
         key = f"bodies[{i}]"
-        _table(source, key, bt)
-        _unknown_keys(source, key + ".", bt, _BODY_KEYS)
-        for k in ("name", "joints"):
-            if k not in bt:
-                raise UserError(f"{where(source, f'{key}.{k}')}: missing required key")
-        bname = _string(source, f"{key}.name", bt["name"])
-        if not NAME_RE.fullmatch(bname) or "." in bname:
-            raise UserError(f"{where(source, f'{key}.name')}: body name {bname!r} must be 1 to 64 letters, digits or "
-                            f"_ + - (no '.': it names parameters such as {bname}.P.x)")
-        if bname in seen_names:
-            raise UserError(f"{where(source, f'{key}.name')}: {bname!r} already names a link or another body")
-        seen_names.add(bname)
+        bname = _named_table(source, key, bt, _BODY_KEYS, ("name", "joints"), seen_names, "body", "{}.P.x",
+                             "a link or another body")
         jt = _table(source, f"{key}.joints", bt["joints"])
         if len(jt) < 2:
             raise UserError(f"{where(source, f'{key}.joints')}: a body carries two or more joints, got {len(jt)}")
@@ -327,18 +336,8 @@ def _sliders(source: str, raw, known: set, fixed: dict, tip: str, seen_pairs: di
     out = []
     for i, st in enumerate(raw):
         key = f"sliders[{i}]"
-        _table(source, key, st)
-        _unknown_keys(source, key + ".", st, _SLIDER_KEYS)
-        for k in ("name", "vertex"):
-            if k not in st:
-                raise UserError(f"{where(source, f'{key}.{k}')}: missing required key")
-        name = _string(source, f"{key}.name", st["name"])
-        if not NAME_RE.fullmatch(name) or "." in name:
-            raise UserError(f"{where(source, f'{key}.name')}: slider name {name!r} must be 1 to 64 letters, digits "
-                            f"or _ + - (no '.': it names parameters such as {name}.x)")
-        if name in seen_names:
-            raise UserError(f"{where(source, f'{key}.name')}: {name!r} already names a link, body or slider")
-        seen_names.add(name)
+        name = _named_table(source, key, st, _SLIDER_KEYS, ("name", "vertex"), seen_names, "slider", "{}.x",
+                            "a link, body or slider")
         v = _string(source, f"{key}.vertex", st["vertex"])
         if v not in known:
             raise UserError(f"{where(source, f'{key}.vertex')}: vertex {v!r} is neither driven, fixed, nor in [guess] "
