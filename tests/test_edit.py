@@ -9,6 +9,7 @@ compared with tests/naive_walker.py on that closed form with finite-difference v
 
 from __future__ import annotations
 
+import base64
 import json
 import math
 import os
@@ -177,7 +178,9 @@ def test_dragged_jansen_against_the_closed_form_and_the_naive_walker():
     lengths = _jansen_lengths(new)
     ref, ok, _ = jansen_closed_form(lengths, new.crank.radius, th)
     assert ok.all()
-    foot = np.array(res["solve"]["foot"], dtype=float)
+    P = np.frombuffer(base64.b64decode(res["solve"]["positions"]), dtype="<f8").reshape(STEPS, 7, 2)  # as the page reads it
+    assert np.allclose(P, ref, rtol=0, atol=1e-9)
+    foot = np.array(session.solve(res["design"])["foot"], dtype=float)  # POST /api/solve's list
     assert np.allclose(foot, ref[:, 6], rtol=0, atol=1e-9)
     assert res["solve"]["status"] == "ok"
 
@@ -224,6 +227,31 @@ def test_api_solve_equals_explorer_simulate_for_every_builtin():
             for m in names:
                 assert got["metrics"][m] == pytest.approx(float(want[m][0]), rel=0, abs=0) or (
                     math.isnan(want[m][0]) and got["metrics"][m] is None), (name, m)
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann", "hoeken", "strider"])
+def test_screen_margins_agree_with_the_screen_of_a_results_frame(name):
+    """The editor's one-design screen (no pandas: it is on every drag step) against explorer.gait's
+    screen_columns on a one-row frame, for designs that pass and designs that fail some check."""
+    import pandas as pd
+
+    from explorer.edit import live_metrics, screen_margins
+    from explorer.gait import Screen, screen_columns
+
+    mech = explorer.load_mechanism(name)
+    tight = Screen(min_transmission_angle=20.0, max_foot_speed=2.0)
+    for factor in (1.0, 1.04, 1.3):
+        for screen in (None, tight):
+            m = mech.with_lengths({mech.links[0].name: mech.links[0].length * factor})
+            cyc = explorer.simulate(m, STEPS)
+            metrics, _ = live_metrics(m, cyc)
+            status = "ok" if cyc.ok else cyc.failure.kind
+            got = screen_margins(m, metrics, status, screen)
+            df = pd.DataFrame({k: [np.nan if v is None else v] for k, v in metrics.items()})
+            df["status"], df["crank"] = [status], [m.crank.radius]
+            buildable, reasons, applied = screen_columns(df, screen)
+            assert got["buildable"] == bool(buildable[0]) and got["reason"] == reasons[0], (name, factor)
+            assert [c["check"] for c in got["checks"]] == applied
 
 
 def test_set_parameters_keeps_the_branch():

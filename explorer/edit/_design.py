@@ -195,7 +195,7 @@ def configuration(mech: Mechanism, angle: float, near=None, steps: int = 360):
         return P, angle, why
     from ..kernels import simulate
 
-    cyc = simulate(mech, steps, velocities=False)
+    cyc = simulate(mech, steps)
     k = int(np.argmin(np.abs(cyc.theta - angle)))
     P = cyc.positions[k]
     if not np.all(np.isfinite(P)):
@@ -352,14 +352,14 @@ def _guess_at_zero(mech: Mechanism, angle: float, C1: np.ndarray, steps: int) ->
 
     idx = {v: mech.vertex_index(v) for v in mech.guess}
     if mech.crank is None:  # a path driver: the branch at t = 0 is what the last solve kept there
-        cyc = simulate(mech, steps, velocities=False)
+        cyc = simulate(mech, steps)  # (with velocities: the kernel the editor's solves compiled)
         P0 = cyc.positions[0]
         if np.all(np.isfinite(P0)):
             return {v: (float(P0[i, 0]), float(P0[i, 1])) for v, i in idx.items()}, None
         return dict(mech.guess), None
     c = mech.crank.center
     turned = turn_positions(C1, c, -angle)
-    cyc = simulate(rotated(mech, -angle, {v: tuple(turned[i]) for v, i in idx.items()}), steps, velocities=False)
+    cyc = simulate(rotated(mech, -angle, {v: tuple(turned[i]) for v, i in idx.items()}), steps)
     j0 = int(round(((-angle) % (2 * math.pi)) / (2 * math.pi / steps))) % steps
     X = cyc.positions[j0]
     if np.all(np.isfinite(X[list(idx.values())])):
@@ -387,7 +387,7 @@ def set_parameters(mech: Mechanism, values: dict, steps: int = 360) -> Mechanism
             raise UserError(f"design parameter {k!r}: expected a finite number, got {v!r}")
         clean[str(k)] = float(v)
     new = mech.with_parameters(clean)
-    cyc = simulate(mech, steps, velocities=False)
+    cyc = simulate(mech, steps)
     P0 = cyc.positions[0]
     guess = {v: (float(P0[mech.vertex_index(v), 0]), float(P0[mech.vertex_index(v), 1]))
              for v in mech.guess if np.all(np.isfinite(P0[mech.vertex_index(v)]))}

@@ -72,7 +72,7 @@ class EditSession:
     def payload(self, mech: Mechanism) -> dict:
         """A design and its solve, as the page takes them."""
         with self.lock:
-            solve = solve_design(mech, self.steps, screen=self.screen)
+            solve = solve_design(mech, self.steps, screen=self.screen, foot=False)
         return {"design": design_data(mech), "parameters": parameters(mech), "size": mech.size, "driven": mech.driven,
                 "solve": solve}
 
@@ -90,6 +90,31 @@ class EditSession:
                 "builtins": list(builtin_mechanisms()), "folder": str(self.folder), "save_formats": SAVE_FORMATS,
                 "crank_centre": CRANK_CENTRE, "study": self.study_summary() if self.study is not None else None,
                 "screen": self.screen.as_dict() if self.screen is not None else None}
+
+    def warm(self) -> float:
+        """Run every numerical path the page uses once on the reference (solve, metrics, forces, a drag step,
+        a parameter edit), so that Numba compiles or loads its kernels now, not on the first drag; the
+        kernels stay warm in this process. Returns the seconds it took."""
+        t = time.perf_counter()
+        mech = self.reference
+        self.payload(mech)
+        cyc_angle = 0.0 if mech.crank is None else 2 * math.pi * (self.steps // 12) / self.steps
+        with self.lock:
+            from ._design import configuration
+            P, angle, _ = configuration(mech, cyc_angle, None, self.steps)
+            moving = [v for v in mech.guess]
+            if P is not None and moving:
+                v = moving[-1]
+                p = P[mech.vertex_index(v)]
+                d = drag(mech, angle, v, (p[0] + 1e-3 * mech.size, p[1]), near=P, steps=self.steps)
+                if d.design is not None:
+                    solve_design(d.design, self.steps, screen=self.screen)
+            name, value = next(iter(mech.parameters().items()))
+            try:
+                set_parameters(mech, {name: value}, self.steps)
+            except UserError:
+                pass
+        return time.perf_counter() - t
 
     def solve(self, data, steps=None) -> dict:
         """POST /api/solve: ``explorer.simulate`` of the design, its metrics (:func:`solve_design`); pure."""
@@ -118,7 +143,7 @@ class EditSession:
             if d.design is None:
                 return {"refused": d.refused, "angle": d.angle, "config": _config_out(d.config),
                         "ms": {"drag": 1e3 * (t1 - t0)}}
-            solve = solve_design(d.design, self.steps, screen=self.screen)
+            solve = solve_design(d.design, self.steps, screen=self.screen, foot=False)
         self.current = d.design
         solve["ms"]["drag"] = 1e3 * (t1 - t0)
         return {"design": d.data, "parameters": parameters(d.design), "size": d.design.size,
@@ -228,7 +253,7 @@ class EditSession:
             output_path(f, force)  # every check first: nothing is written if one of them is refused
         with self.lock:
             from ..kernels import simulate
-            cyc = simulate(mech, self.steps, velocities=False)
+            cyc = simulate(mech, self.steps)
         foot = cyc.path(mech.foot)
         if not np.all(np.isfinite(foot)):
             raise UserError("handoff: the design does not turn a full cycle, so it has no foot path to hand on; "

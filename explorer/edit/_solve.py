@@ -66,34 +66,56 @@ def live_metrics(mech: Mechanism, cycle) -> tuple[dict, dict]:
     return {m: _f(v[0]) for m, v in got.items()}, not_applicable
 
 
-def screen_margins(mech: Mechanism, metrics: dict, ok: bool, screen=None) -> dict:
-    """The buildability screen of one design: {"buildable": bool or None, "reason": text, "checks": [{check,
-    metric, value, threshold, margin, pass}]}; margin = how far the value is inside its threshold
-    (negative: outside), in the metric's unit. ``screen``: :class:`explorer.gait.Screen` (None:
-    the defaults)."""
-    import pandas as pd
+class _Row:
+    """One design as the screen's checks read a frame (``row[name].to_numpy(...)``, ``row.columns``):
+    a one-row frame without pandas' cost (a DataFrame took 2.6 ms a drag step)."""
 
-    from ..gait import CHECKS, Screen, metric, screen_columns
+    class _Col:
+        def __init__(self, v):
+            self.v = v
 
+        def to_numpy(self, dtype=None, na_value=None):
+            return np.array([self.v], dtype=dtype)
+
+    def __init__(self, values: dict):
+        self.values = values
+        self.columns = list(values)
+
+    def __getitem__(self, name):
+        return self._Col(self.values[name])
+
+
+def screen_margins(mech: Mechanism, metrics: dict, status: str, screen=None) -> dict:
+    """The buildability screen of one design of solve status ``status`` ("ok", or a failure's kind) by
+    ``explorer.gait.CHECKS`` at the thresholds ``screen`` (an
+    :class:`explorer.gait.Screen`, None for the defaults): {"buildable": bool, "reason": "pass" or the
+    failing checks' reasons joined by "; " (as ``screen_columns`` words them), "checks": [{check, metric,
+    field, value, threshold, margin, pass}]}; margin = how far the value is inside its threshold
+    (negative: outside), in the metric's unit."""
+    from ..gait import CHECKS, Screen, metric
+
+    ok = status == "ok"
     screen = screen if screen is not None else Screen()
-    inputs = {col for c in CHECKS for col in c.inputs}
-    row = {m: [np.nan if v is None else v] for m, v in metrics.items() if m in inputs}
-    row["status"] = ["ok" if ok else "failed"]
-    row["crank"] = [float(mech.crank.radius) if mech.crank is not None else np.nan]
-    df = pd.DataFrame(row)
-    checks = []
+    row = {m: (np.nan if v is None else v) for m, v in metrics.items()}
+    row["crank"] = float(mech.crank.radius) if mech.crank is not None else np.nan
+    frame = _Row(row)
+    checks, reasons = [], []
     for c in CHECKS:
-        if not all(col in df.columns for col in c.inputs):
+        if not all(col in row for col in c.inputs):
             continue
-        v = float(c.value(df)[0])
+        v = float(c.value(frame)[0])
         t = float(getattr(screen, c.field))
+        fails = bool(c.fails(np.array([v]), t)[0])
         margin = (v - t) if metric(c.inputs[0]).direction == "max" else (t - v)
         checks.append({"check": c.name, "metric": c.inputs[0], "field": c.field, "value": _f(v), "threshold": t,
-                       "margin": _f(margin), "pass": bool(ok and not bool(c.fails(np.array([v]), t)[0]))})
-    got = screen_columns(df, screen)
-    if got is None:
+                       "margin": _f(margin), "pass": bool(ok and not fails)})
+        if fails:
+            reasons.append(f"{c.name}: {c.inputs[0]} is undefined" if not math.isfinite(v) else c.reason(v, t))
+    if not checks:
         return {"buildable": None, "reason": "not applicable", "checks": checks}
-    return {"buildable": bool(got[0][0]), "reason": str(got[1][0]), "checks": checks}
+    if not ok:
+        return {"buildable": False, "reason": f"failed ({status})", "checks": checks}
+    return {"buildable": not reasons, "reason": "; ".join(reasons) or "pass", "checks": checks}
 
 
 def forces_data(mech: Mechanism, steps: int) -> dict:
@@ -130,11 +152,12 @@ def _points(xy: np.ndarray) -> list:
     return out
 
 
-def solve_design(mech: Mechanism, steps: int = 360, *, screen=None, forces: bool = True) -> dict:
+def solve_design(mech: Mechanism, steps: int = 360, *, screen=None, forces: bool = True, foot: bool = True) -> dict:
     """Everything the editor shows of ``mech`` (JSON-ready):
 
     status, ok, failure : of ``explorer.simulate(mech, steps)`` (the default tolerance and method).
-    foot : [[x, y] or None] × steps, the foot path (model units).
+    foot : [[x, y] or None] × steps, the foot path (model units), with ``foot`` (the page reads it from
+        ``positions``, which hold it: the list is for other clients of POST /api/solve).
     positions : base64 float64 (steps, n_vertices, 2), every vertex over the turn (NaN where unsolved);
     vertices : their names in that order; theta : base64 (steps,), the driver's samples.
     metrics, not_applicable : :func:`live_metrics`; screen : :func:`screen_margins`.
@@ -147,19 +170,19 @@ def solve_design(mech: Mechanism, steps: int = 360, *, screen=None, forces: bool
     cyc = simulate(mech, steps)
     t1 = time.perf_counter()
     metrics, na = live_metrics(mech, cyc)
-    scr = screen_margins(mech, metrics, cyc.ok, screen) if mech.crank is not None and any(
+    status = "ok" if cyc.ok else cyc.failure.kind
+    scr = screen_margins(mech, metrics, status, screen) if mech.crank is not None and any(
         m in metrics for m in ("min_transmission_angle", "foot_headroom", "max_speed", "self_crossings")) else None
     t2 = time.perf_counter()
     frc = forces_data(mech, steps) if forces else None
     t3 = time.perf_counter()
-    foot = cyc.path(mech.foot)
     return {
         "name": mech.name,
         "steps": int(steps),
-        "status": "ok" if cyc.ok else cyc.failure.kind,
+        "status": status,
         "ok": bool(cyc.ok),
         "failure": failure_data(mech, cyc.failure),
-        "foot": _points(foot),
+        "foot": _points(cyc.path(mech.foot)) if foot else None,
         "vertices": list(mech.vertices),
         "positions": encode(cyc.positions),
         "theta": encode(cyc.theta),

@@ -551,12 +551,13 @@ function startDrag(e, joint, handle) {
   e.preventDefault();
   handle.setPointerCapture(e.pointerId);
   handle.classList.add("dragging");
-  S.drag = { joint: joint, handle: handle, pushed: false, before: S.design };
+  const gesture = { before: S.design, pushed: false };  // one undo step per drag, taken at its first accepted step
+  S.drag = { joint: joint, handle: handle, gesture: gesture };
   const move = (ev) => {
     if (!S.drag) return;
     const t = performance.now();
     const to = toModel(ev);
-    S.pending = { kind: "drag", joint: joint, to: to, t: t };
+    S.pending = { kind: "drag", joint: joint, to: to, t: t, gesture: gesture };
     pump();
   };
   const up = () => {
@@ -578,14 +579,17 @@ async function pump() {
   S.inflight = true;
   try {
     if (job.kind === "drag") {
+      job.sent = performance.now();
       const res = await api("POST", "/api/drag", { design: S.design, angle: S.angle, joint: job.joint, to: job.to, config: configMap() });
+      job.received = performance.now();
+      job.server = res.solve ? Object.values(res.solve.ms).reduce((a, b) => a + b, 0) : (res.ms ? res.ms.drag : null);
       if (res.error) { message(res.error); }
       else if (res.refused) {
         message(res.refused);
         const hd = G.handles[job.joint] || G.centre;
         if (hd) { hd.classList.add("refused"); setTimeout(() => hd.classList.remove("refused"), 600); }
       } else {
-        if (S.drag && !S.drag.pushed) { pushUndo(S.drag.before); S.drag.pushed = true; }
+        if (!job.gesture.pushed) { pushUndo(job.gesture.before); job.gesture.pushed = true; }
         apply(res);
         message(res.note || "", true);
       }
@@ -604,7 +608,8 @@ function frameDone(job, kind) {
   const drawn = performance.now();
   return new Promise((resolve) => requestAnimationFrame(() => {
     const painted = performance.now();
-    window.editTimings.push({ kind: kind, event: job.t, drawn: drawn, painted: painted, ms: painted - job.t });
+    window.editTimings.push({ kind: kind, event: job.t, sent: job.sent, received: job.received, server: job.server,
+                              drawn: drawn, painted: painted, ms: painted - job.t });
     resolve();
   }));
 }
@@ -831,7 +836,8 @@ async function main() {
     else if (e.key === " ") { e.preventDefault(); togglePlay(); }
   });
   window.addEventListener("resize", () => draw());
-  window.editFirstLoad = performance.now() - t0;
+  window.editFirstLoad = performance.now() - t0;  // from this script's start; performance.now() counts from navigation
+  window.editReadyAt = performance.now();
   document.body.setAttribute("data-ready", "1");
 }
 main();
