@@ -170,6 +170,9 @@ class Drag:
     refused : None, or one line saying why the step was refused (the design is unchanged).
     note : None, or one line about the design (for example: θ = 0 cannot be reached from the angle
         shown, so its guess cannot hold this branch).
+    cycle : the design's :class:`explorer.Cycle` at ``steps`` where the drag solved it on the way (its
+        guess is that cycle's positions at θ = 0, so ``explorer.simulate`` of the design gives it again),
+        else None.
     """
 
     design: Mechanism | None
@@ -178,6 +181,7 @@ class Drag:
     refused: str | None = None
     note: str | None = None
     data: dict | None = None  # design_data(design), made once
+    cycle: object = None  # explorer.simulate(design, steps) when the drag already solved it, else None
 
 
 def _angle_text(mech: Mechanism, angle: float) -> str:
@@ -264,9 +268,9 @@ def drag(mech: Mechanism, angle: float, joint: str, to, near=None, steps: int = 
     if flip is not None:
         return Drag(None, angle, C, refused=_flip_text(mech, flip, on_line=s1[flip] == 0.0, joint=joint))
     # -- the guess: this configuration followed to θ = 0 --------------------------------------------------
-    guess, note = _guess_at_zero(moved_mech, new_angle, C1, steps)
+    guess, note, cycle = _guess_at_zero(moved_mech, new_angle, C1, s1, steps)
     data["guess"] = {v: [x, y] for v, (x, y) in guess.items()}  # as mechanism_toml writes it: vertex order
-    return Drag(replace(moved_mech, guess=guess), new_angle, C1, note=note, data=data)
+    return Drag(replace(moved_mech, guess=guess), new_angle, C1, note=note, data=data, cycle=cycle)
 
 
 def _members(mech: Mechanism, C1: np.ndarray, v: str) -> dict[str, float]:
@@ -345,33 +349,46 @@ def _flip_text(mech: Mechanism, k: int, on_line: bool, joint: str) -> str:
             f"drag back")
 
 
-def _guess_at_zero(mech: Mechanism, angle: float, C1: np.ndarray, steps: int) -> tuple[dict, str | None]:
-    """The guess (positions at θ = 0 of every guessed vertex) that keeps the branch of configuration C1
-    at ``angle``, and a note where θ = 0 cannot be reached from it."""
-    from ..kernels import simulate
+def _guess_at_zero(mech: Mechanism, angle: float, C1: np.ndarray, signs: np.ndarray, steps: int):
+    """(guess, note, cycle): the guess (positions at θ = 0 of every guessed vertex) that keeps the branch
+    of configuration C1 (block signs ``signs``) at ``angle``; a note where θ = 0 cannot be reached from
+    it; the design solved with that guess where that solve was needed to find it (else None).
+
+    First the design is solved from its guess as it is (the design before the step: a drag step is small,
+    so at θ = 0 it picks the same sides): where that cycle passes through the sample nearest ``angle`` on
+    C1's branch (every block's sign the same), its own positions at θ = 0 are the guess. Otherwise (a
+    large step, a toggle near θ = 0) C1 is followed to θ = 0 by solving the design turned about its
+    crank centre so that ``angle`` is its θ = 0."""
+    from ..kernels import branch_signs, simulate
 
     idx = {v: mech.vertex_index(v) for v in mech.guess}
-    if mech.crank is None:  # a path driver: the branch at t = 0 is what the last solve kept there
-        cyc = simulate(mech, steps)  # (with velocities: the kernel the editor's solves compiled)
-        P0 = cyc.positions[0]
-        if np.all(np.isfinite(P0)):
-            return {v: (float(P0[i, 0]), float(P0[i, 1])) for v, i in idx.items()}, None
-        return dict(mech.guess), None
+    rows = list(idx.values())
+
+    def guess_of(P):
+        return {v: (float(P[i, 0]), float(P[i, 1])) for v, i in idx.items()}
+
+    cyc = simulate(mech, steps)
+    k = int(np.argmin(np.abs(((cyc.theta - angle + math.pi) % (2 * math.pi)) - math.pi))) if mech.crank is not None \
+        else int(np.argmin(np.abs(cyc.theta - angle)))
+    Pk, P0 = cyc.positions[k], cyc.positions[0]
+    if np.all(np.isfinite(Pk)) and np.all(np.isfinite(P0[rows])) and np.array_equal(branch_signs(mech, Pk), signs):
+        return guess_of(P0), None, cyc
+    if mech.crank is None:  # a path driver: the branch at t = 0 is the one its guess picks
+        return (guess_of(P0) if np.all(np.isfinite(P0[rows])) else dict(mech.guess)), None, None
     c = mech.crank.center
     turned = turn_positions(C1, c, -angle)
     cyc = simulate(rotated(mech, -angle, {v: tuple(turned[i]) for v, i in idx.items()}), steps)
     j0 = int(round(((-angle) % (2 * math.pi)) / (2 * math.pi / steps))) % steps
     X = cyc.positions[j0]
-    if np.all(np.isfinite(X[list(idx.values())])):
-        back = turn_positions(X, c, angle)
-        return {v: (float(back[i, 0]), float(back[i, 1])) for v, i in idx.items()}, None
+    if np.all(np.isfinite(X[rows])):
+        return guess_of(turn_positions(X, c, angle)), None, None
     # θ = 0 is out of reach from the configuration shown: the file's guess cannot hold this branch
     f = cyc.failure
     lo = (angle + (f.theta_end if f.theta_end is not None else f.theta)) % (2 * math.pi)
     hi = (angle + f.theta) % (2 * math.pi)
     note = (f"from the angle shown the leg turns only from θ = {math.degrees(lo):.1f}° to {math.degrees(hi):.1f}° "
             f"(vertex {f.vertex}: {f.kind}); θ = 0, where a mechanism file's guess picks the branch, is out of reach")
-    return {v: (float(C1[i, 0]), float(C1[i, 1])) for v, i in idx.items()}, note
+    return guess_of(C1), note, None
 
 
 def set_parameters(mech: Mechanism, values: dict, steps: int = 360) -> Mechanism:

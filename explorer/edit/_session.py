@@ -143,7 +143,7 @@ class EditSession:
             if d.design is None:
                 return {"refused": d.refused, "angle": d.angle, "config": _config_out(d.config),
                         "ms": {"drag": 1e3 * (t1 - t0)}}
-            solve = solve_design(d.design, self.steps, screen=self.screen, foot=False)
+            solve = solve_design(d.design, self.steps, screen=self.screen, foot=False, cycle=d.cycle)
         self.current = d.design
         solve["ms"]["drag"] = 1e3 * (t1 - t0)
         return {"design": d.data, "parameters": parameters(d.design), "size": d.design.size,

@@ -30,10 +30,10 @@ def _f(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def encode(a: np.ndarray) -> str:
-    """A float64 array as base64 of its bytes (little-endian, C order): the page reads it as a
-    Float64Array (NaN kept), much faster than a JSON list of numbers."""
-    return base64.b64encode(np.ascontiguousarray(a, dtype="<f8").tobytes()).decode("ascii")
+def encode(a: np.ndarray, dtype: str = "<f8") -> str:
+    """An array as base64 of its bytes (little-endian float64, or ``dtype``; C order): the page reads it
+    as a Float64Array (Float32Array) with NaN kept, much faster than a JSON list of numbers."""
+    return base64.b64encode(np.ascontiguousarray(a, dtype=dtype).tobytes()).decode("ascii")
 
 
 def failure_data(mech: Mechanism, failure) -> dict | None:
@@ -152,22 +152,24 @@ def _points(xy: np.ndarray) -> list:
     return out
 
 
-def solve_design(mech: Mechanism, steps: int = 360, *, screen=None, forces: bool = True, foot: bool = True) -> dict:
+def solve_design(mech: Mechanism, steps: int = 360, *, screen=None, forces: bool = True, foot: bool = True,
+                 cycle=None) -> dict:
     """Everything the editor shows of ``mech`` (JSON-ready):
 
     status, ok, failure : of ``explorer.simulate(mech, steps)`` (the default tolerance and method).
     foot : [[x, y] or None] × steps, the foot path (model units), with ``foot`` (the page reads it from
         ``positions``, which hold it: the list is for other clients of POST /api/solve).
-    positions : base64 float64 (steps, n_vertices, 2), every vertex over the turn (NaN where unsolved);
+    positions : base64 float32 (steps, n_vertices, 2), every vertex over the turn, to draw (NaN where unsolved);
     vertices : their names in that order; theta : base64 (steps,), the driver's samples.
     metrics, not_applicable : :func:`live_metrics`; screen : :func:`screen_margins`.
     forces : :func:`forces_data` (``forces``), else None.
     ms : how long the solve, the metrics and the forces took, milliseconds.
+    cycle : ``explorer.simulate(mech, steps)`` already computed (a drag step solves it on the way).
     """
     from ..kernels import simulate
 
     t0 = time.perf_counter()
-    cyc = simulate(mech, steps)
+    cyc = simulate(mech, steps) if cycle is None else cycle
     t1 = time.perf_counter()
     metrics, na = live_metrics(mech, cyc)
     status = "ok" if cyc.ok else cyc.failure.kind
@@ -184,7 +186,7 @@ def solve_design(mech: Mechanism, steps: int = 360, *, screen=None, forces: bool
         "failure": failure_data(mech, cyc.failure),
         "foot": _points(cyc.path(mech.foot)) if foot else None,
         "vertices": list(mech.vertices),
-        "positions": encode(cyc.positions),
+        "positions": encode(cyc.positions, "<f4"),  # to draw: 7 digits (the metrics are sent as float64)
         "theta": encode(cyc.theta),
         "metrics": metrics,
         "not_applicable": na,

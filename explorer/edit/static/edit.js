@@ -31,12 +31,14 @@ function h(tag, attrs, text) {
   if (text !== undefined) e.textContent = text;
   return e;
 }
-function f64(b64) {
+function bytes(b64) {
   const s = atob(b64);
   const u = new Uint8Array(s.length);
   for (let i = 0; i < s.length; i++) u[i] = s.charCodeAt(i);
-  return new Float64Array(u.buffer);
+  return u.buffer;
 }
+const f64 = (b64) => new Float64Array(bytes(b64));
+const f32 = (b64) => new Float32Array(bytes(b64));
 /** A figure's text: 7 significant digits (what data-metric elements hold), or "–" when there is none. */
 function fmt(v) {
   if (v === null || v === undefined || !isFinite(v)) return "–";
@@ -72,7 +74,7 @@ function message(text, note) {
 
 // -- a design and its solve ------------------------------------------------------------------------------
 function decode(solve) {
-  const P = f64(solve.positions);
+  const P = f32(solve.positions);
   const theta = f64(solve.theta);
   const nv = solve.vertices.length;
   return Object.assign({}, solve, { P: P, th: theta, nv: nv, S: theta.length,
@@ -289,6 +291,7 @@ function draw() {
     c.setAttribute("cx", p[0]); c.setAttribute("cy", p[1]); c.setAttribute("r", R);
     t.setAttribute("visibility", showLabels ? "visible" : "hidden");
     t.setAttribute("x", p[0] + 1.4 * R); t.setAttribute("y", -p[1] - 1.4 * R); t.setAttribute("font-size", 1.7 * R);
+    t.setAttribute("stroke-width", 0.25 * R);  // model units, as the font: a halo that scales with the drawing
   }
   document.querySelectorAll("#pivots .pivot-base").forEach((b) => {
     const p = P[idx[b.getAttribute("data-base")]];
@@ -393,6 +396,7 @@ function drawFailure(P) {
     G.failLabel.setAttribute("visibility", "visible");
     G.failLabel.setAttribute("x", p[0] + 2.4 * R); G.failLabel.setAttribute("y", -p[1] + 3.5 * R);
     G.failLabel.setAttribute("font-size", 2.2 * R);
+    G.failLabel.setAttribute("stroke-width", 0.3 * R);
     const at = f.theta === null ? "" : (f.unit === "deg" ? " at θ = " + f.theta.toFixed(1) + "°" : " at t = " + f.theta.toFixed(3) + " s");
     G.failLabel.textContent = f.vertex + ": " + f.kind + at;
   }
@@ -697,7 +701,7 @@ function studyPanel(st) {
   // the ranking
   if (st.ranking.length) {
     const t = h("table");
-    const cols = Object.keys(st.ranking[0]).filter((c) => c !== "variant" && c !== "rank");
+    const cols = Object.keys(st.ranking[0]).filter((c) => !["variant", "rank", "body_speed_ripple"].includes(c));
     const head = h("tr");
     ["#", "variant"].concat(cols).forEach((c) => head.appendChild(h("th", {}, c)));
     t.appendChild(head);
@@ -709,7 +713,11 @@ function studyPanel(st) {
       t.appendChild(tr);
     }
     body.appendChild(h("p", { class: "muted" }, `ranked by the ${st.ranked_by} (explorer rank)`));
-    body.appendChild(t);
+    const box = h("div", { class: "scroll" });
+    box.appendChild(t);
+    body.appendChild(box);
+    const m = /^variant (\d+) of /.exec(S.info.label);
+    if (m) { const tr = t.querySelector(`tr[data-variant="${m[1]}"]`); if (tr) tr.className = "current"; }
   } else if (st.ranking_note) body.appendChild(h("p", { class: "muted" }, st.ranking_note));
 }
 function placeCurrentMark() {
@@ -801,6 +809,18 @@ function start(info) {
   apply(info.current, { refit: true });
   studyPanel(info.study);
 }
+/** A link that holds a design (#design=base64url of its JSON): it becomes the current design. */
+async function fromLink() {
+  const m = /#design=([A-Za-z0-9_-]*)/.exec(location.hash);
+  if (!m) return;
+  let design = null;
+  try { design = JSON.parse(unb64url(m[1])); } catch (e) {
+    setStatus("error: the link's design cannot be read (" + e.message + ")", "error");
+    return;
+  }
+  pushUndo();
+  if (await setDesign(design)) fit();
+}
 async function main() {
   const t0 = performance.now();
   const info = await api("GET", "/api/session");
@@ -810,12 +830,8 @@ async function main() {
   const fmtSel = $("save-format");
   for (const f in info.save_formats) fmtSel.appendChild(h("option", { value: f, title: info.save_formats[f] }, f));
   start(info);
-  const m = /#design=([A-Za-z0-9_-]+)/.exec(location.hash);
-  if (m) {
-    let design = null;
-    try { design = JSON.parse(unb64url(m[1])); } catch (e) { setStatus("error: the link's design cannot be read (" + e.message + ")", "error"); }
-    if (design) { if (await setDesign(design)) fit(); }
-  }
+  await fromLink();
+  window.addEventListener("hashchange", fromLink);
   $("undo").addEventListener("click", undo);
   $("redo").addEventListener("click", redo);
   $("reset").addEventListener("click", reset);
