@@ -463,3 +463,63 @@ def test_server_listens_on_loopback_by_default():
         assert srv._httpd.socket.getsockname()[0] == "127.0.0.1"
     finally:
         srv.stop()
+
+
+def test_forces_in_si_where_the_design_has_an_operating_point(tmp_path):
+    """studies/mechanisms/jansen-plywood.toml has [operating] unit and rpm: the solve carries the forces
+    effect, explorer.simulate(..., forces=True)'s metrics; a design without one says why not."""
+    from explorer.edit import solve_design
+
+    path = os.path.join(os.path.dirname(__file__), "..", "studies", "mechanisms", "jansen-plywood.toml")
+    session = EditSession(path)
+    got = session.solve(design_data(session.reference))["forces"]
+    want = explorer.simulate(explorer.load_mechanism(path), STEPS, forces=True)
+    assert got["metrics"].keys() == want.force_metrics.keys()
+    for k, v in want.force_metrics.items():
+        assert got["metrics"][k] == v, k
+    torque = np.frombuffer(base64.b64decode(got["torque"]), dtype="<f8")
+    assert np.array_equal(torque, want.torque)
+    assert "operating" in solve_design(explorer.load_mechanism("jansen"))["forces"]["note"]
+
+
+@pytest.mark.slow
+def test_svg_dxf_and_kit_saves(client):
+    pytest.importorskip("ezdxf")
+    c, session, folder = client
+    data = design_data(session.reference)
+    for fmt, path in (("dxf", "parts.dxf"), ("kit", "kit")):
+        r = _post(c, "/api/save", {"design": data, "path": path, "format": fmt})
+        assert r.status_code == 200, r.get_json()
+    assert (folder / "parts.dxf").stat().st_size > 1000
+    assert {"parts.svg", "bom.csv", "README.txt"} <= {p.name for p in (folder / "kit").iterdir()}
+    assert _post(c, "/api/save", {"design": data, "path": "kit", "format": "kit", "check": True}).get_json()["exists"]
+    r = _post(c, "/api/save", {"design": data, "path": "kit", "format": "kit"})
+    assert r.status_code == 409  # a kit's files are not replaced without asking either
+
+
+@pytest.mark.slow
+def test_the_command_serves_until_interrupted(tmp_path):
+    """`explorer edit fourbar --no-browser --port 0`: prints its address on 127.0.0.1, answers GET
+    /api/design with the mechanism's data, and stops on Ctrl-C with exit 0."""
+    import signal
+    import subprocess
+    import sys
+    import urllib.request
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(os.path.dirname(os.path.dirname(explorer.__file__))),
+                                                                     os.environ.get("PYTHONPATH")])))
+    p = subprocess.Popen([sys.executable, "-m", "explorer.cli", "edit", "fourbar", "--no-browser", "--port", "0"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env)
+    try:
+        line = p.stdout.readline()
+        assert line.startswith("explorer edit: fourbar at http://127.0.0.1:"), line
+        url = line.split(" at ")[1].split()[0]
+        with urllib.request.urlopen(url + "api/design", timeout=30) as r:
+            assert json.loads(r.read()) == design_data(explorer.load_mechanism("fourbar"))
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=60)
+        assert p.returncode == 0, err
+        assert "kernels ready" in err and "stopped" in err and "Traceback" not in err
+    finally:
+        if p.poll() is None:
+            p.kill()

@@ -410,3 +410,35 @@ def test_play_and_scrub(page):
     cyc = explorer.simulate(explorer.load_mechanism("jansen"), STEPS)
     assert np.allclose(_handle_xy(drv, "7"), cyc.path("7")[90], atol=1e-4)  # float32 to draw
     assert not severe(drv)
+
+
+def test_forces_in_si_and_yield_on_demand(page, pngs):
+    """A mechanism file with a build ([mass], [operating]): motor torque and pin forces shown in N·m and N,
+    explorer.simulate(forces=True)'s; the yield at ±1 % on demand, explorer.study.design_yield's."""
+    from explorer.study import design_yield, robustness_from_dict
+
+    session, srv, drv, _ = page
+    path = str(Path(__file__).resolve().parents[1] / "studies" / "mechanisms" / "jansen-plywood.toml")
+    drv.find_element("id", "study-panel").click()
+    box = drv.find_element("id", "mech-path")
+    box.clear()
+    box.send_keys(path)
+    drv.find_element("id", "mech-open").click()
+    assert wait(drv, "return document.getElementById('title').textContent.startsWith('jansen-plywood ')") is True
+    mech = explorer.load_mechanism(path)
+    want = explorer.simulate(mech, STEPS, forces=True).force_metrics
+    shown = _shown_metrics(drv)
+    for m in ("motor_torque_peak", "motor_power_peak", "flywheel_inertia", "pin_force_max", "pin_force.2"):
+        assert _close(shown[m], want[m]), (m, shown[m], want[m])
+    assert "N·m" in _text(drv, '#forces tr[data-row="motor_torque_peak"]')
+    drv.find_element("id", "yield-panel").click()
+    copies = drv.find_element("id", "yield-copies")
+    copies.clear()
+    copies.send_keys("64")
+    drv.find_element("id", "yield-run").click()
+    assert wait(drv, "return document.querySelector('[data-metric=\"yield\"]').textContent.indexOf('.') > 0") is True
+    rob = robustness_from_dict({"tolerance": 1.0, "unit": "%", "copies": 64}, "t", mech)
+    y = design_yield(mech, mech.lengths[None], np.array([mech.crank.radius]), robustness=rob)
+    assert _close(_text(drv, '[data-metric="yield"]'), float(y.share[0]))
+    drv.save_screenshot(str(pngs / "jansen-plywood-forces.png"))
+    assert not severe(drv)

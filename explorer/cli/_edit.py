@@ -58,8 +58,8 @@ def run(args) -> int:
     session.warm()  # every kernel the page uses, compiled (or loaded from the cache) before the page asks
     print(f"explorer edit: kernels ready in {time.perf_counter() - t:.1f} s", file=sys.stderr, flush=True)
     try:
-        serve(session, args.host, args.port, open_browser=args.browser)
+        serve(session, args.host, args.port, open_browser=args.browser)  # until Ctrl-C (or SIGTERM)
     except KeyboardInterrupt:
-        print("explorer edit: stopped", file=sys.stderr)
-        return 0
+        pass
+    print("explorer edit: stopped", file=sys.stderr)
     return 0

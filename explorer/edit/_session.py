@@ -172,7 +172,7 @@ class EditSession:
         if is_results_file(path):
             return self.open_study(path)
         mech = load_mechanism(path)
-        self._set_reference(mech, name)
+        self._set_reference(mech, name if name in builtin_mechanisms() else Path(path).name)
         return self.info()
 
     # -- a study ------------------------------------------------------------------------------------------
