@@ -25,14 +25,13 @@ from __future__ import annotations
 import html as htmlmod
 import json
 import re
-import shutil
-import time
 
 import numpy as np
 import pandas as pd
 import pytest
 
 import explorer
+from browser import chromium, wait
 from explorer.cli import main
 from explorer.view import write_report
 
@@ -172,41 +171,14 @@ def test_cli_errors_are_one_line_exit_2(study, tmp_path, capsys, argv, words):
 
 
 # -- in a real browser ---------------------------------------------------------------------------------------
-INSTALL = "apt-get install chromium chromium-driver (Debian; as root), then pip install selenium (the test extra)"
-
-
 @pytest.fixture(scope="module")
 def browser():
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        pytest.skip(f"selenium is not installed: {INSTALL}")
-    binary = next((shutil.which(b) for b in ("chromium", "chromium-browser", "google-chrome", "chrome")
-                   if shutil.which(b)), None)
-    driver_exe = shutil.which("chromedriver")
-    if binary is None or driver_exe is None:
-        pytest.skip(f"no headless browser found ({'chromium' if binary is None else 'chromedriver'} is not on "
-                    f"PATH): {INSTALL}")
-    opts = webdriver.ChromeOptions()
-    for a in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--enable-unsafe-swiftshader",
-              "--window-size=1400,1600"):
-        opts.add_argument(a)
-    opts.binary_location = binary
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    drv = webdriver.Chrome(options=opts, service=Service(driver_exe))  # explicit paths: no network look-up
-    drv.set_script_timeout(120)
+    drv = chromium("1400,1600")  # (skips, naming the install command, where there is no browser)
     yield drv
     drv.quit()
 
 
-def _wait(drv, script, want, timeout=60.0):
-    t = time.monotonic()
-    while True:
-        got = drv.execute_script(script)
-        if got == want or time.monotonic() - t > timeout:
-            return got
-        time.sleep(0.05)
+_wait = wait
 
 
 def _count(drv, el):

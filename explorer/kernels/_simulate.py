@@ -504,6 +504,18 @@ def _force_status(fo, status, fth, fbl, params) -> None:
     fbl[bad] = fo.block[bad]
 
 
+def branch_signs(mech: Mechanism, positions) -> np.ndarray:
+    """The branch of a configuration: the sign (+1.0 / −1.0) of every block of ``mech``'s plan at
+    ``positions`` (n_vertices, 2), in plan order; 0.0 for a block at a singular point (a dyad whose
+    vertex is on its parents' line, a coupled block at a toggle) and for an ATTACH block, which has no
+    branch. Two configurations of one topology lie on the same branch where their signs agree: the
+    solver keeps every block's sign through a cycle and fails a variant whose sign changes."""
+    P = np.asarray(positions, dtype=np.float64)
+    if P.shape != (len(mech.vertices), 2):
+        raise UserError(f"positions: expected shape ({len(mech.vertices)}, 2), got {P.shape}")
+    return _signs(mech, plan_for(mech), P)
+
+
 def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
     """Branch sign (+1.0 / −1.0; 0.0 if singular or for an ATTACH block, which has none) of every block
     at positions P (n_vertices, 2)."""
