@@ -33,16 +33,41 @@ The force member m puts on pin v is f_{m→v} = Σ_{c∈m} (∂c/∂q_v)ᵀ·λ_
 frame, the crank and the ground (the load on the contact foot) are members too. A joint's reaction
 is the largest of its members' forces (the one that sets the pin's shear).
 
-Walker: the leg is replicated on one crankshaft (``_legs``); the load W = load·g rests on the
-contact foot (the lowest, ties to the lower leg) as the walker scene's force F = (u·drag·W, W), u
-the walking direction. Everything is linear in the load, so each sample of the base leg is solved
-for inertia and weight, and, only where some leg reads that sample while it carries the load, for
-the load alone (F as a plain leg carries it, the mirror image (−F_x, F_y) as a mirrored leg does;
-one solve when there is no drag); every leg at every crank angle is read off these sums: a plain
-leg at θ + φ_j, a mirrored leg as the mirror
-image of the base leg at π − θ − φ_j with the mirrored load, its torque negated (it is driven
-backwards). A phase between two samples is interpolated linearly. The motor torque, the frame force
-and the pin reactions are those of the whole walker; the stored joint forces are leg 0's.
+Walker: the leg is replicated on one crankshaft (``_legs``); the contact foot is the lowest (ties to
+the lower leg), as for the walker metrics; the body's mass is ``[operating] load``, its weight W =
+load·g, its drag D = drag·W against the walking direction u. Two models (``[operating] body``):
+
+* **held** (the frame still in space): the legs hang from the frame, and the ground pushes the contact
+  foot with the walker scene's force F = (u·D, W) alone; the legs' weight and inertia go to the frame
+  (the shaking force). Everything is linear in the load, so each sample of the base leg is solved for
+  inertia and weight, and, only where some leg reads that sample while it carries the load, for the
+  load alone (F as a plain leg carries it, the mirror image (−F_x, F_y) as a mirrored leg does; one
+  solve when there is no drag).
+* **moving** (the default): the body moves with the planted contact foot p_c (body frame), so its
+  acceleration is a_b = −ω²·d²p_c/dθ² (x and y; it does not pitch). The legs are solved in the body's
+  frame, which accelerates without turning: effective gravity g − a_b on every member (a d'Alembert
+  force −m·a_b). The body itself is carried by the legs: their force on it is m_b·(a_b − g⃗) − drag;
+  the ground's force G on the contact foot is whatever makes that so, G = m_b·(a_b − g⃗) − drag −
+  Σ_legs (their force on the body with no ground force), i.e. the whole machine's weight, drag and
+  momentum change (a leg in equilibrium passes a force on its foot to the frame unchanged). Each sample
+  of the base leg is solved for inertia and weight, for a unit body acceleration along x and y, and,
+  where some leg reads it while carrying the walker, for a unit ground force along x and y; every leg
+  at every angle combines them with its a_b (and G) in its own frame. The shaking force is then the
+  legs' force on the body.
+  Handovers: a_b is that of the foot carrying the walker at each sample, so it switches between two
+  samples (or at a sample where two feet are exactly level, e.g. a plain leg and a mirrored one
+  reading the same sample: the lower leg carries, as the walker metrics say). When the contact foot
+  changes, the landing foot's velocity relative to the body generally differs from the lifting
+  foot's, so the body's velocity jumps: an impact whose impulse the sampled model does not carry (its
+  peak force depends on the contact's stiffness; on the nominal Jansen walker the jump is 0.03–0.04
+  m/s, some 0.3 % of the energy per turn). Before and after a handover the model is exact; the peaks
+  are taken over the samples on either side.
+
+Every leg at every crank angle is read off the base leg's sums: a plain leg at θ + φ_j, a mirrored
+leg as the mirror image of the base leg at π − θ − φ_j with the mirrored loads, its torque negated
+(it is driven backwards). A phase between two samples is interpolated linearly. The motor torque,
+the frame force and the pin reactions are those of the whole walker; the stored joint forces are
+leg 0's.
 """
 
 from __future__ import annotations
