@@ -553,6 +553,20 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_
     return -1
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _body_load(R, Fu, p, q, ip, iq, dpx, dpy, dqx, dqy):
+    """A body's generalised load (dpx, dpy) on its base vertex p and (dqx, dqy) on q: into R, and, negated,
+    into the body's incidence forces Fu at p (ip) and q (iq)."""
+    R[p, 0] += dpx
+    R[p, 1] += dpy
+    R[q, 0] += dqx
+    R[q, 1] += dqy
+    Fu[ip, 0] -= dpx
+    Fu[ip, 1] -= dpy
+    Fu[iq, 0] -= dqx
+    Fu[iq, 1] -= dqy
+
+
 def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b,
                    att, inc_vertex, dinc, ainc, body_pq, body_inc, body_mass, tip, tip_inc, fixed, fixed_inc, foot,
                    foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight, out_idx, slide, sinc,
@@ -779,14 +793,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                             dqy = fqy + mb * gravity * ub
                             dpx = fpx - mb * gravity * wb
                             dpy = fpy + mb * gravity * (1.0 - ub)
-                            R[p, 0] += dpx
-                            R[p, 1] += dpy
-                            R[q, 0] += dqx
-                            R[q, 1] += dqy
-                            Fu[body_inc[bi, 0], 0] -= dpx
-                            Fu[body_inc[bi, 0], 1] -= dpy
-                            Fu[body_inc[bi, 1], 0] -= dqx
-                            Fu[body_inc[bi, 1], 1] -= dqy
+                            _body_load(R, Fu, p, q, body_inc[bi, 0], body_inc[bi, 1], dpx, dpy, dqx, dqy)
                 elif moving and rhs <= 2:  # a unit acceleration of the body along x (1) or y (2): in its
                     # frame every member's mass × it (the d'Alembert force of the frame's acceleration)
                     ax = rhs - 1
@@ -808,14 +815,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                             fqy = mb * (-wb if ax == 0 else ub)
                             fpx = (mb if ax == 0 else 0.0) - fqx
                             fpy = (mb if ax == 1 else 0.0) - fqy
-                            R[p, 0] += fpx
-                            R[p, 1] += fpy
-                            R[q, 0] += fqx
-                            R[q, 1] += fqy
-                            Fu[body_inc[bi, 0], 0] -= fpx
-                            Fu[body_inc[bi, 0], 1] -= fpy
-                            Fu[body_inc[bi, 1], 0] -= fqx
-                            Fu[body_inc[bi, 1], 1] -= fqy
+                            _body_load(R, Fu, p, q, body_inc[bi, 0], body_inc[bi, 1], fpx, fpy, fqx, fqy)
                 elif moving:  # a unit force of the ground on the foot along x (3) or y (4)
                     R[foot, rhs - 3] -= 1.0
                     Fu[foot_inc, rhs - 3] += 1.0
