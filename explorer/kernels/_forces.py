@@ -658,6 +658,13 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
         cx = center[i, 0]
         cy = center[i, 1]
         mc = crank_mass[i]
+        weightless = mc == 0.0  # no member has mass: a body acceleration loads nothing (moving)
+        for e in range(nl):
+            if link_mass[i, e] != 0.0:
+                weightless = False
+        for bi in range(nb):
+            if body_mass[bi] != 0.0:
+                weightless = False
         failed = False
         # -- velocities and accelerations, block by block -------------------------------------------
         for u in range(S):
@@ -739,7 +746,8 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                         Fi[u, 2, kk, 1] = Fi[u, 1, kk, 1]
                     continue
                 if (not moving and ((rhs == 1 and not vis_plain[u]) or (rhs == 2 and not vis_mirr[u]))) or \
-                        (rhs >= 3 and not (vis_plain[u] or vis_mirr[u])):  # the ground's unit forces: loaded samples
+                        (rhs >= 3 and not (vis_plain[u] or vis_mirr[u])) or \
+                        (moving and rhs <= 2 and rhs >= 1 and weightless):  # only what some leg reads: zeros
                     tau[u, rhs] = 0.0
                     frame[u, rhs, 0] = 0.0
                     frame[u, rhs, 1] = 0.0
@@ -1014,7 +1022,6 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
         pin_peak[i, v] = 0.0
     first_bad = -1
     shake = 0.0
-    cf = np.empty(5)
     for k in range(S):
         c = C[k]
         f = frac[c]
@@ -1057,53 +1064,50 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
             u0 = (sign[j] * k + base[j]) % S
             u1 = (u0 + 1) % S
             mir = -1.0 if mirrored[j] else 1.0
-            cf[0] = 1.0
-            cf[1] = mir * abx
-            cf[2] = aby
-            cf[3] = mir * gx if j == c else 0.0
-            cf[4] = gy if j == c else 0.0
-            nr = 5 if j == c else 3
-            tj = 0.0
-            fjx = 0.0
-            fjy = 0.0
-            for r in range(nr):
-                tj += cf[r] * tau[u0, r]
-                fjx += cf[r] * frame[u0, r, 0]
-                fjy += cf[r] * frame[u0, r, 1]
-            tj *= w0
-            fjx *= w0
-            fjy *= w0
+            c1 = mir * abx
+            c2 = aby
+            c3 = mir * gx if j == c else 0.0  # the ground pushes the contact leg's foot only
+            c4 = gy if j == c else 0.0
+            tj = w0 * (tau[u0, 0] + c1 * tau[u0, 1] + c2 * tau[u0, 2] + c3 * tau[u0, 3] + c4 * tau[u0, 4])
+            fjx = w0 * (frame[u0, 0, 0] + c1 * frame[u0, 1, 0] + c2 * frame[u0, 2, 0] + c3 * frame[u0, 3, 0]
+                        + c4 * frame[u0, 4, 0])
+            fjy = w0 * (frame[u0, 0, 1] + c1 * frame[u0, 1, 1] + c2 * frame[u0, 2, 1] + c3 * frame[u0, 3, 1]
+                        + c4 * frame[u0, 4, 1])
             if f != 0.0:
-                for r in range(nr):
-                    tj += f * cf[r] * tau[u1, r]
-                    fjx += f * cf[r] * frame[u1, r, 0]
-                    fjy += f * cf[r] * frame[u1, r, 1]
+                tj += f * (tau[u1, 0] + c1 * tau[u1, 1] + c2 * tau[u1, 2] + c3 * tau[u1, 3] + c4 * tau[u1, 4])
+                fjx += f * (frame[u1, 0, 0] + c1 * frame[u1, 1, 0] + c2 * frame[u1, 2, 0] + c3 * frame[u1, 3, 0]
+                            + c4 * frame[u1, 4, 0])
+                fjy += f * (frame[u1, 0, 1] + c1 * frame[u1, 1, 1] + c2 * frame[u1, 2, 1] + c3 * frame[u1, 3, 1]
+                            + c4 * frame[u1, 4, 1])
             ttot += mir * tj
             frx += mir * fjx
             fry += fjy
             for kk in range(K):
-                fx = 0.0
-                fy = 0.0
-                for r in range(nr):
-                    fx += cf[r] * Fi[u0, r, kk, 0]
-                    fy += cf[r] * Fi[u0, r, kk, 1]
-                fx *= w0
-                fy *= w0
+                fx = Fi[u0, 0, kk, 0] + c1 * Fi[u0, 1, kk, 0] + c2 * Fi[u0, 2, kk, 0]
+                fy = Fi[u0, 0, kk, 1] + c1 * Fi[u0, 1, kk, 1] + c2 * Fi[u0, 2, kk, 1]
+                if j == c:
+                    fx += c3 * Fi[u0, 3, kk, 0] + c4 * Fi[u0, 4, kk, 0]
+                    fy += c3 * Fi[u0, 3, kk, 1] + c4 * Fi[u0, 4, kk, 1]
                 if f != 0.0:
-                    for r in range(nr):
-                        fx += f * cf[r] * Fi[u1, r, kk, 0]
-                        fy += f * cf[r] * Fi[u1, r, kk, 1]
-                mag = math.sqrt(fx * fx + fy * fy)
-                fm[kk] = mag
+                    gx_ = Fi[u1, 0, kk, 0] + c1 * Fi[u1, 1, kk, 0] + c2 * Fi[u1, 2, kk, 0]
+                    gy_ = Fi[u1, 0, kk, 1] + c1 * Fi[u1, 1, kk, 1] + c2 * Fi[u1, 2, kk, 1]
+                    if j == c:
+                        gx_ += c3 * Fi[u1, 3, kk, 0] + c4 * Fi[u1, 4, kk, 0]
+                        gy_ += c3 * Fi[u1, 3, kk, 1] + c4 * Fi[u1, 4, kk, 1]
+                    fx = w0 * fx + f * gx_
+                    fy = w0 * fy + f * gy_
+                mag2 = fx * fx + fy * fy  # squared: one square root per joint at the end
                 v = inc_vertex[kk]
-                if not math.isfinite(mag) and first_bad < 0:
-                    first_bad = k
-                if not (mag <= pin_peak[i, v]):
-                    pin_peak[i, v] = mag
-                if j == 0 and finc.shape[1] > 0:
-                    finc[i, k, kk, 0] = mir * fx
-                    finc[i, k, kk, 1] = fy
+                if not (mag2 <= pin_peak[i, v]):
+                    pin_peak[i, v] = mag2
+                    if first_bad < 0 and not math.isfinite(mag2):
+                        first_bad = k
                 if j == 0:
+                    mag = math.sqrt(mag2)
+                    fm[kk] = mag
+                    if finc.shape[1] > 0:
+                        finc[i, k, kk, 0] = mir * fx
+                        finc[i, k, kk, 1] = fy
                     for s_ in range(sel.shape[0]):
                         if sel[s_] == v:  # the member that loads this pin most, at this sample
                             best = True
@@ -1120,6 +1124,8 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
         if not (sh <= shake):
             shake = sh
     shake_peak[i] = shake
+    for v in range(pin_peak.shape[1]):
+        pin_peak[i, v] = math.sqrt(pin_peak[i, v])
     if first_bad < 0 and not math.isfinite(shake):
         first_bad = 0
     return first_bad
