@@ -177,11 +177,12 @@ def test_a_build_round_trips_through_its_toml():
     d["crank"]["mass"] = 0.1
     d["links"][0]["mass"] = 0.05
     d["mass"] = {"link_density": 0.2}
-    d["operating"] = {"unit": 0.01, "rpm": 20.0, "load": 3.0}
+    d["operating"] = {"unit": 0.01, "rpm": 20.0, "load": 3.0, "body": "held", "gear_ratio": 25.0}
     m = mechanism_from_dict(d, "klann-built")
     back = mechanism_from_dict(tomllib.loads(mechanism_toml(m)), "klann-built")
     assert back == m
     assert back.bodies[0].centroid == (5.0, 0.5) and back.operating.load == 3.0 and back.link_density == 0.2
+    assert back.operating.body == "held" and back.operating.gear_ratio == 25.0
 
 
 
