@@ -127,6 +127,12 @@ def yields(res, args, variants) -> tuple[dict, object]:
     return {v: (float(p), float(se)) for v, p, se in zip(wanted, y.share, y.se)}, y.robustness
 
 
+#: What the two torque columns of a forces study are (``explorer rank`` prints it under the table's head).
+TORQUES_LINE = ("torques: peak_torque is the walker metric, quasi-static: the load alone on massless legs; "
+                "motor_torque_peak is the motor's (the forces effect: the legs' inertia and weight, the body as "
+                "[operating] body says): size the motor from motor_torque_peak")
+
+
 def run(args) -> int:
     from ..errors import UserError
     from ..gait import DEFAULT_WEIGHTS, DIRECTIONS, WALKER_METRICS, operating_line
@@ -238,6 +244,11 @@ def run(args) -> int:
     marks = [str(r) for r in table_rows["rank"].iloc[:-1]] + [f"{ref_label}:{place}"]
     table_rows = table_rows.assign(rank=marks)
     cols = lead + rest
+    if extra is None and "motor_torque_peak" in ranked.columns and "motor_torque_peak" not in cols:
+        # a forces study: the motor's own peak beside the walker metric's quasi-static one
+        cols.insert(cols.index("peak_torque") + 1 if "peak_torque" in cols else len(lead), "motor_torque_peak")
+    if "peak_torque" in cols and "motor_torque_peak" in cols:
+        lines.append(TORQUES_LINE)
     if robust is not None:
         cols = lead + [c for c in ("yield", "yield_se") if c not in lead] + [c for c in rest if c not in
                                                                               ("yield", "yield_se")]
@@ -266,6 +277,8 @@ def run(args) -> int:
                      "weight × crank radius)")
         lines += conv.notes
         labels = conv.labels()
+        if "motor_torque_peak" in cols:  # already SI, labelled beside peak_torque[N·m]
+            labels["motor_torque_peak"] = "motor_torque_peak[N·m]"
         table_rows = table_rows.rename(columns=labels)
         cols = [labels.get(c, c) for c in cols]
     lines.append("")

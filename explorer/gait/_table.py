@@ -76,7 +76,8 @@ TABLE: tuple[Metric, ...] = (
     _m("body_speed_ripple", "1", "min", "walker",
        "std / mean of the body speed |dx_c/dθ| over the turn", "velocity", "walker"),
     _m("peak_torque", "1 (per W·crank)", "min", "walker",
-       "largest |crank torque| carrying the load on the contact foot, per weight × crank radius",
+       "largest |crank torque| carrying the load on the contact foot, per weight × crank radius: quasi-static, the "
+       "load alone on massless legs (the forces effect's motor_torque_peak is the dynamic figure)",
        "velocity", "crank", "walker"),
     _m("torque_ripple", "1 (per W·crank)", "min", "walker",
        "max − min of the crank torque over the turn, per weight × crank radius", "velocity", "crank", "walker"),
@@ -122,21 +123,27 @@ TABLE: tuple[Metric, ...] = (
        "robustness"),
     # -- the forces effect (SI units, at the [operating] point; the walker's whole crankshaft) -----------
     _m("motor_torque_peak", "N·m", "min", "forces",
-       "largest |motor torque| over the turn, with the links' inertia and weight and the load on the contact foot",
-       "forces"),
+       "largest |motor torque| over the turn, dynamic: with the links' inertia and weight and the body (the load) "
+       "moving with the contact foot ([operating] body = \"moving\") or held still (\"held\"); the walker "
+       "metrics' peak_torque is the load-only quasi-static figure", "forces"),
     _m("motor_torque_rms", "N·m", "min", "forces", "root mean square of the motor torque over the turn", "forces"),
     _m("motor_power_peak", "W", "min", "forces", "largest power the motor delivers, max τ·ω", "forces"),
     _m("energy_per_turn", "J", "min", "forces", "positive work the motor does per crank turn, Σ max(τ, 0)·Δθ",
        "forces"),
     _m("flywheel_inertia", "kg·m²", "min", "forces",
        "flywheel that holds the crank speed within ±speed_fluctuation/2: ΔE / (C_s·ω²), ΔE the largest swing of "
-       "∫(τ − mean τ)dθ", "forces"),
+       "∫(τ − mean τ)dθ; on the crank", "forces"),
+    _m("flywheel_inertia_motor", "kg·m²", "min", "forces",
+       "the same flywheel on the motor shaft, flywheel_inertia / N² (N = [operating] gear_ratio, motor turns per "
+       "crank turn): at a low crank speed the flywheel belongs on the motor side of the gearbox", "forces"),
     _m("pin_force_max", "N", "min", "forces", "largest joint reaction over every joint, leg and crank angle",
        "forces"),
     _m("shaking_force_peak", "N", "min", "forces",
        "largest resultant force the legs put on the frame (weight and load included)", "forces"),
+    _m("machine_mass", "kg", "min", "forces",
+       "the whole machine: every leg (links, bodies, crank) and the body ([operating] load)", "forces"),
     _m("cost_of_transport", "1", "min", "forces",
-       "energy per turn / (load·g·travel in metres), with a load", "forces"),
+       "energy per turn / (machine_mass·g·travel in metres), the whole machine's (legs and body)", "forces"),
 )
 #: Prefix of the per-joint reaction metrics, ``pin_force.<joint>`` (N): each joint's peak reaction.
 PIN_FORCE = "pin_force."

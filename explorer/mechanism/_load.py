@@ -10,13 +10,13 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ._model import (LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker,
+from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker,
                      _check_length, _short, actuator_path)
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
              "operating", "sliders"}
 #: Keys of an [operating] table (in a study, or a mechanism file's default), see :class:`Operating`.
-OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation")
+OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation", "body", "gear_ratio")
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
 WALKER_KEYS = ("legs", "phases", "mirrored", "drag", "contact")
 #: Most legs a walker may have.
@@ -239,7 +239,22 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
                      walker, bodies, link_density, operating, sliders)
     _check_parameter_names(mech)
+    if operating is not None and operating.body is not None:
+        walker_body(mech, operating, source)
     return mech
+
+
+def walker_body(mech: Mechanism, operating: Operating, source: str, key: str = "operating") -> Operating:
+    """``operating`` with its ``body`` force model resolved for ``mech``: as given, else "moving", or
+    "held" for a foot that runs on a ground slider (it is guided by the frame: no body walks on it).
+    UserError naming ``source``, ``key.body`` and the value for "moving" on such a foot."""
+    rail = next((sl for sl in mech.sliders if sl.ground and sl.vertex == mech.foot), None)
+    if operating.body is None:
+        return replace(operating, body="held" if rail is not None else "moving")
+    if operating.body == "moving" and rail is not None:
+        raise UserError(f"{where(source, key + '.body')}: the foot {mech.foot!r} runs on the ground slider "
+                        f"{rail.name!r}, so no body walks on it; use body = \"held\", got 'moving'")
+    return operating
 
 
 def _named_table(source: str, key: str, t, allowed, required, seen_names: set, what: str, example: str,
@@ -481,10 +496,19 @@ def operating_from_dict(table, source: str, key: str = "operating", base: Operat
         "unit": (0.0, False, 1e6, "metres per model unit, a number > 0 (0.01 for a mechanism in centimetres)"),
         "rpm": (0.0, False, 1e6, "the crank speed in revolutions per minute, a number > 0"),
         "gravity": (0.0, True, 1e4, "m/s² along −y, a number ≥ 0 (0 turns gravity off)"),
-        "load": (0.0, True, 1e9, "kg carried by the contact foot, a number ≥ 0"),
+        "load": (0.0, True, 1e9, "the mass of the walker's body (frame, motor, battery: everything but the legs) "
+                 "in kg, a number ≥ 0"),
         "speed_fluctuation": (0.0, False, 2.0, "the crank speed's allowed fluctuation (ω_max − ω_min)/ω_mean, "
                               "a number in (0, 2]"),
+        "gear_ratio": (0.0, False, 1e6, "the motor's turns per crank turn, a number > 0 (1: the motor drives the "
+                       "crank directly)"),
     }
+    if "body" in t:
+        if t["body"] not in BODY_MODELS:
+            raise UserError(f"{where(source, f'{key}.body')}: expected one of {', '.join(map(repr, BODY_MODELS))} "
+                            f"(the walker's body moving with its contact foot, or the frame held still), got "
+                            f"{_short(t['body'])}")
+        out["body"] = t["body"]
     for k, (lo, lo_ok, hi, what) in rules.items():
         if k not in t:
             continue

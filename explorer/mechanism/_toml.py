@@ -122,7 +122,8 @@ def mechanism_toml(mech: Mechanism, header: str = "") -> str:
     if mech.link_density is not None:
         lines += ["", "[mass]", f"link_density = {_num(mech.link_density)}   # kg per metre of link"]
     if mech.operating is not None:
-        lines += ["", "[operating]"] + [f"{k} = {_num(v)}" for k, v in mech.operating.as_dict().items()]
+        lines += ["", "[operating]"] + [f"{k} = {_str(v) if isinstance(v, str) else _num(v)}"
+                                        for k, v in mech.operating.as_dict().items()]
     if mech.walker is not None:
         w = mech.walker
         lines += ["", "[walker]", f"legs = {int(w.legs)}",

@@ -81,7 +81,7 @@ from ..errors import UserError, where
 from ..gait import SCREEN_KEYS, TARGET_KEYS, Screen, Target, load_target, screen_from_dict
 from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
 from ..mechanism import (OPERATING_KEYS, Mechanism, Operating, Walker, builtin_mechanisms, load_mechanism,
-                         operating_from_dict, parse_toml, walker_from_dict)
+                         operating_from_dict, parse_toml, walker_body, walker_from_dict)
 from ._objectives import OPTIMIZE_KEYS, Optimize, parse_optimize
 from ._yield import ROBUSTNESS_KEYS, YIELD, Robustness, robustness_from_dict
 
@@ -480,6 +480,7 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
             if operating is None or getattr(operating, k) is None:
                 raise UserError(f"{where(source, 'operating.' + k)}: [scene] forces = true needs it ({what}), in the "
                                 f"study's [operating] table or the mechanism's")
+        operating = walker_body(mech, operating, source)  # the force model, stored resolved
     elif operating is not None and operating.load and mech.crank is None:
         raise UserError(f"{where(source, 'operating.load')}: a load rides on a walker's contact foot; mechanism "
                         f"{mech.name!r} is driven along a path")
