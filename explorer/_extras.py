@@ -9,6 +9,7 @@ module             extra           needed by
 ``ezdxf``          ``cad``         ``explorer export --format dxf``
 ``imageio_ffmpeg`` ``movie``       ``explorer animate`` to .mp4 (a .gif needs nothing more)
 ``dask``           ``dask``        ``--workers``, ``client=`` (see :mod:`explorer.study._dask`)
+``mujoco``         ``physics``     ``explorer physics`` (:func:`~explorer.physics.physics_check`)
 =================  ==============  ===============================================
 
 ``pip install 'explorer[all]'`` installs all of them. A library is imported where it is used, never at
@@ -30,6 +31,7 @@ EXTRAS = {
     "SALib": ("sensitivity", "SALib"),
     "ezdxf": ("cad", "ezdxf"),
     "imageio_ffmpeg": ("movie", "imageio-ffmpeg"),
+    "mujoco": ("physics", "mujoco"),
 }
 
 
