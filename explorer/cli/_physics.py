@@ -104,6 +104,12 @@ def summary_lines(out) -> list[str]:
         lines.append("")
     for v, why in out["skipped"]:
         lines.append(f"skipped variant {v}: {why}")
+    light = max((o.get("massless", 0) for o in out["checked"].values()), default=0)
+    if light:
+        from ..physics._model import MIN_MASS_FRACTION
+        lines.append(f"note: {light} members of the machine have no mass data (no [mass] link_density, body or crank "
+                     f"mass): each got {100 * MIN_MASS_FRACTION:g} % of the body's mass, and the figures depend on it; "
+                     f"give the mechanism its masses")
     per = out["cpu_s"] / n_ok if n_ok else math.nan
     lines.append(f"checked {n_ok:,} design{'s' if n_ok != 1 else ''}" + (f", {n_failed:,} failed" if n_failed else "")
                  + (f", {n_skipped:,} skipped" if n_skipped else "")

@@ -125,6 +125,7 @@ def _job(job):
     try:
         out = run_model(model, samples, kin)
         out.pop("series", None)
+        out["massless"] = model.massless
         return v, out, None
     except PhysicsFailure as exc:
         return v, None, str(exc)

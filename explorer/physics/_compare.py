@@ -131,3 +131,54 @@ def rank_note(full, keys) -> str | None:
     n = int(full[keys[0]].notna().sum())
     return (f"{', '.join(keys)}: {n:,} of the {len(full):,} ranked designs checked by `explorer physics` (the others "
             f"are NaN, not checked, and rank last)")
+
+
+def report_panel(res, df) -> str:
+    """The report's panel of the designs the physics check covered (``res`` an open results file, ``df`` its
+    frame): one row per design, its physics figures beside the kinematic ones and the verdict (HTML)."""
+    import html
+
+    from ._check import stored_physics
+    esc = html.escape
+    stored = stored_physics(res) or {}
+    op = res.operating
+    marks = stored.get("checked") or {}
+    s = stored.get("settings") or {}
+    if op is None or op.unit is None or not marks:
+        return ""
+    head = ("<tr><th>variant</th><th class='num'>travel [m/turn]</th><th class='num'>kinematic</th>"
+            "<th class='num'>Δ %</th><th class='num'>bob [mm]</th><th class='num'>kinematic</th>"
+            "<th class='num'>pitch [rad]</th><th class='num'>feet loaded</th><th class='num'>friction [J/turn]</th>"
+            "<th class='num'>torque peak [N·m]</th><th class='num'>forces model</th><th class='num'>torque rms [N·m]</th>"
+            "<th class='num'>impact [N]</th><th>verdict</th></tr>")
+    body = []
+    for key in sorted(marks, key=int):
+        v = int(key)
+        if not 0 <= v < len(df):
+            continue
+        row = df.iloc[v]
+        if marks[key] != "ok":
+            body.append(f"<tr class='physics' data-variant='{v}'><td>{v}</td>" + "<td class='num'>-</td>" * 12
+                        + f"<td>{esc(marks[key])}</td></tr>")
+            continue
+
+        def num(x, fmt):
+            return format(x, fmt) if math.isfinite(x) else "-"
+
+        unit = float(op.unit)
+        cells = [num(_f(row, "physics_travel"), ".4f"), num(_f(row, "travel") * unit, ".4f"),
+                 num(_f(row, "physics_travel_diff"), "+.2f"), num(_f(row, "physics_bob") * 1e3, ".3f"),
+                 num(_f(row, "bob") * unit * 1e3, ".3f"), num(_f(row, "physics_pitch"), ".3g"),
+                 num(_f(row, "physics_loaded_feet_max"), ".0f"), num(_f(row, "physics_friction_work"), ".3g"),
+                 num(_f(row, "physics_torque_peak"), ".3f"), num(_f(row, "motor_torque_peak"), ".3f"),
+                 num(_f(row, "physics_torque_rms"), ".3f"), num(_f(row, "physics_impact_peak"), ".4g")]
+        body.append(f"<tr class='physics' data-variant='{v}'><td>{v}</td>"
+                    + "".join(f"<td class='num'>{c}</td>" for c in cells) + f"<td>{esc(verdict(row, op))}</td></tr>")
+    how = (f"MuJoCo {stored.get('mujoco', '?')}, {stored.get('legs', '?')} legs, body {stored.get('body_mass', 0):g} kg, "
+           f"pitch {s.get('pitch')}, {s.get('turns')} turns after {s.get('settle', 0):g} settling")
+    return (f"<div class='panel' id='physics-panel'><h2>Physics check (MuJoCo) of {len(body)} design"
+            f"{'s' if len(body) != 1 else ''}</h2><p class='note'>{esc(how)}: each design's walker scene stepped in "
+            f"MuJoCo (<code>explorer physics</code>) beside the kinematic walker's figures (forces model: the forces "
+            f"effect's motor_torque_peak); the other designs were not checked. The impact, the largest normal force "
+            f"on a landing foot, depends on the contact stiffness.</p><table id='physics'>{head}{''.join(body)}"
+            f"</table></div>")

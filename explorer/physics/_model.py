@@ -39,8 +39,11 @@ import numpy as np
 
 from ..errors import UserError
 
-#: A member without mass data gets this fraction of the body's mass (MuJoCo needs positive masses).
-MIN_MASS_FRACTION = 1e-4
+#: A member without mass data gets this fraction of the body's mass: MuJoCo needs positive masses, and legs
+#: much lighter than that make the stiff loop constraints ill-conditioned (a massless Klann leg under an 8 kg
+#: body at 1e-4 blew up; at 1e-3 a Hoeken walker's travel was 31 % short, at 1e-2 within 1 % of the figures
+#: with real masses). Figures of such a design depend on it: give the mechanism its masses.
+MIN_MASS_FRACTION = 1e-2
 #: Default foot sphere radius, as a fraction of the crank radius.
 FOOT_RADIUS = 0.05
 #: Default friction coefficient of a foot on the ground.
@@ -399,6 +402,8 @@ def build_model(mech, P: np.ndarray, V: np.ndarray, walker, operating, settings:
         if k not in (0,):
             for a, b in (zip(pts[:-1], pts[1:]) if len(pts) > 1 else ()):
                 pa, pb = a - here, b - here
+                if float(np.hypot(*(pb - pa))) < 1e-6 * rc:  # two joints at one place (drawn as nothing)
+                    continue
                 lines.append(f'{ind}  <geom type="capsule" fromto="{_fmt(pa[0], 0, pa[1], pb[0], 0, pb[1])}" '
                              f'size="{0.1 * rc:.6g}"/>')
         for key, pw in mb.points.items():

@@ -59,7 +59,6 @@ def run_model(model: Model, samples: int, kinematic_travel: float | None = None)
     ``cpu_s`` and ``series`` (what a plot needs: theta (S,), torque (S,), per-sample normal forces
     (S, L) phase-averaged, body height (K·S,)). Raises :class:`PhysicsFailure`."""
     import mujoco
-    from mujoco import rollout
 
     t0 = time.process_time()
     st: Settings = model.settings
@@ -78,6 +77,32 @@ def run_model(model: Model, samples: int, kinematic_travel: float | None = None)
     total = n_settle + K * n
     first = state.copy()
     states, sensors = [], []
+    warnings: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(warnings.append)  # MuJoCo's warnings become this design's failure, not stderr
+    try:
+        _roll(m, d, model, state, n, dt, total, states, sensors, warnings)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    # row i: the state after step i, at t = (i + 1)·dt; the measured window is steps n_settle … total − 1
+    S_all = np.concatenate([first[None, :]] + states)[n_settle:]  # K·n + 1 states: t = n_settle·dt … total·dt
+    X_all = np.concatenate(sensors)[n_settle:]  # K·n sensor rows, after each measured step
+    if not (np.all(np.isfinite(S_all)) and np.all(np.isfinite(X_all))):
+        raise PhysicsFailure("the simulation diverged (a non-finite state): the model is too stiff for its "
+                             "timestep or a loop cannot close")
+    gap = _loop_gap(m, d, states[-1][-1])
+    if gap > LOOP_GAP * model.crank_radius:
+        raise PhysicsFailure(f"its loops came apart: a pin joint stands {gap * 1e3:.3g} mm open at the end (over "
+                             f"{LOOP_GAP:g} × the crank radius)")
+    cpu = time.process_time() - t0
+    return _measure(model, m, S_all, X_all, n, K, n_settle, samples, dt, kinematic_travel, cpu)
+
+
+def _roll(m, d, model, state, n, dt, total, states, sensors, warnings) -> None:
+    """Step ``total`` steps from ``state``, one native call per turn, appending each call's states and
+    sensor rows; a MuJoCo warning (an unstable simulation, which MuJoCo resets and continues) fails it."""
+    import mujoco
+    from mujoco import rollout
     done = 0
     while done < total:  # one native call per turn
         step = min(n, total - done)
@@ -91,14 +116,24 @@ def run_model(model: Model, samples: int, kinematic_travel: float | None = None)
         sensors.append(out_sens[0])
         state = out_state[0, -1].copy()
         done += step
-    # row i: the state after step i, at t = (i + 1)·dt; the measured window is steps n_settle … total − 1
-    S_all = np.concatenate([first[None, :]] + states)[n_settle:]  # K·n + 1 states: t = n_settle·dt … total·dt
-    X_all = np.concatenate(sensors)[n_settle:]  # K·n sensor rows, after each measured step
-    if not (np.all(np.isfinite(S_all)) and np.all(np.isfinite(X_all))):
-        raise PhysicsFailure("the simulation diverged (a non-finite state): the model is too stiff for its "
-                             "timestep or a loop cannot close")
-    cpu = time.process_time() - t0
-    return _measure(model, m, S_all, X_all, n, K, n_settle, samples, dt, kinematic_travel, cpu)
+        bad = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
+        if warnings or bad:
+            what = warnings[0] if warnings else "Nan, Inf or huge value in QACC"
+            raise PhysicsFailure(f"the simulation became unstable (MuJoCo: {' '.join(what.split())}); its legs may "
+                                 f"be too light for their stiff loop constraints (give the mechanism its masses)")
+
+
+#: A pin joint open by more than this × the crank radius at the end of the run fails the design.
+LOOP_GAP = 0.01
+
+
+def _loop_gap(m, d, state) -> float:
+    """The widest opening of a loop-closing pin (m) in ``state``: the largest equality-constraint violation."""
+    import mujoco
+    mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    mujoco.mj_forward(m, d)
+    ne = int(d.ne)
+    return float(np.max(np.abs(d.efc_pos[:ne]))) if ne else 0.0
 
 
 def _measure(model, m, S_all, X, n, K, n_settle, samples, dt, kinematic_travel, cpu) -> dict:
