@@ -20,11 +20,11 @@ def register(sub) -> None:
                     "extra: pip install 'explorer[physics]'.")
     p.add_argument("results", metavar="RESULTS", help="a complete results file (.h5) of a crank-driven walker with an "
                                                       "[operating] table (unit, rpm, load = the body's mass)")
-    g = p.add_mutually_exclusive_group()
-    g.add_argument("--top", metavar="N", default=None,
+    p.add_argument("--top", metavar="N", default=None,
                    help="check the default ranking's top N designs (`explorer rank RESULTS --top N`; default 5)")
-    g.add_argument("--variant", metavar="V", nargs="+", default=None, help="check these variants (numbers)")
-    p.add_argument("--pitch", choices=("held", "free"), default="held",
+    p.add_argument("--variant", metavar="V", nargs="+", default=None,
+                   help="check these variants (numbers) instead of a top N")
+    p.add_argument("--pitch", metavar="held|free", default="held",
                    help="held (default): the body slides in x and y but does not turn, as the kinematic walker "
                         "holds it level; free: it may pitch about the crank centre (does it rock?)")
     p.add_argument("--turns", metavar="K", default="3", help="whole crank turns measured after half a turn of "

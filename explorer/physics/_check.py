@@ -155,7 +155,6 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
     A KeyboardInterrupt (Ctrl-C, SIGTERM) keeps the designs already checked: they are written, then it
     is raised again, its message saying what was kept."""
     from .._extras import require
-    from ..kernels import simulate
     from ..store import OutputLock, check_updatable, open_results, update_metrics
 
     mujoco = require("mujoco", "explorer physics")
@@ -165,61 +164,28 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
     st = Settings(**{**base.__dict__, "pitch": pitch, "turns": turns})
     p = check_updatable(path) if write else path
     lock = OutputLock(p).acquire() if write else None
+    checked, failed = {}, {}
+    state = {"written": False, "last": time.perf_counter(), "jobs": 0}
     try:
         with open_results(p) as res:
-            _refuse(res)
-            op = _operating(res)
-            walker = _walker(res)
-            n = res.n_variants
-            df = res.frame()
-            if variants:
-                chosen = [res.check_variant(v) for v in variants]
-                chosen = list(dict.fromkeys(chosen))
-                how = f"variant{'s' if len(chosen) > 1 else ''} {', '.join(map(str, chosen))}"
-            else:
-                k = DEFAULT_TOP if top is None else int(top)
-                ranked = res.rank(top=k, frame=df)
-                chosen = [int(v) for v in ranked["variant"]]
-                how = f"the default ranking's top {k}" + (f" ({len(chosen)} ranked)" if len(chosen) < k else "")
-            prior = stored_physics(res)
-            solver = res.study.get("study", {})
-            jobs, skipped = [], []
-            for v in chosen:
-                status = str(df.at[v, "status"])
-                if status != "ok":
-                    skipped.append((v, f"failed ({status})" if status != "not-run" else "not run"))
-                    continue
-                try:
-                    mech_v = res.variant_mechanism(v)
-                    cyc = simulate(mech_v, res.steps, velocities=True,
-                                   tolerance=float(solver.get("tolerance", 1e-11)),
-                                   method=str(solver.get("method", "block")))
-                    if not cyc.ok:
-                        raise UserError(f"its cycle does not solve again ({cyc.failure.message if cyc.failure else 'failed'})")
-                    model = build_model(mech_v, cyc.positions, cyc.velocities, walker, op, st)
-                except UserError as exc:
-                    skipped.append((v, str(exc)))
-                    continue
-                kin = float(df.at[v, "travel"]) * float(op.unit) if "travel" in df.columns else math.nan
-                jobs.append((v, model, res.steps, kin if math.isfinite(kin) else None))
+            prep = _prepare(res, variants, top, st)
+        jobs = prep["jobs"]
+        state["jobs"] = len(jobs)
         new = st.as_dict()
+        prior = prep["prior"]
         old_settings = (prior or {}).get("settings")
-        keep = {}
-        if old_settings is not None and old_settings != new:
-            n_old = sum(1 for s in (prior.get("checked") or {}).values())
-            if not force and write:
-                raise UserError(f"{p}: holds the physics figures of {n_old} design{'s' if n_old != 1 else ''} "
-                                f"checked with {describe_settings(old_settings)}; pass --force to replace them with "
-                                f"{describe_settings(new)} (those designs become NaN: not checked)")
-        elif prior is not None:
-            keep = dict(prior.get("checked") or {})
+        replace = old_settings is not None and old_settings != new
+        if replace and not force and write:
+            n_old = len(prior.get("checked") or {})
+            raise UserError(f"{p}: holds the physics figures of {n_old} design{'s' if n_old != 1 else ''} "
+                            f"checked with {describe_settings(old_settings)}; pass --force to replace them with "
+                            f"{describe_settings(new)} (those designs become NaN: not checked)")
+        keep = {} if replace or prior is None else dict(prior.get("checked") or {})
+        op, walker = prep["operating"], prep["walker"]
         info = {"settings": new, "mujoco": mujoco.__version__, "legs": walker.legs,
                 "mirrored": list(walker.mirrored), "body_mass": float(op.load), "rpm": float(op.rpm),
                 "description": "explorer physics: each design's walker scene as a planar MuJoCo model, measured over "
                                "whole turns (explorer.physics); checked: {variant: 'ok' or 'failed: why'}"}
-        checked, failed = {}, {}
-        written = [False]
-        last_write = [time.perf_counter()]
 
         def commit():
             if not write:
@@ -229,9 +195,9 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
             marks = {**keep, **{str(v): "ok" for v in checked}, **{str(v): f"failed: {failed[v]}" for v in failed}}
             attrs = {m: {"physics": json.dumps({**info, "checked": marks}), "units": _unit(m)}
                      for m in PHYSICS_METRICS}
-            update_metrics(p, rows, values, attrs, clear=PHYSICS_METRICS if (old_settings not in (None, new)) else ())
-            written[0] = True
-            last_write[0] = time.perf_counter()
+            update_metrics(p, rows, values, attrs, clear=PHYSICS_METRICS if replace else ())
+            state["written"] = True
+            state["last"] = time.perf_counter()
 
         def take(v, out, why):
             if out is not None:
@@ -240,65 +206,107 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
                 failed[v] = why
             if on_result is not None:
                 on_result(v, out, why)
-            if write and time.perf_counter() - last_write[0] > CHECKPOINT_S:
+            if write and time.perf_counter() - state["last"] > CHECKPOINT_S:
                 commit()
 
-        bar = None
-        if progress and jobs and hasattr(sys.stderr, "isatty") and sys.stderr.isatty():
-            from tqdm import tqdm
-            bar = tqdm(total=len(jobs), unit="design", desc="physics", file=sys.stderr, leave=False)
-        pool = None
         try:
-            n_workers = workers if workers is not None else _cpus()
-            n_workers = max(1, min(n_workers, len(jobs)))
-            if n_workers == 1:
-                for job in jobs:
-                    take(*_job(job))
-                    if bar is not None:
-                        bar.update(1)
-            else:
-                import multiprocessing as mp
-                ctx = mp.get_context("forkserver")
-                ctx.set_forkserver_preload(["mujoco", "explorer.physics._simulate"])
-                pool = ctx.Pool(n_workers, initializer=_worker_init)
-                for got in pool.imap_unordered(_job, jobs):
-                    take(*got)
-                    if bar is not None:
-                        bar.update(1)
-                pool.close()
-                pool.join()
-                pool = None
-        except KeyboardInterrupt as exc:
-            if pool is not None:
-                pool.terminate()
-                pool.join()
-                pool = None
-            if bar is not None:
-                bar.close()
-                bar = None
+            _run_jobs(jobs, workers, take, progress)
+        except KeyboardInterrupt:
             from ..errors import signals_held
-            with signals_held():
+            with signals_held():  # a second Ctrl-C must not cut this write
                 if checked or failed:
                     commit()
-            left = len(jobs) - len(checked) - len(failed)
-            word = "terminated" if type(exc).__name__ == "Terminated" else "interrupted"
-            raise type(exc)(f"{word}: kept the physics figures of {len(checked) + len(failed)} design"
-                            f"{'s' if len(checked) + len(failed) != 1 else ''} checked in {p} "
-                            f"({left} not checked: run `explorer physics` again for them)") from None
-        finally:
-            if pool is not None:
-                pool.terminate()
-                pool.join()
-            if bar is not None:
-                bar.close()
-        if checked or failed or (old_settings not in (None, new)):
+            raise
+        if checked or failed or replace:
             commit()
+    except KeyboardInterrupt as exc:
+        word = "terminated" if type(exc).__name__ == "Terminated" else "interrupted"
+        done = len(checked) + len(failed)
+        if not done:
+            raise type(exc)(f"{p}: {word} before any design was checked; the file is as it was") from None
+        raise type(exc)(f"{p}: {word}: kept the physics figures of {done} design{'s' if done != 1 else ''} checked "
+                        f"({state['jobs'] - done} not checked: run `explorer physics` again for them)") from None
     finally:
         if lock is not None:
             lock.release()
     return {"path": p, "settings": new, "mujoco": mujoco.__version__, "legs": walker.legs, "checked": checked,
-            "failed": failed, "skipped": skipped, "order": chosen, "how": how, "wall_s": time.perf_counter() - t0,
-            "cpu_s": sum(o["cpu_s"] for o in checked.values()), "written": written[0], "operating": op}
+            "failed": failed, "skipped": prep["skipped"], "order": prep["chosen"], "how": prep["how"],
+            "wall_s": time.perf_counter() - t0, "cpu_s": sum(o["cpu_s"] for o in checked.values()),
+            "written": state["written"], "operating": op}
+
+
+def _prepare(res, variants, top, st: Settings) -> dict:
+    """The designs to check and their models: ``jobs`` [(variant, Model, samples, kinematic travel m/turn)],
+    ``skipped`` [(variant, why)], ``chosen``, ``how`` (in words), ``prior`` (the stored physics attribute),
+    ``operating``, ``walker``. One line (UserError) for a file the check cannot model."""
+    from ..kernels import simulate
+    _refuse(res)
+    op = _operating(res)
+    walker = _walker(res)
+    df = res.frame()
+    if variants:
+        chosen = list(dict.fromkeys(res.check_variant(v) for v in variants))
+        how = f"variant{'s' if len(chosen) > 1 else ''} {', '.join(map(str, chosen))}"
+    else:
+        k = DEFAULT_TOP if top is None else int(top)
+        chosen = [int(v) for v in res.rank(top=k, frame=df)["variant"]]
+        how = f"the default ranking's top {k}" + (f" ({len(chosen)} ranked)" if len(chosen) < k else "")
+    solver = res.study.get("study", {})
+    jobs, skipped = [], []
+    for v in chosen:
+        status = str(df.at[v, "status"])
+        if status != "ok":
+            skipped.append((v, f"failed ({status})" if status != "not-run" else "not run"))
+            continue
+        try:
+            mech_v = res.variant_mechanism(v)
+            cyc = simulate(mech_v, res.steps, velocities=True, tolerance=float(solver.get("tolerance", 1e-11)),
+                           method=str(solver.get("method", "block")))
+            if not cyc.ok:
+                raise UserError(f"its cycle does not solve again ({cyc.failure.message if cyc.failure else 'failed'})")
+            model = build_model(mech_v, cyc.positions, cyc.velocities, walker, op, st)
+        except UserError as exc:
+            skipped.append((v, str(exc)))
+            continue
+        kin = float(df.at[v, "travel"]) * float(op.unit) if "travel" in df.columns else math.nan
+        jobs.append((v, model, res.steps, kin if math.isfinite(kin) else None))
+    return {"jobs": jobs, "skipped": skipped, "chosen": chosen, "how": how, "prior": stored_physics(res),
+            "operating": op, "walker": walker}
+
+
+def _run_jobs(jobs, workers, take, progress: bool) -> None:
+    """Run the jobs (here for one worker, else in a pool of worker processes), calling ``take`` with each
+    result as it comes; a KeyboardInterrupt stops the workers at once (what ``take`` got is kept)."""
+    bar = None
+    if progress and jobs and hasattr(sys.stderr, "isatty") and sys.stderr.isatty():
+        from tqdm import tqdm
+        bar = tqdm(total=len(jobs), unit="design", desc="physics", file=sys.stderr, leave=False)
+    pool = None
+    try:
+        n_workers = max(1, min(workers if workers is not None else _cpus(), len(jobs)))
+        if n_workers == 1:
+            for job in jobs:
+                take(*_job(job))
+                if bar is not None:
+                    bar.update(1)
+            return
+        import multiprocessing as mp
+        ctx = mp.get_context("forkserver")  # workers forked from a clean server (no threads, no Numba state)
+        ctx.set_forkserver_preload(["mujoco", "explorer.physics._simulate"])
+        pool = ctx.Pool(n_workers, initializer=_worker_init)
+        for got in pool.imap_unordered(_job, jobs):
+            take(*got)
+            if bar is not None:
+                bar.update(1)
+        pool.close()
+        pool.join()
+        pool = None
+    finally:
+        if pool is not None:  # an interrupt or an error: stop the workers now, not after their designs
+            pool.terminate()
+            pool.join()
+        if bar is not None:
+            bar.close()
 
 
 def _unit(name: str) -> str:
