@@ -27,6 +27,7 @@ mujoco = pytest.importorskip("mujoco")  # the physics extra (tests/test_extras.p
 import naive  # noqa: E402
 import naive_walker as nw  # noqa: E402
 from clihelp import cli  # noqa: E402
+from test_report import _wait, browser  # noqa: E402,F401 - the suite's one headless-browser fixture
 from explorer import load_mechanism, open_results, simulate  # noqa: E402
 from explorer.cli import main  # noqa: E402
 from explorer.mechanism import Operating, Walker  # noqa: E402
@@ -363,3 +364,32 @@ def test_a_full_disk_leaves_the_file_as_it_was(results, monkeypatch):
         physics_check(results, variants=[0], turns=1, workers=1)
     assert sha(results) == before and not list(results.parent.glob(".*.update"))
     del shutil
+
+
+
+@pytest.mark.slow
+def test_report_lists_the_checked_designs_in_a_browser(results, tmp_path, capsys, browser):  # noqa: F811
+    """The report in headless Chromium: a panel of the checked designs holding their stored figures, and the
+    parallel coordinates keep every design's line (a physics axis, NaN off the shortlist, would drop them)."""
+    assert cli(capsys, "physics", results, "--variant", "0", "2", "--turns", "1", "-q")[0] == 0
+    page = tmp_path / "r.html"
+    assert main(["report", str(results), "-o", str(page)]) == 0
+    with open_results(results) as res:
+        df = res.frame()
+    drv = browser
+    drv.get(page.as_uri())
+    assert _wait(drv, "return document.body.getAttribute('data-ready')", "1") == "1"
+    assert not [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
+    rows = drv.execute_script("return Array.from(document.querySelectorAll('#physics tr.physics')).map("
+                              "function (tr) { return Array.from(tr.cells).map(function (c) { return c.textContent; "
+                              "}); });")
+    assert [int(r[0]) for r in rows] == [0, 2]
+    for r in rows:
+        v = int(r[0])
+        assert float(r[1]) == pytest.approx(df.at[v, "physics_travel"], abs=5e-5)
+        assert float(r[2]) == pytest.approx(df.at[v, "travel"] * UNIT, abs=5e-5)
+        assert float(r[4]) == pytest.approx(df.at[v, "physics_bob"] * 1e3, abs=5e-4)
+        assert r[-1].startswith(("agrees", "disagrees"))
+    labels = drv.execute_script("return document.getElementById('parcoords').data[0].dimensions.map("
+                                "function (d) { return d.label; });")
+    assert labels and not [x for x in labels if x.startswith("physics")]
