@@ -15,7 +15,7 @@ def register(sub) -> None:
                     "planar model, settled for half a turn and measured over whole turns. Stores physics_travel "
                     "(m/turn), physics_bob (m), physics_pitch (rad), physics_loaded_feet_max, physics_friction_work "
                     "(J/turn), physics_torque_peak and physics_torque_rms (N·m), physics_impact_peak (N) and "
-                    "physics_travel_diff (%% of the kinematic travel) in the file (through a renamed copy), where "
+                    "physics_travel_diff (% of the kinematic travel) in the file (through a renamed copy), where "
                     "rank, show, frame() and the report see them; designs not checked are NaN. Needs the physics "
                     "extra: pip install 'explorer[physics]'.")
     p.add_argument("results", metavar="RESULTS", help="a complete results file (.h5) of a crank-driven walker with an "
