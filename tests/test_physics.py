@@ -173,7 +173,7 @@ def test_nominal_three_turns_pitch_held(nominal):
 def test_eight_legs_share_the_ground_and_fight(nominal):
     """Eight legs with the body free to pitch: two feet loaded at once and friction work, far more than
     four legs with the pitch held lose in their feet."""
-    _, eight = run(nominal, EIGHT, pitch="free")
+    _, eight = run(nominal, EIGHT, pitch="free", turns=1)  # one turn measures what three do (3.32 J/turn both)
     _, four = run(nominal, FOUR, turns=1)
     assert eight["physics_loaded_feet_max"] == 2
     assert eight["physics_friction_work"] > 0
@@ -287,7 +287,7 @@ def test_ctrl_c_in_the_command_stops_the_workers_and_keeps_the_file(results):
     t0 = time.time()
     while not lock.exists() and time.time() - t0 < 120:
         time.sleep(0.1)
-    time.sleep(10.0)  # the designs' models are built, the workers start and check a design or two
+    time.sleep(4.0)  # the designs' models are built, the workers start (and may have checked a design)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, (out, err)
