@@ -217,6 +217,10 @@ def run(args) -> int:
     lines.append(screen_line(screened, args.include_screened))
     if unstored:
         lines.append(f"ranked without {', '.join(unstored)}: not stored in this file")
+    from ..physics._compare import rank_note
+    note = rank_note(full, keys)
+    if note:
+        lines.append(note)
     if ranked.empty:
         lines.append("(no variant to show)")
         print("\n".join(lines))

@@ -299,7 +299,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     ok = ok_mask(df)
     n_ok = int(ok.sum())
     dropped = [m for m in stored if not np.isfinite(df.loc[ok, m].to_numpy(dtype=np.float64)).any()]
-    mets = [m for m in stored if m not in dropped]
+    # the physics check covers a shortlist (NaN elsewhere): its own panel, not axes every line would leave
+    physics = [m for m in stored if m not in dropped and BY_NAME.get(m) is not None and BY_NAME[m].group == "physics"]
+    mets = [m for m in stored if m not in dropped and m not in physics]
     if si is not None and SPEED in si.units and "travel" in mets:  # the walking speed follows travel
         mets.insert(mets.index("travel") + 1, SPEED)
 
@@ -534,6 +536,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
                       f"most).")
     vs_section = _vs_section(df, dv, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys}, by_score,
                              None if si is None else {c: si.units[c] for c in si.converted}, yield_note)
+    if physics:  # the designs `explorer physics` checked, beside their kinematic figures
+        from ..physics._compare import report_panel
+        vs_section += report_panel(res, df)
     units_note = ""
     if si is not None:
         units_note = "<p class='note' id='units-note'>" + html.escape(
