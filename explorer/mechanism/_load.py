@@ -14,7 +14,7 @@ from ._model import (LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operat
                      _check_length, _short, actuator_path)
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
-             "operating", "sliders"}
+             "operating", "sliders", "build"}
 #: Keys of an [operating] table (in a study, or a mechanism file's default), see :class:`Operating`.
 OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation")
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
@@ -238,6 +238,9 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
                         f"mechanism is driven by a path, got {_short(operating.load)}")
     mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
                      walker, bodies, link_density, operating, sliders)
+    if "build" in data:  # the design's build: its link masses and size (explorer.mechanism._build)
+        from ._build import apply_build, build_from_dict
+        mech = apply_build(mech, build_from_dict(data["build"], source), source, explicit_density=link_density)
     _check_parameter_names(mech)
     return mech
 
