@@ -216,7 +216,8 @@ class Kit:
     (:class:`explorer.view._kit_stack.Check`, worst first); samples, bound, running : how (samples of
     the turn; mm a distance may shrink between two; the running clearance, mm); torque : the peak motor
     torque, N·m, the sizes come from (None: none); notes : lines README.txt and bom.csv carry (where the
-    forces come from, what was refused or undersized)."""
+    forces come from, what was refused or undersized); forces : the joints' peak reactions, N, the pins come
+    from (the crank pin of a throw also carries the torque, :attr:`KitPin.force`)."""
 
     mechanism: Mechanism
     walker: Walker
@@ -240,6 +241,7 @@ class Kit:
     running: float = 0.0
     torque: float | None = None
     notes: list[str] = field(default_factory=list)
+    forces: dict = field(default_factory=dict)
 
     def part(self, name: str) -> KitPart:
         """The part called ``name``."""
@@ -457,9 +459,10 @@ def _design_parts(mech: Mechanism, plates: bool) -> list[_Raw]:
             pts = [(x - cx, y - cy) for x, y in pts]
         role = "frame" if kind == "frame" else ("crank" if kind == "crank" else "part")
         raw.append(_Raw(name, kind, list(joints), [tuple(map(float, p)) for p in pts], role))
-    for tri in tris:
-        (a, b, c), _ = tri
-        raw.append(_Raw(f"{a}-{b}-{c}", "plate", [a, b, c], _plate_points(mech, tri, P0)))
+    for tri in tris:  # named and holed in the design's vertex order ("2-3-4")
+        pts = dict(zip(tri[0], _plate_points(mech, tri, P0)))
+        order = sorted(tri[0], key=mech.vertex_index)
+        raw.append(_Raw("-".join(order), "plate", order, [pts[v] for v in order]))
     return raw
 
 
@@ -487,7 +490,7 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
               material: Material | None = None, forces: dict[str, float] | None = None, torque: float | None = None,
               plates: bool = False, undersized: bool = False, motor_shaft: float | None = None,
               motor_holes: str | None = None, clearance: float = RUNNING_CLEARANCE, source: str = "", commands=(),
-              tolerance_note: str | None = None, notes=()) -> Kit:
+              tolerance_note: str | None = None, notes=(), loads=None) -> Kit:
     """The build kit of ``design`` (a crank-driven Mechanism without sliders; its walker gives the legs).
 
     Size: ``scale`` mm per model unit, or ``crank_mm`` (the crank radius, mm; not both), else the design's
@@ -497,7 +500,11 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
     the standard size nearest :data:`DEFAULT_PIN` × the crank radius in mm, larger where ``forces``,
     {joint: peak reaction N}, need it; a ``hole`` below what a joint's force needs is refused unless
     ``undersized``). torque : the peak motor torque, N·m (sizes the crankshaft, :func:`shaft_diameter`;
-    with the crank pin's force its bending). plates : cut each rigid triangle of links as one plate.
+    with the crank pin's force its bending). loads : instead of ``forces`` and ``torque``, a callable
+    (scale mm per model unit, link width mm) → (forces, torque, note or None) that computes them for the
+    parts the kit cuts (:func:`kit_loads`); it is called again if the links' width changes with the pins
+    it sizes, and its note goes into README.txt and bom.csv. plates : cut each rigid triangle of links as
+    one plate.
     motor_shaft (mm), motor_holes ("6xM3@31") : the motor plate (default :data:`MOTOR_SHAFT`,
     :data:`MOTOR_HOLES`). clearance : the running clearance, mm. sheet : (W, H) of one sheet, mm.
 
@@ -547,23 +554,48 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
         hole = _mm("--hole", hole, hi=100.0, what="the pin (hole) diameter in mm")
     m_shaft = MOTOR_SHAFT if motor_shaft is None else _mm("--motor-shaft", motor_shaft, hi=100.0,
                                                           what="the motor's shaft diameter in mm")
-    if m_shaft >= crank_r:
+    if motor_shaft is not None and m_shaft >= crank_r:
         raise UserError(f"--motor-shaft: a {m_shaft:g} mm motor shaft is not smaller than the {crank_r:.3g} mm crank")
-    m_holes = motor_pattern(MOTOR_HOLES if motor_holes is None else motor_holes)
+    m_holes = motor_pattern(MOTOR_HOLES if motor_holes is None else motor_holes, m_shaft)
     walker = mech.walker if mech.walker is not None else Walker(legs=1)
     n_legs = walker.legs
     mirrored_legs = {j + 1 for j, m in enumerate(walker.mirrored) if m}
     phases = [math.degrees(phi) % 360.0 for phi in walker.phases]
     notes = list(notes)
 
-    # loads
-    forces = {str(k): float(v) for k, v in (forces or {}).items()
-              if v is not None and math.isfinite(float(v)) and float(v) >= 0}
-    if torque is not None and not (math.isfinite(float(torque)) and float(torque) >= 0):
-        torque = None
-    T = None if torque is None else float(torque)
+    # loads: given, or computed for the parts the kit cuts (again if the links' width follows the pins)
+    t = material.thickness
+    default_d = max(STANDARD_PINS[0][1], _nearest_standard(DEFAULT_PIN * crank_r))
     tip = mech.crank.tip
-    F_tip = forces.get(tip)
+
+    def clean(forces, torque):
+        forces = {str(k): float(v) for k, v in (forces or {}).items()
+                  if v is not None and math.isfinite(float(v)) and float(v) >= 0}
+        if torque is not None and not (math.isfinite(float(torque)) and float(torque) >= 0):
+            torque = None
+        return forces, (None if torque is None else float(torque))
+
+    load_note = None
+    w_loads = None
+
+    def load_at(w):
+        got = loads(scale, w)
+        return clean(got[0], got[1]) + ((got[2] if len(got) > 2 else None),)
+
+    if loads is not None:
+        w_loads = width
+        if w_loads is None:  # the links' width follows the pins the forces size: a fixed point
+            w_loads = DEFAULT_WIDTH * default_d
+            for _ in range(4):
+                forces, T, load_note = load_at(w_loads)
+                ds = [hole] if hole is not None else [default_d] + [pin_diameter(f, material)[1]
+                                                                   for f in forces.values()]
+                if abs(DEFAULT_WIDTH * max(ds) - w_loads) < 1e-9:
+                    break
+                w_loads = DEFAULT_WIDTH * max(ds)
+        forces, T, load_note = load_at(w_loads)
+    else:
+        forces, T = clean(forces, torque)
 
     # the motion, once: every joint over the turn, mm from the crank centre
     from .. import simulate
@@ -582,8 +614,6 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
         return Pmm[:, mech.vertex_index(j)]
 
     raw = _design_parts(mech, plates)
-    t = material.thickness
-    default_d = max(STANDARD_PINS[0][1], _nearest_standard(DEFAULT_PIN * crank_r))
     shaft_default = max(default_d, _nearest_standard(DEFAULT_SHAFT * crank_r))
 
     def pin_need(j: str, extra: float = 0.0):
@@ -597,7 +627,8 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
     mode_hint = None
     d_shaft = shaft_default
     lay = prob = None
-    for _ in range(6):
+    for _ in range(8):
+        F_tip = forces.get(tip)
         extra_tip = (T * 1000.0 / crank_r) if (T is not None and mode_hint == "throws") else 0.0
         dia, need, load = {}, {}, {}
         for j in mech.vertices:
@@ -616,6 +647,10 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
                 raise UserError(f"--hole: {hole:g} mm is below the {req:.3g} mm pin {j} needs for its {load[j]:.4g} N "
                                 f"(the BOM's rule); pass --undersized to cut it anyway")
         w_links = width if width is not None else DEFAULT_WIDTH * max(dia.values())
+        if loads is not None and abs(w_links - w_loads) > 1e-9:  # the forces of the parts as cut
+            w_loads = w_links
+            forces, T, load_note = load_at(w_loads)
+            continue
         bush = bushing_od(d_shaft)
         # the parts of one leg, mm
         parts = []
@@ -692,6 +727,8 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
         if not grew:
             break
     assert lay is not None and prob is not None
+    if load_note:
+        notes.append(load_note)
     checks = clearance_checks(prob, lay)
     if checks and checks[0].margin < bound - 1e-9:  # the program's conflicts guarantee it; say so if not
         c = checks[0]
@@ -705,6 +742,9 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
         M_shaft = (F_arm or 0.0) * arm / 1000.0
         _, _, d_required = shaft_diameter(T, M_shaft, material)
 
+    if m_shaft >= crank_r:
+        raise UserError(f"--motor-shaft: the default motor's {m_shaft:g} mm shaft is not smaller than the "
+                        f"{crank_r:.3g} mm crank; give a smaller --motor-shaft or a larger --crank-mm")
     # the chassis: standoffs where nothing turns
     so_d = max(STANDOFF_MIN, default_d)
     moving = []
@@ -837,7 +877,7 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
     placements = nest(kparts, (W, H), mirrored_legs)
     kit = Kit(mech, walker, float(scale), float(w_links), material, kparts, tuple(pins), legs, layers, (W, H),
               placements, source or (mech.source or mech.name), tuple(commands), tolerance_note, shaft, chassis,
-              tuple(checks), S, float(bound), float(clearance), T, notes)
+              tuple(checks), S, float(bound), float(clearance), T, notes, dict(forces))
     return kit
 
 
@@ -944,7 +984,7 @@ def kit_data(kit: Kit) -> dict:
             "legs": kit.walker.legs, "parts": parts, "pins": pins, "shaft": shaft, "crank": crank,
             "chassis": chassis, "clearance": clearance,
             "loads": {"motor_torque_peak_Nm": _r(kit.torque),
-                      "pin_forces_N": {p.joint: _r(p.force) for p in kit.pins if p.force is not None}},
+                      "pin_forces_N": {j: _r(f) for j, f in kit.forces.items()}},
             "notes": list(kit.notes), "tolerance": kit.tolerance_note, "commands": list(kit.commands)}
 
 
@@ -997,8 +1037,9 @@ def bom_rows(kit_or_data) -> list[dict]:
                 "sintered bronze", "", g(pin["diameter"]), "", "", "",
                 f"flanged sleeve, bore {g(pin['diameter'])} mm, outer {g(sh['bushing_od'])} mm: one in every frame "
                 f"plate and the end plate")
-            row("coupler", "motor", 1, "aluminium", "", f"{g(data['chassis']['motor']['shaft_diameter'])}-"
-                f"{g(pin['diameter'])}", "25", "", "", "shaft coupler, motor shaft to crankshaft")
+            row("coupler", "motor", 1, "aluminium", "", g(pin["diameter"]), "25", "", "",
+                f"shaft coupler from the motor's {g(data['chassis']['motor']['shaft_diameter'])} mm shaft to the "
+                f"{g(pin['diameter'])} mm crankshaft")
             row("shaft collar", pin["joint"], 2, "steel", "", g(pin["diameter"]), "", "", "",
                 "set-screw collars, one each side of the chassis: they hold the shaft along its axis")
             n_legs = data["legs"]

@@ -103,17 +103,21 @@ def standoff_points(moving: list[tuple[list, float]], frame_pts, radius: float, 
     if s1 is None:
         raise UserError("no room for the chassis standoffs: every point near the legs is swept by a part")
     chosen = [s1]
-    limit = float(_hull_distance(s1[None, :], hull)[0]) + 0.25 * size
-    cand = G[dist <= limit]
-    area = np.abs(s1[0] * cand[:, 1] - s1[1] * cand[:, 0])  # twice the triangle (shaft, s1, candidate)
-    far = np.hypot(*(cand - s1).T)
-    keep = far >= 4 * radius
-    if mirrored:
-        keep &= np.hypot(cand[:, 0] + s1[0], cand[:, 1] - s1[1]) >= 4 * radius  # not s1's mirror image
-    cand, area, far = cand[keep], area[keep], far[keep]
-    s2 = first_clear(cand[np.argsort(-(area + 1e-3 * far), kind="stable")])
-    if s2 is not None:
-        chosen.append(s2)
+    # the second: the widest triangle with the shaft and the first, as near the frame as will do
+    fsize = max(float(np.max(np.ptp(fp, axis=0))) if len(fp) > 1 else 0.0, 8 * radius)
+    d1 = float(_hull_distance(s1[None, :], hull)[0])
+    for limit in (d1 + 0.5 * fsize, d1 + fsize, d1 + 2 * fsize, d1 + 0.25 * size, np.inf):
+        cand = G[dist <= limit]
+        area = np.abs(s1[0] * cand[:, 1] - s1[1] * cand[:, 0])  # twice the triangle (shaft, s1, candidate)
+        far = np.hypot(*(cand - s1).T)
+        keep = (far >= 4 * radius) & (area >= 4 * radius * max(float(np.hypot(*s1)), 4 * radius))
+        if mirrored:
+            keep &= np.hypot(cand[:, 0] + s1[0], cand[:, 1] - s1[1]) >= 4 * radius  # not s1's mirror image
+        cand, area, far = cand[keep], area[keep], far[keep]
+        s2 = first_clear(cand[np.argsort(-(area + 1e-3 * far), kind="stable")]) if len(cand) else None
+        if s2 is not None:
+            chosen.append(s2)
+            break
     pts = []
     for p in chosen:
         pts.append((float(p[0]), float(p[1])))
@@ -124,9 +128,10 @@ def standoff_points(moving: list[tuple[list, float]], frame_pts, radius: float, 
     return pts
 
 
-def motor_pattern(text) -> tuple[int, float, float]:
+def motor_pattern(text, shaft: float | None = None) -> tuple[int, float, float]:
     """``--motor-holes N×D@PCD`` (e.g. "6xM3@31": six M3 holes on a 31 mm circle; "4x3.2@25") → (N, hole
-    diameter mm, pitch circle diameter mm); UserError otherwise."""
+    diameter mm, pitch circle diameter mm); UserError otherwise, or if the holes come within a 1.5 mm wall
+    of the motor's boss hole (twice ``shaft``, mm)."""
     s = str(text).strip().replace("×", "x").replace(" ", "")
     try:
         count, rest = s.lower().split("x", 1)
@@ -139,6 +144,9 @@ def motor_pattern(text) -> tuple[int, float, float]:
                         f"circle), got {text!r}") from None
     if not (2 <= n <= 12 and math.isfinite(d) and 0 < d <= 20 and math.isfinite(p) and 0 < p <= 500):
         raise UserError(f"--motor-holes: expected 2 to 12 holes of 0 to 20 mm on a circle of 0 to 500 mm, got {text!r}")
-    if p * math.sin(math.pi / n) < d + 1.0:
+    if p * math.sin(math.pi / n) < d + 1.5:
         raise UserError(f"--motor-holes: {n} holes of {d:g} mm do not fit on a {p:g} mm circle, got {text!r}")
+    if shaft is not None and 0.5 * p - 0.5 * d - 1.5 < shaft:
+        raise UserError(f"--motor-holes: holes of {d:g} mm on a {p:g} mm circle leave no wall around the "
+                        f"{2 * shaft:g} mm boss hole of a {shaft:g} mm motor shaft, got {text!r}")
     return n, d, p

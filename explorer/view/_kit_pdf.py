@@ -621,14 +621,14 @@ def _pins_block(fig, kit, x: float, ytop: float) -> float:
     """The pin stack table from ytop (mm of paper) down; returns the y of its bottom."""
     _text(fig, x, ytop, "Pins: stack order, bottom (frame side) → top [layer]", fontsize=8.5, weight="bold")
     lines = pin_lines(kit)
-    n = sum(1 + len(textwrap.wrap(stack, 62)) for _, stack in lines)
+    n = sum(1 + len(textwrap.wrap(stack, 62, break_on_hyphens=False)) for _, stack in lines)
     fs = 6.5 if n <= 20 else max(4.5, 6.5 * 20 / n)
     lh = fs * _PT * 1.3
     y = ytop - 3.0
     for head, stack in lines:
         _text(fig, x, y, head, fontsize=fs, weight="bold", va="top")
         y -= lh
-        for part in textwrap.wrap(stack, 62):
+        for part in textwrap.wrap(stack, 62, break_on_hyphens=False):
             _text(fig, x + 4.0, y, part, fontsize=fs, va="top")
             y -= lh
         y -= 0.3 * lh

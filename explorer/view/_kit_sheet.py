@@ -35,7 +35,12 @@ SHEET_COLOR = "#999999"
 
 
 def joint_label(joint: str) -> str:
-    """The engraved name of a hole's joint: the crank centre is :data:`SHAFT_LABEL`."""
+    """The engraved name of a hole's joint: the crank centre is :data:`SHAFT_LABEL`, a standoff "S1", a motor's
+    mounting hole nothing (its pattern says what it is)."""
+    if joint.startswith("standoff "):
+        return "S" + joint[len("standoff "):]
+    if joint.startswith("motor hole "):
+        return ""
     return "+".join(SHAFT_LABEL if j == CRANK_CENTRE else j for j in joint.split("+"))
 
 
@@ -188,6 +193,9 @@ def _labels(part, P, hj, text, w):
         L = math.dist(P[far], p)
         ux, uy = (P[far][0] - p[0]) / L, (P[far][1] - p[1]) / L
         label = joint_label(j)
+        if not label:
+            used.append(0.5 * d + pad)
+            continue
         tl = CHAR_W * hj * len(label)
         off = 0.5 * d + pad + 0.5 * tl
         out.append({"text": label, "x": p[0] + ux * off, "y": p[1] + uy * off, "angle": _upright(ux, uy),
