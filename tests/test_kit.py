@@ -102,13 +102,15 @@ def clearances(mech, data, steps: int = 3600):
             continue
         joints = [h["joint"] for h in p["holes"]]
         parts[p["name"]] = (p["layer"], set(joints), [at(j) for j in joints], 0.5 * p["width"])
+    top = max(v[0] for v in parts.values())
     out = []
     for pin in data["pins"]:
         if pin["kind"] == "standoff":
             continue
         carried = {parts[n][0] for n in pin["stack"] if n in parts} | ({0} if "frame" in pin["stack"] else set())
-        if pin["kind"] == "shaft":
-            occupied, R = set(pin["layers"]), pin["diameter"]
+        if pin["kind"] == "shaft":  # on past the leg's top layer to the next leg (where the top pins' nuts are)
+            occupied, R = set(pin["layers"]) | ({top + 1} if data["shaft"]["mode"] != "outboard" else set()), \
+                pin["diameter"]
         else:
             lo, hi = pin["layers"][0], pin["layers"][-1]
             occupied, R = set(range(max(0, lo - 1), hi + 2)), pin["diameter"]
@@ -129,7 +131,7 @@ def clearances(mech, data, steps: int = 3600):
             continue
         carried = {parts[n][0] for n in pin["stack"] if n in parts} | ({0} if "frame" in pin["stack"] else set())
         if pin["kind"] == "shaft":
-            occ = set(pin["layers"])
+            occ = set(pin["layers"]) | ({top + 1} if data["shaft"]["mode"] != "outboard" else set())
         else:
             occ = set(range(max(0, pin["layers"][0] - 1), pin["layers"][-1] + 2))
         bare[pin["joint"]] = (occ - carried, pin["diameter"])
@@ -646,3 +648,14 @@ def test_cli_kit_from_a_results_variant_with_forces(tmp_path, capsys):
         need = max(math.sqrt(4 * F * 3 / (math.pi * 140)), F * 3 / (9.0 * 60.0))
         assert pins.loc[j, "diameter_mm"] == max(floor, min(d for d in STANDARD if d >= need)), j
     assert "variant 1" in (tmp_path / "kit" / "README.txt").read_text()
+
+
+@pytest.mark.slow
+def test_no_stack_is_refused_naming_the_part_the_pin_and_the_angle(tmp_path, capsys):
+    """At a 60 mm running clearance nothing fits between the webs: refused in one line, nothing written."""
+    out = tmp_path / "k"
+    assert main(["export", "jansen", "--format", "kit", "-o", str(out), "--clearance", "60", "--sheet",
+                 "2000x2000"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "part '" in err and "crankshaft" in err and "θ = " in err, err
+    assert not out.exists()

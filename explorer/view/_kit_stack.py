@@ -385,8 +385,10 @@ def clearance_checks(prob: Problem, lay: Layout, spacer_of=None) -> list[Check]:
 
     def occupied(p: StackPin) -> dict[int, str]:
         """layer → what the pin is there: "carries", "spacer", "head or nut"."""
-        if p.shaft:
+        if p.shaft:  # its layers, and on to the next leg past the top one (the nuts' gap) unless it ends there
             got = {k: "shaft" for k in lay.shaft_layers}
+            if lay.mode != "outboard":
+                got[lay.top + 1] = "shaft"
         else:
             lo, hi = lay.spans[p.joint]
             got = {k: "spacer" for k in range(lo, hi + 1)}
@@ -457,4 +459,4 @@ def solve_stack(prob: Problem, legs: int, modes=MODES) -> Layout:
             return lay
     raise UserError(f"no stack keeps every part clear of the pins and the crankshaft (a through shaft, "
                     f"{'an outboard crank arm, ' if legs == 1 else ''}a crank with throws): {refusal(prob)}; "
-                    f"try a smaller --width or --hole")
+                    f"try a smaller --width, --hole or --clearance")
