@@ -152,16 +152,10 @@ def build_from_dict(table, source: str, key: str = "build", base: Build | None =
                 raise UserError(f"{where(source, f'{key}.{k}')}: expected one of {', '.join(repr(c) for c in choices)}, "
                                 f"got {v!r}")
             out[k] = name
+    from ._load import bounded_number
     for k, (lo, hi, what) in _RULES.items():
-        if k not in table:
-            continue
-        v = table[k]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what}, got {v!r}")
-        f = float(v) if abs(v) < 1e300 else math.inf
-        if not (math.isfinite(f) and lo < f <= hi):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what} (at most {hi:g}), got {v!r}")
-        out[k] = f
+        if k in table:
+            out[k] = bounded_number(source, f"{key}.{k}", table[k], lo, False, hi, what)
     return Build(**out).over(base)
 
 

@@ -473,6 +473,17 @@ def _mass(source: str, key: str, value, what: str = "a mass in kg") -> float:
     return v
 
 
+def bounded_number(source: str, key: str, v, lo: float, lo_ok: bool, hi: float, what: str) -> float:
+    """A number of a table: finite, above ``lo`` (or equal to it where ``lo_ok``), at most ``hi``; else a one-line
+    UserError naming the file, the key and the value."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise UserError(f"{where(source, key)}: expected {what}, got {_short(v)}")
+    f = float(v) if abs(v) < 1e300 else math.inf
+    if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
+        raise UserError(f"{where(source, key)}: expected {what} (at most {hi:g}), got {_short(v)}")
+    return f
+
+
 def operating_from_dict(table, source: str, key: str = "operating", base: Operating | None = None) -> Operating:
     """Validate an ``[operating]`` table (keys :data:`OPERATING_KEYS`) into an :class:`Operating`; keys
     it leaves out keep ``base``'s values (the mechanism file's default), else the defaults."""
@@ -489,15 +500,8 @@ def operating_from_dict(table, source: str, key: str = "operating", base: Operat
                               "a number in (0, 2]"),
     }
     for k, (lo, lo_ok, hi, what) in rules.items():
-        if k not in t:
-            continue
-        v = t[k]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what}, got {_short(v)}")
-        f = float(v) if abs(v) < 1e300 else math.inf
-        if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what} (at most {hi:g}), got {_short(v)}")
-        out[k] = f
+        if k in t:
+            out[k] = bounded_number(source, f"{key}.{k}", t[k], lo, lo_ok, hi, what)
     return Operating(**{**{k: getattr(base, k) for k in OPERATING_KEYS}, **out})
 
 
