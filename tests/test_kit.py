@@ -355,6 +355,7 @@ def test_kit_json_against_the_dxf_and_the_design(name, tmp_path_factory):
 
 
 # -- the SVG ------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_the_svg_labels_and_holes(tmp_path_factory):
     """Every joint label once per hole of every copy; a part's label clear of its holes (the Hoeken coupler's
     B-C-P holes are in a line: its label stays off C)."""
@@ -412,6 +413,7 @@ def test_crankshaft_from_torsion_and_bending():
     assert shaft_diameter(T, 0.0)[1] == 8.0
 
 
+@pytest.mark.slow
 def test_kit_sized_from_forces_and_the_hole_rule():
     """A kit given forces and a torque: every pin from its force, the crank pin also carrying the torque between
     the webs (T / r), the shaft from T and the crank pin's bending at the web's distance from a bushing."""
@@ -443,6 +445,7 @@ def test_kit_sized_from_forces_and_the_hole_rule():
 
 
 # -- [build], the forces of the parts cut, --plates -----------------------------------------------------------
+@pytest.mark.slow
 def test_build_table_gives_link_masses_and_the_kit_defaults():
     from importlib import resources
 

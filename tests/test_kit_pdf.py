@@ -16,7 +16,8 @@ pdfium = pytest.importorskip("pypdfium2")
 
 CRANK_CENTRE = "crank centre"  # the frame's hole at the crank centre, as labelled
 
-LEGS = ("jansen", "klann", "strider", "hoeken", "fourbar", "klann-moved")
+LEGS = ("jansen",) + tuple(pytest.param(n, marks=pytest.mark.slow)  # one in the quick loop
+                           for n in ("klann", "strider", "hoeken", "fourbar", "klann-moved"))
 #: A variant with its crank centre, a ground pivot and body points moved (the frame's dimensions are then
 #: not the built-in's).
 MOVED = {"crank.x": 0.1, "11.x": -6.8, "leg.33.y": -5.5, "connecting_rod.35.x": 12.1}
@@ -195,6 +196,7 @@ def test_pages_are_not_blank(written):
     assert all(f > 0.003 for f in ink), ink
 
 
+@pytest.mark.slow
 def test_a_part_too_big_for_the_page_is_drawn_at_a_stated_reduction(tmp_path):
     """At a 90 mm crank the Jansen leg's longest link (5-7, 65.7 × 6 = 394.2 mm) cannot be drawn true size
     on A4 landscape (297 mm): its page states a reduction 1:k with 394.2 / k under the page width; the
