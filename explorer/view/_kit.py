@@ -276,6 +276,19 @@ class Kit:
                 return p
         raise KeyError(joint)
 
+    def mirror_joint(self, joint: str) -> str:
+        """The name a hole of a mirrored copy takes: a standoff's mirror partner (the standoff set is mirrored
+        about the shaft, so the hole of "standoff 2" of a mirrored frame takes the rod at "standoff 2"'s mirror
+        image), any other joint its own."""
+        if self.chassis is None or not joint.startswith("standoff "):
+            return joint
+        for name, x, y in self.chassis.standoffs:
+            if name == joint:
+                for other, x2, y2 in self.chassis.standoffs:
+                    if abs(x2 + x) < 1e-6 and abs(y2 - y) < 1e-6:
+                        return other
+        return joint
+
     @property
     def worst(self):
         """The worst clearance checked over the turn (a :class:`~explorer.view._kit_stack.Check`) or None."""
@@ -925,7 +938,8 @@ def kit_data(kit: Kit) -> dict:
             holes = []
             for i, (j, (x, y), d) in enumerate(zip(p.joints, p.holes, p.diameters)):
                 fl = p.flat(i, k + 1)
-                h = {"joint": j, "x": _r(-x if mir else x), "y": _r(y), "diameter": _r(d)}
+                h = {"joint": kit.mirror_joint(j) if mir else j, "x": _r(-x if mir else x), "y": _r(y),
+                     "diameter": _r(d)}
                 if fl is not None:
                     h["d_flat"] = {"normal_deg": _r((180.0 - fl) % 360.0 if mir else fl),
                                    "depth": _r(kit.shaft.flat if kit.shaft else flat_depth(d))}

@@ -177,6 +177,9 @@ def copy_labels(kit, pl) -> list[dict]:
     w = part.width
     text = copy_label(pl)
     hj = min(0.42 * w, 4.0)
+    if pl.mirrored:  # a mirrored copy's standoff holes take their mirror partners' rods
+        from dataclasses import replace
+        part = replace(part, joints=tuple(kit.mirror_joint(j) for j in part.joints))
     while True:  # the joint labels shrink (to 1.5 mm at least) until the part's label is as tall as them
         out = _labels(part, P, hj, text, w)
         if out[-1]["size"] >= 0.9 * hj or hj <= 1.5:
@@ -312,6 +315,7 @@ def svg_text(kit) -> str:
         g = ET.SubElement(g_cut, q + "g", {"class": "part", "data-kind": part.kind, **data})
         ET.SubElement(g, q + "path", {"class": "outline", "d": svg_path(placed_outline(kit, pl), H, dx), **line})
         for i, (j, (x, y), d) in enumerate(zip(part.joints, place(part.holes, pl), part.diameters)):
+            j = kit.mirror_joint(j) if pl.mirrored else j
             fl = placed_flat(part, i, pl)
             if fl is None:
                 ET.SubElement(g, q + "circle", {"class": "hole", "data-joint": j, "cx": _f(x + dx), "cy": _f(H - y),
