@@ -334,7 +334,14 @@ def test_kit_json_against_the_dxf_and_the_design(name, tmp_path_factory):
         sym = len(pts) < 3 or all(abs((pts[1][0] - pts[0][0]) * (q[1] - pts[0][1]) - (pts[1][1] - pts[0][1])
                                       * (q[0] - pts[0][0])) < 1e-9 for q in pts[2:])
         assert mirrored[n] == (0 if sym and n != "frame" else sum(walker.mirrored)) or n == "frame", n
-    # the crank arms: copy k is leg k's, its D-flat's normal at minus the leg's phase
+    # every frame plate, plain or mirrored, has the hole named after a standoff where that standoff stands
+    so = {x["name"]: (x["x"], x["y"]) for x in data["chassis"]["standoffs"]}
+    for p in data["parts"]:
+        if p["kind"] in ("frame", "motor", "end"):
+            for h in p["holes"]:
+                if h["joint"] in so:
+                    assert (h["x"], h["y"]) == pytest.approx(so[h["joint"]], abs=1e-6), (p["name"], p["copy"])
+        # the crank arms: copy k is leg k's, its D-flat's normal at minus the leg's phase
     for p in data["parts"]:
         if p["kind"] == "crank":
             phase = math.degrees(walker.phases[p["copy"] - 1]) % 360

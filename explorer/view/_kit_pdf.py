@@ -133,6 +133,24 @@ def _outline_xy(holes, r: float) -> np.ndarray:
     return np.asarray(pts, dtype=np.float64)
 
 
+def hole_groups(part) -> list[str]:
+    """The holes of a part as its page lists them: "2 Ø3.0", runs of numbered holes of one size joined
+    ("motor hole 1–6 Ø3.0", "standoff 1–3 Ø4.0")."""
+    import re
+    out: list[list] = []  # [prefix, first, last, d] or [name, None, None, d]
+    for j, d in zip(part.joints, part.diameters):
+        m = re.fullmatch(r"(.*\D) (\d+)", j)
+        if m and out and out[-1][1] is not None and out[-1][0] == m.group(1) and out[-1][3] == d \
+                and int(m.group(2)) == out[-1][2] + 1:
+            out[-1][2] = int(m.group(2))
+        elif m:
+            out.append([m.group(1), int(m.group(2)), int(m.group(2)), d])
+        else:
+            out.append([j, None, None, d])
+    return [f"{p} Ø{mm(d)}" if a is None else (f"{p} {a} Ø{mm(d)}" if a == b else f"{p} {a}–{b} Ø{mm(d)}")
+            for p, a, b, d in out]
+
+
 def shown_pairs(part) -> list[tuple[str, str, float]]:
     """The hole-to-hole distances a part's page prints and dimensions: every pair (:func:`pair_distances`) up
     to six holes, else those from the first hole (a plate's centre)."""
@@ -868,12 +886,14 @@ def _page_part(fig, kit, part) -> None:
     # the hole-to-hole table (a plate with many holes: from its centre hole)
     pairs = shown_pairs(part)
     _text(fig, 10, 188, "hole to hole, centre to centre:", fontsize=7.5, weight="bold", va="baseline")
-    holes = "  ·  ".join(f"{j} Ø{mm(d)}" for j, d in zip(part.joints, part.diameters))
+    holes = "  ·  ".join(hole_groups(part))
     _text(fig, 150, 188, f"holes: {holes}", fontsize=7.5, va="baseline")
-    per_col = max(3, math.ceil(len(pairs) / 4))
+    right = part.kind == "frame" or bool(part.flats)  # a block of its own at x = 150 mm
+    cols, col_w = (2, 68.0) if right else (4, 68.0)
+    per_col = max(3, math.ceil(len(pairs) / cols))
     for i, (a, b, d) in enumerate(pairs):
         col, row = divmod(i, per_col)
-        _text(fig, 10 + 55 * col, 184 - 3.6 * row, f"{a} – {b}: {mm(d)} mm", fontsize=7.5, va="baseline")
+        _text(fig, 10 + col_w * col, 184 - 3.6 * row, f"{a} – {b}: {mm(d)} mm", fontsize=7.5, va="baseline")
     ytop = 184 - 3.6 * min(per_col, max(1, len(pairs))) - 2.0
     if part.flats:  # a crank arm: copy k is leg k's, its D-hole turned by the leg's phase
         sh = kit.shaft
