@@ -10,3 +10,7 @@ __all__ = ["dumps_toml", "mechanism_toml", "BODY_MODELS", "LENGTH_RANGE", "OPERA
 from ._model import EULER_SEQUENCES, INTERPOLATIONS, Orientation, valid_sequence  # noqa: E402
 
 __all__ += ["EULER_SEQUENCES", "INTERPOLATIONS", "Orientation", "valid_sequence"]
+
+from ._build import BUILD_KEYS, PIN_MATERIALS, SHEET_MATERIALS, Build, build_from_dict  # noqa: E402
+
+__all__ += ["BUILD_KEYS", "PIN_MATERIALS", "SHEET_MATERIALS", "Build", "build_from_dict"]

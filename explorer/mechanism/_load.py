@@ -14,7 +14,7 @@ from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mech
                      _check_length, _short, actuator_path)
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
-             "operating", "sliders"}
+             "operating", "sliders", "build"}
 #: Keys of an [operating] table (in a study, or a mechanism file's default), see :class:`Operating`.
 OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation", "body", "gear_ratio")
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
@@ -238,6 +238,9 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
                         f"mechanism is driven by a path, got {_short(operating.load)}")
     mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
                      walker, bodies, link_density, operating, sliders)
+    if "build" in data:  # the design's build: its link masses and size (explorer.mechanism._build)
+        from ._build import apply_build, build_from_dict
+        mech = apply_build(mech, build_from_dict(data["build"], source), source, explicit_density=link_density)
     _check_parameter_names(mech)
     if operating is not None and operating.body is not None:
         walker_body(mech, operating, source)
@@ -485,6 +488,17 @@ def _mass(source: str, key: str, value, what: str = "a mass in kg") -> float:
     return v
 
 
+def bounded_number(source: str, key: str, v, lo: float, lo_ok: bool, hi: float, what: str) -> float:
+    """A number of a table: finite, above ``lo`` (or equal to it where ``lo_ok``), at most ``hi``; else a one-line
+    UserError naming the file, the key and the value."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise UserError(f"{where(source, key)}: expected {what}, got {_short(v)}")
+    f = float(v) if abs(v) < 1e300 else math.inf
+    if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
+        raise UserError(f"{where(source, key)}: expected {what} (at most {hi:g}), got {_short(v)}")
+    return f
+
+
 def operating_from_dict(table, source: str, key: str = "operating", base: Operating | None = None) -> Operating:
     """Validate an ``[operating]`` table (keys :data:`OPERATING_KEYS`) into an :class:`Operating`; keys
     it leaves out keep ``base``'s values (the mechanism file's default), else the defaults."""
@@ -510,15 +524,8 @@ def operating_from_dict(table, source: str, key: str = "operating", base: Operat
                             f"{_short(t['body'])}")
         out["body"] = t["body"]
     for k, (lo, lo_ok, hi, what) in rules.items():
-        if k not in t:
-            continue
-        v = t[k]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what}, got {_short(v)}")
-        f = float(v) if abs(v) < 1e300 else math.inf
-        if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what} (at most {hi:g}), got {_short(v)}")
-        out[k] = f
+        if k in t:
+            out[k] = bounded_number(source, f"{key}.{k}", t[k], lo, lo_ok, hi, what)
     return Operating(**{**{k: getattr(base, k) for k in OPERATING_KEYS}, **out})
 
 

@@ -301,6 +301,9 @@ class Mechanism:
         The file's ``[operating]`` table: the default operating point for the forces effect.
     sliders : tuple[Slider, ...]
         Prismatic joints (file order): a vertex on a ground line or in a slot of a moving member.
+    build : Build or None
+        The file's ``[build]`` table (:mod:`explorer.mechanism._build`): the sheet, part width, pin and
+        shaft materials and size the design is built with (the link masses come from it).
 
     Design parameters
     -----------------
@@ -327,6 +330,7 @@ class Mechanism:
     link_density: float | None = None
     operating: Operating | None = None
     sliders: tuple[Slider, ...] = ()
+    build: object = None  # a Build (explorer.mechanism._build), or None
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
