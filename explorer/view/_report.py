@@ -160,10 +160,10 @@ def reason_masks(df, screen) -> dict:
     ok = ok_mask(df)
     out = {}
     checks = {}
-    for name, cols, value, fld, failed, _ in CHECKS:
-        if all(c in df.columns for c in cols):
+    for c in CHECKS:
+        if all(col in df.columns for col in c.inputs):
             with np.errstate(invalid="ignore", divide="ignore"):
-                checks[name] = np.asarray(failed(value(df), getattr(screen, fld)), dtype=bool) & ok
+                checks[c.name] = np.asarray(c.fails(c.value(df), getattr(screen, c.field)), dtype=bool) & ok
     anyfail = np.zeros(len(df), dtype=bool)
     for m in checks.values():
         anyfail |= m
