@@ -402,3 +402,6 @@ def test_rank_table_shows_each_designs_tightest_screen_margin(results, capsys):
         # a design the screen removes is outside a limit: its margin is negative
         outside = any(c in row["screen"] for c in ("toggle", "foot-whip", "foot-above-the-frame"))
         assert (float(row["margin%"]) < 0) == outside, row
+    # beside the yield too
+    _, t = parse_table(ok_cli(capsys, "rank", results, "--top", "2", "--yield", "0.5%", "--copies", "4"))
+    assert {"tightest", "margin%", "yield", "yield_se"} <= set(t.columns)

@@ -266,12 +266,6 @@ def run(args) -> int:
     marks = [str(r) for r in table_rows["rank"].iloc[:-1]] + [f"{ref_label}:{place}"]
     table_rows = table_rows.assign(rank=marks)
     cols = lead + rest
-    if extra is None and screened["applied"]:  # the closest screen limit, right after the ranking metrics
-        cols[len(lead):len(lead)] = ["tightest", "margin%"]
-        table_rows = table_rows.assign(**{
-            "tightest": [short_screen(c) if c else "-" for c in table_rows["screen_check"]],
-            "margin%": 100.0 * table_rows["screen_margin"].to_numpy(dtype=float)})
-        lines.append(MARGIN_LINE)
     if extra is None and "motor_torque_peak" in ranked.columns and "motor_torque_peak" not in cols:
         # a forces study: the motor's own peak beside the walker metric's quasi-static one
         cols.insert(cols.index("peak_torque") + 1 if "peak_torque" in cols else len(lead), "motor_torque_peak")
@@ -282,6 +276,12 @@ def run(args) -> int:
                                                                               ("yield", "yield_se")]
         lines.append(f"yield: the share of copies, {robustness.describe()}, that turn and pass the screen; "
                      f"yield_se its binomial standard error")
+    if extra is None and screened["applied"]:  # the closest screen limit, right after the ranking metrics
+        cols[len(lead):len(lead)] = ["tightest", "margin%"]
+        table_rows = table_rows.assign(**{
+            "tightest": [short_screen(c) if c else "-" for c in table_rows["screen_check"]],
+            "margin%": 100.0 * table_rows["screen_margin"].to_numpy(dtype=float)})
+        lines.append(MARGIN_LINE)
     conv = None
     if si is not None:  # the shown rows (the reference's included) in SI; speed follows travel
         conv = si.apply(table_rows)

@@ -10,6 +10,7 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
+from ._build import BUILD_KEYS
 from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker,
                      _check_length, _short, actuator_path)
 
@@ -33,6 +34,12 @@ _BODY_KEYS = {"name", "joints", "mass", "centroid", "inertia"}
 _SLIDER_KEYS = {"name", "vertex", "point", "direction", "line", "offset"}
 #: A linear actuator's [driver] keys (``slider`` instead of ``vertex`` and ``path``).
 _ACTUATOR_KEYS = {"slider", "stroke", "duration", "timing"}
+_MASS_KEYS = {"link_density"}
+#: Every table of a mechanism file and the keys it accepts ("" is the top level; [fixed] and [guess] take
+#: vertex names): what the docs' mechanism-file reference is generated from.
+MECHANISM_KEYS = {"": _TOP_KEYS, "crank": _CRANK_KEYS, "fixed": set(), "guess": set(), "links": _LINK_KEYS,
+                  "bodies": _BODY_KEYS, "sliders": _SLIDER_KEYS, "driver": _DRIVER_KEYS, "walker": set(WALKER_KEYS),
+                  "mass": _MASS_KEYS, "operating": set(OPERATING_KEYS), "build": set(BUILD_KEYS)}
 #: Largest mass (kg) or inertia (kg·m²) accepted: beyond it the forces overflow long before any build.
 _MAX_MASS = 1e12
 
@@ -260,7 +267,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     link_density = None
     if "mass" in data:
         mt = _table(source, "mass", data["mass"])
-        _unknown_keys(source, "mass.", mt, {"link_density"})
+        _unknown_keys(source, "mass.", mt, _MASS_KEYS)
         if "link_density" in mt:
             link_density = _mass(source, "mass.link_density", mt["link_density"], "a density in kg per metre of link")
     operating = operating_from_dict(data["operating"], source) if "operating" in data else None

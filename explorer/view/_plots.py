@@ -40,7 +40,7 @@ FIGURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 _UNIT_TEXT = {"length": "model units", "length/rad": "model units/rad", "length/turn": "model units per crank turn",
               "1 (per W·crank)": "per weight × crank radius", "1": "ratio", "1 (length/length)": "ratio"}
 
-#: Font sizes (points) of every plot: readable at a glance on a screen and in the README at 100-150 dpi.
+#: Font sizes (points) of every plot: readable at a glance on a screen and in the docs at 100-150 dpi.
 TITLE_SIZE, LABEL_SIZE, TICK_SIZE, LEGEND_SIZE = 13, 12, 10.5, 10
 
 
