@@ -261,7 +261,8 @@ def _accepted() -> tuple[dict, dict]:
 def problems() -> list[str]:
     """Every key the loaders accept with no words here, and every key described that they no longer accept."""
     out = []
-    for what, accepted, words in (("study", *_accepted()[:1], STUDY), ("mechanism", _accepted()[1], MECHANISM)):
+    study, mechanism = _accepted()
+    for what, accepted, words in (("study", study, STUDY), ("mechanism", mechanism, MECHANISM)):
         for table, keys in accepted.items():
             doc = words.get(table)
             if doc is None:
