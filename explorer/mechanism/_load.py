@@ -10,6 +10,7 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
+from ._build import BUILD_KEYS
 from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker,
                      _check_length, _short, actuator_path)
 
@@ -33,6 +34,12 @@ _BODY_KEYS = {"name", "joints", "mass", "centroid", "inertia"}
 _SLIDER_KEYS = {"name", "vertex", "point", "direction", "line", "offset"}
 #: A linear actuator's [driver] keys (``slider`` instead of ``vertex`` and ``path``).
 _ACTUATOR_KEYS = {"slider", "stroke", "duration", "timing"}
+_MASS_KEYS = {"link_density"}
+#: Every table of a mechanism file and the keys it accepts ("" is the top level; [fixed] and [guess] take
+#: vertex names): what the docs' mechanism-file reference is generated from.
+MECHANISM_KEYS = {"": _TOP_KEYS, "crank": _CRANK_KEYS, "fixed": set(), "guess": set(), "links": _LINK_KEYS,
+                  "bodies": _BODY_KEYS, "sliders": _SLIDER_KEYS, "driver": _DRIVER_KEYS, "walker": set(WALKER_KEYS),
+                  "mass": _MASS_KEYS, "operating": set(OPERATING_KEYS), "build": set(BUILD_KEYS)}
 #: Largest mass (kg) or inertia (kg·m²) accepted: beyond it the forces overflow long before any build.
 _MAX_MASS = 1e12
 
@@ -128,6 +135,36 @@ def _unknown_keys(source: str, prefix: str, table: dict, allowed: set[str]) -> N
             )
 
 
+#: A triangle of links whose two shorter sides sum to the longest within this fraction of it is flat.
+FLAT_TRIANGLE = 1e-9
+
+
+def _flat_triangles(source: str, links: list[Link]) -> None:
+    """Refuse three links that close a triangle with its three joints on one line (a + b = c, to
+    :data:`FLAT_TRIANGLE`; a triangle that cannot close, a + b < c, is the solver's to report): such a
+    triangle sits on a fold, where its two assemblies meet, and a collinear coupler is one [[bodies]]
+    table instead (its joints may be collinear)."""
+    index = {frozenset((ln.a, ln.b)): i for i, ln in enumerate(links)}
+    around: dict[str, set] = {}
+    for ln in links:
+        around.setdefault(ln.a, set()).add(ln.b)
+        around.setdefault(ln.b, set()).add(ln.a)
+    for i, ln in enumerate(links):
+        for c in sorted(around[ln.a] & around[ln.b]):
+            three = sorted((i, index[frozenset((ln.a, c))], index[frozenset((ln.b, c))]))
+            if i != three[0]:
+                continue  # each triangle once, from its first link
+            sides = sorted(three, key=lambda j: links[j].length)
+            a, b, longest = (links[j].length for j in sides)
+            if abs(a + b - longest) <= FLAT_TRIANGLE * longest:
+                names = ", ".join(repr(links[j].name) for j in three)
+                raise UserError(
+                    f"{where(source, f'links[{sides[2]}]')}: links {names} make a flat triangle ({a:g} + {b:g} "
+                    f"= {longest:g}): its three joints lie on one line, on a fold "
+                    f"where the solver cannot tell its two assemblies apart; write a collinear coupler as one "
+                    f"[[bodies]] table (its joints may lie on a line)")
+
+
 def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     """Validate a parsed mechanism table (the TOML shape) and build a :class:`Mechanism`."""
     _table(source, "", data)
@@ -209,6 +246,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         mass = _mass(source, f"{key}.mass", lt["mass"]) if "mass" in lt else None
         links.append(Link(lname, a, b, length, mass))
 
+    _flat_triangles(source, links)
     bodies = _bodies(source, data.get("bodies", []), known, fixed, seen_pairs, seen_names)
     sliders = _sliders(source, data.get("sliders", []), known, fixed, tip, seen_pairs, seen_names,
                        path.slider if path is not None else None)
@@ -229,7 +267,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     link_density = None
     if "mass" in data:
         mt = _table(source, "mass", data["mass"])
-        _unknown_keys(source, "mass.", mt, {"link_density"})
+        _unknown_keys(source, "mass.", mt, _MASS_KEYS)
         if "link_density" in mt:
             link_density = _mass(source, "mass.link_density", mt["link_density"], "a density in kg per metre of link")
     operating = operating_from_dict(data["operating"], source) if "operating" in data else None

@@ -106,6 +106,8 @@ _SECTIONS = {
     "robustness": ROBUSTNESS_KEYS,
     "build": BUILD_KEYS,
 }
+#: Every section of a study file and the keys it accepts: what the docs' study-file reference is generated from.
+STUDY_KEYS = _SECTIONS
 #: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
 COMPRESSIONS = ("blosc", "zstd", "lzf", "gzip", "none")
 #: [scene] store choices: "series" stores every (N, steps, 2) series the scene names; "metrics" (a lean
