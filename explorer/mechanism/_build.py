@@ -152,7 +152,7 @@ def build_from_dict(table, source: str, key: str = "build", base: Build | None =
                 raise UserError(f"{where(source, f'{key}.{k}')}: expected one of {', '.join(repr(c) for c in choices)}, "
                                 f"got {v!r}")
             out[k] = name
-    from ._load import bounded_number
+    from ._model import bounded_number
     for k, (lo, hi, what) in _RULES.items():
         if k in table:
             out[k] = bounded_number(source, f"{key}.{k}", table[k], lo, False, hi, what)

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import math
 
+from dataclasses import dataclass
+
 from ..errors import UserError
 from ._export import CRANK_CENTRE, CUT_COLOR, LABEL_COLOR, STROKE_MM, _f, _hull, _outline, svg_path, xml_safe
 
@@ -78,13 +80,26 @@ def _box(holes, mirrored, angle, r):
     return min(xs) - r, min(ys) - r, max(xs) + r, max(ys) + r
 
 
+@dataclass(frozen=True)
+class Placement:
+    """Where one copy of a part sits: on sheet ``sheet`` (0-based), copy number ``copy`` (1-based) of part
+    ``part``, a mirror image if ``mirrored``; the part's own frame is turned by ``angle_deg`` (counter-
+    clockwise, after mirroring x → −x) and its origin put at (x, y), mm, y up, sheet's lower left = (0, 0)."""
+
+    sheet: int
+    part: str
+    copy: int
+    mirrored: bool
+    x: float
+    y: float
+    angle_deg: float
+
+
 def nest(parts, sheet: tuple[float, float], mirrored_legs=frozenset()):
     """Placements of every copy of ``parts`` (KitPart) on sheets of ``sheet`` (W, H) mm (see the module
     docstring); UserError naming a part that does not fit on one sheet. Copy k (1-based) of a part is the
     one of leg ``part.legs[k - 1]``; it is mirrored where that leg is in ``mirrored_legs`` and the part is
     not symmetric."""
-    from ._kit import Placement
-
     W, H = sheet
     room_w, room_h = W - 2 * MARGIN, H - 2 * MARGIN - STRIP
     items = []
