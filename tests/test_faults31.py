@@ -131,11 +131,11 @@ def results(tmp_path_factory):
 WRITERS = {
     "plot": (["plot", "R", "--top", "2", "-o", "T"], ".png"),
     "animate": (["animate", "R", "--variant", "0", "--frames", "4", "-o", "T"], ".gif"),
-    "export-svg": (["export", "R", "0", "--format", "svg", "-o", "T"], ".svg"),
-    "export-dxf": (["export", "R", "0", "--format", "dxf", "-o", "T"], ".dxf"),
-    "export-csv": (["export", "R", "0", "--format", "csv", "-o", "T"], ".csv"),
-    "export-toml": (["export", "R", "0", "--format", "toml", "-o", "T"], ".toml"),
-    "export-kit": (["export", "R", "0", "--format", "kit", "-o", "K"], "parts.svg"),
+    "export-svg": (["export", "R", "--variant", "0", "--as", "svg", "-o", "T"], ".svg"),
+    "export-dxf": (["export", "R", "--variant", "0", "--as", "dxf", "-o", "T"], ".dxf"),
+    "export-csv": (["export", "R", "--variant", "0", "--as", "csv", "-o", "T"], ".csv"),
+    "export-toml": (["export", "R", "--variant", "0", "--as", "toml", "-o", "T"], ".toml"),
+    "export-kit": (["export", "R", "--variant", "0", "--as", "kit", "-o", "K"], "parts.svg"),
     "report": (["report", "R", "-o", "T"], ".html"),
     "sensitivity": (["sensitivity", "R", "--plot", "T"], ".png"),
 }
@@ -338,7 +338,7 @@ def test_a_nul_byte_in_a_path_is_one_line(results, tmp_path, capsys):
     code, _, err = cli(capsys, "run", study, "-o", tmp_path / "x.h5")
     assert code == 2 and err.count("\n") == 1 and "\x00" not in err and "leg\\x00.toml" in err, err
     for args in (["run", tmp_path / "s.toml", "-o", "x\0.h5"], ["plot", results, "--top", "2", "-o", "a\0.png"],
-                 ["export", results, "0", "--format", "svg", "-o", "x\0.svg"], ["show", "r\0.h5", "0"]):
+                 ["export", results, "--variant", "0", "--as", "svg", "-o", "x\0.svg"], ["show", "r\0.h5", "--variant", "0"]):
         code, _, err = cli(capsys, *args)
         assert code == 2 and err.count("\n") == 1 and "\x00" not in err, (args, err)
     assert not list(tmp_path.glob("x*"))
@@ -360,7 +360,7 @@ def test_a_control_character_in_a_name_is_refused_at_load(tmp_path, capsys, old,
     mech.write_text(text.replace(old, new, 1), encoding="utf-8")
     with pytest.raises(explorer.UserError, match=f"leg.toml: {key}"):
         explorer.load_mechanism(mech)
-    code, _, err = cli(capsys, "export", mech, "--format", "kit", "-o", tmp_path / "kit")
+    code, _, err = cli(capsys, "export", mech, "--as", "kit", "-o", tmp_path / "kit")
     assert code == 2 and err.count("\n") == 1 and f"leg.toml: {key}" in err, err
     assert "\x1b" not in err and "\x07" not in err and "\x01" not in err
     assert not (tmp_path / "kit").exists()
@@ -404,7 +404,7 @@ def test_show_and_report_say_when_a_metric_is_not_one_per_variant(results, tmp_p
     seal = getattr(explorer.store, "seal", None)
     if seal is not None:
         seal(path)  # edited on purpose: re-checksummed
-    code, out, err = cli(capsys, "show", path, "0")
+    code, out, err = cli(capsys, "show", path, "--variant", "0")
     assert code == 0 and err.count("\n") == 1, err
     assert "warning" in err and "metrics/wide has shape (6, 2), not (6,)" in err and "ignored" in err
     code, out, err = cli(capsys, "report", path, "-o", tmp_path / "r.html")

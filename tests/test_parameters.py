@@ -350,7 +350,7 @@ def test_recomputed_metrics_keep_each_variants_pivots(pivots_run, tmp_path):
 def test_show_prints_every_parameter_against_the_nominal(pivots_run):
     out, df, tmp = pivots_run
     v = int(np.flatnonzero((df["status"] == "ok").to_numpy())[1])
-    r = subprocess.run([sys.executable, "-m", "explorer.cli", "show", str(out), str(v)], cwd=tmp,
+    r = subprocess.run([sys.executable, "-m", "explorer.cli", "show", str(out), "--variant", str(v)], cwd=tmp,
                        capture_output=True, text=True, timeout=300, env=_env())
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()

@@ -149,7 +149,7 @@ def test_truncated_and_foreign_files_give_one_line(results, capsys, tmp_path):
     bare = tmp_path / "bare.h5"
     with h5py.File(bare, "w") as f:
         f.attrs["format"] = "explorer-results"
-    for verb in (["rank", bare], ["show", bare, "0"], ["plot", bare, "--top", "1", "-o", tmp_path / "x.png"]):
+    for verb in (["rank", bare], ["show", bare, "--variant", "0"], ["plot", bare, "--top", "1", "-o", tmp_path / "x.png"]):
         code, _, err = cli(capsys, *verb)
         assert code == 2 and err.count("\n") == 1 and "not a readable explorer results file" in err, err
     broken = tmp_path / "broken.h5"
@@ -183,7 +183,7 @@ def test_one_vertex_name_is_not_its_characters():
 def test_bounded_dpi_and_help_without_double_percent(results, capsys, tmp_path):
     code, _, err = cli(capsys, "plot", results, "--top", "1", "--dpi", "1e9", "-o", tmp_path / "a.png")
     assert code == 2 and "--dpi: expected a number from 1 to 1200" in err
-    for verb in ("show", "run", "plot", "rank"):
+    for verb in ("show", "run", "--variant", "plot", "rank"):
         with pytest.raises(SystemExit):
             main([verb, "--help"])
         assert "%%" not in capsys.readouterr().out
@@ -260,7 +260,7 @@ def test_interrupts_stop_cleanly_and_resume(tmp_path, capsys, signals, gap, code
 
 
 def test_one_way_to_name_a_variant(results, capsys, tmp_path):
-    a = cli(capsys, "show", results, "3")
+    a = cli(capsys, "show", results, "--variant", "3")
     b = cli(capsys, "show", results, "--variant", "3")
     assert a[0] == b[0] == 0 and a[1] == b[1]
     assert cli(capsys, "show", results)[0] == 2
@@ -316,7 +316,7 @@ def test_corrupt_headers_give_one_line(results, capsys, tmp_path):
             data[pos] = int(rng.integers(0, 256))
         bad = tmp_path / f"bad{k}.h5"
         bad.write_bytes(bytes(data))
-        for argv in (["rank", bad], ["show", bad, "0"]):
+        for argv in (["rank", bad], ["show", bad, "--variant", "0"]):
             code, _, err = cli(capsys, *argv)
             assert code in (0, 2), (k, argv, err)
             assert code == 0 or (err.count("\n") == 1 and err.startswith("explorer: error: ")), (k, err)

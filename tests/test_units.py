@@ -156,7 +156,7 @@ def test_show_si_lines(files, capsys):
     ok = np.flatnonzero(df["status_code"].to_numpy() == 0)
     v = int(ok[2])
     r, nom = df.iloc[v], df.iloc[0]
-    out = ok_cli(capsys, "show", files["si"], v, "--units", "si")
+    out = ok_cli(capsys, "show", files["si"], "--variant", v, "--units", "si")
     lines = out.splitlines()
     head = next(ln for ln in lines if ln.startswith("parameter "))
     assert "value [mm]" in head and "nominal [mm]" in head
@@ -190,7 +190,7 @@ def test_show_si_lines(files, capsys):
 def test_show_model_units_unchanged_by_default(files, capsys):
     with open_results(files["si"]) as res:
         r = res.frame().iloc[0]
-    lines = ok_cli(capsys, "show", files["si"], 0).splitlines()
+    lines = ok_cli(capsys, "show", files["si"], "--variant", 0).splitlines()
     cells = next(ln for ln in lines if ln.startswith("bob ")).split()
     assert cells[1] == f"{r['bob']:.6g}" and cells[6] == "length"
     assert not any(ln.startswith("speed ") for ln in lines)

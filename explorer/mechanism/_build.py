@@ -14,7 +14,7 @@ In a mechanism file (the design's build) or a study (over the mechanism's, key b
 
 Every key is optional. The link masses of the forces effect come from it when links have no ``mass`` of
 their own and the file gives no ``[mass] link_density``: density × thickness × part_width, kg per metre
-of link (:meth:`Build.link_density`). The build kit (``explorer export --format kit``) takes its defaults
+of link (:meth:`Build.link_density`). The build kit (``explorer export --as kit``) takes its defaults
 from it.
 """
 

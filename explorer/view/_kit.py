@@ -518,11 +518,11 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
     mech = design
     if mech.crank is None:
         raise UserError(f"{mech.name}: a build kit needs a crank-driven design (this one is driven along a "
-                        f"path); export its parts with --format svg or dxf")
+                        f"path); export its parts with --as svg or dxf")
     if mech.sliders:
         names = ", ".join(sl.name for sl in mech.sliders)
         raise UserError(f"{mech.name}: its sliders ({names}) need a slot or a guide, which the kit cannot draw yet; "
-                        f"export its parts with --format svg or dxf")
+                        f"export its parts with --as svg or dxf")
     if scale is not None and crank_mm is not None:
         raise UserError(f"--scale {scale:g} and --crank-mm {crank_mm:g}: each sets the size; give one")
     r = mech.crank.radius

@@ -994,7 +994,7 @@ def write_assembly_pdf(kit, path) -> Path:
             fig = Figure(figsize=size)
             _page_part(fig, kit, part)
             figs.append(fig)
-        meta = {"Title": f"{mech.name}: assembly", "Subject": "build kit (explorer export --format kit)",
+        meta = {"Title": f"{mech.name}: assembly", "Subject": "build kit (explorer export --as kit)",
                 "Creator": "explorer"}
         with PdfPages(path, metadata=meta) as pdf:
             for i, fig in enumerate(figs):

@@ -301,7 +301,7 @@ def svg_text(kit) -> str:
                                   "viewBox": f"0 0 {_f(TW)} {_f(H)}"})
     ET.SubElement(root, q + "title").text = f"{kit.mechanism.name}: build kit, parts for cutting"
     ET.SubElement(root, q + "desc").text = (
-        f"explorer export --format kit: {n} sheet(s) of {W:g} x {H:g} mm side by side; 1 model unit = "
+        f"explorer export --as kit: {n} sheet(s) of {W:g} x {H:g} mm side by side; 1 model unit = "
         f"{kit.scale:.6g} mm; links {kit.width:.3g} mm wide; red = cut, blue = engrave, grey = sheet edge (not cut)")
     g_sheets = ET.SubElement(root, q + "g", {"id": "sheets", f"{{{ink}}}groupmode": "layer",
                                              f"{{{ink}}}label": "sheets (not cut)"})
@@ -367,7 +367,7 @@ def dxf_document(kit):
     group named after the copy (and so described): "2-6 #3", "leg #2 M". A D-hole (a crank arm's, for the
     crankshaft's flat) is a closed LWPOLYLINE: two arcs (bulges) and the flat."""
     from .._extras import require
-    ezdxf = require("ezdxf", "the kit's DXF (explorer export --format kit)")
+    ezdxf = require("ezdxf", "the kit's DXF (explorer export --as kit)")
     from ezdxf import units
     from ezdxf.enums import TextEntityAlignment
 
