@@ -268,7 +268,7 @@ WRITERS = {
                              "-o", o],
     "export": lambda r, o: ["export", r, "--variant", "1", "-o", o],
     "report": lambda r, o: ["report", r, "-o", o, "--paths", "2"],
-    "sensitivity": lambda r, o: ["sensitivity", r, "--metrics", "travel", "--resamples", "2", "--plot", o],
+    "sensitivity": lambda r, o: ["sensitivity", r, "--metrics", "travel", "--resamples", "2", "-o", o],
 }
 SUFFIX = {"plot": ".png", "animate": ".gif", "export": ".svg", "report": ".html", "sensitivity": ".png"}
 

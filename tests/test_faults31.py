@@ -137,7 +137,7 @@ WRITERS = {
     "export-toml": (["export", "R", "--variant", "0", "--as", "toml", "-o", "T"], ".toml"),
     "export-kit": (["export", "R", "--variant", "0", "--as", "kit", "-o", "K"], "parts.svg"),
     "report": (["report", "R", "-o", "T"], ".html"),
-    "sensitivity": (["sensitivity", "R", "--plot", "T"], ".png"),
+    "sensitivity": (["sensitivity", "R", "-o", "T"], ".png"),
 }
 
 

@@ -1,4 +1,4 @@
-"""``explorer describe MECHANISM [--format text|json]``: what a mechanism is, for a person: its joints and
+"""``explorer describe MECHANISM [--format table|json]``: what a mechanism is, for a person: its joints and
 their roles, the driver, links and bodies, design parameters, default walker scene and buildability screen,
 masses and operating point, and the plan that solves it (nothing is simulated)."""
 
@@ -11,6 +11,8 @@ FORMATS = ("text", "json")
 
 
 def register(sub) -> None:
+    from ._args import add_format
+
     p = sub.add_parser(
         "describe", help="what a mechanism is: joints and their roles, links, bodies, parameters, walker, solve plan",
         description="Print a mechanism (a built-in or a mechanism .toml) for a person, without simulating it: its "
@@ -31,7 +33,7 @@ def register(sub) -> None:
                "explorer describe my-leg.toml")
     p.add_argument("mechanism", metavar="MECHANISM",
                    help=f"built-in mechanism name or a mechanism .toml (built-ins: {_builtins()})")
-    p.add_argument("--format", metavar="FORMAT", default="text", help="text (default) or json")
+    add_format(p, ("table", "json"), "json: the same as one JSON object", old={"text": "table"})
     p.set_defaults(func=run)
 
 
@@ -402,11 +404,8 @@ def text(d: dict) -> str:
 
 
 def run(args) -> int:
-    from ..errors import UserError
     from ..mechanism import load_mechanism
 
-    if args.format not in FORMATS:
-        raise UserError(f"--format: expected one of {', '.join(FORMATS)}, got {args.format!r}")
     mech = load_mechanism(args.mechanism)
     d = describe(mech)
     if args.format == "json":

@@ -7,6 +7,8 @@ import sys
 
 
 def register(sub) -> None:
+    from ._args import add_output
+
     p = sub.add_parser(
         "optimize", help="search the design space: multi-objective optimisation or path synthesis of a study "
                          "with an [optimize] table (pymoo: auto, nsga2, nsga3, de, ga, cmaes; then an optional polish)",
@@ -31,11 +33,10 @@ def register(sub) -> None:
                "read back instead of solved. See `explorer plot RESULTS --front` for how the front moved.")
     p.add_argument("study", metavar="STUDY", help="study .toml file with an [optimize] table")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--force", action="store_true", help="overwrite an existing results file")
     g.add_argument("--resume", action="store_true",
                    help="finish an interrupted optimisation of the same study (same final result)")
-    p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="results file (default: the study's [output] path, relative to the working directory)")
+    add_output(p, "results file (default: the study's [output] path, relative to the working directory)", group=g,
+               force="overwrite an existing results file")
     p.add_argument("--dask", metavar="ADDRESS", default=None,
                    help="evaluate each generation on a Dask cluster: a scheduler address (tcp://host:8786), a "
                         "scheduler file (.json), or local:N for N local worker processes (needs "
