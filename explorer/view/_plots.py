@@ -139,8 +139,8 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     ranking values in SI (:func:`explorer.gait.results_si`; the ranking itself over the stored values).
     """
     df = results.frame()
-    si = results_si(results, df.iloc[:0], units)
-    mm = 1.0 if si is None else si.operating.unit * 1000.0  # model units -> mm
+    conv = results_si(results, df.iloc[:0], units)
+    mm = 1.0 if conv is None else conv.operating.unit * 1000.0  # model units -> mm
     if by is not None:
         by = _check_metric(df, by)
     if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
@@ -163,10 +163,10 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     nom = np.asarray(results.path(0, vertex), dtype=np.float64) * mm
     nom_row = df.loc[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
     shown = ranked
-    if si is not None:  # the values labelled, in SI
-        nom_row, shown = si.apply(nom_row).frame, si.apply(ranked).frame
+    if conv is not None:  # the values labelled, in SI
+        nom_row, shown = conv.apply(nom_row).frame, conv.apply(ranked).frame
     nom_val = nom_row[by].iloc[0] if by is not None else math.nan
-    unit = "" if si is None or by is None or by not in si.converted else f" {si.units[by]}"
+    unit = "" if conv is None or by is None or by not in conv.converted else f" {conv.units[by]}"
     nom_text = f": {by} = {nom_val:.4g}{unit}" if by is not None and pd.notna(nom_val) else ""
     ax.plot(*_closed(nom).T, "-", color="0.55", lw=3.0, zorder=1, label=f"nominal (variant 0){nom_text}")
     si = stance_indices(nom, band)
@@ -190,7 +190,7 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
               title=ranked_by, title_fontsize=LEGEND_SIZE, alignment="left")
     ax.set_aspect("equal", adjustable="datalim")
     what = "foot" if vname == mech.foot else f"vertex {vname}"
-    length = "model units" if si is None else "mm"
+    length = "model units" if conv is None else "mm"
     ax.set_xlabel(f"{what} x [{length}]")
     ax.set_ylabel(f"{what} y [{length}]")
     ax.grid(True, lw=0.4, alpha=0.5)
