@@ -68,28 +68,9 @@ def run(args) -> int:
 
 # -- the best design against the nominal ---------------------------------------------------------------
 def best_variant(summary) -> tuple[int, str]:
-    """(variant, how it was chosen) of the design :func:`best_lines` compares with the nominal.
-
-    One objective: the best feasible design. Several: the front member with the best equal-weight
-    score, each objective min-max normalised over the front (1 = its best end, 0 = its worst), the
-    mean over objectives; ties go to the lower variant. ``summary.front`` must not be empty."""
-    import numpy as np
-    front = summary.front
-    if len(summary.objectives) == 1 or len(front) == 1:
-        return int(front["variant"].iloc[0]), "the best feasible design"
-    score = np.zeros(len(front))
-    for o, d in zip(summary.objectives, summary.directions):
-        v = front[o].to_numpy(dtype=np.float64)
-        span = v.max() - v.min()
-        if span > 0:
-            score += (v - v.min()) / span if d == "max" else (v.max() - v) / span
-        else:
-            score += 1.0
-    score /= len(summary.objectives)
-    variants = front["variant"].to_numpy()
-    best = max(range(len(front)), key=lambda i: (score[i], -variants[i]))
-    return int(variants[best]), (f"the front's balanced design: the best mean of its {len(summary.objectives)} "
-                                 f"objectives, each min-max normalised over the {len(front)} front designs")
+    """:func:`explorer.study.best_design` (the rule's home): (variant, how it was chosen)."""
+    from ..study import best_design
+    return best_design(summary)
 
 
 def best_lines(summary) -> list[str]:
@@ -134,7 +115,7 @@ def best_lines(summary) -> list[str]:
     if not has_nominal:
         lines.append("  the nominal lies outside the [optimize] bounds, so the file does not hold it and its "
                      "objectives are not known; the parameters above are against it")
-        lines.append(f"  shown in full by: explorer show {path} {v}" + (" --units si" if si is not None else ""))
+        lines.append(f"  shown in full by: explorer show {path} --variant {v}" + (" --units si" if si is not None else ""))
         return lines
     lines.append("")
     rows = [("metric", "nominal", "best", "change", "change %", "unit", "")]
@@ -166,5 +147,5 @@ def best_lines(summary) -> list[str]:
         lines.append(f"  the nominal did not solve ({row0['status']}): its objectives are not numbers")
     if si is not None:
         lines.append("  " + operating_line(si.operating))
-    lines.append(f"  shown in full by: explorer show {path} {v} --vs 0" + (" --units si" if si is not None else ""))
+    lines.append(f"  shown in full by: explorer show {path} --variant {v} --vs 0" + (" --units si" if si is not None else ""))
     return lines

@@ -112,5 +112,5 @@ def summary_lines(out) -> list[str]:
                  + (f"; wrote physics_* into {p} (designs not checked: NaN)" if out["written"] else ""))
     lines.append("Δtravel: against the kinematic walker's travel; forces_peak: the forces effect's motor_torque_peak; "
                  "impact: the largest normal force on a landing foot (it depends on the contact stiffness); "
-                 "`explorer show RESULTS V` sets them beside the kinematic figures")
+                 "`explorer show RESULTS --variant V` sets them beside the kinematic figures")
     return lines

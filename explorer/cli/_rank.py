@@ -295,7 +295,7 @@ def run(args) -> int:
         table_rows = table_rows.assign(screen=[short_screen(r) for r in table_rows["screen"]])
     lines.append(f"last row: the {ref_label} (variant {ref}) and its place in this ranking"
                  + ("; METRIC% columns: the change against it" if args.change else "")
-                 + f"; `explorer show RESULTS V --vs {ref}` compares a variant with it metric by metric")
+                 + f"; `explorer show RESULTS --variant V --vs {ref}` compares a variant with it metric by metric")
     if conv is not None:
         lines.append(operating_line(conv.operating) + "; ranks are over the stored values (a torque's: per "
                      "weight × crank radius)")

@@ -15,6 +15,7 @@ which a share of the legs still walks, by bisection; ``design_yield`` / ``result
 ``yield`` of designs: the share of copies cut with a ``[robustness]`` error that still walk.
 """
 
+from ._best import best_design
 from ._cluster import dask_client, require_dask
 from ._dask import run_study_dask
 from ._metrics import recompute_metrics
@@ -40,3 +41,4 @@ __all__ = ["STUDY_KEYS", "HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_hi
            "study_variants", "summary_frame", "tolerance", "tolerance_summary", "variant_count",
            "BatchedLMResult", "PathResiduals", "PolishResult", "batched_lm", "distinct_best", "multistart", "polish",
            "Robustness", "YieldResult", "design_yield", "results_robustness", "results_yield", "robustness_from_dict"]
+__all__ += ["best_design"]
