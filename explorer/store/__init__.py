@@ -48,7 +48,8 @@ series_filter). Blosc and Zstandard are HDF5 plugin filters: explorer registers 
 plain h5py reads such a file after ``import hdf5plugin``.
 """
 
-from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metric_attrs, now
+from ._datasets import (DATASETS, SERIES, DatasetSpec, SeriesSpec, create_dataset, dataset_spec, metric_attrs, now,
+                        register_series)
 from ._integrity import seal
 from ._lock import OutputLock
 from ._shards import ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch, write_shard
@@ -60,7 +61,7 @@ from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_V
                      ResultsWriter, chunk_rows, create_metric, fingerprint_diff, hdf5_rows, metrics_group,
                      open_for_update, write_error_reason)
 
-__all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION",
+__all__ = ["SERIES", "SeriesSpec", "register_series", "DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION",
            "STATUS_NOT_RUN", "Results", "ResultsWriter", "check_variant", "chunk_rows", "create_dataset", "create_metric",
            "dataset_spec", "hdf5_rows", "is_results", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe", "results_band", "variant_design",
            "variant_mechanism", "variant_peak_forces", "variant_row", "variant_torque", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",

@@ -714,8 +714,8 @@ def series_solve(study: Study) -> dict:
     vertices = list(study.vertex_names)
     if want_metrics and mech.foot not in vertices:
         vertices.append(mech.foot)
-    groups = ["paths"] + (["velocities"] if study.velocities else []) + (["accelerations"] if study.accelerations
-                                                                        else [])
+    from ..store import SERIES  # the stored series, one registry (explorer.store._datasets.SERIES)
+    groups = [spec.group for spec in SERIES if spec.member == "vertex" and spec.stored(study)]
     return {"steps": int(study.steps), "tolerance": float(study.tolerance), "method": study.method,
             "vertices": vertices, "velocities": bool(study.velocities or metric_vel),
             "accelerations": bool(study.accelerations), "forces": bool(study.forces),
