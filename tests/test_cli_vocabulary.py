@@ -214,3 +214,16 @@ def test_a_toy_export_format_is_one_registry_entry(small, tmp_path, capsys):
     assert "json" not in EXPORT_FORMATS
     with pytest.raises(ValueError):
         register_export(ExportFormat("svg2", ".svg", "a second .svg", write_json))
+
+
+def test_the_docs_page_lists_the_vocabulary_and_the_old_spellings():
+    from pathlib import Path
+    page = (Path(__file__).parents[1] / "docs" / "cli.md").read_text(encoding="utf-8")
+    for opts in VOCABULARY.values():
+        assert f"`{opts[-1]}" in page or f"`{opts[0]}/{opts[-1]}" in page, opts
+    for old in ("--plot PATH", "--format svg", "--format text", "--velocity 12", "show RESULTS 12"):
+        assert old in page, old
+    for verb, expected in EXPECTED.items():  # each verb's row names it for every option it takes
+        for word in expected - {"force", "output", "variant"}:
+            row = next(ln for ln in page.splitlines() if ln.startswith(f"| `{VOCABULARY[word][-1]}"))
+            assert verb.split()[0] in row, (verb, word, row)
