@@ -52,6 +52,8 @@ _HOMES = {
     "HOLES": (".kernels._sweep_template", "HOLES"),
     "SECTIONS": (".kernels._sweep_template", "SECTIONS"),
     "render": (".kernels._sweep_template", "render"),
+    # -- plan ------------------------------------------------------------------------------------------------
+    "strong_components": (".plan._blt", "_tarjan"),
     # -- store -------------------------------------------------------------------------------------------------
     "store_write": (".store._write", None),
     "series_groups": (".store._integrity", "series_groups"),

@@ -54,44 +54,13 @@ def import_graph() -> dict[str, set[str]]:
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
-    """The strongly connected components of more than one module (Tarjan, iterative), each a loop of imports."""
-    index, low, on, stack, out = {}, {}, set(), [], []
-    counter = 0
-    for root in sorted(graph):
-        if root in index:
-            continue
-        work = [(root, iter(sorted(graph[root])))]
-        index[root] = low[root] = counter
-        counter += 1
-        stack.append(root)
-        on.add(root)
-        while work:
-            v, it = work[-1]
-            for w in it:
-                if w not in index:
-                    index[w] = low[w] = counter
-                    counter += 1
-                    stack.append(w)
-                    on.add(w)
-                    work.append((w, iter(sorted(graph[w]))))
-                    break
-                if w in on:
-                    low[v] = min(low[v], index[w])
-            else:
-                work.pop()
-                if work:
-                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
-                if low[v] == index[v]:
-                    comp = []
-                    while True:
-                        w = stack.pop()
-                        on.discard(w)
-                        comp.append(w)
-                        if w == v:
-                            break
-                    if len(comp) > 1:
-                        out.append(sorted(comp))
-    return out
+    """The strongly connected components of more than one module, each a loop of imports (the plan's
+    Tarjan, :func:`explorer.testing.strong_components`)."""
+    from explorer.testing import strong_components
+    names = sorted(graph)
+    at = {n: i for i, n in enumerate(names)}
+    comps = strong_components([sorted(at[d] for d in graph[n] if d in at) for n in names])
+    return [sorted(names[i] for i in c) for c in comps if len(c) > 1]
 
 
 def test_the_checker_finds_a_loop():

@@ -40,26 +40,21 @@ VOCABULARY = {"top": ("--top",), "variant": ("--variant",), "output": ("-o", "--
               "include-screened": ("--include-screened",), "seed": ("--seed",)}
 
 
-def whole(text, option: str, lo: int) -> int:
-    """A whole number ≥ ``lo`` (``--seed``, ``--resamples``, ``--variants``)."""
+def whole(text, option: str, lo: int, note: str = "") -> int:
+    """A whole number ≥ ``lo`` (``--seed``, ``--resamples``, ``--variants``); ``note`` follows the
+    expectation in the message ("(0 = all)")."""
     try:
         n = int(str(text).strip())
     except ValueError:
         n = lo - 1
     if n < lo:
-        raise UserError(f"{option}: expected a whole number >= {lo}, got {text!r}")
+        raise UserError(f"{option}: expected a whole number >= {lo}{' ' + note if note else ''}, got {text!r}")
     return n
 
 
 def parse_top(text) -> int | None:
     """``--top N``: rows to show; 0 = all (None)."""
-    try:
-        n = int(str(text).strip())
-    except ValueError:
-        n = -1
-    if n < 0:
-        raise UserError(f"--top: expected a whole number >= 0 (0 = all), got {text!r}")
-    return None if n == 0 else n
+    return top_count(_top_value(text), None)
 
 
 def parse_list(text, option: str) -> list[str]:
@@ -150,13 +145,7 @@ class _Convert(argparse.Action):
 
 # -- --top N ------------------------------------------------------------------------------------------------
 def _top_value(text) -> int:
-    try:
-        n = int(str(text).strip())
-    except ValueError:
-        n = -1
-    if n < 0:
-        raise UserError(f"--top: expected a whole number >= 0 (0 = all), got {text!r}")
-    return n
+    return whole(text, "--top", 0, "(0 = all)")
 
 
 def add_top(p, what: str, default: str) -> None:
@@ -174,13 +163,7 @@ def top_count(value: int | None, default: int | None) -> int | None:
 
 # -- --variant N --------------------------------------------------------------------------------------------
 def _variant_value(text) -> int:
-    try:
-        v = int(str(text).strip())
-    except ValueError:
-        v = -1
-    if v < 0:
-        raise UserError(f"--variant: expected a whole number >= 0 (a variant; 0 = the nominal), got {text!r}")
-    return v
+    return whole(text, "--variant", 0, "(a variant; 0 = the nominal)")
 
 
 def add_variant(p, help: str, *, many: bool = False, dest: str = "variant") -> None:
