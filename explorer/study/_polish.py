@@ -69,19 +69,22 @@ class PathResiduals:
         whose crank angle is measured from a rotated frame), or None; ignore : as ``path_error``.
     """
 
-    def __init__(self, simulate, target, *, match="closest", angles=None, offset=None, ignore=()):
+    def __init__(self, simulate, target, *, match="closest", angles=None, offset=None, ignore=(), phase="fixed"):
         self.simulate = simulate
         self.target = np.asarray(target, dtype=np.float64)
         self.match = match
         self.angles = None if angles is None else np.asarray(angles, dtype=np.float64)
         self.offset = offset
         self.ignore = tuple(ignore)
+        self.phase = phase
         if match == "timed" and self.angles is None:
             raise ValueError("match 'timed' needs angles")
+        if phase == "free" and (match != "timed" or self.ignore):
+            raise ValueError("phase 'free' needs match 'timed' without ignore")
         if self.ignore:
             self.form = "distance"
         elif match == "timed":
-            self.form = "timed"
+            self.form = "phase" if phase == "free" else "timed"
         elif match == "closest":
             self.form = "untimed"
         else:
@@ -92,11 +95,70 @@ class PathResiduals:
 
     @property
     def free_angles(self) -> bool:
-        return self.form == "untimed"
+        """Whether the formulation has variables beside the design's: the untimed formulation's crank
+        angle per point, or a free phase's shift ψ (:attr:`n_extra` of them)."""
+        return self.form in ("untimed", "phase")
 
-    def m(self) -> int:
+    @property
+    def n_extra(self) -> int:
+        return len(self.target) if self.form == "untimed" else (1 if self.form == "phase" else 0)
+
+    def theta(self, extra, X=None):
+        """The crank angles (n, M) at which the target points are compared, from the extra variables
+        (n, n_extra) (the untimed angles themselves, or α + ψ (+ offset) for a free phase)."""
+        extra = np.atleast_2d(np.asarray(extra, dtype=np.float64))
+        if self.form == "untimed":
+            return extra
+        th = self.angles[None, :] + extra[:, :1]
+        if self.offset is not None and X is not None:
+            th = th + np.asarray(self.offset(np.atleast_2d(X)))[:, None]
+        return th
+
+    def extra_columns(self, tan):
+        """d residuals / d extra (n, 2M, n_extra) from the path's tangents (n, M, 2) at the compared angles."""
+        n, M, _ = tan.shape
+        if self.form == "untimed":
+            J = np.zeros((n, 2 * M, M))
+            a = np.arange(M)
+            J[:, 2 * a, a] = tan[:, :, 0]
+            J[:, 2 * a + 1, a] = tan[:, :, 1]
+            return J
+        return tan.reshape(n, 2 * M, 1).copy()
+
+    def extra_start(self, X, foot, vel, ok):
+        """Initial extra variables (n, n_extra) of solved designs (NaN rows where a design fails): each
+        point's closest match (untimed) or the best shift (free phase)."""
+        from ..gait import path_match
+        n = len(foot)
+        out = np.full((n, self.n_extra), np.nan)
+        idx = np.flatnonzero(ok)
+        if len(idx) == 0:
+            return out
+        v = None if vel is None else vel[idx]
+        if self.form == "untimed":
+            out[idx] = path_match(foot[idx], self.target, velocity=v, match="closest").theta
+        else:
+            kw = {}
+            if self.offset is not None:
+                kw["angle_offset"] = np.asarray(self.offset(np.atleast_2d(X)[idx]))
+            th = path_match(foot[idx], self.target, velocity=v, match="timed", angles=self.angles, phase="free",
+                            **kw).theta
+            base = self.angles[None, :] + kw.get("angle_offset", np.zeros(len(idx)))[:, None]
+            out[idx, 0] = np.mod(th[:, 0] - base[:, 0], 2.0 * math.pi)
+        return out
+
+    def m_path(self) -> int:
+        """Residuals of the path: M distances, or 2M x and y differences."""
         M = len(self.target)
         return M if self.form == "distance" else 2 * M
+
+    def m(self) -> int:
+        """Every residual (the path's, and any a subclass appends: :meth:`extend`)."""
+        return self.m_path()
+
+    def extend(self, R, X):
+        """The residual rows (n, m) of designs X from their path residuals R (n, m_path) (here: R)."""
+        return R
 
     def _solve(self, X):
         self.evaluations += len(X)
@@ -108,10 +170,10 @@ class PathResiduals:
         from ..gait import path_at, path_residuals
         foot, vel, ok = self._solve(X) if solved is None else solved
         n, M = len(X), len(self.target)
-        R = np.full((n, self.m()), np.nan)
+        R = np.full((n, self.m_path()), np.nan)
         idx = np.flatnonzero(ok)
         if len(idx) == 0:
-            return R, (foot, vel, ok)
+            return self.extend(R, X), (foot, vel, ok)
         f, v = foot[idx], (None if vel is None else vel[idx])
         if self.form == "distance":
             kw = {"angles": self.angles} if self.match == "timed" else {}
@@ -124,12 +186,12 @@ class PathResiduals:
                 if self.offset is not None:
                     th = th + np.asarray(self.offset(X[idx]))[:, None]
             else:
-                th = np.broadcast_to(theta, (len(idx), M))
+                th = np.broadcast_to(self.theta(np.atleast_2d(theta), X[idx]), (len(idx), M))
             pts, _ = path_at(f, th, velocity=v)
             R[idx] = (pts - self.target[None]).reshape(len(idx), 2 * M)
         bad = ~np.all(np.isfinite(R), axis=1)
         R[bad] = np.nan
-        return R, (foot, vel, ok)
+        return self.extend(R, X), (foot, vel, ok)
 
     def jacobian(self, z, k: int, step, upper) -> np.ndarray:
         """The Jacobian (m, len(z)) of the residuals at z = (x (k,), then the free angles (M,) in the
@@ -158,21 +220,18 @@ class PathResiduals:
         cols[~np.all(np.isfinite(cols), axis=1)] = 0.0
         J[:, :k] = cols.T
         if th is not None:
-            _, tan = path_at(foot[:1], th[None], velocity=None if vel is None else vel[:1])
-            M = len(th)
-            J[2 * np.arange(M), k + np.arange(M)] = tan[0, :, 0]
-            J[2 * np.arange(M) + 1, k + np.arange(M)] = tan[0, :, 1]
+            _, tan = path_at(foot[:1], self.theta(th[None], x[None]), velocity=None if vel is None else vel[:1])
+            J[:self.m_path(), k:] = self.extra_columns(tan)[0]
         return J
 
     def closest_angles(self, x):
-        """The crank angles (M,) of the target points' closest matches on design x's path (None if it
-        fails)."""
-        from ..gait import path_match
+        """The extra variables (n_extra,) of design x at its start: the crank angles of the target points'
+        closest matches (untimed) or the best shift (free phase); None if it fails."""
         foot, vel, ok = self._solve(x[None])
         if not ok[0]:
             return None
-        pm = path_match(foot, self.target, velocity=vel, match="closest")
-        return None if not np.all(np.isfinite(pm.theta)) else pm.theta[0]
+        e = self.extra_start(x[None], foot, vel, ok)[0]
+        return None if not np.all(np.isfinite(e)) else e
 
 
 def polish(res: PathResiduals, x0, lower, upper, *, max_nfev: int = MAX_NFEV) -> PolishResult:
@@ -180,10 +239,12 @@ def polish(res: PathResiduals, x0, lower, upper, *, max_nfev: int = MAX_NFEV) ->
     docstring. Returns a :class:`PolishResult` (the start itself when it does not solve). The batch
     solves run on one Numba thread (batches of 1 + k designs: a thread pool costs more than it gives)."""
     import numba
+    from threadpoolctl import threadpool_limits
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
     try:
-        return _polish(res, x0, lower, upper, max_nfev)
+        with threadpool_limits(1, user_api="blas"):  # small dense algebra: BLAS threads only contend
+            return _polish(res, x0, lower, upper, max_nfev)
     finally:
         numba.set_num_threads(threads)
 
@@ -237,6 +298,124 @@ def _polish(res, x0, lower, upper, max_nfev):
     if th is not None:
         th = np.mod(th, 2.0 * math.pi)
     return PolishResult(x, th, cost, start_cost, res.evaluations - start_evals, int(out.njev or 0), out.message)
+
+
+class ConstrainedResiduals(PathResiduals):
+    """Path residuals of designs that must also be feasible (``[optimize]`` constraints, the screen).
+
+    evaluate : X (n, k) → (foot, velocity, ok, margins (n, c), admissible (n,), feasible (n,)): one solve
+    of the designs with everything their feasibility needs. margins : the smooth constraints'
+    signed margins, each divided by its scale (>= 0 holds; see :func:`explorer.gait.filter_margins`);
+    admissible : the design turns a full cycle and every check without a margin holds (the screen, a
+    constraint that is not one comparison); feasible : every constraint holds as the filter says.
+
+    A design that is not admissible is treated like one that does not turn (its residuals are NaN: the
+    least squares refuses the step). Smooth constraints enter as the rows of an augmented Lagrangian
+    (Powell–Hestenes–Rockafellar) appended to the path's: r_j = √μ · max(0, λ_j/μ − m_j), with the
+    multipliers λ and the penalty μ set by :func:`polish_constrained` (0: no rows' worth)."""
+
+    def __init__(self, evaluate, target, *, n_margins: int, **kw):
+        super().__init__(None, target, **kw)
+        self.evaluate = evaluate
+        self.nc = int(n_margins)
+        self.lam = np.zeros(self.nc)
+        self.mu = 0.0
+        self._last = None
+
+    def m(self) -> int:
+        return self.m_path() + self.nc
+
+    def _solve(self, X):
+        X = np.atleast_2d(np.asarray(X, dtype=np.float64))
+        self.evaluations += len(X)
+        foot, vel, ok, margins, admissible, feasible = self.evaluate(X)
+        margins = np.zeros((len(X), 0)) if margins is None else np.asarray(margins, dtype=np.float64)
+        self._last = (X.copy(), margins, np.asarray(feasible, dtype=bool))
+        return foot, vel, np.asarray(ok, dtype=bool) & np.asarray(admissible, dtype=bool)
+
+    def extend(self, R, X):
+        X = np.atleast_2d(X)
+        lastX, margins, _ = self._last
+        if lastX.shape != X.shape or not np.array_equal(lastX, X):
+            raise RuntimeError("ConstrainedResiduals: rows of designs other than the last solved")
+        if self.nc == 0:
+            return R
+        if self.mu > 0.0:
+            P = math.sqrt(self.mu) * np.maximum(0.0, self.lam[None, :] / self.mu - margins)
+        else:
+            P = np.zeros_like(margins)
+        out = np.concatenate([R, P], axis=1)
+        out[~np.all(np.isfinite(out), axis=1)] = np.nan
+        return out
+
+    def state(self, x):
+        """(path sum of squares, margins (c,), feasible) of design x, extra variables at their start."""
+        x = np.asarray(x, dtype=np.float64)
+        foot, vel, ok = self._solve(x[None])
+        _, margins, feasible = self._last
+        if not ok[0]:
+            return math.inf, margins[0], False
+        extra = self.extra_start(x[None], foot, vel, ok)[0] if self.free_angles else None
+        R, _ = self.rows(x[None], extra, solved=(foot, vel, ok))
+        r = R[0, :self.m_path()]
+        return (float(np.dot(r, r)) if np.all(np.isfinite(r)) else math.inf), margins[0], bool(feasible[0])
+
+
+#: Most outer iterations (multiplier updates) of :func:`polish_constrained`.
+AL_OUTER = 8
+#: A smooth constraint counts as met when its scaled margin is above -AL_TOL.
+AL_TOL = 1e-10
+
+
+def polish_constrained(res: ConstrainedResiduals, x0, lower, upper, *, max_nfev: int = MAX_NFEV,
+                       outer: int = AL_OUTER):
+    """:func:`polish` inside the constraints: the augmented Lagrangian of :class:`ConstrainedResiduals`
+    (at most ``outer`` least-squares solves; after each, λ ← max(0, λ − μ·m) and μ × 10 when the worst
+    violation did not fall below a quarter), barred from designs that are not admissible. If the last
+    answer still breaks a constraint, the feasible point nearest it on the segment from the best
+    feasible design met (bisection, 40 halvings) is taken. Returns (best feasible :class:`PolishResult`
+    or None, the last augmented-Lagrangian answer x (k,))."""
+    lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
+    x = np.clip(np.asarray(x0, dtype=np.float64), lo, hi)
+    f0, m0, feas0 = res.state(x)
+    if not math.isfinite(f0):
+        return None, x
+    ev0 = res.evaluations
+    best = (x.copy(), f0) if feas0 else None
+    res.lam[:] = 0.0
+    res.mu = 10.0 * max(f0, 1e-12 * (1.0 + float(np.sum(res.target ** 2))))
+    prev = math.inf
+    last = x
+    for _ in range(max(1, outer)):
+        r = polish(res, last, lo, hi, max_nfev=max_nfev)
+        last = r.x
+        f, m, feas = res.state(last)
+        viol = float(np.max(np.maximum(0.0, -m))) if len(m) else 0.0
+        if feas and math.isfinite(f) and (best is None or f < best[1]):
+            best = (last.copy(), f)
+        if res.nc == 0 or (viol <= AL_TOL and feas):
+            break
+        res.lam = np.maximum(0.0, res.lam - res.mu * m)
+        if viol > 0.25 * prev:
+            res.mu *= 10.0
+        prev = viol
+    f_last, _, feas_last = res.state(last)
+    if not feas_last and best is not None:  # the feasible point nearest the answer, on the way back
+        a, b = best[0], last
+        for _ in range(40):
+            mid = 0.5 * (a + b)
+            fm, _, ok = res.state(mid)
+            if ok and math.isfinite(fm):
+                a = mid
+                if fm < best[1]:
+                    best = (mid.copy(), fm)
+            else:
+                b = mid
+    res.lam[:] = 0.0
+    res.mu = 0.0
+    if best is None:
+        return None, last
+    return PolishResult(best[0], None, best[1], f0, res.evaluations - ev0, 0, "augmented Lagrangian"), last
 
 
 def distinct_best(X, f, lower, upper, k: int, distinct: float = DISTINCT) -> list[int]:
@@ -299,14 +478,23 @@ def _batch_rows(res: PathResiduals, X, theta):
     R = np.full((n, 2 * M), np.nan)
     idx = np.flatnonzero(ok)
     if len(idx):
-        pts, _ = path_at(foot[idx], theta[idx], velocity=None if vel is None else vel[idx])
+        pts, _ = path_at(foot[idx], res.theta(theta[idx], X[idx]), velocity=None if vel is None else vel[idx])
         R[idx] = (pts - res.target[None]).reshape(len(idx), 2 * M)
     R[~np.all(np.isfinite(R), axis=1)] = np.nan
-    return R, (foot, vel, ok)
+    return res.extend(R, X), (foot, vel, ok)
 
 
 def batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = LM_ITERATIONS,
                xtol: float = LM_XTOL, ftol: float = LM_FTOL) -> BatchedLMResult:
+    """Bounded Levenberg–Marquardt from K starts at once; see :func:`_batched_lm` (BLAS on one thread:
+    its algebra is many small systems, which BLAS threads only slow down on a busy machine)."""
+    from threadpoolctl import threadpool_limits
+    with threadpool_limits(1, user_api="blas"):
+        return _batched_lm(res, starts, lower, upper, iterations=iterations, xtol=xtol, ftol=ftol)
+
+
+def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = LM_ITERATIONS,
+                xtol: float = LM_XTOL, ftol: float = LM_FTOL) -> BatchedLMResult:
     """Bounded Levenberg–Marquardt from K starts (rows of ``starts`` (K, k)) at once, the design
     parameters held in [lower, upper] (k,).
 
@@ -329,21 +517,16 @@ def batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = LM
     if not (iterations >= 1 and xtol > 0 and ftol >= 0):
         raise ValueError("batched_lm: iterations >= 1, xtol > 0, ftol >= 0")
     ev0 = res.evaluations
-    M = len(res.target)
     free = res.free_angles
     calls = 0
     theta = None
-    if free:  # each point's closest match on every start's path: one batch solve
-        from ..gait import path_match
+    E = res.n_extra
+    if free:  # the extra variables' start (each point's closest match, or the best shift): one batch solve
         foot, vel, ok = res._solve(Z0)
         calls += 1
-        theta = np.full((K, M), np.nan)
-        idx = np.flatnonzero(ok)
-        if len(idx):
-            theta[idx] = path_match(foot[idx], res.target, velocity=None if vel is None else vel[idx],
-                                    match="closest").theta
+        theta = res.extra_start(Z0, foot, vel, ok)
     step = FD_STEP * np.maximum(np.abs(Z0), 1e-2 * (hi - lo))  # (K, k), fixed per start
-    n = k + (M if free else 0)
+    n = k + E
     m = res.m()
     X = Z0.copy()
     TH = None if theta is None else theta.copy()
@@ -365,7 +548,7 @@ def batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = LM
         h = np.where(Xt + s <= hi, s, -s)
         B = np.repeat(Xt[:, None, :], k + 1, axis=1)  # (a, 1 + k, k)
         B[:, 1 + np.arange(k), np.arange(k)] += h
-        Tb = None if Tt is None else np.repeat(Tt[:, None, :], k + 1, axis=1).reshape(-1, M)
+        Tb = None if Tt is None else np.repeat(Tt[:, None, :], k + 1, axis=1).reshape(-1, E)
         R, (foot, vel, ok) = _batch_rows(res, B.reshape(-1, k), Tb)
         calls += 1
         R = R.reshape(len(idx), k + 1, m)
@@ -379,10 +562,8 @@ def batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = LM
             if len(good):
                 f0 = foot.reshape(len(idx), k + 1, *foot.shape[1:])[good, 0]
                 v0 = None if vel is None else vel.reshape(len(idx), k + 1, *vel.shape[1:])[good, 0]
-                _, tan = path_at(f0, Tt[good], velocity=v0)
-                a = np.arange(M)
-                Jt[good[:, None], 2 * a, k + a] = tan[:, :, 0]
-                Jt[good[:, None], 2 * a + 1, k + a] = tan[:, :, 1]
+                _, tan = path_at(f0, res.theta(Tt[good], Xt[good]), velocity=v0)
+                Jt[good, :res.m_path(), k:] = res.extra_columns(tan)
         return base, Jt
 
     # the starts themselves
