@@ -443,3 +443,114 @@ def align_timed(timed, rows, q, theta, *, free_phase: bool = False, n_phase: int
                          np.ascontiguousarray(theta, dtype=np.float64), int(n_phase), bool(free_phase), err, phase,
                          a, t)
     return err, phase, a, t
+
+
+def arc_fractions(points, *, closed: bool) -> np.ndarray:
+    """(M,) each target point's share of the way along the target's polyline from its first point:
+    cumulative chord lengths over the whole polyline (closed: back to the first point)."""
+    P = np.asarray(points, dtype=np.float64)
+    d = np.hypot(*np.diff(P, axis=0).T)
+    total = float(d.sum()) + (float(np.hypot(*(P[0] - P[-1]))) if closed else 0.0)
+    return np.concatenate([[0.0], np.cumsum(d)]) / (total if total > 0 else 1.0)
+
+
+def angles_at_arc(foot, start, u) -> np.ndarray:
+    """The crank angles (N, M) at which each design's foot path has run the shares u (N, M) of its length
+    (any real: taken modulo 1) forward from crank angle ``start`` (N,) (radians). foot (N, S, 2) at
+    θ_k = 2πk/S; the arc length between samples is the chord's, and the start is taken at the first
+    sample at or after ``start``. Rows whose path has no length get NaN."""
+    foot = np.asarray(foot, dtype=np.float64)
+    N, S, _ = foot.shape
+    h = 2.0 * math.pi / S
+    out = np.full(np.shape(u), np.nan)
+    for r in range(N):
+        k0 = int(math.ceil(np.mod(start[r], 2.0 * math.pi) / h - 1e-9)) % S
+        idx = (k0 + np.arange(S + 1)) % S
+        seg = np.hypot(*np.diff(foot[r, idx], axis=0).T)
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        if not (s[-1] > 0) or not np.all(np.isfinite(s)):
+            continue
+        out[r] = k0 * h + np.interp(np.mod(u[r], 1.0) * s[-1], s, h * np.arange(S + 1))
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _ordered_row(P, q, k0, direction, ks):
+    """Least-squares assignment of target points q (M, 2), in order, to samples of the closed path P
+    (S, 2) visited from sample k0 in ``direction`` (+1: the way the crank drives it), never going back and
+    at most once round: dynamic programming over (point, samples gone); fills ks (M,) (sample indices)
+    and returns the sum of squared distances."""
+    S = P.shape[0]
+    M = q.shape[0]
+    D = np.empty((M, S))
+    Bk = np.zeros((M, S), dtype=np.int64)
+    for j in range(S):
+        D[0, j] = np.inf
+    D[0, 0] = (P[k0, 0] - q[0, 0]) ** 2 + (P[k0, 1] - q[0, 1]) ** 2
+    for i in range(1, M):
+        run = np.inf
+        arg = 0
+        for j in range(S):
+            if D[i - 1, j] < run:
+                run = D[i - 1, j]
+                arg = j
+            k = (k0 + direction * j) % S
+            D[i, j] = run + (P[k, 0] - q[i, 0]) ** 2 + (P[k, 1] - q[i, 1]) ** 2
+            Bk[i, j] = arg
+    best = np.inf
+    jb = 0
+    for j in range(S):
+        if D[M - 1, j] < best:
+            best = D[M - 1, j]
+            jb = j
+    for i in range(M - 1, -1, -1):
+        ks[i] = (k0 + direction * jb) % S
+        if i > 0:
+            jb = Bk[i, jb]
+    return best
+
+
+@njit(parallel=True, cache=True)
+def _ordered_jit(paths, q, starts, out, cost):
+    N, S, _ = paths.shape
+    M = q.shape[0]
+    for r in prange(N):
+        P = paths[r]
+        ks = np.empty(M, dtype=np.int64)
+        best = np.inf
+        for s in range(starts.shape[1]):
+            k0 = starts[r, s]
+            if k0 < 0:
+                continue
+            for direction in (1, -1):
+                c = _ordered_row(P, q, k0, direction, ks)
+                if c < best:
+                    best = c
+                    for i in range(M):
+                        out[r, i] = 2.0 * math.pi * ks[i] / S
+        cost[r] = best
+
+
+def ordered_match(paths, q, n_starts: int = 4):
+    """Crank angles (N, M) matching target points q (M, 2), taken in order, to each design's closed path
+    (N, S, 2) (samples at θ_k = 2πk/S): the least sum of squared distances over assignments that go round
+    the path one way (either way), never back and at most once, starting at one of the ``n_starts``
+    samples nearest q[0] on separate stretches of the path (local minima of the distance along it).
+    Returns (theta (N, M) radians at the samples, cost (N,)); rows with NaN get NaN. The closest point of
+    each target point on its own can lie on another stretch of a path that passes near itself; this
+    assignment cannot, which is why the polish of a drawn curve starts from it."""
+    paths = np.ascontiguousarray(paths, dtype=np.float64)
+    q = np.ascontiguousarray(q, dtype=np.float64)
+    N, S, _ = paths.shape
+    d = np.sum((paths - q[0]) ** 2, axis=2)  # (N, S)
+    local = (d <= np.roll(d, 1, axis=1)) & (d <= np.roll(d, -1, axis=1))
+    d_local = np.where(local, d, np.inf)
+    order = np.argsort(d_local, axis=1, kind="stable")[:, :n_starts]
+    starts = np.where(np.isfinite(np.take_along_axis(d_local, order, axis=1)), order, -1).astype(np.int64)
+    out = np.full((N, len(q)), np.nan)
+    cost = np.full(N, np.inf)
+    bad = ~np.all(np.isfinite(paths), axis=(1, 2))
+    _ordered_jit(np.where(bad[:, None, None], 0.0, paths), q, starts, out, cost)
+    out[bad] = np.nan
+    cost[bad] = np.nan
+    return out, cost

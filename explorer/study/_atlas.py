@@ -343,6 +343,18 @@ class Candidate:
     B: complex
     params: dict
     phase: float | None = None
+    arc_start: float | None = None
+    arc_direction: int = 1
+    arc_span: float = 1.0
+
+    def arc_positions(self, fractions) -> np.ndarray | None:
+        """Where the target points (their shares ``fractions`` (M,) of the way along the target,
+        :func:`explorer.gait._curves.arc_fractions`) fall on this design's path, as shares of its length
+        from the atlas curve's start (the design's θ = 0 point before the move, θ = arg A after it):
+        the look-up's alignment, in order along the path; None for a timed look-up."""
+        if self.arc_start is None:
+            return None
+        return self.arc_start + self.arc_direction * self.arc_span * np.asarray(fractions, dtype=np.float64)
 
 
 class Atlas:
@@ -430,12 +442,13 @@ class Atlas:
             rows = np.unique(np.concatenate([np.atleast_1d(self.tree.query(d, k=nb)[1]),
                                              np.atleast_1d(self.tree.query(reverse_descriptor(d), k=nb)[1])]))
             rows = rows[rows < len(self)]
-            err, _, _, a = align_closed(self.curve[rows].astype(np.float32), np.arange(len(rows)), qn)
+            err, shift, direction, a = align_closed(self.curve[rows].astype(np.float32), np.arange(len(rows)), qn)
             for i in np.argsort(err, kind="stable")[:k]:
                 row = int(rows[i])
                 A = r * complex(a[i, 0], a[i, 1]) / self.scale[row]
                 B = complex(*c) - A * complex(*self.centre[row])
-                out.append(Candidate(row, float(err[i]), A, B, self.moved(row, A, B)))
+                out.append(Candidate(row, float(err[i]), A, B, self.moved(row, A, B), None, float(shift[i]) / N_CURVE,
+                                     int(direction[i]), 1.0))
             return out
         err = np.empty(n_scan)
         fits = []
@@ -443,9 +456,9 @@ class Atlas:
             q, c, r = resample_target(P, 16, closed=False)
             for a0 in range(0, n_scan, 65536):
                 a1 = min(a0 + 65536, n_scan)
-                e, _, _, _, a, t = align_open(self.curve[a0:a1].astype(np.float32), np.arange(a1 - a0), q)
+                e, st, di, fr, a, t = align_open(self.curve[a0:a1].astype(np.float32), np.arange(a1 - a0), q)
                 err[a0:a1] = e
-                fits.append((a, t, None))
+                fits.append((a, t, np.column_stack([st / N_CURVE, di, fr])))
         else:
             th = np.asarray(angles, dtype=np.float64)
             for a0 in range(0, n_scan, 65536):
@@ -456,14 +469,19 @@ class Atlas:
                 fits.append((a, t, ph))
         a_all = np.concatenate([f[0] for f in fits])
         t_all = np.concatenate([f[1] for f in fits])
-        ph_all = np.concatenate([f[2] for f in fits]) if angles is not None else None
+        extra = np.concatenate([f[2] for f in fits])
         best = np.argpartition(err, min(k, n_scan - 1))[:k] if n_scan > k else np.arange(n_scan)
         for row in best[np.argsort(err[best], kind="stable")]:
             row = int(row)
             A = complex(a_all[row, 0], a_all[row, 1]) / self.scale[row]
             B = complex(*t_all[row]) - A * complex(*self.centre[row])
-            phase = float(ph_all[row]) if (angles is not None and free_phase) else None
-            out.append(Candidate(row, float(err[row]), A, B, self.moved(row, A, B), phase))
+            if angles is None:
+                st, di, fr = extra[row]
+                out.append(Candidate(row, float(err[row]), A, B, self.moved(row, A, B), None, float(st), int(di),
+                                     float(fr)))
+            else:
+                out.append(Candidate(row, float(err[row]), A, B, self.moved(row, A, B),
+                                     float(extra[row]) if free_phase else None))
         return out
 
 
@@ -487,9 +505,33 @@ def move_parameters(mech: Mechanism, params: dict, A: complex, B: complex, names
     return out
 
 
+#: Atlases read in this process, by (path, size, modification time): a second look-up reuses the read
+#: arrays and the index.
+_OPEN: dict = {}
+
+
 def open_atlas(path, *, family: str | None = None) -> Atlas:
-    """Read the atlas at ``path``. UserError (one line) for a file that is not an atlas, one of another
-    atlas layout or explorer version, or, with ``family``, of another family."""
+    """Read the atlas at ``path`` (once per process: the same file again is the same :class:`Atlas`,
+    its index built once). UserError (one line) for a file that is not an atlas, one of another atlas
+    layout or explorer version, or, with ``family``, of another family."""
+    path = Path(path)
+    try:
+        st = path.stat()
+        key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    except OSError:
+        key = None
+    at = _OPEN.get(key) if key is not None else None
+    if at is None:
+        at = _read_atlas(path)
+        if key is not None:
+            _OPEN.clear()  # one atlas at a time in memory (a family's is ~0.5 GB with its index)
+            _OPEN[key] = at
+    if family is not None and at.attrs.get("family") != family:
+        raise UserError(f"{path}: an atlas of {at.attrs.get('family')!r}, not of {family!r}")
+    return at
+
+
+def _read_atlas(path: Path) -> Atlas:
     import h5py
     import hdf5plugin  # noqa: F401
 
@@ -510,8 +552,6 @@ def open_atlas(path, *, family: str | None = None) -> Atlas:
         if attrs.get("explorer_version") != __version__:
             raise UserError(f"{path}: atlas built by explorer {attrs.get('explorer_version')!r}, this is {__version__}; "
                             f"build it again (explorer atlas build {attrs.get('family')} --force)")
-        if family is not None and attrs.get("family") != family:
-            raise UserError(f"{path}: an atlas of {attrs.get('family')!r}, not of {family!r}")
         data = {k: f[k][...] for k in ("params", "centre", "scale", "descriptor")}
     mech = mechanism_from_dict(parse_toml(attrs["mechanism"], str(path)), f"{path}:mechanism")
     return Atlas(path, attrs, data, mech)

@@ -193,30 +193,40 @@ class PathResiduals:
         R[bad] = np.nan
         return self.extend(R, X), (foot, vel, ok)
 
-    def jacobian(self, z, k: int, step, upper) -> np.ndarray:
-        """The Jacobian (m, len(z)) of the residuals at z = (x (k,), then the free angles (M,) in the
-        untimed formulation) by forward differences of x with steps ``step`` (k,) (backwards where
-        x + step would pass ``upper``), all in one batch solve; the free angles' columns exact (the
-        path's tangent). See the module docstring for failing moved designs."""
+    def jacobian(self, z, k: int, step, upper, lower=None) -> np.ndarray:
+        """The Jacobian (m, len(z)) of the residuals at z = (x (k,), then the extra variables) by finite
+        differences of x with steps ``step`` (k,), all in one batch solve: central differences (x ± step;
+        error O(step²), which an ill-conditioned fit needs: forward differences' O(step) error swamps
+        its smallest singular values) where both moved designs stay inside [lower, upper], else forward
+        (backwards where x + step would pass ``upper``); without ``lower``, forward differences
+        throughout. The extra variables' columns are exact (the path's tangent). See the module
+        docstring for failing moved designs."""
         from ..gait import path_at
         z = np.asarray(z, dtype=np.float64)
         x, th = z[:k], (z[k:] if self.free_angles else None)
         m = self.m()
         h = np.where(x + step <= upper, step, -step)
-        X = np.repeat(x[None], k + 1, axis=0)
+        central = np.zeros(k, bool) if lower is None else (x + step <= upper) & (x - step >= lower)
+        c = np.flatnonzero(central)
+        X = np.repeat(x[None], k + 1 + len(c), axis=0)
         X[np.arange(1, k + 1), np.arange(k)] += h
+        X[k + 1 + np.arange(len(c)), c] -= h[c]
         R, (foot, vel, ok) = self.rows(X, th)
         base = R[0]
         J = np.zeros((m, len(z)))
         if not np.all(np.isfinite(base)):  # the accepted design solves (its residuals said so)
             return J
-        redo = np.flatnonzero(~np.all(np.isfinite(R[1:]), axis=1))
+        minus = np.full((k, R.shape[1]), np.nan)
+        minus[c] = R[k + 1:]
+        use_c = central & np.all(np.isfinite(R[1:k + 1]), axis=1) & np.all(np.isfinite(minus), axis=1)
+        redo = np.flatnonzero(~use_c & ~np.all(np.isfinite(R[1:k + 1]), axis=1))
         if len(redo):  # a moved design failed: move it the other way, in one more batch
             h[redo] = -h[redo]
             X2 = np.repeat(x[None], len(redo), axis=0)
             X2[np.arange(len(redo)), redo] += h[redo]
             R[1 + redo] = self.rows(X2, th)[0]
-        cols = (R[1:] - base[None]) / h[:, None]
+        plus = R[1:k + 1]
+        cols = np.where(use_c[:, None], (plus - minus) / (2.0 * h[:, None]), (plus - base[None]) / h[:, None])
         cols[~np.all(np.isfinite(cols), axis=1)] = 0.0
         J[:, :k] = cols.T
         if th is not None:
@@ -234,7 +244,7 @@ class PathResiduals:
         return None if not np.all(np.isfinite(e)) else e
 
 
-def polish(res: PathResiduals, x0, lower, upper, *, max_nfev: int = MAX_NFEV) -> PolishResult:
+def polish(res: PathResiduals, x0, lower, upper, *, max_nfev: int = MAX_NFEV, extra0=None) -> PolishResult:
     """Bounded least squares from design x0 (k,) within [lower, upper] (k,); see the module
     docstring. Returns a :class:`PolishResult` (the start itself when it does not solve). The batch
     solves run on one Numba thread (batches of 1 + k designs: a thread pool costs more than it gives)."""
@@ -244,19 +254,21 @@ def polish(res: PathResiduals, x0, lower, upper, *, max_nfev: int = MAX_NFEV) ->
     numba.set_num_threads(1)
     try:
         with threadpool_limits(1, user_api="blas"):  # small dense algebra: BLAS threads only contend
-            return _polish(res, x0, lower, upper, max_nfev)
+            return _polish(res, x0, lower, upper, max_nfev, extra0)
     finally:
         numba.set_num_threads(threads)
 
 
-def _polish(res, x0, lower, upper, max_nfev):
+def _polish(res, x0, lower, upper, max_nfev, extra0=None):
     from scipy.optimize import least_squares
     lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
     x0 = np.clip(np.asarray(x0, dtype=np.float64), lo, hi)
     k = len(x0)
     start_evals = res.evaluations
     theta0 = None
-    if res.free_angles:
+    if res.free_angles and extra0 is not None and np.all(np.isfinite(extra0)):
+        theta0 = np.asarray(extra0, dtype=np.float64).copy()
+    elif res.free_angles:
         theta0 = res.closest_angles(x0)
         if theta0 is None:
             return PolishResult(x0, None, math.inf, math.inf, res.evaluations - start_evals, 0, "the start fails")
@@ -280,7 +292,7 @@ def _polish(res, x0, lower, upper, max_nfev):
         return r
 
     def jac(z):
-        return res.jacobian(z, k, step, hi)
+        return res.jacobian(z, k, step, hi, lo)
 
     r0 = fun(z0)
     start_cost = float(np.dot(r0, r0)) if np.all(r0 != res.big) else math.inf
@@ -485,16 +497,16 @@ def _batch_rows(res: PathResiduals, X, theta):
 
 
 def batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = LM_ITERATIONS,
-               xtol: float = LM_XTOL, ftol: float = LM_FTOL) -> BatchedLMResult:
+               xtol: float = LM_XTOL, ftol: float = LM_FTOL, extra0=None) -> BatchedLMResult:
     """Bounded Levenberg–Marquardt from K starts at once; see :func:`_batched_lm` (BLAS on one thread:
     its algebra is many small systems, which BLAS threads only slow down on a busy machine)."""
     from threadpoolctl import threadpool_limits
     with threadpool_limits(1, user_api="blas"):
-        return _batched_lm(res, starts, lower, upper, iterations=iterations, xtol=xtol, ftol=ftol)
+        return _batched_lm(res, starts, lower, upper, iterations=iterations, xtol=xtol, ftol=ftol, extra0=extra0)
 
 
 def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = LM_ITERATIONS,
-                xtol: float = LM_XTOL, ftol: float = LM_FTOL) -> BatchedLMResult:
+                xtol: float = LM_XTOL, ftol: float = LM_FTOL, extra0=None) -> BatchedLMResult:
     """Bounded Levenberg–Marquardt from K starts (rows of ``starts`` (K, k)) at once, the design
     parameters held in [lower, upper] (k,).
 
@@ -525,6 +537,10 @@ def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = L
         foot, vel, ok = res._solve(Z0)
         calls += 1
         theta = res.extra_start(Z0, foot, vel, ok)
+        if extra0 is not None:  # the caller's start of the extra variables, where it gives one
+            e0 = np.asarray(extra0, dtype=np.float64).reshape(K, -1)
+            given = np.all(np.isfinite(e0), axis=1) & ok
+            theta[given] = e0[given]
     step = FD_STEP * np.maximum(np.abs(Z0), 1e-2 * (hi - lo))  # (K, k), fixed per start
     n = k + E
     m = res.m()
@@ -546,22 +562,38 @@ def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = L
         nonlocal calls
         s = step[idx]
         h = np.where(Xt + s <= hi, s, -s)
-        B = np.repeat(Xt[:, None, :], k + 1, axis=1)  # (a, 1 + k, k)
+        # central differences where x ± h stay inside the box (see PathResiduals.jacobian), else one-sided
+        central = (Xt + s <= hi) & (Xt - s >= lo)
+        w = 1 + 2 * k  # the trial, k moved up (or down), k moved down (used where central)
+        B = np.repeat(Xt[:, None, :], w, axis=1)  # (a, 1 + 2k, k)
         B[:, 1 + np.arange(k), np.arange(k)] += h
-        Tb = None if Tt is None else np.repeat(Tt[:, None, :], k + 1, axis=1).reshape(-1, E)
-        R, (foot, vel, ok) = _batch_rows(res, B.reshape(-1, k), Tb)
+        B[:, 1 + k + np.arange(k), np.arange(k)] -= h
+        keep = np.ones((len(idx), w), bool)
+        keep[:, 1 + k:] = central
+        Tb = None if Tt is None else np.repeat(Tt[:, None, :], w, axis=1)[keep].reshape(-1, E)
+        Rk, (foot_k, vel_k, ok_k) = _batch_rows(res, B[keep].reshape(-1, k), Tb)
         calls += 1
-        R = R.reshape(len(idx), k + 1, m)
+        R = np.full((len(idx), w, m), np.nan)
+        R[keep] = Rk
         base = R[:, 0]
-        cols = (R[:, 1:] - base[:, None]) / h[:, :, None]  # (a, k, m)
+        plus, minus = R[:, 1:k + 1], R[:, k + 1:]
+        use_c = central & np.all(np.isfinite(plus), axis=2) & np.all(np.isfinite(minus), axis=2)
+        cols = np.where(use_c[:, :, None], (plus - minus) / (2.0 * h[:, :, None]),
+                        (plus - base[:, None]) / h[:, :, None])  # (a, k, m)
         cols[~np.isfinite(cols)] = 0.0
+        first = np.flatnonzero(keep.reshape(-1))  # row of each (start, copy) in the solved batch
+        pos = np.full(keep.size, -1)
+        pos[first] = np.arange(len(first))
+        base_rows = pos.reshape(len(idx), w)[:, 0]
+        foot = foot_k[base_rows]
+        vel = None if vel_k is None else vel_k[base_rows]
         Jt = np.zeros((len(idx), m, n))
         Jt[:, :, :k] = np.transpose(cols, (0, 2, 1))
         if Tt is not None:
             good = np.flatnonzero(np.all(np.isfinite(base), axis=1))
             if len(good):
-                f0 = foot.reshape(len(idx), k + 1, *foot.shape[1:])[good, 0]
-                v0 = None if vel is None else vel.reshape(len(idx), k + 1, *vel.shape[1:])[good, 0]
+                f0 = foot[good]
+                v0 = None if vel is None else vel[good]
                 _, tan = path_at(f0, res.theta(Tt[good], Xt[good]), velocity=v0)
                 Jt[good, :res.m_path(), k:] = res.extra_columns(tan)
         return base, Jt
@@ -584,14 +616,16 @@ def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = L
             break
         Ja, ra = J[idx], r[idx]
         Z = X[idx] if TH is None else np.concatenate([X[idx], TH[idx]], axis=1)
-        A = np.einsum("amp,amq->apq", Ja, Ja)
-        g = np.einsum("amp,am->ap", Ja, ra)
+        Jt_ = np.transpose(Ja, (0, 2, 1))
+        A = Jt_ @ Ja  # (a, n, n): batched matrix products (BLAS), not einsum's loops
+        g = (Jt_ @ ra[:, :, None])[:, :, 0]
         d = np.maximum(np.diagonal(A, axis1=1, axis2=2), 1e-12 * np.max(np.diagonal(A, axis1=1, axis2=2), axis=1,
                                                                            keepdims=True) + 1e-300)
         eps = 1e-12 * (xhi - xlo)
         eps = np.where(np.isfinite(eps), eps, 0.0)
         held = ((Z <= xlo + eps) & (g > 0)) | ((Z >= xhi - eps) & (g < 0))
-        Ad = A + lam[idx, None, None] * np.einsum("ap,pq->apq", d, np.eye(n))
+        Ad = A.copy()
+        Ad[:, np.arange(n), np.arange(n)] += lam[idx, None] * d
         rhs = np.where(held, 0.0, -g)
         Ad[held[:, :, None] & np.ones((1, 1, n), bool)] = 0.0
         Ad[held[:, None, :] & np.ones((1, n, 1), bool)] = 0.0
@@ -602,7 +636,7 @@ def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = L
             delta = np.stack([np.linalg.lstsq(Ad[i], rhs[i], rcond=None)[0] for i in range(len(idx))])
         Zt = np.clip(Z + delta, xlo, xhi)
         s = Zt - Z
-        pred = -(2.0 * np.einsum("ap,ap->a", g, s) + np.einsum("ap,apq,aq->a", s, A, s))
+        pred = -(2.0 * np.sum(g * s, axis=1) + np.sum(s * (A @ s[:, :, None])[:, :, 0], axis=1))
         base, Jt = evaluate(idx, Zt[:, :k], None if TH is None else Zt[:, k:])
         its[idx] += 1
         fin = np.all(np.isfinite(base), axis=1)

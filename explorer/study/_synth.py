@@ -38,16 +38,22 @@ from ._atlas import (DEFAULT_DESIGNS, FAMILIES, _designs, atlas_mechanism, build
 
 #: Designs a synthesis writes by default, and look-up candidates it polishes.
 TOP = 10
-STARTS = 96
+STARTS = 256
 #: Batched Levenberg–Marquardt iterations of the polish: every start's first few, then the KEEP best
 #: distinct ones' to convergence.
-SCOUT_ITERATIONS = 15
+SCOUT_ITERATIONS = 12
 KEEP = 12
+#: The finish of the best answers: batched Levenberg–Marquardt iterations, then at most this many residual
+#: evaluations of scipy's least squares (the last digits).
+FINISH_ITERATIONS = 400
+FINISH_NFEV = 30
+#: Crank steps of the scouting iterations (the path between them by cubic Hermite interpolation).
+SCOUT_STEPS = 90
 LM_ITERATIONS = 120
 #: Look-up candidates ranked before the polish's starts are picked (distinct ones, :func:`diverse`).
-POOL = 256
+POOL = 512
 #: Two starts are distinct when a varied parameter differs by more than this share of its range.
-DISTINCT = 0.05
+DISTINCT = 0.02
 
 
 @dataclass
@@ -153,6 +159,7 @@ class _Posed:
         # bounds wide enough never to hold an answer, and no wider: the polish's finite-difference
         # steps are 1e-8 of their span (explorer.study._polish)
         size = max(_size(points), 1e-300)
+        self.size = size
         c = points.mean(axis=0)
         reach = max(size, max(abs(v) for cd in cands for p, v in cd.params.items()
                               if self_kind(atlas.mech, p) == "length") if cands else size)
@@ -173,9 +180,16 @@ class _Posed:
             b = simulate_batch(mech, lengths, crank, steps, geometry=geometry, vertices=[mech.foot], velocities=True)
             return b.paths[mech.foot], b.velocities[mech.foot], b.status == 0
 
+        def simulate_coarse(X):
+            lengths, crank, geometry = _designs(mech, self.names, X)
+            b = simulate_batch(mech, lengths, crank, SCOUT_STEPS, geometry=geometry, vertices=[mech.foot],
+                               velocities=True)
+            return b.paths[mech.foot], b.velocities[mech.foot], b.status == 0
+
         match = "timed" if angles is not None else "closest"
-        self.res = PathResiduals(simulate, points, match=match, angles=angles,
-                                 phase="free" if free_phase else "fixed")
+        kw = dict(match=match, angles=angles, phase="free" if free_phase else "fixed")
+        self.res = PathResiduals(simulate, points, **kw)
+        self.scout = PathResiduals(simulate_coarse, points, **kw)
 
     def x(self, params: dict) -> np.ndarray:
         return np.clip(np.array([params[p] for p in self.names]), self.lower, self.upper)
@@ -206,27 +220,59 @@ def diverse(atlas, cands, n: int, distinct: float = DISTINCT) -> list:
     return chosen
 
 
+def ordered_angles(res, X):
+    """The untimed formulation's start angles (K, M) of designs X (K, k): the target points matched in
+    order along each design's path (:func:`explorer.gait._curves.ordered_match`): each point's closest
+    match on its own may lie on another stretch of a path that passes near itself, a local minimum the
+    least squares does not leave. None when the formulation has no free angles."""
+    from ..gait._curves import ordered_match
+    if res.form != "untimed":
+        return None
+    foot, _, ok = res._solve(X)
+    th, _ = ordered_match(foot, res.target)
+    th[~ok] = np.nan
+    return th
+
+
 def _polish(posed, cands, starts, finish):
     """Polished designs (X (n, k), cost (n,)), best first, from the candidates."""
     from ._polish import batched_lm, distinct_best, polish
-    S0 = np.array([posed.x(c.params) for c in cands[:starts]])
+    cands = list(cands[:starts])
+    S0 = np.array([posed.x(c.params) for c in cands])
     if len(S0) == 0:
         return np.empty((0, len(posed.names))), np.empty(0)
-    # two stages: every start a few iterations (cheap: which basin is it in?), then the best distinct
-    # ones to convergence
-    lm = batched_lm(posed.res, S0, posed.lower, posed.upper, iterations=SCOUT_ITERATIONS)
-    X, f = lm.X, lm.cost
+    # two stages: every start a few iterations on a coarse path (cheap: which basin is it in?), then the
+    # best distinct ones to convergence
     if len(S0) > KEEP:
-        pick = distinct_best(X, f, posed.lower, posed.upper, KEEP, distinct=1e-6)
-        lm = batched_lm(posed.res, X[pick], posed.lower, posed.upper, iterations=LM_ITERATIONS)
-        X, f = np.vstack([lm.X, X]), np.concatenate([lm.cost, f])
-    else:
-        lm = batched_lm(posed.res, X, posed.lower, posed.upper, iterations=LM_ITERATIONS)
+        lm = batched_lm(posed.scout, S0, posed.lower, posed.upper, iterations=SCOUT_ITERATIONS,
+                        extra0=ordered_angles(posed.scout, S0))
         X, f = lm.X, lm.cost
-    pick = distinct_best(X, f, posed.lower, posed.upper, finish, distinct=1e-9)
-    done = [polish(posed.res, X[i], posed.lower, posed.upper) for i in pick]
-    Xs = np.vstack([X] + [d.x[None] for d in done])
-    fs = np.concatenate([f, [d.cost for d in done]])
+        pick = distinct_best(X, f, posed.lower, posed.upper, KEEP, distinct=1e-6)
+        S1 = X[pick]
+    else:
+        S1 = S0
+    lm = batched_lm(posed.res, S1, posed.lower, posed.upper, iterations=LM_ITERATIONS,
+                    extra0=ordered_angles(posed.res, S1))
+    X, f, TH = lm.X, lm.cost, lm.theta
+    if TH is not None:  # once more from each answer's own ordered match: a point on a wrong stretch moves
+        lm2 = batched_lm(posed.res, X, posed.lower, posed.upper, iterations=LM_ITERATIONS,
+                         extra0=ordered_angles(posed.res, X))
+        better = lm2.cost < f
+        X, f, TH = np.where(better[:, None], lm2.X, X), np.where(better, lm2.cost, f), \
+            np.where(better[:, None], lm2.theta, TH)
+    lm = type(lm)(X, TH, f, lm.start_cost, lm.iterations, lm.evaluations, lm.calls)
+    # the finish: the best few distinct answers go on together (a slow, ill-conditioned valley can take
+    # hundreds of iterations to its end), then scipy's least squares for the last digits
+    pick = [i for i in distinct_best(X, f, posed.lower, posed.upper, finish, distinct=1e-9)]
+    Xs, fs = [X], [f]
+    if pick:
+        fin = batched_lm(posed.res, X[pick], posed.lower, posed.upper, iterations=FINISH_ITERATIONS,
+                         extra0=None if lm.theta is None else lm.theta[pick])
+        done = [polish(posed.res, fin.X[j], posed.lower, posed.upper, max_nfev=FINISH_NFEV,
+                       extra0=None if fin.theta is None else fin.theta[j]) for j in range(len(pick))]
+        Xs += [fin.X, np.array([d.x for d in done])]
+        fs += [fin.cost, np.array([d.cost for d in done])]
+    Xs, fs = np.vstack(Xs), np.concatenate(fs)
     order = np.argsort(np.where(np.isfinite(fs), fs, np.inf), kind="stable")
     Xs, fs = Xs[order], fs[order]
     keep = np.isfinite(fs)
@@ -292,10 +338,10 @@ def synthesize(target, *, mechanism: str = "fourbar", timed: bool = False, close
         built_any |= built
         t1 = time.perf_counter()
         pool = at.query(points, angles, closed=closed, free_phase=free_phase, k=max(POOL, starts), scan=scan)
-        cands = diverse(at, pool, starts)
+        cands = diverse(at, pool, starts, distinct=DISTINCT)
         t2 = time.perf_counter()
         posed = _Posed(at, points, angles, free_phase, steps, cands)
-        X, cost = _polish(posed, cands, starts, finish=min(4, top))
+        X, cost = _polish(posed, cands, starts, finish=min(2, top))
         t3 = time.perf_counter()
         timings["open"] += t1 - t0
         timings["query"] += t2 - t1
@@ -323,7 +369,8 @@ def synthesize(target, *, mechanism: str = "fourbar", timed: bool = False, close
     timings["write"] = time.perf_counter() - t3
     from ..store import open_results
     with open_results(path) as r:
-        pe = r.frame()["path_error"].to_numpy(dtype=np.float64)
+        df = r.frame()
+        pe = df.loc[df["status"].astype(str) != "not-run", "path_error"].to_numpy(dtype=np.float64)
     s = SynthSummary(path, fam, float(pe[0]), _size(points), [float(v) for v in pe], timings,
                      time.process_time() - c_all, at.path, built_any, others, n_cand)
     s.points = len(points)
