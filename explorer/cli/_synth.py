@@ -38,7 +38,7 @@ def register(sub) -> None:
     p.add_argument("--designs", metavar="N", default="1000000",
                    help="designs of an atlas built on first use (default 1,000,000)")
     p.add_argument("--scan", metavar="N", default=None,
-                   help="designs an open or timed look-up scans (default all)")
+                   help="designs an open or timed look-up scans, the atlas's first (default 200,000)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress and no summary")
     p.set_defaults(func=run)
 

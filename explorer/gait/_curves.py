@@ -63,6 +63,10 @@ N_CURVE = 32
 N_HARMONICS = 8
 #: Shares of the closed path an open target may span (align_open tries each).
 OPEN_FRACTIONS = (0.25, 0.375, 0.5, 0.625, 0.75, 0.875)
+#: align_open tries every OPEN_START_STEP-th sample as the start of the stretch (the polish moves it).
+OPEN_START_STEP = 2
+#: Points an open target is resampled to for align_open.
+OPEN_POINTS = 12
 #: A design whose foot moves more than this share of its path length in one solver step is not kept
 #: in an atlas (a near-toggle whip the samples cannot describe).
 MAX_STEP_SHARE = 1.0 / 16.0
@@ -322,7 +326,7 @@ def _align_open_jit(curve, rows, q, fractions, err, start, direction, fraction, 
         for fi in range(fractions.shape[0]):
             span = fractions[fi] * n
             for d in (1, -1):
-                for o in range(n):
+                for o in range(0, n, OPEN_START_STEP):
                     for j in range(m):
                         p = _at(w, o + d * span * j / (m - 1))
                         px[j] = p[0]
@@ -344,7 +348,7 @@ def _align_open_jit(curve, rows, q, fractions, err, start, direction, fraction, 
 def align_open(curve, rows, q, fractions=OPEN_FRACTIONS):
     """Align an open target q (m, 2), resampled evenly by arc length (first to last point), with
     stretches of curves[rows]: q_j against the curve at arc parameter start + direction·fraction·n·j/(m−1)
-    (sample units), for every start, both directions and each fraction.
+    (sample units), for every ``OPEN_START_STEP``-th start, both directions and each fraction.
 
     Returns (err (K,), start, direction, fraction, a (K, 2), t (K, 2)): the residual of the best
     similarity q ≈ a·w + t as a share of q's spread about its centroid, and that fit."""

@@ -178,13 +178,14 @@ def evaluate_filter(df, text: str) -> np.ndarray:
     return np.array(np.broadcast_to(arr, (n,)), dtype=bool)
 
 
-def filter_margins(df, text: str):
+def filter_margins(df, text: str, *, scales: bool = False):
     """The signed margins of a filter that is one comparison, or a chain of them, of numbers with
     ``<``, ``<=``, ``>`` or ``>=`` (``clearance >= 1``, ``0 < x < 1``): a list with one (len(df),) array
     per comparison, ``right - left`` for ``<``/``<=`` and ``left - right`` for ``>``/``>=``, so that a
     margin >= 0 holds ``<=``/``>=`` (> 0 holds ``<``/``>``); NaN where a side is NaN. None for any other
     filter (and/or/not, ==, in): those are true or false with no margin (the polish of ``explorer
-    optimize`` keeps them by refusing steps that break them)."""
+    optimize`` keeps them by refusing steps that break them). With ``scales``, a list of (margin,
+    scale) pairs, scale = max(|left|, |right|) per row (the size the margin is measured against)."""
     tree, ev, n = _evaluator(df, text)
     node = tree.body
     if not isinstance(node, ast.Compare) or not all(isinstance(op, (ast.Lt, ast.LtE, ast.Gt, ast.GtE))
@@ -197,7 +198,8 @@ def filter_margins(df, text: str):
         a = np.broadcast_to(np.asarray(left, dtype=np.float64), (n,))
         b = np.broadcast_to(np.asarray(right, dtype=np.float64), (n,))
         with np.errstate(invalid="ignore"):
-            out.append(np.array(b - a if isinstance(op, (ast.Lt, ast.LtE)) else a - b))
+            m = np.array(b - a if isinstance(op, (ast.Lt, ast.LtE)) else a - b)
+            out.append((m, np.maximum(np.abs(a), np.abs(b))) if scales else m)
         left = right
     return out
 

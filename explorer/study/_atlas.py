@@ -74,6 +74,8 @@ FAMILY_BOUNDS = {"fourbar": {"crank": (0.02, 1.0), "rocker": (0.05, 4.0), "coupl
                              "coupler.P.x": (-2.0, 2.0), "coupler.P.y": (-2.0, 2.0)}}
 #: Designs solved per batch while building.
 CHUNK = 1 << 15
+#: Designs an open or a timed look-up scans by default (the first ones: an even Sobol sample).
+SCAN = 200_000
 
 
 def atlas_dir() -> Path:
@@ -426,12 +428,13 @@ class Atlas:
         Untimed (``angles`` None) and ``closed``: the ``neighbours`` nearest descriptors of the target
         (both ways round) from the index, then :func:`~explorer.gait._curves.align_closed` on them.
         Untimed and open: :func:`~explorer.gait._curves.align_open` over the first ``scan`` designs
-        (default all). Timed (``angles`` (M,) radians, explorer's crank angle in the target's frame):
+        (default :data:`SCAN`; the atlas is a Sobol sequence, so its first rows are an even sample).
+        Timed (``angles`` (M,) radians, explorer's crank angle in the target's frame):
         :func:`~explorer.gait._curves.align_timed` over the first ``scan`` designs, the phase fixed
         (rotating a design delays its crank by the same angle) or free."""
         from ..gait._curves import N_CURVE, align_closed, align_open, align_timed, descriptors, resample_target
         P = np.asarray(points, dtype=np.float64)
-        n_scan = len(self) if scan is None else max(1, min(int(scan), len(self)))
+        n_scan = min(SCAN, len(self)) if scan is None else max(1, min(int(scan), len(self)))
         out = []
         if angles is None and closed:
             q, c, r = resample_target(P, N_CURVE, closed=True)
@@ -453,7 +456,8 @@ class Atlas:
         err = np.empty(n_scan)
         fits = []
         if angles is None:
-            q, c, r = resample_target(P, 16, closed=False)
+            from ..gait._curves import OPEN_POINTS
+            q, c, r = resample_target(P, OPEN_POINTS, closed=False)
             for a0 in range(0, n_scan, 65536):
                 a1 = min(a0 + 65536, n_scan)
                 e, st, di, fr, a, t = align_open(self.curve[a0:a1].astype(np.float32), np.arange(a1 - a0), q)

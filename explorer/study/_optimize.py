@@ -388,10 +388,9 @@ def _search(study: Study, writer: ResultsWriter, out: Path, evaluate, progress: 
             rounds.append(_round_best(study, results, r))
         else:
             reason = _stop_reason(study, rounds, time.perf_counter() - t_start, writer, opt.rounds)
-        # rounds not begun are committed empty: not-run rows, and a complete file
-        for g in range(opt.chunks):
-            if not writer.done[g]:
-                writer.write_chunk(g, np.empty((0, len(study.mech.links))), np.empty(0), None, partial=True)
+        # rounds not begun are committed empty, in one go: not-run rows, and a complete file
+        with signals_held():
+            writer.skip_chunks([g for g in range(opt.chunks) if not writer.done[g]])
     except KeyboardInterrupt as exc:
         done = int(writer.done.sum())
         what = "terminated" if isinstance(exc, Terminated) else "interrupted"
@@ -597,6 +596,12 @@ class _AtlasStarts:
             angles = t.angles if t.match == "timed" else None
             pool = self.atlas.query(t.points, angles, closed=t.closed, free_phase=t.phase == "free",
                                     k=max(256, 8 * k))
+            if angles is None and not t.closed:
+                # an open stretch may also be met by a path that comes back past it (a thin loop along the
+                # points): the closed look-up of the points there and back, interleaved with the stretches
+                there_back = np.vstack([t.points, t.points[-2:0:-1]]) if len(t.points) > 2 else t.points
+                loops = self.atlas.query(there_back, None, closed=True, k=len(pool))
+                pool = [c for pair in zip(pool, loops) for c in pair]
             from ._synth import diverse
             self._cands = diverse(self.atlas, pool, len(pool), distinct=0.02)
         opt = self.study.optimize
@@ -638,35 +643,30 @@ def _polish_generation(study: Study, writer: ResultsWriter, results: Results, ev
         return {"starts": int(run.sum()), "best_before": before, "best_after": after, "solved": None}
     X = stored_x(df, study)
     lo, hi = np.array(opt.lower), np.array(opt.upper)
-    res, constrained = _residuals(study, evaluate)
-    from ._polish import batched_lm, distinct_best, polish, polish_constrained
+    res, cres, coarse = _residuals(study, evaluate)
+    from ._polish import distinct_best, finish, polish, polish_constrained, scout_and_polish
     extra = atlas.starts(r, max(opt.polish_starts, 1 + opt.restarts)) if atlas is not None else np.empty((0, len(lo)))
-    pool_x, pool_f, pool_origin = X, f, X
     first = distinct_best(X, f, lo, hi, opt.polish_starts, distinct=0.02) if opt.polish_starts > 0 else []
     S0 = np.vstack([X[first], extra]) if len(first) or len(extra) else np.empty((0, len(lo)))
-    if len(S0):  # the batched LM from the best distinct feasible designs and the atlas's, then the finish
-        lm = batched_lm(res, S0, lo, hi)
-        pool_x, pool_f, pool_origin = lm.X, lm.cost, S0
-        if constrained:  # the LM's answers may not be feasible: the finish starts from its feasible ones too
-            pool_x = np.vstack([pool_x, X])
-            pool_f = np.concatenate([pool_f, f])
-            pool_origin = np.vstack([pool_origin, X])
-    pick = distinct_best(pool_x, pool_f, lo, hi, 1 + opt.restarts)
-    starts, origin = pool_x[pick], pool_origin[pick]
-    if constrained:
-        out = []
-        for x in starts:
-            best, last = polish_constrained(res, x, lo, hi)
-            out.append(last)
-            if best is not None:
-                out.append(best.x)
-        Xp = np.array(out).reshape(len(out), len(lo))
-    else:
-        Xp = np.array([polish(res, x, lo, hi).x for x in starts]).reshape(len(starts), len(lo))
-    if len(Xp) and (opt.constraints or opt.screen) and not constrained:
-        per = P // len(Xp)
-        t = 0.5 ** np.arange(per)
-        Xp = (origin[:, None, :] + t[None, :, None] * (Xp - origin)[:, None, :]).reshape(-1, len(lo))
+    if len(S0):  # the batched LM from the best distinct feasible designs and the atlas's, scouted, then finished
+        lm = scout_and_polish(res, S0, lo, hi, coarse=coarse, ordered=study.target.closed)
+        cand_x, cand_f, _ = finish(res, lm, lo, hi, 1 + opt.restarts)
+        if cres is not None:  # the LM's answers may break a constraint: the feasible designs of the round too
+            cand_x = np.vstack([cand_x, X[distinct_best(X, f, lo, hi, 1)]])
+    else:  # the plain polish of the best distinct designs of the round
+        cand_x = np.array([polish(res, X[i], lo, hi).x for i in distinct_best(X, f, lo, hi, 1 + opt.restarts)])
+        cand_x = cand_x.reshape(len(cand_x), len(lo))
+    pick = list(range(len(cand_x)))
+    out = []
+    for x in cand_x:  # inside the constraints (cres) where an answer breaks one
+        if cres is None or cres.state(x)[2]:
+            out.append(x)
+            continue
+        best, last = polish_constrained(cres, x, lo, hi, max_nfev=AL_NFEV)
+        out.append(last)
+        if best is not None:
+            out.append(best.x)
+    Xp = np.array(out).reshape(len(out), len(lo))
     Xp = Xp[:P]
     lengths, crank, geometry = designs_from_x(study, Xp)
     batch, metrics = evaluate(lengths, crank, geometry) if len(Xp) else (None, None)
@@ -675,81 +675,106 @@ def _polish_generation(study: Study, writer: ResultsWriter, results: Results, ev
     new = results.frame(rows=(a, a + len(Xp)))
     Fn, _, feas_n = objective_matrix(new, opt, study.screen)
     after = float(min(before, Fn[feas_n, 0].min())) if feas_n.any() else before
-    out = {"starts": len(starts), "best_before": before, "best_after": after, "solved": res.evaluations}
+    solved = res.evaluations + coarse.evaluations + (cres.evaluations if cres is not None else 0)
+    out = {"starts": len(pick), "best_before": before, "best_after": after, "solved": solved}
     if feas_n.any():
         i = int(np.argmin(np.where(feas_n, Fn[:, 0], np.inf)))
-        out["held"] = _held(study, res, Xp[i], lo, hi)
+        out["held"] = _held(study, cres if cres is not None else res, Xp[i], lo, hi)
     return out
 
 
+#: Most residual evaluations of each least-squares solve of the polish inside the constraints.
+AL_NFEV = 200
+
+
 def _residuals(study: Study, evaluate):
-    """(residuals, constrained?) of the polish: plain path residuals of a batch solve, or, with
-    constraints or the screen, :class:`._polish.ConstrainedResiduals` over the chunk runner (metrics,
-    screen and constraints of each design: what decides feasibility)."""
+    """(residuals, constrained residuals or None, coarse residuals) of the polish: the plain path
+    residuals of a batch solve; the same at a quarter of the steps (at least 24: the scouting of many
+    starts); and, with constraints or the screen, :class:`._polish.ConstrainedResiduals`: the designs are solved by the
+    chunk runner (metrics, screen) when a constraint names a metric or the screen applies, else by the
+    same plain batch solve, the constraints then evaluated over the parameters alone."""
     from ..kernels import simulate_batch
     from ._chunk import geometry_columns, metric_plan
     from ._polish import ConstrainedResiduals, PathResiduals
     opt = study.optimize
     mech, target = study.mech, study.target
     kw = dict(match=target.match, angles=target.angles, ignore=target.ignore, phase=target.phase)
+    _, metric_vel, _ = metric_plan(study)
+    velocities = study.velocities or metric_vel
+
+    def simulate(Xs):
+        lengths, crank, geometry = designs_from_x(study, Xs)
+        moved = geometry_columns(study, geometry)
+        b = simulate_batch(mech, lengths, crank if mech.crank is not None else None, study.steps,
+                           vertices=[mech.foot], velocities=velocities, tolerance=study.tolerance,
+                           method=study.method, **({"geometry": moved} if moved else {}))
+        return b.paths[mech.foot], (b.velocities.get(mech.foot) if velocities else None), b.status == 0
+
+    coarse_steps = max(24, study.steps // 4)
+
+    def simulate_coarse(Xs):
+        lengths, crank, geometry = designs_from_x(study, Xs)
+        moved = geometry_columns(study, geometry)
+        b = simulate_batch(mech, lengths, crank if mech.crank is not None else None, coarse_steps,
+                           vertices=[mech.foot], velocities=True, tolerance=study.tolerance,
+                           method=study.method, **({"geometry": moved} if moved else {}))
+        return b.paths[mech.foot], b.velocities.get(mech.foot), b.status == 0
+
+    coarse = PathResiduals(simulate_coarse, target.points, **kw)
     if not (opt.constraints or opt.screen):
-        _, metric_vel, _ = metric_plan(study)
-        velocities = study.velocities or metric_vel
-
-        def simulate(Xs):
-            lengths, crank, geometry = designs_from_x(study, Xs)
-            moved = geometry_columns(study, geometry)
-            b = simulate_batch(mech, lengths, crank if mech.crank is not None else None, study.steps,
-                               vertices=[mech.foot], velocities=velocities, tolerance=study.tolerance,
-                               method=study.method, **({"geometry": moved} if moved else {}))
-            return b.paths[mech.foot], (b.velocities.get(mech.foot) if velocities else None), b.status == 0
-
-        return PathResiduals(simulate, target.points, **kw), False
+        return PathResiduals(simulate, target.points, **kw), None, coarse
     import pandas as pd
 
-    from ..gait import evaluate_filter, filter_margins, screen_columns
+    from ..gait import evaluate_filter, filter_columns, filter_margins, screen_columns
+    names = set(mech.parameters())
+    needs_metrics = opt.screen or any(c not in names for k in opt.constraints for c in filter_columns(k))
     scales = {}
+    nominal = mech.parameters()
 
-    def frame(Xs, batch, metrics):
-        cols = {"status": np.where(batch.status == 0, "ok", "failed")}
+    def frame(Xs, ok, metrics):
+        cols = {"status": np.where(ok, "ok", "failed")}
         cols.update({p: Xs[:, j] for j, p in enumerate(opt.parameters)})
-        for p, v in study.mech.parameters().items():
+        for p, v in nominal.items():
             cols.setdefault(p, np.full(len(Xs), v))
         cols.update(metrics or {})
         return pd.DataFrame(cols)
 
     def evaluate_designs(Xs):
-        lengths, crank, geometry = designs_from_x(study, Xs)
-        batch, metrics = evaluate(lengths, crank, geometry)
-        df = frame(Xs, batch, metrics)
-        ok = batch.status == 0
-        admissible = ok & np.isfinite(df["path_error"].to_numpy(dtype=np.float64)) if "path_error" in df else ok
+        if needs_metrics:
+            lengths, crank, geometry = designs_from_x(study, Xs)
+            batch, metrics = evaluate(lengths, crank, geometry)
+            ok = batch.status == 0
+            foot, vel = batch.paths[mech.foot], batch.velocities.get(mech.foot)
+        else:
+            foot, vel, ok = simulate(Xs)
+            metrics = None
+        df = frame(Xs, ok, metrics)
+        admissible = ok.copy()
+        if "path_error" in df:
+            admissible &= np.isfinite(df["path_error"].to_numpy(dtype=np.float64))
         if opt.screen:
             sc = screen_columns(df, study.screen)
             if sc is not None:
                 admissible &= sc[0]
         margins = []
         for j, c in enumerate(opt.constraints):
-            m = filter_margins(df, c)
+            m = filter_margins(df, c, scales=True)
             if m is None:
                 admissible &= evaluate_filter(df, c)
                 continue
-            for i, mi in enumerate(m):
-                key = (j, i)
-                if key not in scales:
-                    fin = np.abs(mi[np.isfinite(mi)])
-                    scales[key] = max(float(fin.max()) if len(fin) else 1.0, 1e-12)
-                margins.append(mi / scales[key])
+            for i, (mi, si) in enumerate(m):
+                if (j, i) not in scales:  # the constraint's own size at the first design polished
+                    scales[(j, i)] = max(float(si[0]) if np.isfinite(si[0]) else 1.0, 1e-12)
+                margins.append(mi / scales[(j, i)])
         M = np.column_stack(margins) if margins else np.zeros((len(Xs), 0))
         feasible = admissible & np.all(np.isfinite(M), axis=1)
         for c in opt.constraints:
             feasible &= evaluate_filter(df, c)
-        foot = batch.paths[mech.foot]
-        vel = batch.velocities.get(mech.foot)
         return foot, vel, ok, np.where(np.isfinite(M), M, -1.0), admissible, feasible
 
-    return ConstrainedResiduals(evaluate_designs, target.points, n_margins=len(_margin_names(opt.constraints)),
-                                **kw), True
+    return PathResiduals(simulate, target.points, **kw), \
+        ConstrainedResiduals(evaluate_designs, target.points, n_margins=len(_margin_names(opt.constraints)), **kw), \
+        coarse
 
 
 def _margin_names(constraints) -> list:

@@ -234,6 +234,20 @@ class PathResiduals:
             J[:self.m_path(), k:] = self.extra_columns(tan)[0]
         return J
 
+    def ordered_start(self, X):
+        """The untimed formulation's start angles (K, M) of designs X (K, k): the target points matched in
+        order along each design's path (:func:`explorer.gait._curves.ordered_match`: the assignment that
+        goes round the path once, either way, never back). Each point's closest match on its own may lie
+        on another stretch of a path that passes near itself, a local minimum the least squares does not
+        leave. None when the formulation has no free angles."""
+        from ..gait._curves import ordered_match
+        if self.form != "untimed":
+            return None
+        foot, _, ok = self._solve(np.atleast_2d(X))
+        th, _ = ordered_match(foot, self.target)
+        th[~np.asarray(ok, dtype=bool)] = np.nan
+        return th
+
     def closest_angles(self, x):
         """The extra variables (n_extra,) of design x at its start: the crank angles of the target points'
         closest matches (untimed) or the best shift (free phase); None if it fails."""
@@ -332,6 +346,8 @@ class ConstrainedResiduals(PathResiduals):
         self.nc = int(n_margins)
         self.lam = np.zeros(self.nc)
         self.mu = 0.0
+        self.path_weight = 1.0
+        self.margin_offset = 0.0
         self._last = None
 
     def m(self) -> int:
@@ -351,12 +367,12 @@ class ConstrainedResiduals(PathResiduals):
         if lastX.shape != X.shape or not np.array_equal(lastX, X):
             raise RuntimeError("ConstrainedResiduals: rows of designs other than the last solved")
         if self.nc == 0:
-            return R
+            return R if self.path_weight == 1.0 else R * self.path_weight
         if self.mu > 0.0:
-            P = math.sqrt(self.mu) * np.maximum(0.0, self.lam[None, :] / self.mu - margins)
+            P = math.sqrt(self.mu) * np.maximum(0.0, self.lam[None, :] / self.mu - (margins - self.margin_offset))
         else:
             P = np.zeros_like(margins)
-        out = np.concatenate([R, P], axis=1)
+        out = np.concatenate([R * self.path_weight, P], axis=1)
         out[~np.all(np.isfinite(out), axis=1)] = np.nan
         return out
 
@@ -368,13 +384,17 @@ class ConstrainedResiduals(PathResiduals):
         if not ok[0]:
             return math.inf, margins[0], False
         extra = self.extra_start(x[None], foot, vel, ok)[0] if self.free_angles else None
-        R, _ = self.rows(x[None], extra, solved=(foot, vel, ok))
+        w, self.path_weight = self.path_weight, 1.0
+        try:
+            R, _ = self.rows(x[None], extra, solved=(foot, vel, ok))
+        finally:
+            self.path_weight = w
         r = R[0, :self.m_path()]
         return (float(np.dot(r, r)) if np.all(np.isfinite(r)) else math.inf), margins[0], bool(feasible[0])
 
 
 #: Most outer iterations (multiplier updates) of :func:`polish_constrained`.
-AL_OUTER = 8
+AL_OUTER = 12
 #: A smooth constraint counts as met when its scaled margin is above -AL_TOL.
 AL_TOL = 1e-10
 
@@ -382,11 +402,14 @@ AL_TOL = 1e-10
 def polish_constrained(res: ConstrainedResiduals, x0, lower, upper, *, max_nfev: int = MAX_NFEV,
                        outer: int = AL_OUTER):
     """:func:`polish` inside the constraints: the augmented Lagrangian of :class:`ConstrainedResiduals`
-    (at most ``outer`` least-squares solves; after each, λ ← max(0, λ − μ·m) and μ × 10 when the worst
-    violation did not fall below a quarter), barred from designs that are not admissible. If the last
-    answer still breaks a constraint, the feasible point nearest it on the segment from the best
-    feasible design met (bisection, 40 halvings) is taken. Returns (best feasible :class:`PolishResult`
-    or None, the last augmented-Lagrangian answer x (k,))."""
+    (at most ``outer`` least-squares solves; the penalty μ starts where a violation the size of the
+    start's (at least 1e-3 of the constraint's scale) costs ten times its sum of squares; after each
+    solve λ ← max(0, λ − μ·m), and μ × 10 when the worst violation did not fall below a quarter), barred
+    from designs that are not admissible. If no feasible design was met, a restoration (the path's
+    residuals weighted 1e-6: the least squares then meets the constraints first) gives one; if the last
+    answer still breaks a constraint, the feasible point nearest it on the segment from the best feasible
+    design met (bisection, 40 halvings) is taken. Returns (best feasible :class:`PolishResult` or None,
+    the last augmented-Lagrangian answer x (k,))."""
     lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
     x = np.clip(np.asarray(x0, dtype=np.float64), lo, hi)
     f0, m0, feas0 = res.state(x)
@@ -394,37 +417,49 @@ def polish_constrained(res: ConstrainedResiduals, x0, lower, upper, *, max_nfev:
         return None, x
     ev0 = res.evaluations
     best = (x.copy(), f0) if feas0 else None
+    v0 = float(np.max(np.maximum(0.0, -m0))) if len(m0) else 0.0
+    floor = 1e-12 * (1.0 + float(np.sum(res.target ** 2)))
     res.lam[:] = 0.0
-    res.mu = 10.0 * max(f0, 1e-12 * (1.0 + float(np.sum(res.target ** 2))))
+    res.mu = 10.0 * max(f0, floor) / max(v0, 1e-3) ** 2
     prev = math.inf
     last = x
-    for _ in range(max(1, outer)):
-        r = polish(res, last, lo, hi, max_nfev=max_nfev)
-        last = r.x
-        f, m, feas = res.state(last)
-        viol = float(np.max(np.maximum(0.0, -m))) if len(m) else 0.0
-        if feas and math.isfinite(f) and (best is None or f < best[1]):
-            best = (last.copy(), f)
-        if res.nc == 0 or (viol <= AL_TOL and feas):
-            break
-        res.lam = np.maximum(0.0, res.lam - res.mu * m)
-        if viol > 0.25 * prev:
-            res.mu *= 10.0
-        prev = viol
-    f_last, _, feas_last = res.state(last)
-    if not feas_last and best is not None:  # the feasible point nearest the answer, on the way back
-        a, b = best[0], last
-        for _ in range(40):
-            mid = 0.5 * (a + b)
-            fm, _, ok = res.state(mid)
-            if ok and math.isfinite(fm):
-                a = mid
-                if fm < best[1]:
-                    best = (mid.copy(), fm)
-            else:
-                b = mid
-    res.lam[:] = 0.0
-    res.mu = 0.0
+    try:
+        for _ in range(max(1, outer)):
+            r = polish(res, last, lo, hi, max_nfev=max_nfev)
+            last = r.x
+            f, m, feas = res.state(last)
+            viol = float(np.max(np.maximum(0.0, -m))) if len(m) else 0.0
+            if feas and math.isfinite(f) and (best is None or f < best[1]):
+                best = (last.copy(), f)
+            if res.nc == 0 or (viol <= AL_TOL and feas):
+                break
+            res.lam = np.maximum(0.0, res.lam - res.mu * m)
+            if viol > 0.25 * prev:
+                res.mu *= 10.0
+            prev = viol
+        f_last, _, feas_last = res.state(last)
+        if not feas_last and best is None and res.nc:  # restoration: meet the constraints first
+            res.lam[:] = 0.0
+            res.mu, res.path_weight, res.margin_offset = 1.0, 1e-6, 1e-9
+            r = polish(res, last, lo, hi, max_nfev=max_nfev)
+            res.path_weight, res.margin_offset = 1.0, 0.0
+            f, _, feas = res.state(r.x)
+            if feas and math.isfinite(f):
+                best = (r.x.copy(), f)
+        if not feas_last and best is not None:  # the feasible point nearest the answer, on the way back
+            a, b = best[0], last
+            for _ in range(40):
+                mid = 0.5 * (a + b)
+                fm, _, ok = res.state(mid)
+                if ok and math.isfinite(fm):
+                    a = mid
+                    if fm < best[1]:
+                        best = (mid.copy(), fm)
+                else:
+                    b = mid
+    finally:
+        res.lam[:] = 0.0
+        res.mu, res.path_weight, res.margin_offset = 0.0, 1.0, 0.0
     if best is None:
         return None, last
     return PolishResult(best[0], None, best[1], f0, res.evaluations - ev0, 0, "augmented Lagrangian"), last
@@ -663,3 +698,81 @@ def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = L
     if TH is not None:
         TH = np.mod(TH, 2.0 * math.pi)
     return BatchedLMResult(X, TH, cost, start_cost, its, res.evaluations - ev0, calls)
+
+
+def lm_rematched(res: PathResiduals, starts, lower, upper, *, iterations: int = LM_ITERATIONS, extra0=None):
+    """:func:`batched_lm` from ``starts``, then, in the untimed formulation, once more from each answer
+    with its points matched in order along its own path (:meth:`PathResiduals.ordered_start`); each
+    start keeps the better of the two. A point left on a wrong stretch of the path by the first pass
+    moves to the right one. Returns a :class:`BatchedLMResult`."""
+    lm = batched_lm(res, starts, lower, upper, iterations=iterations, extra0=extra0)
+    if res.form != "untimed":
+        return lm
+    again = batched_lm(res, lm.X, lower, upper, iterations=iterations, extra0=res.ordered_start(lm.X))
+    better = again.cost < lm.cost
+    pick = lambda a, b: np.where(better.reshape(-1, *([1] * (a.ndim - 1))), b, a)  # noqa: E731
+    return BatchedLMResult(pick(lm.X, again.X), pick(lm.theta, again.theta), np.where(better, again.cost, lm.cost),
+                           lm.start_cost, lm.iterations + again.iterations, lm.evaluations + again.evaluations,
+                           lm.calls + again.calls)
+
+
+#: Starts :func:`scout_and_polish` takes on after scouting, and scouting iterations.
+KEEP = 12
+SCOUT_ITERATIONS = 12
+
+
+def scout_and_polish(res: PathResiduals, starts, lower, upper, *, coarse: PathResiduals | None = None, extra0=None,
+                     keep: int = KEEP, scout_iterations: int = SCOUT_ITERATIONS, iterations: int = LM_ITERATIONS,
+                     ordered: bool = True) -> BatchedLMResult:
+    """Many starts for the price of a few: every start ``scout_iterations`` of :func:`batched_lm` on
+    ``coarse`` (the same residuals on a coarser path: which basin is it in?), its extra variables from
+    ``extra0`` where given, else the untimed points matched in order along its path (``ordered``: a
+    drawn curve) or each at its closest match; then the ``keep``
+    best distinct answers to convergence on ``res`` (:func:`lm_rematched`). With at most ``keep``
+    starts, only the second stage. Returns the second stage's :class:`BatchedLMResult`."""
+    S0 = np.atleast_2d(np.asarray(starts, dtype=np.float64))
+    coarse = res if coarse is None else coarse
+
+    def start_extra(r, X, given):
+        if r.form != "untimed" or not ordered:
+            return given
+        th = r.ordered_start(X)
+        if given is not None:
+            g = np.asarray(given, dtype=np.float64)
+            ok = np.all(np.isfinite(g), axis=1)
+            th[ok] = g[ok]
+        return th
+
+    if len(S0) > keep:
+        lm = batched_lm(coarse, S0, lower, upper, iterations=scout_iterations, extra0=start_extra(coarse, S0, extra0))
+        pick = distinct_best(lm.X, lm.cost, lower, upper, keep, distinct=1e-6)
+        S1 = lm.X[pick]
+        th1 = None if lm.theta is None else lm.theta[pick]
+    else:
+        S1, th1 = S0, extra0
+    return lm_rematched(res, S1, lower, upper, iterations=iterations, extra0=start_extra(res, S1, th1))
+
+
+#: The finish of the best answers: batched Levenberg–Marquardt iterations (an ill-conditioned valley can
+#: take hundreds to its end), then at most this many residual evaluations of scipy's least squares.
+FINISH_ITERATIONS = 400
+FINISH_NFEV = 30
+
+
+def finish(res: PathResiduals, lm: BatchedLMResult, lower, upper, n: int, *, iterations: int = FINISH_ITERATIONS,
+           max_nfev: int = FINISH_NFEV):
+    """The ``n`` best distinct answers of ``lm`` taken on together (:func:`batched_lm`, ``iterations``),
+    then each by :func:`polish` (``max_nfev``: the last digits). Returns (X (n', k), cost (n',), theta
+    (n', E) or None), the polished answers in the order chosen."""
+    pick = distinct_best(lm.X, lm.cost, lower, upper, n, distinct=1e-9)
+    if not pick:
+        return np.empty((0, lm.X.shape[1])), np.empty(0), None
+    th = None if lm.theta is None else lm.theta[pick]
+    fin = batched_lm(res, lm.X[pick], lower, upper, iterations=iterations, extra0=th)
+    done = [polish(res, fin.X[j], lower, upper, max_nfev=max_nfev, extra0=None if fin.theta is None else fin.theta[j])
+            for j in range(len(pick))]
+    X = np.array([d.x for d in done])
+    cost = np.array([d.cost for d in done])
+    theta = None if res.n_extra == 0 else np.array([d.theta if d.theta is not None else np.full(res.n_extra, np.nan)
+                                                   for d in done])
+    return X, cost, theta

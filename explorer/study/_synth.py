@@ -39,17 +39,13 @@ from ._atlas import (DEFAULT_DESIGNS, FAMILIES, _designs, atlas_mechanism, build
 #: Designs a synthesis writes by default, and look-up candidates it polishes.
 TOP = 10
 STARTS = 256
-#: Batched Levenberg–Marquardt iterations of the polish: every start's first few, then the KEEP best
-#: distinct ones' to convergence.
+#: The polish: every start SCOUT_ITERATIONS batched Levenberg–Marquardt iterations on the path at
+#: SCOUT_STEPS crank steps, the KEEP best distinct answers LM_ITERATIONS more at ``steps`` (then again
+#: from their points matched in order), then the finish (explorer.study._polish.finish).
 SCOUT_ITERATIONS = 12
 KEEP = 12
-#: The finish of the best answers: batched Levenberg–Marquardt iterations, then at most this many residual
-#: evaluations of scipy's least squares (the last digits).
-FINISH_ITERATIONS = 400
-FINISH_NFEV = 30
-#: Crank steps of the scouting iterations (the path between them by cubic Hermite interpolation).
-SCOUT_STEPS = 90
 LM_ITERATIONS = 120
+SCOUT_STEPS = 90
 #: Look-up candidates ranked before the polish's starts are picked (distinct ones, :func:`diverse`).
 POOL = 512
 #: Two starts are distinct when a varied parameter differs by more than this share of its range.
@@ -220,58 +216,18 @@ def diverse(atlas, cands, n: int, distinct: float = DISTINCT) -> list:
     return chosen
 
 
-def ordered_angles(res, X):
-    """The untimed formulation's start angles (K, M) of designs X (K, k): the target points matched in
-    order along each design's path (:func:`explorer.gait._curves.ordered_match`): each point's closest
-    match on its own may lie on another stretch of a path that passes near itself, a local minimum the
-    least squares does not leave. None when the formulation has no free angles."""
-    from ..gait._curves import ordered_match
-    if res.form != "untimed":
-        return None
-    foot, _, ok = res._solve(X)
-    th, _ = ordered_match(foot, res.target)
-    th[~ok] = np.nan
-    return th
-
-
 def _polish(posed, cands, starts, finish):
     """Polished designs (X (n, k), cost (n,)), best first, from the candidates."""
-    from ._polish import batched_lm, distinct_best, polish
+    from ._polish import finish as finish_best
+    from ._polish import scout_and_polish
     cands = list(cands[:starts])
     S0 = np.array([posed.x(c.params) for c in cands])
     if len(S0) == 0:
         return np.empty((0, len(posed.names))), np.empty(0)
-    # two stages: every start a few iterations on a coarse path (cheap: which basin is it in?), then the
-    # best distinct ones to convergence
-    if len(S0) > KEEP:
-        lm = batched_lm(posed.scout, S0, posed.lower, posed.upper, iterations=SCOUT_ITERATIONS,
-                        extra0=ordered_angles(posed.scout, S0))
-        X, f = lm.X, lm.cost
-        pick = distinct_best(X, f, posed.lower, posed.upper, KEEP, distinct=1e-6)
-        S1 = X[pick]
-    else:
-        S1 = S0
-    lm = batched_lm(posed.res, S1, posed.lower, posed.upper, iterations=LM_ITERATIONS,
-                    extra0=ordered_angles(posed.res, S1))
-    X, f, TH = lm.X, lm.cost, lm.theta
-    if TH is not None:  # once more from each answer's own ordered match: a point on a wrong stretch moves
-        lm2 = batched_lm(posed.res, X, posed.lower, posed.upper, iterations=LM_ITERATIONS,
-                         extra0=ordered_angles(posed.res, X))
-        better = lm2.cost < f
-        X, f, TH = np.where(better[:, None], lm2.X, X), np.where(better, lm2.cost, f), \
-            np.where(better[:, None], lm2.theta, TH)
-    lm = type(lm)(X, TH, f, lm.start_cost, lm.iterations, lm.evaluations, lm.calls)
-    # the finish: the best few distinct answers go on together (a slow, ill-conditioned valley can take
-    # hundreds of iterations to its end), then scipy's least squares for the last digits
-    pick = [i for i in distinct_best(X, f, posed.lower, posed.upper, finish, distinct=1e-9)]
-    Xs, fs = [X], [f]
-    if pick:
-        fin = batched_lm(posed.res, X[pick], posed.lower, posed.upper, iterations=FINISH_ITERATIONS,
-                         extra0=None if lm.theta is None else lm.theta[pick])
-        done = [polish(posed.res, fin.X[j], posed.lower, posed.upper, max_nfev=FINISH_NFEV,
-                       extra0=None if fin.theta is None else fin.theta[j]) for j in range(len(pick))]
-        Xs += [fin.X, np.array([d.x for d in done])]
-        fs += [fin.cost, np.array([d.cost for d in done])]
+    lm = scout_and_polish(posed.res, S0, posed.lower, posed.upper, coarse=posed.scout, keep=KEEP,
+                          scout_iterations=SCOUT_ITERATIONS, iterations=LM_ITERATIONS)
+    Xf, ff, _ = finish_best(posed.res, lm, posed.lower, posed.upper, finish)
+    Xs, fs = [lm.X, Xf], [lm.cost, ff]
     Xs, fs = np.vstack(Xs), np.concatenate(fs)
     order = np.argsort(np.where(np.isfinite(fs), fs, np.inf), kind="stable")
     Xs, fs = Xs[order], fs[order]
@@ -292,7 +248,7 @@ def synthesize(target, *, mechanism: str = "fourbar", timed: bool = False, close
     ``results/synth-<family>.h5``), overwritten only with ``force``. top : designs written. starts :
     look-up candidates polished. atlas : an atlas file (default: the family's cached one, built with
     ``designs`` designs on first use unless ``build`` is false). scan : designs the open and timed
-    look-ups scan (default all). echo : a callable for progress lines (the CLI's print).
+    look-ups scan (default 200,000, the atlas's first). echo : a callable for progress lines (the CLI's print).
 
     Returns a :class:`SynthSummary`; UserError (one line) for a bad target, too few points, a missing
     atlas with ``build = False``, an atlas of another family or version, an existing output.
