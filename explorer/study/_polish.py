@@ -17,12 +17,22 @@ the design parameters held inside their bounds). Which residuals, by the target'
 any other match, or any ``ignore``
     M residuals: the distances ``path_residuals`` gives.
 
-Jacobian: forward finite differences of every design parameter at once, as ONE batch solve of the
-1 + k designs (the design and each parameter moved by h_j = 1e-6 · max(|x_j|, 1e-2 · (upper_j −
-lower_j)), backwards where that would leave the bounds; a moved design that fails is moved the
-other way in one more batch solve, and its column is zero if that fails too). The columns of the
-free crank angles are exact: the path's tangent dF/dθ at θ_i. A design that fails to solve over the
-whole cycle gets residuals of 10⁶ × the target's size, so the trust region rejects the step.
+Jacobian: central finite differences of every design parameter at once, as ONE batch solve of the
+1 + 2k designs (the design and each parameter moved by ±h_j, h_j = 1e-6 · max(|x_j|, 1e-2 · (upper_j
+− lower_j)); error O(h²): forward differences' O(h) error swamps the small singular values of an
+ill-conditioned fit and stalls it short of an exact answer); one-sided where a moved design would
+leave the bounds or fails (a failing one-sided copy is moved the other way in one more batch solve,
+its column zero if that fails too). The columns of the extra variables (the free crank angles, a
+free phase) are exact: the path's tangent dF/dθ. A design that fails to solve over the whole cycle
+gets residuals of 10⁶ × the target's size, so the trust region rejects the step.
+
+The untimed formulation's angles start at each point's closest match, or, for a drawn curve, at the
+points matched in order along the path (:meth:`PathResiduals.ordered_start`): near a cusp the closest
+match can lie on the wrong stretch of a path that passes near itself, a local minimum.
+:func:`scout_and_polish` (many starts scouted on a coarse path, the best taken on, their points
+matched in order again: :func:`lm_rematched`) and :func:`finish` are the multistart pipeline that
+``explorer synth`` and ``explorer optimize``'s polish share; :func:`polish_constrained` keeps the
+polish inside ``[optimize]`` constraints (an augmented Lagrangian of :class:`ConstrainedResiduals`).
 
 Everything is deterministic: the same start gives the same answer bit for bit (resume relies on it).
 """
@@ -545,8 +555,9 @@ def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = L
     """Bounded Levenberg–Marquardt from K starts (rows of ``starts`` (K, k)) at once, the design
     parameters held in [lower, upper] (k,).
 
-    Every iteration is ONE batch solve of the active starts' trial points and their forward-difference
-    copies (K_active · (1 + k) designs, steps as :func:`polish`'s): the trial's residuals decide
+    Every iteration is ONE batch solve of the active starts' trial points and their finite-difference
+    copies (at most K_active · (1 + 2k) designs: central differences, steps as :func:`polish`'s, see the
+    module docstring): the trial's residuals decide
     acceptance (gain ratio ρ = actual / predicted decrease), and an accepted trial's Jacobian is ready
     from the same batch. Per start: damping λ (Marquardt scaling diag(JᵀJ)) updated by Nielsen's rule;
     a parameter on a bound whose gradient points outwards is held (projected step), the rest of the
