@@ -13,6 +13,8 @@ the workers. Module graph: ``_run`` → ``_dask`` → ``_cluster``/``_output``; 
 indices from the samples in a results file); ``tolerance(mechanism, target=0.99)`` finds the spread at
 which a share of the legs still walks, by bisection; ``design_yield`` / ``results_yield`` give the
 ``yield`` of designs: the share of copies cut with a ``[robustness]`` error that still walk.
+``build_atlas(mechanism, designs)`` / ``open_atlas(path)`` are the curve atlas (``explorer atlas``) and
+``synthesize(target, mechanism=...)`` its look-up and polish (``explorer synth``).
 """
 
 from ._cluster import dask_client, require_dask
