@@ -87,6 +87,8 @@ class PathResiduals:
         self.offset = offset
         self.ignore = tuple(ignore)
         self.phase = phase
+        #: central differences in the Jacobian (False: forward, half the designs: a coarse scout's)
+        self.central = True
         if match == "timed" and self.angles is None:
             raise ValueError("match 'timed' needs angles")
         if phase == "free" and (match != "timed" or self.ignore):
@@ -216,7 +218,7 @@ class PathResiduals:
         x, th = z[:k], (z[k:] if self.free_angles else None)
         m = self.m()
         h = np.where(x + step <= upper, step, -step)
-        central = np.zeros(k, bool) if lower is None else (x + step <= upper) & (x - step >= lower)
+        central = np.zeros(k, bool) if (lower is None or not self.central) else (x + step <= upper) & (x - step >= lower)
         c = np.flatnonzero(central)
         X = np.repeat(x[None], k + 1 + len(c), axis=0)
         X[np.arange(1, k + 1), np.arange(k)] += h
@@ -609,7 +611,7 @@ def _batched_lm(res: PathResiduals, starts, lower, upper, *, iterations: int = L
         s = step[idx]
         h = np.where(Xt + s <= hi, s, -s)
         # central differences where x ± h stay inside the box (see PathResiduals.jacobian), else one-sided
-        central = (Xt + s <= hi) & (Xt - s >= lo)
+        central = (Xt + s <= hi) & (Xt - s >= lo) & res.central
         w = 1 + 2 * k  # the trial, k moved up (or down), k moved down (used where central)
         B = np.repeat(Xt[:, None, :], w, axis=1)  # (a, 1 + 2k, k)
         B[:, 1 + np.arange(k), np.arange(k)] += h
@@ -728,7 +730,7 @@ def lm_rematched(res: PathResiduals, starts, lower, upper, *, iterations: int = 
 
 
 #: Starts :func:`scout_and_polish` takes on after scouting, and scouting iterations.
-KEEP = 12
+KEEP = 8
 SCOUT_ITERATIONS = 12
 
 
@@ -742,7 +744,10 @@ def scout_and_polish(res: PathResiduals, starts, lower, upper, *, coarse: PathRe
     best distinct answers to convergence on ``res`` (:func:`lm_rematched`). With at most ``keep``
     starts, only the second stage. Returns the second stage's :class:`BatchedLMResult`."""
     S0 = np.atleast_2d(np.asarray(starts, dtype=np.float64))
-    coarse = res if coarse is None else coarse
+    if coarse is None:
+        coarse = res
+    else:  # scouting needs no last digits: forward differences, half the designs
+        coarse.central = False
 
     def start_extra(r, X, given):
         if r.form != "untimed" or not ordered:

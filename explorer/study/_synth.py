@@ -43,8 +43,8 @@ STARTS = 256
 #: SCOUT_STEPS crank steps, the KEEP best distinct answers LM_ITERATIONS more at ``steps`` (then again
 #: from their points matched in order), then the finish (explorer.study._polish.finish).
 SCOUT_ITERATIONS = 12
-KEEP = 12
-LM_ITERATIONS = 120
+KEEP = 8
+LM_ITERATIONS = 100
 SCOUT_STEPS = 90
 #: Look-up candidates ranked before the polish's starts are picked (distinct ones, :func:`diverse`).
 POOL = 512
