@@ -307,17 +307,24 @@ def _similarity(px, py, qx, qy, m):
     return res, ar, ai, qcx - (ar * pcx - ai * pcy), qcy - (ar * pcy + ai * pcx)
 
 
-@njit(parallel=True, cache=True)
-def _align_open_jit(curve, rows, q, fractions, err, start, direction, fraction, a, t):
-    n = curve.shape[1]
-    m = q.shape[0]
+@njit(cache=True, nogil=True)
+def _spread(q):
+    """(x (m,), y (m,), centroid x, centroid y, sum of squared distances from it) of points q (m, 2)."""
     qx = q[:, 0].copy()
     qy = q[:, 1].copy()
     qcx = qx.mean()
     qcy = qy.mean()
     qq = 0.0
-    for j in range(m):
+    for j in range(q.shape[0]):
         qq += (qx[j] - qcx) ** 2 + (qy[j] - qcy) ** 2
+    return qx, qy, qcx, qcy, qq
+
+
+@njit(parallel=True, cache=True)
+def _align_open_jit(curve, rows, q, fractions, err, start, direction, fraction, a, t):
+    n = curve.shape[1]
+    m = q.shape[0]
+    qx, qy, qcx, qcy, qq = _spread(q)
     for r in prange(rows.shape[0]):
         w = curve[rows[r]]
         px = np.empty(m)
@@ -370,13 +377,7 @@ def align_open(curve, rows, q, fractions=OPEN_FRACTIONS):
 def _align_timed_jit(timed, rows, q, theta, n_phase, free, err, phase, a, t):
     n = timed.shape[1]
     M = q.shape[0]
-    qx = q[:, 0].copy()
-    qy = q[:, 1].copy()
-    qcx = qx.mean()
-    qcy = qy.mean()
-    qq = 0.0
-    for i in range(M):
-        qq += (qx[i] - qcx) ** 2 + (qy[i] - qcy) ** 2
+    qx, qy, qcx, qcy, qq = _spread(q)
     if qq <= 0.0:
         qq = 1.0
     per = n / (2.0 * math.pi)
