@@ -66,6 +66,9 @@ class OptimizeSummary:
     hypervolume : for several objectives, the front's hypervolume after each generation (list of G floats,
     :mod:`._hypervolume` defines it; [] for one objective); hypervolume_detail : its
     :class:`~._hypervolume.Hypervolume` (ideal, nadir and reference point in the objectives' units).
+    rounds : {"rounds": [{"round", "best", "variant"} per round run], "reason": why the rounds stopped (the
+    stopping rule), "atlas": {"used", "path", "designs"} or {"used": False, "why"}}; the polish's
+    ``polished["held"]`` says what holds its best design: {"bounds", "constraints", "exact", "gradient"}.
     """
 
     path: Path
