@@ -86,7 +86,8 @@ class SynthSummary:
                  f"write {t.get('write', 0):.2f} s; {self.cpu_s:.1f} CPU-s in all"]
         for fam, e in self.others.items():
             lines.append(f"  {fam}: best path_error {e:.6g} (not written)")
-        lines.append(f"  shown by: explorer show {self.path} 0 ; explorer plot {self.path} --top 3 -o synth.png")
+        lines.append(f"  shown by: explorer rank {self.path} --by path_error ; explorer show {self.path} 0 ; "
+                     f"explorer plot {self.path} --top 3 --by path_error -o synth.png")
         return "\n".join(lines)
 
     points: int = 0
@@ -357,7 +358,8 @@ def _write(out, force, at, posed, X, points, angles, free_phase, steps, name, in
             bounds[p] = [float(X[:, j].min()) / 10.0, float(X[:, j].max()) * 10.0]
         else:
             bounds[p] = [float(X[:, j].min() - 10 * span[j]), float(X[:, j].max() + 10 * span[j])]
-    tgt = {"points": points.tolist(), "match": "timed" if angles is not None else "closest"}
+    tgt = {"points": points.tolist(), "match": "timed" if angles is not None else "closest",
+           "closed": bool(info.get("closed"))}
     if angles is not None:
         tgt["angles_deg"] = np.degrees(angles).tolist()
         if free_phase:
