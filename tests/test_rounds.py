@@ -221,3 +221,35 @@ def test_a_study_starts_its_polish_from_the_atlas(tmp_path, monkeypatch):
     size = float(np.sqrt(np.mean(np.sum((q - q.mean(0)) ** 2, axis=1))))
     assert s.rounds["atlas"]["used"] and "atlas starts from" in s.text()
     assert float(s.front["path_error"].iloc[0]) < 1e-9 * size
+
+
+def test_the_best_feasible_design_is_polished_inside_a_barrier_constraint(tmp_path):
+    """A constraint the polish can only keep by refusing steps (an `or`: no margin to penalise), which the
+    least squares' answer (the hidden design, rocker 26) breaks: the round's best feasible design is
+    polished from where it stands, inside it, down to the constrained minimum that scipy's bounded
+    least_squares reaches on the closed-form residuals with the same limit as a bound (rocker <= 25.5)."""
+    from scipy.optimize import least_squares
+
+    from test_polish import coupler
+    limit = float(TRUTH[0] - 0.5)
+    d = study_dict("timed", generations=2, constraints=[f"(rocker <= {limit}) or (rocker >= 100)"])
+    s = run_optimize(d, output=tmp_path / "b.h5", progress=False)
+    th = samples(np.arange(0, S, 6))
+    target = coupler(th, *TRUTH)
+    hi = HI.copy()
+    hi[0] = limit
+    ref = least_squares(lambda x: (coupler(th, *x) - target).ravel(), np.minimum(TRUTH, hi) * 0.99, bounds=(LO, hi),
+                        method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    ref_pe = math.sqrt(np.sum(ref.fun ** 2) / len(th))
+    assert ref.x[0] == pytest.approx(limit) and ref_pe > 1e-3
+    with open_results(s) as r:
+        df = r.frame()
+    pol = df[(df["generation"] == 2) & (df["status"].astype(str) == "ok")]
+    feas = pol[pol["rocker"] <= limit]
+    best = feas.loc[feas["path_error"].astype(float).idxmin()]
+    x = best[list(PARAMS)].to_numpy(dtype=float)
+    pe = math.sqrt(np.mean(np.sum((coupler(th, *x) - target) ** 2, axis=1)))  # the closed form's, not the file's
+    assert s.polished["best_before"] > 1.5 * ref_pe  # the search alone is far from the constrained minimum
+    assert s.polished["best_after"] == pytest.approx(float(best["path_error"]), rel=1e-9)
+    assert pe == pytest.approx(float(best["path_error"]), rel=1e-6)
+    assert ref_pe * (1 - 1e-9) <= pe <= ref_pe * 1.01

@@ -648,21 +648,23 @@ def _polish_generation(study: Study, writer: ResultsWriter, results: Results, ev
     lo, hi = np.array(opt.lower), np.array(opt.upper)
     res, cres, coarse = _residuals(study, evaluate)
     from ._polish import distinct_best, finish, polish, polish_constrained, scout_and_polish
+    inside = -1  # the candidate polished inside the constraints even though it meets them (a feasible start)
     extra = atlas.starts(r, max(opt.polish_starts, 1 + opt.restarts)) if atlas is not None else np.empty((0, len(lo)))
     first = distinct_best(X, f, lo, hi, opt.polish_starts, distinct=0.02) if opt.polish_starts > 0 else []
     S0 = np.vstack([X[first], extra]) if len(first) or len(extra) else np.empty((0, len(lo)))
     if len(S0):  # the batched LM from the best distinct feasible designs and the atlas's, scouted, then finished
         lm = scout_and_polish(res, S0, lo, hi, coarse=coarse, ordered=study.target.closed)
         cand_x, cand_f, _ = finish(res, lm, lo, hi, 1 + opt.restarts)
-        if cres is not None:  # the LM's answers may break a constraint: the feasible designs of the round too
+        if cres is not None:  # the LM's answers may break a constraint: the round's best feasible design too
             cand_x = np.vstack([cand_x, X[distinct_best(X, f, lo, hi, 1)]])
+            inside = len(cand_x) - 1  # ... polished from where it stands, inside the constraints
     else:  # the plain polish of the best distinct designs of the round
         cand_x = np.array([polish(res, X[i], lo, hi).x for i in distinct_best(X, f, lo, hi, 1 + opt.restarts)])
         cand_x = cand_x.reshape(len(cand_x), len(lo))
     pick = list(range(len(cand_x)))
     out = []
-    for x in cand_x:  # inside the constraints (cres) where an answer breaks one
-        if cres is None or cres.state(x)[2]:
+    for j, x in enumerate(cand_x):  # inside the constraints (cres) where an answer breaks one
+        if cres is None or (j != inside and cres.state(x)[2]):
             out.append(x)
             continue
         best, last = polish_constrained(cres, x, lo, hi, max_nfev=AL_NFEV)
@@ -794,10 +796,16 @@ def _margin_names(constraints) -> list:
     return out
 
 
+#: A constraint holds the answer when its margin (scaled by the constraint's own size) is at most this and
+#: the unconstrained descent would break it: the polish inside the constraints ends within about 1e-5 of
+#: an active one (its last step back to the feasible side), e.g. clearance 1.00001 on `clearance >= 1`.
+HELD_MARGIN = 1e-4
+
+
 def _held(study: Study, res, x, lo, hi) -> dict:
     """What holds the best polished design where it is (the stopping rule's answer): the bounds it sits on
     (within 1e-9 of the span) that the objective's gradient pushes against, and the constraints whose
-    margin is (nearly) 0 and which the unconstrained descent would break; "exact" when the fit is exact;
+    margin is at most HELD_MARGIN and which the unconstrained descent would break; "exact" when the fit is exact;
     else an interior minimum. One batch solve of the design and its forward-difference copies."""
     from ._polish import FD_STEP
     k = len(x)
@@ -832,7 +840,7 @@ def _held(study: Study, res, x, lo, hi) -> dict:
         names = _margin_names(study.optimize.constraints)
         descent = -g
         for i, c in enumerate(names[:M.shape[1]]):
-            if abs(M[0, i]) <= 1e-6 and float(dM[:, i] @ descent) < 0:
+            if abs(M[0, i]) <= HELD_MARGIN and float(dM[:, i] @ descent) < 0:
                 out["constraints"].append(c)
     out["gradient"] = gscale
     return out
