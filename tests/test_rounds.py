@@ -223,6 +223,7 @@ def test_a_study_starts_its_polish_from_the_atlas(tmp_path, monkeypatch):
     assert float(s.front["path_error"].iloc[0]) < 1e-9 * size
 
 
+@pytest.mark.slow
 def test_the_best_feasible_design_is_polished_inside_a_barrier_constraint(tmp_path):
     """A constraint the polish can only keep by refusing steps (an `or`: no margin to penalise), which the
     least squares' answer (the hidden design, rocker 26) breaks: the round's best feasible design is
