@@ -28,7 +28,7 @@ def _choices(values) -> str:
 
 def _facts() -> dict:
     """The code's own constants the descriptions quote (choices, defaults, ranges)."""
-    from explorer.gait import IGNORES, MATCHES, Screen
+    from explorer.gait import IGNORES, MATCHES, PHASES, Screen
     from explorer.kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
     from explorer.mechanism import BODY_MODELS, PIN_MATERIALS, SHEET_MATERIALS, Operating, Walker
     from explorer.mechanism._model import INTERPOLATIONS
@@ -42,7 +42,7 @@ def _facts() -> dict:
     return {
         "PERTURB_METHODS": _choices(PERTURB_METHODS), "SOLVE_METHODS": _choices(SOLVE_METHODS),
         "COMPRESSIONS": _choices(COMPRESSIONS), "STORES": _choices(STORES), "ALGORITHMS": _choices(ALGORITHMS),
-        "MATCHES": _choices(MATCHES), "IGNORES": _choices(IGNORES), "BODY_MODELS": _choices(BODY_MODELS),
+        "MATCHES": _choices(MATCHES), "IGNORES": _choices(IGNORES), "PHASES": _choices(PHASES), "BODY_MODELS": _choices(BODY_MODELS),
         "SHEET_MATERIALS": _choices(SHEET_MATERIALS), "PIN_MATERIALS": _choices(PIN_MATERIALS),
         "ROBUSTNESS_UNITS": _choices(UNITS), "DISTRIBUTIONS": _choices(DISTRIBUTIONS),
         "DEFAULT_COPIES": DEFAULT_COPIES, "INTERPOLATIONS": _choices(INTERPOLATIONS),
@@ -148,8 +148,13 @@ STUDY = {
         "bounds": "A table of explicit bounds in model units, `\"1-3\" = [47.0, 52.0]` (over the spread).",
         "polish": "Polish the result: least squares on the path residuals (one objective `path_error`), or "
                   "SLSQP along the front (several objectives).",
-        "restarts": "Polish starts beyond the best, 0 … population − 1 (default 4).",
-        "polish_starts": "Designs the batched Levenberg–Marquardt of the polish advances together first (0: off).",
+        "restarts": "Answers finished beyond the best, 0 … population − 1 (default 4).",
+        "polish_starts": "The round's best distinct designs the polish starts from, 0 … 100,000 (default 64; 0: off).",
+        "rounds": "Restart rounds (one objective): each a fresh search from its own seed and its polish (default 1).",
+        "seconds": "A round begins only while the run has taken less than this many seconds (default: no limit).",
+        "repeat": "The rounds stop once this many have reached the same best value (0: never; default 3).",
+        "atlas": "Polish starts from the mechanism's cached curve atlas too: `\"auto\"` (default), an atlas file, "
+                 "or false.",
     },
     "target": {
         "points": "The target path: `[[x, y], ...]` in model units.",
@@ -157,6 +162,8 @@ STUDY = {
         "angles_deg": "Prescribed crank angles, degrees, one per point (then `match` defaults to `timed`).",
         "match": "How points meet the foot path: {MATCHES}.",
         "ignore": "What the error ignores: a list of {IGNORES}.",
+        "phase": "{PHASES}: with `free` (timed points) the angles are known up to a common shift.",
+        "closed": "True when the points go once round a closed curve (the polish matches them in order).",
     },
     "robustness": {
         "tolerance": "± this much on every design parameter, in `unit` (the `yield` metric).",

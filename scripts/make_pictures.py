@@ -1,7 +1,8 @@
 #!/usr/bin/env python
 """Regenerate the docs' pictures (docs/*.png), so that they show what the code draws today.
 
-    python scripts/make_pictures.py            # writes docs/foot_paths.png, pareto.png, report.png, accuracy.png
+    python scripts/make_pictures.py            # writes docs/foot_paths.png, pareto.png, report.png, accuracy.png,
+                                               # watt6.png, stephenson6.png (--linkages-only: those two alone)
     python scripts/make_pictures.py --out /tmp/pictures --no-report
 
 * ``docs/foot_paths.png`` — ``explorer plot RESULTS --top 5``: the five best foot paths over the nominal,
@@ -145,15 +146,55 @@ def accuracy(out: Path) -> Path | None:
     return target
 
 
+def linkages(out: Path) -> list[Path]:
+    """``docs/watt6.png`` and ``docs/stephenson6.png``: the two six-bar built-ins at θ = 0 over their foot
+    paths, with the plots' own artists (the animation's leg, ground pivots and path), each joint named."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from explorer import load_mechanism, simulate
+    from explorer.view._draw import LegArtists, draw_ground, draw_path
+    made = []
+    for name in ("watt6", "stephenson6"):
+        mech = load_mechanism(name)
+        cyc = simulate(mech, 360, velocities=True)
+        fig, ax = plt.subplots(figsize=(5.6, 5.6), layout="constrained")
+        draw_ground(ax, mech)
+        foot = mech.vertex_index(mech.foot)
+        draw_path(ax, cyc.positions[:, foot], label=f"foot {mech.foot}'s path over one turn")
+        leg = LegArtists(ax, mech, arrow_scale=0.0, label="the linkage at θ = 0")
+        leg.update(cyc.positions[0], cyc.velocities[0, foot])
+        for v, (x, y) in zip(mech.vertices, cyc.positions[0]):
+            ax.annotate(v, (x, y), textcoords="offset points", xytext=(5, 5), fontsize=10)
+        c = mech.crank.center
+        ax.annotate("A0", c, textcoords="offset points", xytext=(5, -12), fontsize=10)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [model units]")
+        ax.set_ylabel("y [model units]")
+        ax.set_title(f"{name}: {mech.description.split(':')[0]}", fontsize=10)
+        ax.legend(loc="lower right", fontsize=8)
+        path = out / f"{name}.png"
+        fig.savefig(path, dpi=90)
+        plt.close(fig)
+        made.append(path)
+    return made
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, default=ROOT / "docs", help="folder of the pictures (default: docs/)")
     ap.add_argument("--no-report", action="store_true", help="leave out the report screenshot (needs Chromium)")
+    ap.add_argument("--linkages-only", action="store_true", help="only the six-bar built-ins' pictures (a few s)")
     args = ap.parse_args(argv)
     import explorer
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    made = []
+    made = linkages(args.out)
+    if args.linkages_only:
+        for p in made:
+            print(f"wrote {p} ({p.stat().st_size / 1e3:.0f} kB)")
+        return 0
     with tempfile.TemporaryDirectory(prefix="explorer-pictures-") as d:
         tmp = Path(d)
         results = Path(explorer.run_study(STUDY, output=tmp / "jansen-2pct-2k.h5", progress=False).path)

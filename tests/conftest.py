@@ -12,6 +12,13 @@ TESTS = Path(__file__).resolve().parent
 if str(TESTS) not in sys.path:  # `import naive` whatever pytest's import mode
     sys.path.insert(0, str(TESTS))
 
+# no test sees the user's cached curve atlases (explorer optimize's algorithm "auto" would start from them):
+# each test process gets an empty atlas directory of its own; a test that needs an atlas builds a small one
+import os  # noqa: E402
+import tempfile  # noqa: E402
+
+os.environ["EXPLORER_ATLAS_DIR"] = tempfile.mkdtemp(prefix="explorer-atlas-test-")
+
 from naive import TRIAD  # noqa: E402
 
 from explorer import load_mechanism, simulate  # noqa: E402

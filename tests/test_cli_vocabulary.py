@@ -30,6 +30,8 @@ EXPECTED = {
     "edit": {"variant"},
     "bench accuracy": {"output", "force", "seed"},
     "bench rotations": {"output", "force"},
+    "atlas build": {"output", "force", "seed"},
+    "synth": {"top", "output", "force"},
 }
 OPTIONS = {opt: word for word, opts in VOCABULARY.items() for opt in opts}
 

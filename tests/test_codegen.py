@@ -24,7 +24,8 @@ from explorer.kernels._fast import place_dyad
 from explorer.kernels._sweep import STATUS_NOCONV
 
 #: each leg with a spread at which some of its designs turn and some fail
-LEGS = {"jansen": 0.25, "klann": 0.12, "hoeken": 0.4, "strider": 0.12, "fourbar": 0.4, "arm": 0.25}
+LEGS = {"jansen": 0.25, "klann": 0.12, "hoeken": 0.4, "strider": 0.12, "fourbar": 0.4, "arm": 0.25,
+        "watt6": 0.25, "stephenson6": 0.5}
 #: at least this many of the 400 designs compared in each regime (about half of what the data hold), so
 #: that the bit-for-bit test cannot pass having checked nothing. "swept back": crank cycles that failed
 #: and were swept backward from θ = 0 (Hoeken's failures all fail at the start; the arm has no crank).
@@ -35,6 +36,8 @@ MINIMUM = {
     "strider": {"ok": 150, "failed": 30, "swept back": 30},
     "fourbar": {"ok": 150, "failed": 30, "swept back": 10},
     "arm": {"ok": 100, "failed": 100},
+    "watt6": {"ok": 100, "failed": 100, "swept back": 100},        # 204, 196, 196 measured
+    "stephenson6": {"ok": 130, "failed": 60, "swept back": 40},    # 274, 126, 78 measured
 }
 for _least in MINIMUM.values():
     _least.update({"ok, more iterations than the least": 20, "solved samples": 100 * 180})

@@ -196,24 +196,22 @@ def test_polish_without_the_batched_lm_polishes_one_plus_restarts_starts(tmp_pat
     assert s.polished["starts"] == 5 and s.polished["best_after"] < 1e-9
 
 
-def test_polish_keeps_the_best_feasible_design_on_the_way_back(tmp_path):
-    """A constraint the least squares' answer breaks (path_error >= 0.05, the answer is ~0): the polish
-    generation also holds points half, a quarter, ... of the way back to each start, the constraint
-    holds at some of them, and the best feasible design (of the search's and these) is what the summary
-    reports."""
+def test_polish_stays_inside_a_constraint_the_least_squares_answer_breaks(tmp_path):
+    """A constraint the unconstrained answer breaks (path_error >= 0.05; the least squares alone reaches
+    ~0): the polish inside the constraints (augmented Lagrangian, then the feasible point nearest its
+    answer) ends on the constraint's boundary, the best feasible design is a committed polished row, and
+    the stopping rule names the constraint that holds it."""
     study = study_dict("timed", generations=2, constraints=["path_error >= 0.05"])
     s = run_optimize(study, output=tmp_path / "e.h5", progress=False)
     with open_results(s) as r:
         df = r.frame()
-    pol = df[df["generation"] == 2]
-    ran = pol[pol["status"].astype(str) != "not-run"]
-    n = s.polished["starts"]
-    assert len(ran) == n * (8 // n)
-    pe = ran["path_error"].to_numpy(dtype=float)
-    assert pe.min() < 0.05  # the answers themselves break the constraint
-    ok = pe[pe >= 0.05]
-    assert len(ok)  # points on the way back hold it, and count: the best feasible is kept
-    assert s.polished["best_after"] == min(s.polished["best_before"], ok.min()) >= 0.05
+    pol = df[(df["generation"] == 2) & (df["status"].astype(str) == "ok")]
+    pe = pol["path_error"].to_numpy(dtype=float)
+    assert s.polished["best_before"] > 0.1
+    assert 0.05 <= s.polished["best_after"] <= 0.05 * (1 + 1e-6)
+    assert s.polished["best_after"] == pe[pe >= 0.05].min()
+    assert s.polished["held"]["constraints"] == ["path_error >= 0.05"] and not s.polished["held"]["exact"]
+    assert "held by the constraint `path_error >= 0.05`" in s.text()
 
 
 def test_timed_study_with_polish_off_has_no_polish_generation(tmp_path):
@@ -295,7 +293,7 @@ def test_batched_lm_recovers_a_hidden_fourbar_from_several_starts(case, simulate
     assert np.all(r.cost < 1e-18), r.cost
     assert np.max(np.abs(r.X - TRUTH)) < 1e-9, r.X - TRUTH
     assert np.all((r.X >= LO) & (r.X <= HI))
-    assert r.calls <= 100 + 2 and r.evaluations <= r.calls * len(starts) * 5
+    assert r.calls <= 100 + 2 and r.evaluations <= r.calls * len(starts) * (1 + 2 * 4)  # central differences
     if c["match"] == "closest":
         assert np.max(np.abs(np.angle(np.exp(1j * (r.theta - th[None]))))) < 1e-8
 

@@ -169,6 +169,43 @@ def evaluate_filter(df, text: str) -> np.ndarray:
     """Boolean mask (len(df),) of the rows of ``df`` where filter ``text`` holds (see the module
     docstring for the grammar). NaN compares false. Raises FilterError for a filter outside the
     grammar, an unknown column, or one that is not true/false per row."""
+    tree, ev, n = _evaluator(df, text)
+    result = ev(tree.body)
+    arr = np.asarray(result)
+    if arr.dtype != bool:
+        raise FilterError(f"where: {text!r} is not a filter (it must be true or false for each row, such as "
+                          f"'bob < 0.2')")
+    return np.array(np.broadcast_to(arr, (n,)), dtype=bool)
+
+
+def filter_margins(df, text: str, *, scales: bool = False):
+    """The signed margins of a filter that is one comparison, or a chain of them, of numbers with
+    ``<``, ``<=``, ``>`` or ``>=`` (``clearance >= 1``, ``0 < x < 1``): a list with one (len(df),) array
+    per comparison, ``right - left`` for ``<``/``<=`` and ``left - right`` for ``>``/``>=``, so that a
+    margin >= 0 holds ``<=``/``>=`` (> 0 holds ``<``/``>``); NaN where a side is NaN. None for any other
+    filter (and/or/not, ==, in): those are true or false with no margin (the polish of ``explorer
+    optimize`` keeps them by refusing steps that break them). With ``scales``, a list of (margin,
+    scale) pairs, scale = max(|left|, |right|) per row (the size the margin is measured against)."""
+    tree, ev, n = _evaluator(df, text)
+    node = tree.body
+    if not isinstance(node, ast.Compare) or not all(isinstance(op, (ast.Lt, ast.LtE, ast.Gt, ast.GtE))
+                                                     for op in node.ops):
+        return None
+    out = []
+    left = ev(node.left)
+    for op, comp in zip(node.ops, node.comparators):
+        right = ev(comp)
+        a = np.broadcast_to(np.asarray(left, dtype=np.float64), (n,))
+        b = np.broadcast_to(np.asarray(right, dtype=np.float64), (n,))
+        with np.errstate(invalid="ignore"):
+            m = np.array(b - a if isinstance(op, (ast.Lt, ast.LtE)) else a - b)
+            out.append((m, np.maximum(np.abs(a), np.abs(b))) if scales else m)
+        left = right
+    return out
+
+
+def _evaluator(df, text: str):
+    """(tree, ev, n): the parsed filter and a function evaluating a node of it over the rows of ``df``."""
     tree, names = parse_filter(text)
     n = len(df)
 
@@ -248,9 +285,4 @@ def evaluate_filter(df, text: str) -> np.ndarray:
             eq = np.equal(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
         return np.broadcast_to(eq, (n,))
 
-    result = ev(tree.body)
-    arr = np.asarray(result)
-    if arr.dtype != bool:
-        raise FilterError(f"where: {text!r} is not a filter (it must be true or false for each row, such as "
-                          f"'bob < 0.2')")
-    return np.array(np.broadcast_to(arr, (n,)), dtype=bool)
+    return tree, ev, n

@@ -26,6 +26,10 @@ The target is M points q_i (M, 2). Each is compared with one point of the foot p
     q_i is compared with the foot at crank angle ``angles[i]`` (radians, the crank angle θ of
     :class:`~explorer.Crank`: counter-clockwise from +x; ``angle_offset`` (N,) is added per design,
     for parametrisations whose crank angle is measured from a rotated frame), interpolated as above.
+    With a *free phase* (``phase = "free"``) the angles are known up to a common shift ψ (a closed
+    curve timed at even steps from a start nobody prescribes): each design is compared at angles[i] + ψ
+    with its own best ψ (least sum of squared distances: the best of 64 evenly spaced shifts, the best
+    three refined by Gauss–Newton on ψ).
 ``"closest"``
     q_i is compared with the point of the closed foot path closest to it (each point independently:
     no order, no timing). The path point is found on the segment whose chord is closest to q_i and
@@ -635,7 +639,7 @@ def _check(foot, velocity, target, angles, match, ignore, angle_offset):
 
 
 def path_match(foot, target, *, velocity=None, angles=None, match: str = "closest", ignore=(),
-               angle_offset=None) -> PathMatch:
+               angle_offset=None, phase: str = "fixed") -> PathMatch:
     """Match every design's foot path with the target points; see the module docstring for the
     definitions.
 
@@ -646,7 +650,14 @@ def path_match(foot, target, *, velocity=None, angles=None, match: str = "closes
     match : "timed", "closest" or "arc".
     ignore : any of "translation", "rotation", "scale".
     angle_offset : (N,) or scalar, radians, added to ``angles`` per design (match "timed" only).
+    phase : "fixed" (default) or "free": with "free" (match "timed", no ``ignore``) the angles are known up
+        to a common shift ψ, each design's own (the one that matches best, :func:`_free_phase`), and
+        ``theta`` holds angles + ψ.
     """
+    if phase not in PHASES:
+        raise ValueError(f"phase: expected one of {', '.join(PHASES)}, got {phase!r}")
+    if phase == "free" and (match != "timed" or ignore):
+        raise ValueError("phase 'free' applies to match 'timed' without ignore")
     foot, velocity, target, angles, ignore = _check(foot, velocity, target, angles, match, ignore, angle_offset)
     N, S, _ = foot.shape
     M = target.shape[0]
@@ -660,6 +671,8 @@ def path_match(foot, target, *, velocity=None, angles=None, match: str = "closes
     ones, zeros, zeros2 = np.ones(N), np.zeros(N), np.zeros((N, 2))
 
     if match == "timed":
+        if phase == "free":
+            angles = angles + _free_phase(foot, velocity, target, np.where(bad[:, None], 0.0, angles), bad)[:, None]
         theta = np.where(bad[:, None], np.nan, np.mod(np.where(bad[:, None], 0.0, angles), 2.0 * math.pi))
         pts, _ = _at_angles(foot, velocity, np.where(bad[:, None], 0.0, theta))
         pts[bad] = np.nan
@@ -703,6 +716,62 @@ def _result(bad, err, d, theta, pts, s, phi, t):
     phi = np.where(bad, np.nan, np.mod(phi + math.pi, 2.0 * math.pi) - math.pi)
     t = np.where(bad[:, None], np.nan, t)
     return PathMatch(err, d, theta, pts, s, phi, t)
+
+
+#: Phases of the free-phase search's grid (each refined by Gauss–Newton from the best three).
+PHASE_GRID = 64
+
+
+def _free_phase(foot, velocity, target, angles, bad):
+    """(N,) the shift ψ of each design's angles (N, M) that brings its foot nearest the target (least
+    sum of squared distances): the best of :data:`PHASE_GRID` evenly spaced shifts, the three best
+    each refined by Gauss–Newton on ψ (the step −Σ r·t / Σ |t|², halved until the sum drops), the best
+    kept. 0 for ``bad`` rows."""
+    N, M = angles.shape
+    K = PHASE_GRID
+    grid = 2.0 * math.pi * np.arange(K) / K
+    out = np.zeros(N)
+    for a0 in range(0, N, 256):  # bounded memory: 256 designs x K x M points at a time
+        a1 = min(a0 + 256, N)
+        n = a1 - a0
+        f = foot[a0:a1]
+        v = None if velocity is None else velocity[a0:a1]
+        th = angles[a0:a1, None, :] + grid[None, :, None]  # (n, K, M)
+        pts, _ = _at_angles(f, v, th.reshape(n, K * M))
+        e = np.sum((pts.reshape(n, K, M, 2) - target[None, None]) ** 2, axis=(2, 3))
+        e = np.where(np.isfinite(e), e, np.inf)
+        starts = np.argsort(e, axis=1, kind="stable")[:, :3]
+        best_e = np.full(n, np.inf)
+        best_psi = np.zeros(n)
+        for j in range(starts.shape[1]):
+            psi = grid[starts[:, j]].copy()
+            cur = e[np.arange(n), starts[:, j]]
+            for _ in range(30):
+                p, t = _at_angles(f, v, angles[a0:a1] + psi[:, None])
+                r = p - target[None]
+                g = np.sum(r * t, axis=(1, 2))
+                hh = np.sum(t * t, axis=(1, 2))
+                step = np.where(hh > 0, -g / np.where(hh > 0, hh, 1.0), 0.0)
+                moved = np.zeros(n, bool)
+                for _half in range(20):
+                    trial = psi + step
+                    pt, _ = _at_angles(f, v, angles[a0:a1] + trial[:, None])
+                    et = np.sum((pt - target[None]) ** 2, axis=(1, 2))
+                    ok = np.isfinite(et) & (et < cur) & ~moved
+                    psi = np.where(ok, trial, psi)
+                    cur = np.where(ok, et, cur)
+                    moved |= ok
+                    if moved.all():
+                        break
+                    step = np.where(moved, step, 0.5 * step)
+                if np.all(np.abs(step) <= 1e-15 * (1.0 + np.abs(psi))) or not moved.any():
+                    break
+            better = cur < best_e
+            best_e = np.where(better, cur, best_e)
+            best_psi = np.where(better, psi, best_psi)
+        out[a0:a1] = np.mod(best_psi, 2.0 * math.pi)
+    out[bad] = 0.0
+    return out
 
 
 def _size(target):
@@ -821,12 +890,12 @@ class _Search:
 
 
 def path_error(foot, target, *, velocity=None, angles=None, match: str = "closest", ignore=(),
-               angle_offset=None) -> np.ndarray:
+               angle_offset=None, phase: str = "fixed") -> np.ndarray:
     """RMS distance (model units) from the M target points to their matches on each design's foot
     path, shape (N,); NaN for a design whose foot path (or velocity) has a NaN. Arguments as for
     :func:`path_match`; definitions in the module docstring."""
     return path_match(foot, target, velocity=velocity, angles=angles, match=match, ignore=ignore,
-                      angle_offset=angle_offset).error
+                      angle_offset=angle_offset, phase=phase).error
 
 
 def path_at(foot, theta, *, velocity=None):
@@ -844,11 +913,11 @@ def path_at(foot, theta, *, velocity=None):
 
 
 def path_residuals(foot, target, *, velocity=None, angles=None, match: str = "closest", ignore=(),
-                   angle_offset=None) -> np.ndarray:
+                   angle_offset=None, phase: str = "fixed") -> np.ndarray:
     """Distance (model units) from each target point to its match, shape (N, M); the RMS of a row
     is :func:`path_error`."""
     return path_match(foot, target, velocity=velocity, angles=angles, match=match, ignore=ignore,
-                      angle_offset=angle_offset).distances
+                      angle_offset=angle_offset, phase=phase).distances
 
 
 # ---------------------------------------------------------------------------------------------
@@ -856,29 +925,35 @@ def path_residuals(foot, target, *, velocity=None, angles=None, match: str = "cl
 # ---------------------------------------------------------------------------------------------
 
 #: Keys of a target table.
-TARGET_KEYS = ("points", "csv", "angles_deg", "match", "ignore")
+TARGET_KEYS = ("points", "csv", "angles_deg", "match", "ignore", "phase", "closed")
+#: A timed target's phase: "fixed" (the angles as given) or "free" (known up to a common shift).
+PHASES = ("fixed", "free")
 
 
 @dataclass(frozen=True)
 class Target:
     """A target path: points (M, 2) in model units; angles (M,) crank angles in **radians** (given in
     the file in degrees, ``angles_deg``) or None; match (one of :data:`MATCHES`); ignore (a sorted
-    tuple of :data:`IGNORES`)."""
+    tuple of :data:`IGNORES`); phase ("fixed", or "free": timed angles known up to a common shift); closed
+    (the points go all round a closed curve, not along a stretch of one: how the curve atlas looks the
+    target up; the error does not depend on it)."""
 
     points: np.ndarray
     angles: np.ndarray | None
     match: str
     ignore: tuple[str, ...]
+    phase: str = "fixed"
+    closed: bool = False
 
     def error(self, foot, velocity=None, angle_offset=None) -> np.ndarray:
         """:func:`path_error` of foot paths (N, S, 2) against this target, (N,), model units."""
         return path_error(foot, self.points, velocity=velocity, angles=self.angles, match=self.match,
-                          ignore=self.ignore, angle_offset=angle_offset)
+                          ignore=self.ignore, angle_offset=angle_offset, phase=self.phase)
 
     def fit(self, foot, velocity=None, angle_offset=None) -> PathMatch:
         """:func:`path_match` of foot paths against this target."""
         return path_match(foot, self.points, velocity=velocity, angles=self.angles, match=self.match,
-                          ignore=self.ignore, angle_offset=angle_offset)
+                          ignore=self.ignore, angle_offset=angle_offset, phase=self.phase)
 
 
 def _number(x) -> bool:
@@ -961,6 +1036,13 @@ def load_target(spec, base_dir=None, *, source: str = "<target>", key: str = "ta
     elif angles is not None:
         raise UserError(f"{where(source, akey)}: crank angles are used by match = \"timed\" only, "
                         f"not {match!r}; drop them or set match = \"timed\"")
+    phase = spec.get("phase", "fixed")
+    if phase not in PHASES:
+        raise UserError(f"{where(source, f'{key}.phase')}: expected one of {', '.join(PHASES)}, got {phase!r}")
+    if phase == "free" and (match != "timed" or ign):
+        raise UserError(f"{where(source, f'{key}.phase')}: phase = \"free\" (the angles known up to a common shift) "
+                        f"applies to match = \"timed\" without ignore, not match = {match!r}"
+                        + (f" with ignore = {ign!r}" if ign else ""))
     points = np.array(pts, dtype=np.float64)
     if match == "arc" and not np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)) > 0:
         raise UserError(f"{where(source, k)}: match = \"arc\" needs points that do not all coincide")
@@ -969,7 +1051,10 @@ def load_target(spec, base_dir=None, *, source: str = "<target>", key: str = "ta
     if angles is not None:
         ang = np.radians(np.array(angles, dtype=np.float64))
         ang.flags.writeable = False
-    return Target(points, ang, match, tuple(sorted(ign, key=IGNORES.index)))
+    closed = spec.get("closed", False)
+    if not isinstance(closed, bool):
+        raise UserError(f"{where(source, f'{key}.closed')}: expected true or false, got {closed!r}")
+    return Target(points, ang, match, tuple(sorted(ign, key=IGNORES.index)), phase, closed)
 
 
 def _read_csv(value, base_dir, source, key):

@@ -464,6 +464,26 @@ class ResultsWriter:
         self.f.flush()
         self.done[i] = True
 
+    def skip_chunks(self, indices) -> None:
+        """Commit the chunks ``indices`` with no variant run (their rows stay "not-run") in one go: their
+        digests and done flags, then one metadata checksum and flush (an optimisation's restart rounds
+        that never began: committed one by one, each commit's checksum of the whole file made it
+        quadratic)."""
+        indices = sorted(int(i) for i in indices if not self.done[i])
+        if not indices:
+            return
+        self.f.flush()
+        if self.integrity:
+            if self._covered is None:
+                self._covered = per_variant(self.f, self.n_variants)
+            for i in indices:
+                self._digest[i] = chunk_digest(self._covered, *self.chunk_range(i))
+        self._done[indices] = True
+        if self.integrity:
+            stamp(self.f)
+        self.f.flush()
+        self.done[indices] = True
+
     def stamp(self) -> None:
         """Update the metadata checksum after attributes were set directly (a Dask shard's done marker);
         the caller flushes or closes."""

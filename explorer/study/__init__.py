@@ -13,6 +13,8 @@ the workers. Module graph: ``_run`` → ``_dask`` → ``_cluster``/``_output``; 
 indices from the samples in a results file); ``tolerance(mechanism, target=0.99)`` finds the spread at
 which a share of the legs still walks, by bisection; ``design_yield`` / ``results_yield`` give the
 ``yield`` of designs: the share of copies cut with a ``[robustness]`` error that still walk.
+``build_atlas(mechanism, designs)`` / ``open_atlas(path)`` are the curve atlas (``explorer atlas``) and
+``synthesize(target, mechanism=...)`` its look-up and polish (``explorer synth``).
 """
 
 from ._best import best_design
@@ -22,6 +24,9 @@ from ._metrics import recompute_metrics
 from ._hypervolume import REFERENCE as HYPERVOLUME_REFERENCE, Hypervolume, hypervolume_history, hypervolume_per_generation
 from ._objectives import ALGORITHMS, Optimize, feasible_mask, objective_matrix
 from ._polish import BatchedLMResult, PathResiduals, PolishResult, batched_lm, distinct_best, multistart, polish
+from ._polish import ConstrainedResiduals, polish_constrained, scout_and_polish
+from ._atlas import FAMILIES as ATLAS_FAMILIES, Atlas, AtlasSpec, atlas_dir, atlas_spec, build_atlas, open_atlas
+from ._synth import SynthSummary, synthesize
 from ._optimize import OptimizeSummary, final_front, front_history, optimization_of, run_optimize
 from ._run import RunSummary, Terminated, run_study
 from ._sample import (BLOCK, Sampler, apply_multipliers, apply_samples, saltelli_design, sample_variants,
@@ -40,5 +45,7 @@ __all__ = ["STUDY_KEYS", "HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_hi
            "saltelli_design", "sample_variants", "sensitivity", "sensitivity_frame", "study_from_dict", "study_sampler",
            "study_variants", "summary_frame", "tolerance", "tolerance_summary", "variant_count",
            "BatchedLMResult", "PathResiduals", "PolishResult", "batched_lm", "distinct_best", "multistart", "polish",
-           "Robustness", "YieldResult", "design_yield", "results_robustness", "results_yield", "robustness_from_dict"]
+           "Robustness", "YieldResult", "design_yield", "results_robustness", "results_yield", "robustness_from_dict",
+           "ConstrainedResiduals", "polish_constrained", "scout_and_polish", "ATLAS_FAMILIES", "Atlas", "AtlasSpec",
+           "atlas_dir", "atlas_spec", "build_atlas", "open_atlas", "SynthSummary", "synthesize"]
 __all__ += ["best_design"]

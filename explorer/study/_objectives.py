@@ -31,6 +31,12 @@ distinct designs of the run, and commits the polished designs as one more genera
     restarts = 4                  # polish starts beyond the best (0 … population − 1; default 4)
     polish_starts = 64            # designs advanced together by the batched Levenberg–Marquardt first
                                   # (0 … 100,000; default 64; 0: none)
+    rounds = 8                    # restart rounds (one objective): each round the search's generations from
+                                  # a fresh seed, then the polish generation (default 1)
+    seconds = 60                  # a round begins only while the run has taken less than this (default: no limit)
+    repeat = 3                    # rounds stop once this many have reached the best value (0: never; default 3)
+    atlas = "auto"                # polish starts from the curve atlas of the mechanism when one is cached
+                                  # ("auto", default), from this atlas file, or none (false)
 
 With ``polish_starts`` = K > 0 the polish first advances the K best distinct feasible designs of the
 run together by a batched bounded Levenberg–Marquardt (:func:`._polish.batched_lm`: one batch solve of
@@ -69,7 +75,12 @@ ALGORITHMS = ("auto", "nsga2", "nsga3", "de", "ga", "cmaes")
 SINGLE_OBJECTIVE = ("de", "ga", "cmaes")
 #: Keys of the ``[optimize]`` table.
 OPTIMIZE_KEYS = ("algorithm", "population", "generations", "evaluations", "objectives", "constraints", "screen",
-                 "spread", "parameters", "bounds", "polish", "restarts", "polish_starts")
+                 "spread", "parameters", "bounds", "polish", "restarts", "polish_starts", "rounds", "seconds", "repeat",
+                 "atlas")
+#: Restart rounds by default (each: the search's generations, then the polish generation).
+ROUNDS = 1
+#: Rounds stop once the best value has been reached by this many rounds (0: never), by default.
+REPEAT = 3
 #: Polish starts beyond the best, by default.
 RESTARTS = 4
 #: Designs the batched Levenberg–Marquardt of the polish advances together, by default.
@@ -106,11 +117,20 @@ class Optimize:
     polish: bool = False
     restarts: int = RESTARTS
     polish_starts: int = 0
+    rounds: int = ROUNDS
+    seconds: float | None = None
+    repeat: int = REPEAT
+    atlas: object = "auto"
+
+    @property
+    def per_round(self) -> int:
+        """Generations of one round: the algorithm's, and the polished designs' one."""
+        return self.generations + int(self.polish)
 
     @property
     def chunks(self) -> int:
-        """Generations in the results file: the algorithm's, and the polished designs' one."""
-        return self.generations + int(self.polish)
+        """Generations in the results file: every round's (:attr:`per_round` each)."""
+        return self.rounds * self.per_round
 
     @property
     def evaluations(self) -> int:
@@ -129,7 +149,22 @@ class Optimize:
                 "objectives": list(self.objectives), "constraints": list(self.constraints), "screen": self.screen,
                 "spread": self.spread, "parameters": list(self.parameters),
                 "bounds": {p: [lo, hi] for p, lo, hi in zip(self.parameters, self.lower, self.upper)},
-                "polish": self.polish, "restarts": self.restarts, "polish_starts": self.polish_starts}
+                "polish": self.polish, "restarts": self.restarts, "polish_starts": self.polish_starts,
+                **self._rounds_dict()}
+
+    def _rounds_dict(self) -> dict:
+        """The restart keys, only where they differ from the defaults (a study without them keeps its
+        fingerprint)."""
+        out = {}
+        if self.rounds != ROUNDS:
+            out["rounds"] = self.rounds
+        if self.seconds is not None:
+            out["seconds"] = self.seconds
+        if self.repeat != REPEAT:
+            out["repeat"] = self.repeat
+        if self.atlas != "auto":
+            out["atlas"] = self.atlas
+        return out
 
 
 def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has_target: bool) -> Optimize:
@@ -184,6 +219,22 @@ def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has
                         f"cmaes), not {algorithm!r}")
     restarts = _integer(table.get("restarts", min(RESTARTS, population - 1)), key("restarts"), 0, population - 1)
     polish_starts = _integer(table.get("polish_starts", POLISH_STARTS), key("polish_starts"), 0, 100_000)
+    rounds = _integer(table.get("rounds", ROUNDS), key("rounds"), 1, 100_000)
+    if rounds > 1 and len(objectives) > 1:
+        raise UserError(f"{key('rounds')}: restart rounds apply to one objective; got {len(objectives)} objectives")
+    if population * generations * rounds > MAX_EVALUATIONS:
+        raise UserError(f"{key('rounds')}: {population} x {generations} x {rounds} rounds = "
+                        f"{population * generations * rounds:,} evaluations; at most {MAX_EVALUATIONS:,}")
+    seconds = table.get("seconds")
+    if seconds is not None and (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
+                                or not 0 < seconds <= 1e7 or not math.isfinite(seconds)):
+        raise UserError(f"{key('seconds')}: expected a number of seconds in (0, 1e7], got {seconds!r}")
+    repeat = _integer(table.get("repeat", REPEAT), key("repeat"), 0, 100_000)
+    atlas = table.get("atlas", "auto")
+    if atlas is True:
+        atlas = "auto"
+    if not (atlas is False or (isinstance(atlas, str) and atlas.strip())):
+        raise UserError(f"{key('atlas')}: expected \"auto\", false or an atlas file, got {atlas!r}")
 
     constraints = table.get("constraints", [])
     if isinstance(constraints, str):
@@ -245,7 +296,8 @@ def parse_optimize(table: dict, source: str, mech: Mechanism, known_metrics, has
     return Optimize(parameters=tuple(params), lower=tuple(lower), upper=tuple(upper), objectives=tuple(objectives),
                     directions=directions, constraints=tuple(constraints), algorithm=algorithm, population=population,
                     generations=generations, screen=screen, spread=float(spread), polish=polish, restarts=restarts,
-                    polish_starts=polish_starts)
+                    polish_starts=polish_starts, rounds=rounds, seconds=None if seconds is None else float(seconds),
+                    repeat=repeat, atlas=atlas)
 
 
 def _integer(value, key: str, lo: int, hi: int) -> int:
@@ -312,4 +364,6 @@ def optimize_from_dict(d: dict, mech: Mechanism) -> Optimize:
                     directions=tuple(DIRECTIONS[o] for o in d["objectives"]), constraints=tuple(d["constraints"]),
                     algorithm=d["algorithm"], population=int(d["population"]), generations=int(d["generations"]),
                     screen=bool(d["screen"]), spread=float(d["spread"]), polish=bool(d.get("polish", False)),
-                    restarts=int(d.get("restarts", RESTARTS)), polish_starts=int(d.get("polish_starts", 0)))
+                    restarts=int(d.get("restarts", RESTARTS)), polish_starts=int(d.get("polish_starts", 0)),
+                    rounds=int(d.get("rounds", ROUNDS)), seconds=d.get("seconds"), repeat=int(d.get("repeat", REPEAT)),
+                    atlas=d.get("atlas", "auto"))

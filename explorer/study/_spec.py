@@ -280,6 +280,10 @@ class Study:
             out["target"] = {"points": t.points.tolist(), "match": t.match, "ignore": list(t.ignore)}
             if t.angles is not None:
                 out["target"]["angles_deg"] = np.degrees(t.angles).tolist()
+            if t.phase != "fixed":  # only when free: a study without it keeps its fingerprint
+                out["target"]["phase"] = t.phase
+            if t.closed:
+                out["target"]["closed"] = True
         if self.optimize is not None:  # the optimiser chooses the designs: no [perturb], no variants
             del out["perturb"]
             del out["study"]["variants"]
