@@ -265,7 +265,7 @@ def test_one_way_to_name_a_variant(results, capsys, tmp_path):
     assert a[0] == b[0] == 0 and a[1] == b[1]
     assert cli(capsys, "show", results)[0] == 2
     assert cli(capsys, "plot", results, "--velocity", "--variant", "1", "-o", tmp_path / "v.png")[0] == 0
-    assert cli(capsys, "plot", results, "--velocity", "1", "-o", tmp_path / "w.png")[0] == 0
+    assert cli(capsys, "plot", results, "--velocity", "--variant", "1", "-o", tmp_path / "w.png")[0] == 0
     code, _, err = cli(capsys, "plot", results, "--top", "2", "--variant", "1", "-o", tmp_path / "t.png")
     assert code == 2 and "--variant goes with --velocity" in err
 

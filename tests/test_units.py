@@ -140,7 +140,7 @@ def test_without_load_and_rpm_torque_stays_and_speed_is_left_out(files, capsys):
     assert len(said) == 2 and any("peak_torque" in ln for ln in said), out
 
 
-@pytest.mark.parametrize("verb", [["rank"], ["show", "1"], ["report", "-o", "{d}/r.html"]])
+@pytest.mark.parametrize("verb", [["rank"], ["show", "--variant", "1"], ["report", "-o", "{d}/r.html"]])
 def test_si_without_an_operating_unit_is_one_line_exit_2(files, capsys, verb):
     argv = [verb[0], str(files["none"])] + [a.format(d=files["dir"]) for a in verb[1:]] + ["--units", "si"]
     code, out, err = cli(capsys, *argv)

@@ -443,7 +443,7 @@ def test_save_figure_errors(jansen_cycle, tmp_path):
 def test_cli_plot_and_animate(results, oat, tmp_path, capsys):
     r, o = str(results.filename), str(oat.filename)
     for argv in (["plot", r, "--top", "2", "--by", "stride"], ["plot", r, "--scatter", "stride,duty"],
-                 ["plot", r, "--velocity", "1"], ["plot", o, "--sensitivity"]):
+                 ["plot", r, "--velocity", "--variant", "1"], ["plot", o, "--sensitivity"]):
         out = tmp_path / f"{argv[2][2:]}.png"
         assert main(argv + ["-o", str(out), "--dpi", "40"]) == 0, argv
         assert out.is_file()
@@ -467,7 +467,7 @@ def test_cli_help(verb, capsys):
 
 @pytest.mark.parametrize("argv, match", [
     (["plot", "{r}", "--top", "2", "--by", "nope", "-o", "{t}/x.png"], "unknown metric 'nope'"),
-    (["plot", "{r}", "--velocity", "999", "-o", "{t}/x.png"], "out of range"),
+    (["plot", "{r}", "--velocity", "--variant", "999", "-o", "{t}/x.png"], "out of range"),
     (["plot", "{r}", "--top", "2", "-o", "{r}/x.png"], "is not a folder"),
     (["plot", "{r}", "--top", "2", "-o", "{t}/x.jpg"], "unknown output extension"),
     (["plot", "{r}", "-o", "{t}/x.png"], "say what to plot"),

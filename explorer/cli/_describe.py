@@ -44,8 +44,11 @@ def _builtins() -> str:
         return "jansen, ..."
 
 
-# -- the description as data: explorer.view.describe (its home; re-exported here) ------------------------------
-from ..view._describe import describe  # noqa: E402,F401
+# -- the description as data: explorer.view.describe (its home) ------------------------------------------------
+def describe(mech) -> dict:
+    """:func:`explorer.view.describe` (imported when used: ``explorer --help`` stays light)."""
+    from ..view import describe as what_it_is
+    return what_it_is(mech)
 
 
 # -- the description as text ----------------------------------------------------------------------------

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 
 def register(sub) -> None:
-    from ..view import EXPORTS
+    from .._exports import EXPORTS
     from ._args import add_old, add_old_positional_variant, add_output, add_variant
 
     p = sub.add_parser(
@@ -151,7 +151,7 @@ def kit_options(args) -> dict:
 
 
 def run(args) -> int:
-    from ..view import EXPORTS, export_format, export_variant
+    from .._exports import EXPORTS, export_format, export_variant
     from ._args import chosen_variant
 
     fmt = export_format(args.fmt, args.output)

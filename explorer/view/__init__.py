@@ -42,7 +42,7 @@ from ._describe import describe
 from ._draw import FOOT_PATH_COLOR, LegArtists, draw_ground, draw_path, mirror_positions, mirror_velocity
 from ._export import (Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                       mechanism_toml, trajectory_frame, variant_design)
-from ._formats import EXPORT_FORMATS, EXPORTS, ExportFormat, ExportJob, export_format, export_variant, register_export
+from .._exports import EXPORT_FORMATS, EXPORTS, ExportFormat, ExportJob, export_format, export_variant, register_export
 from ._front import plot_front
 from ._kit import (Kit, KitLeg, KitPart, KitPin, Material, Placement, build_kit, design_yield_note, kit_data,
                    pin_diameter, shaft_diameter, write_kit)
