@@ -47,7 +47,7 @@ import numpy as np
 from ..errors import UserError
 from ._datasets import create_dataset
 from ._integrity import DIGEST, READ_CACHE_BYTES, digests_many, has_integrity, per_variant, stamp
-from ._write import FORMAT, ResultsWriter, chunk_rows, hdf5_rows
+from ._write import FORMAT, LIBVER, ResultsWriter, chunk_rows, hdf5_rows
 
 #: Name of the shard-layout file in a shards folder.
 MANIFEST = "manifest.json"
@@ -287,7 +287,7 @@ def stitch(output, folder, plan: ShardPlan) -> None:
     tmp = out.with_name(f".{out.name}.{os.getpid()}.partial")
     with h5py.File(folder / names[0], "r", rdcc_nbytes=READ_CACHE_BYTES) as src0:
         try:
-            with h5py.File(tmp, "w") as f:
+            with h5py.File(tmp, "w", libver=LIBVER) as f:
                 for k, v in src0.attrs.items():
                     if not k.startswith("shard_"):
                         f.attrs[k] = v

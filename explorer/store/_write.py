@@ -81,6 +81,12 @@ HDF5_CHUNK_BYTES = 1 << 20
 #: dataset, kept ~8 MiB of every metric dataset resident: 300 MB -> 485 MB of peak memory from 100,000 to
 #: 1,000,000 lean variants, where with 1 MiB memory is flat in N (benchmarks/bench_lean.py).
 WRITE_CACHE_BYTES = HDF5_CHUNK_BYTES
+#: HDF5 file-format bounds of every results file written (``h5py.File(..., libver=LIBVER)``): object
+#: headers of version 2 (HDF5 1.8 and later read them), whose attributes move to dense storage (a fractal
+#: heap) when they outgrow the 64 kB header message: the link names and nominal lengths of a 9,999-vertex
+#: chain (~80 kB each), or its mechanism text (~700 kB), where version-1 headers fail with "object header
+#: message is too large".
+LIBVER = ("v108", "latest")
 #: Default variants per study chunk (a multiple of the HDF5 chunk rows; see ``chunk_rows``).
 DEFAULT_CHUNK_VARIANTS = 2048
 #: Upper bound on the solver output one study chunk holds in memory, bytes.
@@ -174,7 +180,7 @@ class ResultsWriter:
         tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            f = h5py.File(tmp, "w", rdcc_nbytes=WRITE_CACHE_BYTES)
+            f = h5py.File(tmp, "w", rdcc_nbytes=WRITE_CACHE_BYTES, libver=LIBVER)
         except (OSError, ValueError) as exc:
             raise UserError(f"{path}: cannot create the results file: {write_error_reason(exc)} "
                             f"(set [output] path in {study.source} or pass -o)") from None
