@@ -498,8 +498,9 @@ def _check_resumable(path: Path, fingerprint: str) -> bool:
     """What :meth:`ResultsWriter.resume` checks before it opens ``path`` (run in a child process): a
     results file of the study with this fingerprint that verifies, or is salvaged (UserError otherwise).
     True for a file written without checksums (the caller warns)."""
-    try:
-        f = h5py.File(path, "r+", rdcc_nbytes=WRITE_CACHE_BYTES)
+    try:  # read only: a file HDF5 opens for writing is marked so in its superblock until it is closed, and
+        # this process may be stopped (the file looping HDF5): only the salvage below writes
+        f = h5py.File(path, "r", rdcc_nbytes=WRITE_CACHE_BYTES)
     except (OSError, ValueError) as exc:
         raise UserError(f"{path}: cannot open the results file to resume it: {write_error_reason(exc)}") from None
     try:
@@ -517,6 +518,8 @@ def _check_resumable(path: Path, fingerprint: str) -> bool:
         except UserError as exc:
             # a kill during the last commit's flush may leave its marks half written: the chunks that
             # do not match their digests are solved again; anything else is damage
+            f.close()
+            f = h5py.File(path, "r+", rdcc_nbytes=WRITE_CACHE_BYTES)
             if not salvage(f):
                 raise UserError(f"{exc}".replace(RESTORE, "use --force to start it over")) from None
             legacy = False
