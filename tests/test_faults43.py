@@ -76,6 +76,7 @@ def zeroed(path: Path, out: Path, offset: int, length: int) -> Path:
 
 
 # -- the global heap that hung every verb ---------------------------------------------------------------------
+@pytest.mark.slow
 def test_the_damaged_heap_makes_plain_hdf5_loop(small, tmp_path):
     """The reproduction: plain h5py reading the root attributes of the damaged file spins in C until the
     CPU limit kills it. (What explorer does with the same file is the next test.)"""
@@ -137,6 +138,7 @@ def test_every_verb_refuses_the_damaged_heap_and_run_force_replaces_it(small, tm
         assert r.complete
 
 
+@pytest.mark.slow
 def test_a_signal_stops_the_wait_for_a_looping_verification(small, tmp_path):
     """SIGTERM while the guarded verification loops (its stall budget made endless here): the verb stops
     at once, in one line, and the looping child is gone with it."""
@@ -190,6 +192,7 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.slow
 def test_files_written_before_open_and_the_legacy_format_is_guarded_too(tmp_path, monkeypatch):
     """A file with the layout this version wrote before (version-1 object headers: HDF5's earliest format)
     still opens and reads the same; its damaged heap is refused the same way."""
@@ -432,7 +435,7 @@ FULL = {"study": {"name": "full", "mechanism": "jansen", "variants": 2000, "step
         "perturb": {"spread": 0.01}, "scene": {"metrics": ["stride"], "vertices": ["7"]}}
 
 
-@pytest.mark.parametrize("reserve", [True, False])
+@pytest.mark.parametrize("reserve", [True, pytest.param(False, marks=pytest.mark.slow)])
 def test_metrics_on_a_full_disk_leaves_the_file_as_it_was(tmp_path, reserve):
     """On a real 8 MB tmpfs filled by another writer: with the space reservation (``fallocate``) the
     update is refused before anything is written; without it (a filesystem that has none: made to fail,
@@ -507,7 +510,7 @@ def _stitched(folder: Path) -> tuple[Path, Path]:
     return out, shards
 
 
-@pytest.mark.parametrize("damage", ["row", "metadata"])
+@pytest.mark.parametrize("damage", ["row", pytest.param("metadata", marks=pytest.mark.slow)])
 def test_metrics_verifies_a_stitched_file_and_its_shards_before_writing(tmp_path, damage):
     """A Dask-stitched file whose shard is damaged (a committed row, or a metadata byte): ``explorer
     metrics`` refuses it in one line before it computes or writes anything (it used to write metrics, or
@@ -725,11 +728,13 @@ def test_yield_tolerances_are_bounded(small, capsys):
 
 @pytest.mark.parametrize("argv", [["rank", "R", "--top"], ["export", "R", "0", "--format", "kit", "--crank-mm", "x"],
                                   ["frobnicate"], ["run", "--nope"], ["bench", "nope"], ["show"]])
-def test_every_argparse_error_is_one_line(small, argv):
+def test_every_argparse_error_is_one_line(small, argv, capsys):
     argv = [str(small) if a == "R" else a for a in argv]
-    p = subprocess.run([sys.executable, "-m", "explorer.cli", *argv], capture_output=True, text=True, timeout=120)
-    assert p.returncode == 2 and p.stderr.count("\n") == 1 and ": error: " in p.stderr, p.stderr
-    assert "--help" in p.stderr and "usage:" not in p.stderr
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.count("\n") == 1 and ": error: " in err, err
+    assert "--help" in err and "usage:" not in err
 
 
 # -- big mechanisms in the study path ----------------------------------------------------------------------------

@@ -57,9 +57,14 @@ def open_results(path) -> "Results":
         raise
     except (KeyError, ValueError, TypeError, OSError, RuntimeError) as exc:  # foreign or damaged metadata
         f.close()
-        what = f"missing {exc.args[0]}" if isinstance(exc, KeyError) and exc.args else \
-            (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
-        raise UserError(f"{p}: not a readable explorer results file ({what[:200]})") from None
+        raise UserError(f"{p}: not a readable explorer results file ({_reason(exc)})") from None
+
+
+def _reason(exc: BaseException) -> str:
+    """What h5py or the reading code raised for foreign or damaged metadata, in words."""
+    what = f"missing {exc.args[0]}" if isinstance(exc, KeyError) and exc.args else \
+        (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    return what[:200]
 
 
 def _open_error(exc: BaseException) -> str:
@@ -133,9 +138,7 @@ def _inspect(p: Path, verify: bool) -> dict:
     except UserError:
         raise
     except (KeyError, ValueError, TypeError, OSError, RuntimeError) as exc:  # foreign or damaged metadata
-        what = f"missing {exc.args[0]}" if isinstance(exc, KeyError) and exc.args else \
-            (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
-        raise UserError(f"{p}: not a readable explorer results file ({what[:200]})") from None
+        raise UserError(f"{p}: not a readable explorer results file ({_reason(exc)})") from None
     finally:
         f.close()
 
