@@ -435,23 +435,35 @@ FULL = {"study": {"name": "full", "mechanism": "jansen", "variants": 2000, "step
         "perturb": {"spread": 0.01}, "scene": {"metrics": ["stride"], "vertices": ["7"]}}
 
 
-@pytest.mark.parametrize("reserve", [True, pytest.param(False, marks=pytest.mark.slow)])
-def test_metrics_on_a_full_disk_leaves_the_file_as_it_was(tmp_path, reserve):
+#: Makes the child that writes the copy die of SIGSEGV as soon as an error reaches it (as HDF5 can when a
+#: write fails on a full disk), instead of sending the error to the caller.
+CRASH_ON_ERROR = ("import os, pickle, signal\nimport explorer.store._guard as g\nclass P:\n"
+                  "    loads = staticmethod(pickle.loads)\n    @staticmethod\n    def dumps(out):\n"
+                  "        if out[0] == 'exc':\n            os.kill(os.getpid(), signal.SIGSEGV)\n"
+                  "        return pickle.dumps(out)\ng.pickle = P\n")
+
+
+@pytest.mark.parametrize("mode", ["reserve", pytest.param("none", marks=pytest.mark.slow),
+                                  pytest.param("crash", marks=pytest.mark.slow)])
+def test_metrics_on_a_full_disk_leaves_the_file_as_it_was(tmp_path, mode):
     """On a real 8 MB tmpfs filled by another writer: with the space reservation (``fallocate``) the
     update is refused before anything is written; without it (a filesystem that has none: made to fail,
-    the free-space check fooled) the copy fills the disk and HDF5's write fails. Either way: exit 2, one
-    line saying what to do, no crash, no hidden copy left, and the file byte for byte as it was."""
+    the free-space check fooled) the copy fills the disk and HDF5's write fails, and the process writing
+    the copy may even crash ("crash": made to die of SIGSEGV there). Every time: exit 2, one line saying
+    the disk is full and what to do, no crash of the command, no hidden copy left, and the file byte for
+    byte as it was."""
     disk = tmp_path / "disk"
     _mount_tmpfs(disk, "8m")
     try:
         out = explorer.run_study(FULL, output=disk / "full.h5", progress=False).path
         before = out.read_bytes()
         size = len(before)
-        _fill(disk, size + (200_000 if not reserve else 100_000))
-        prelude = "" if reserve else (
+        _fill(disk, size + (200_000 if mode != "reserve" else 100_000))
+        prelude = "" if mode == "reserve" else (
             "import errno, shutil, collections\nimport explorer.store._write as w\n"
             "w._fallocate = lambda *a, **k: errno.ENOTSUP\n"
             "U = collections.namedtuple('U', 'total used free')\nshutil.disk_usage = lambda p: U(1 << 40, 0, 1 << 40)\n")
+        prelude += CRASH_ON_ERROR if mode == "crash" else ""
         p = python(f"import sys\n{prelude}from explorer.cli import main\n"
                    f"sys.exit(main(['metrics', {str(out)!r}, '--metrics', 'all', '-q']))", cpu_s=120)
         assert p.returncode == 2, (p.returncode, p.stderr[-800:])
@@ -469,6 +481,21 @@ def test_metrics_on_a_full_disk_leaves_the_file_as_it_was(tmp_path, reserve):
             np.testing.assert_array_equal(f["p"][...], r.path(slice(None)))
     finally:
         subprocess.run(["umount", str(disk)], capture_output=True)
+
+
+def test_a_writer_that_crashes_with_room_on_the_disk_is_not_called_a_full_disk(small, tmp_path):
+    path = tmp_path / "m.h5"
+    shutil.copy(small, path)
+    before = path.read_bytes()
+    prelude = CRASH_ON_ERROR + ("import explorer.gait as m\n"
+                                "def boom(*a, **k):\n    raise OSError(5, 'Input/output error')\n"
+                                "m.compute_metrics = boom\n")
+    p = python(f"import sys\n{prelude}from explorer.cli import main\n"
+               f"sys.exit(main(['metrics', {str(path)!r}, '--band', '0.02', '-q']))", cpu_s=120)
+    assert p.returncode == 2, (p.returncode, p.stderr[-800:])
+    assert p.stderr.count("\n") == 1 and "stopped (SIGSEGV)" in p.stderr and "unchanged" in p.stderr, p.stderr
+    assert "disk is full" not in p.stderr
+    assert path.read_bytes() == before and not list(tmp_path.glob(".*partial"))
 
 
 def test_metrics_writes_a_copy_and_renames_it(small, tmp_path, monkeypatch):

@@ -300,25 +300,38 @@ def _recompute(p: Path, band, names, progress: bool, t0: float) -> dict:
 
         try:
             ok, resolved = guarded(fill, stall=None)
-        except Unreadable as exc:
-            raise UserError(f"{p}: cannot update the metrics: the process writing its copy stopped "
-                            f"({exc.signal or exc.how}); {p} is unchanged") from None
+        except Unreadable as exc:  # HDF5 can crash when a write fails on a full disk (no reservation there)
+            why = _full(p) if _no_room(p.parent) else (f"the process writing its copy stopped ({exc.signal or exc.how}); "
+                                                        f"{p} is unchanged")
+            raise UserError(f"{p}: cannot update the metrics: {why}") from None
         replace_with(copy, p)
         copy = None
     except (OSError, RuntimeError) as exc:  # h5py reports a failed write (a full disk) as either
-        reason = write_error_reason(exc)
         full = "No space left" in str(exc) or "errno = 28" in str(exc) or getattr(exc, "errno", None) == errno.ENOSPC
-        raise UserError(f"{p}: cannot update the metrics: "
-                        + (f"the disk is full (no space left to write its updated copy); {p} is unchanged: free "
-                           f"some space (the update writes a copy of the file beside it) and run `explorer metrics` "
-                           f"again" if full else
-                           f"{reason}; {p} is unchanged")) from None
+        why = _full(p) if full else f"{write_error_reason(exc)}; {p} is unchanged"
+        raise UserError(f"{p}: cannot update the metrics: {why}") from None
     finally:
         _close_quietly(f)
         if copy is not None:
             copy.unlink(missing_ok=True)
     return {"path": p, "band": band, "metrics": tuple(chosen), "also": tuple(also), "kept": tuple(kept),
             "n_variants": N, "ok": ok, "resolved": resolved, "lean": lean, "wall_s": time.perf_counter() - t0}
+
+
+def _full(p: Path) -> str:
+    """What a failed update of ``p`` says when the disk is full."""
+    return (f"the disk is full (no space left to write its updated copy); {p} is unchanged: free some space (the "
+            f"update writes a copy of the file beside it) and run `explorer metrics` again")
+
+
+def _no_room(folder: Path, slack: int = 1 << 20) -> bool:
+    """Whether the filesystem of ``folder`` has less than ``slack`` bytes free (asked while the update's
+    copy is still there: a writer that died of a full disk left it so)."""
+    try:
+        st = os.statvfs(folder)
+    except OSError:
+        return False
+    return st.f_bavail * st.f_frsize < slack
 
 
 def _close_quietly(f) -> None:
