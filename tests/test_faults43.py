@@ -764,6 +764,19 @@ def test_every_argparse_error_is_one_line(small, argv, capsys):
     assert "--help" in err and "usage:" not in err
 
 
+@pytest.mark.parametrize("sheet,words", [("1e9x1e9", "sheet width in mm over 10 (its margins) and at most 10,000"),
+                                         ("600x22", "sheet height in mm over 22"), ("600x10001", "at most 10,000"),
+                                         ("10x400", "sheet width in mm over 10")])
+def test_kit_sheets_are_bounded(tmp_path, capsys, sheet, words):
+    """A 10^9 mm sheet was accepted (and drawn); the sheet must leave room inside its margins (5 mm each
+    edge, a 12 mm strip for the scale bar) and be at most 10 m a side. Nothing is written."""
+    code, _, err = cli(capsys, "export", "jansen", "--format", "kit", "-o", tmp_path / "k", "--sheet", sheet)
+    assert code == 2 and err.count("\n") == 1 and words in err, err
+    assert not (tmp_path / "k").exists()
+    code, _, err = cli(capsys, "export", "jansen", "--format", "kit", "-o", tmp_path / "k", "--sheet", "10000x400")
+    assert code == 0, err
+
+
 # -- big mechanisms in the study path ----------------------------------------------------------------------------
 def test_the_parameter_table_is_built_once_per_mechanism(monkeypatch):
     """A study of a 2,001-vertex chain asks for parameter kinds per parameter, for the disk estimate, the

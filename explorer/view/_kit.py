@@ -172,6 +172,9 @@ WALL = 1.5
 DEFAULT_PIN = 0.1
 #: Default part width as a multiple of the largest pin diameter (a wall of one diameter each side).
 DEFAULT_WIDTH = 3.0
+#: The largest sheet a kit is nested on, mm, each side (the bed of a big laser or CNC router is about 3 m;
+#: a larger "sheet" is a typing slip, and would make drawings nobody can print).
+SHEET_MAX = 10_000.0
 #: A washer between two parts on a pin, mm thick (so they turn freely).
 WASHER = 0.5
 #: Spare length of a pin past its stack, mm, besides one diameter (a lock nut or a collar and circlip).
@@ -231,7 +234,7 @@ def build_kit(design: Mechanism, *, crank_mm: float = 30.0, scale: float | None 
     for a design without a crank (the path-driven arm has no crankshaft to build around).
     """
     from ._export import _hull, _positive, _raw_parts
-    from ._kit_sheet import nest
+    from ._kit_sheet import MARGIN, STRIP, nest
     from ._kit_stack import stack_layers
 
     if design.crank is None:
@@ -245,8 +248,11 @@ def build_kit(design: Mechanism, *, crank_mm: float = 30.0, scale: float | None 
         W, H = (float(sheet[0]), float(sheet[1]))
     except (TypeError, ValueError, IndexError):
         raise UserError(f"sheet: expected (width, height) in mm, got {sheet!r}") from None
-    _positive("sheet", W, "a sheet width in mm > 0")
-    _positive("sheet", H, "a sheet height in mm > 0")
+    for what, v, least in (("width", W, 2 * MARGIN), ("height", H, 2 * MARGIN + STRIP)):
+        _positive("sheet", v, f"a sheet {what} in mm > 0")
+        if not least < v <= SHEET_MAX:
+            raise UserError(f"sheet: expected a sheet {what} in mm over {least:g} (its margins) and at most "
+                            f"{SHEET_MAX:,.0f}, got {v:g}")
     walker = design.walker if design.walker is not None else Walker(legs=1)
     legs = tuple(KitLeg(j, math.degrees(phi) % 360.0, bool(m))
                  for j, (phi, m) in enumerate(zip(walker.phases, walker.mirrored)))
