@@ -7,7 +7,8 @@ studies/mechanisms/jansen-plywood.toml states (plywood links, a steel crank, an 
 contact foot, 30 rpm, gravity), on the four-legged mirrored walker. Rows: block Newton with the
 foot's positions only (the baseline); foot positions and velocities; and positions, velocities,
 accelerations and forces (motor torque of the walker, every joint's reaction, the frame force and
-the force metrics; every vertex is solved, FORCE_CHUNK variants at a time). Best of --repeat runs
+the force metrics; every vertex is solved, FORCE_CHUNK variants at a time), with the body moving with
+the contact foot (the default) and with the frame held (``[operating] body = "held"``). Best of --repeat runs
 after a warm-up run that compiles (or loads the cached) kernels; read the ratios, not the figures.
 """
 
@@ -37,7 +38,9 @@ def main(argv=None):
     base = best(batch(velocities=False), a.repeat)
     rows = [("block Newton, foot positions (baseline)", base),
             ("block Newton, foot + velocities", best(batch(velocities=True), a.repeat)),
-            ("positions + vel + acc + forces (walker)", best(batch(velocities=True, forces=True), a.repeat))]
+            ("positions + vel + acc + forces (body moving)", best(batch(velocities=True, forces=True), a.repeat)),
+            ("positions + vel + acc + forces (frame held)",
+             best(batch(velocities=True, forces=True, operating={"body": "held"}), a.repeat))]
     print(f"{n} ±2 % Jansen variants x {a.steps} steps, plywood build, {explorer.__version__}; best of {a.repeat}")
     print(f"{'what':44s} {'M configs/s':>12s} {'vs positions':>13s}")
     for name, t in rows:

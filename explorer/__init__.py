@@ -34,7 +34,7 @@ _LAZY = {
 
 
 #: the subpackages, reachable as attributes (``explorer.gait``) like any imported submodule
-_SUBPACKAGES = ("bench", "cli", "gait", "kernels", "mechanism", "plan", "store", "study", "view")
+_SUBPACKAGES = ("bench", "cli", "edit", "gait", "kernels", "mechanism", "plan", "store", "study", "view")
 
 
 def __getattr__(name: str):

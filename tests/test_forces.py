@@ -1,4 +1,6 @@
-"""The forces effect (explorer/kernels/_forces.py) against references written plainly here.
+"""The forces effect (explorer/kernels/_forces.py) against references written plainly here: the held
+model (``[operating] body = "held"``: the frame still, the legs hung from it, the load alone on the
+contact foot; the moving body's references are in tests/test_forces_moving.py).
 
 Every numeric check compares the code's motor torque, member forces or metrics with an independent
 re-derivation in numpy: the walker's quasi-static virtual work (massless links), the power balance of
@@ -74,7 +76,7 @@ def massless_cycle(name: str, drag: float, steps: int = 360):
     assert all(b.mass == 0.0 for b in mech.bodies)
     walker = dataclasses.replace(mech.walker, drag=drag)
     cyc = simulate(mech, steps, tolerance=1e-12, velocities=True, forces=True, walker=walker,
-                   operating={"unit": UNIT, "rpm": 45.0, "gravity": G, "load": LOAD})
+                   operating={"unit": UNIT, "rpm": 45.0, "gravity": G, "load": LOAD, "body": "held"})
     assert cyc.ok, cyc.failure
     return mech, walker, cyc
 
@@ -198,7 +200,7 @@ def test_power_balance_of_a_massive_jansen_leg(gravity):
     for rpm in (10.0, 40.0, 120.0):
         w = rpm * 2 * np.pi / 60
         cyc = simulate(mech, S, tolerance=1e-12, forces=True, walker=Walker(legs=1),
-                       operating={"unit": unit, "rpm": rpm, "gravity": gravity, "load": 0.0})
+                       operating={"unit": unit, "rpm": rpm, "gravity": gravity, "load": 0.0, "body": "held"})
         assert cyc.ok, cyc.failure
         power = np.zeros(S)
         for a, b, L, m in links:
@@ -314,7 +316,7 @@ def close(got, ref, what, rel=1e-6):
 def norton_cycle(steps=360):
     mech = mechanism_from_dict(fourbar_dict())
     return simulate(mech, steps, tolerance=1e-12, forces=True, walker=Walker(legs=1),
-                    operating={"unit": FB["unit"], "rpm": FB["rpm"], "gravity": FB["g"], "load": 0.0})
+                    operating={"unit": FB["unit"], "rpm": FB["rpm"], "gravity": FB["g"], "load": 0.0, "body": "held"})
 
 
 def test_fourbar_against_the_newton_euler_matrix_method():
@@ -361,7 +363,7 @@ def test_no_load_reads_no_unwritten_memory():
 
 # -- 4. Klann: every member in equilibrium at every sample ----------------------------------------------
 KLANN_BODIES = {"connecting_rod": (0.45, [6.0, 0.6], 0.0021), "leg": (0.8, [1.2, -1.4], 0.0065)}
-KLANN_OP = {"unit": 0.02, "rpm": 75.0, "gravity": 9.81, "load": 6.0}
+KLANN_OP = {"unit": 0.02, "rpm": 75.0, "gravity": 9.81, "load": 6.0, "body": "held"}
 KLANN_DENSITY = 1.7
 
 

@@ -86,6 +86,45 @@ def test_show_prints_si_figures(forces_file, capsys):
         assert text in out, text
 
 
+def test_show_says_the_force_model_the_machine_and_the_flywheel(forces_file, capsys):
+    with h5py.File(forces_file) as f:
+        assert f.attrs["body"] == "moving"
+    assert main(["show", str(forces_file), "0"]) == 0
+    out = capsys.readouterr().out
+    assert 'force model: body = "moving"' in out
+    assert "machine mass" in out and "flywheel_inertia_motor" in out
+    assert "the flywheel belongs on the motor side of the gearbox" in out
+
+
+def test_rank_units_si_puts_the_motor_peak_beside_the_quasi_static_one(forces_file, capsys):
+    assert main(["rank", str(forces_file), "--units", "si", "--top", "3"]) == 0
+    out = capsys.readouterr().out
+    head = next(line for line in out.splitlines() if line.split()[:2] == ["rank", "variant"])
+    assert head.index("peak_torque[N·m]") < head.index("motor_torque_peak[N·m]")
+    assert "peak_torque is the walker metric, quasi-static" in out and "size the motor from motor_torque_peak" in out
+
+
+def test_a_file_made_before_the_moving_body_reads_as_held(forces_file, tmp_path, capsys):
+    """A forces file without the root attribute ``body`` and with no ``body`` in its stored [operating]
+    was computed with the frame held: show says so, and a lean re-solve would use it."""
+    import json
+
+    from explorer.store import open_results
+    from explorer.store._integrity import stamp
+    old = tmp_path / "old.h5"
+    old.write_bytes(forces_file.read_bytes())
+    with h5py.File(old, "r+") as f:
+        del f.attrs["body"]
+        study = json.loads(f.attrs["study_resolved"])
+        del study["operating"]["body"], study["operating"]["gear_ratio"]
+        f.attrs["study_resolved"] = json.dumps(study)
+        stamp(f)
+    with open_results(old) as res:
+        assert res.body == "held" and res.operating.body == "held"
+    assert main(["show", str(old), "0"]) == 0
+    assert 'force model: body = "held"' in capsys.readouterr().out
+
+
 def test_plot_forces_draws_torque_and_reactions(forces_file, tmp_path):
     png = tmp_path / "forces.png"
     assert main(["plot", str(forces_file), "--forces", "--variant", "0", "-o", str(png)]) == 0
@@ -109,6 +148,10 @@ def test_recomputing_gait_metrics_keeps_the_force_metrics(forces_file, tmp_path)
 @pytest.mark.parametrize("edit, key", [
     (lambda s: s.replace("rpm = 40", "rpm = 0"), "operating.rpm"),
     (lambda s: s.replace("rpm = 40", "rpm = 40\nload = -1"), "operating.load"),
+    (lambda s: s.replace("rpm = 40", "rpm = 40\ngear_ratio = 0"), "operating.gear_ratio"),
+    (lambda s: s.replace("rpm = 40", "rpm = 40\ngear_ratio = nan"), "operating.gear_ratio"),
+    (lambda s: s.replace("rpm = 40", "rpm = 40\ngear_ratio = -inf"), "operating.gear_ratio"),
+    (lambda s: s.replace("rpm = 40", 'rpm = 40\nbody = "floating"'), "operating.body"),
     (lambda s: s.replace(f'mechanism = "{MECH.as_posix()}"', 'mechanism = "jansen"'), "operating.unit"),
     (lambda s: s.replace('force_joints = ["1", "2"]', 'force_joints = ["9"]'), "scene.force_joints"),
 ])
@@ -134,11 +177,12 @@ def test_a_build_round_trips_through_its_toml():
     d["crank"]["mass"] = 0.1
     d["links"][0]["mass"] = 0.05
     d["mass"] = {"link_density": 0.2}
-    d["operating"] = {"unit": 0.01, "rpm": 20.0, "load": 3.0}
+    d["operating"] = {"unit": 0.01, "rpm": 20.0, "load": 3.0, "body": "held", "gear_ratio": 25.0}
     m = mechanism_from_dict(d, "klann-built")
     back = mechanism_from_dict(tomllib.loads(mechanism_toml(m)), "klann-built")
     assert back == m
     assert back.bodies[0].centroid == (5.0, 0.5) and back.operating.load == 3.0 and back.link_density == 0.2
+    assert back.operating.body == "held" and back.operating.gear_ratio == 25.0
 
 
 

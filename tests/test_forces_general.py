@@ -39,7 +39,7 @@ def test_triad_power_balance(rpm, gravity):
     unit = 0.05
     S = 3600
     c = explorer.simulate(mech, S, forces=True, walker=Walker(legs=1),
-                          operating={"unit": unit, "rpm": rpm, "gravity": gravity})
+                          operating={"unit": unit, "rpm": rpm, "gravity": gravity, "body": "held"})
     assert c.ok, c.failure
     w = rpm * 2 * math.pi / 60
     h = 2 * math.pi / S

@@ -389,10 +389,15 @@ def text(d: dict) -> str:
     if op is None:
         out.append("operating point: none in the file (a study's [operating] table gives it for the forces effect)")
     else:
-        units = {"unit": " m per model unit", "rpm": "", "gravity": " m/s²", "load": " kg",
-                 "speed_fluctuation": ""}
-        out.append("operating point ([operating]): " + ", ".join(f"{k} {_g(v)}{units.get(k, '')}"
+        units = {"unit": " m per model unit", "rpm": "", "gravity": " m/s²",
+                 "load": " kg (the body's mass: frame, motor, battery, everything but the legs)",
+                 "speed_fluctuation": "", "gear_ratio": " (motor turns per crank turn)"}
+        out.append("operating point ([operating]): " + ", ".join(f"{k} {v!r}" if isinstance(v, str) else
+                                                                 f"{k} {_g(v)}{units.get(k, '')}"
                                                                  for k, v in op.items()))
+        out.append("  forces: body = \"moving\" (the default) moves the body with the planted contact foot, the ground "
+                   "carrying the whole machine; \"held\" holds the frame still, the legs hanging from it (the default "
+                   "for a foot on a ground slider)")
 
     # plan
     counts = {}

@@ -122,6 +122,16 @@ def _robustness_lines(res, args, v: int, ref: int, row, ref_row) -> list[str]:
     return out
 
 
+def _physics_lines(res, v: int, row) -> list[str]:
+    """The physics check of this design beside its kinematic figures, with a verdict
+    (:func:`explorer.physics._compare.show_lines`); [] for a file no physics check has written to."""
+    if "physics_travel" not in res.metric_names or res.operating is None or res.operating.unit is None:
+        return []
+    from ..physics import stored_physics
+    from ..physics._compare import show_lines
+    return show_lines(row, res.operating, stored_physics(res), v, res.filename)
+
+
 def warn_ignored_metrics(res) -> None:
     """One line on stderr per dataset under /metrics that is not one value per variant (shape (N,)): the
     results reader leaves it out of every frame, which a verb showing "each stored metric" must not do
@@ -164,7 +174,9 @@ def run(args) -> int:
         band = res.band
         metrics = list(res.metric_names)
         res_operating = res.study.get("operating") if res.study.get("scene", {}).get("forces") else None
+        body = res.body
         robust = _robustness_lines(res, args, v, ref, row, ref_row)
+        physics = _physics_lines(res, v, row)
 
     # variant 0 is the nominal of a sampled study; of an optimisation only when the nominal lies in its bounds
     is_nominal = v == 0 and all(row[p] == nominal[p] for p in perturbed if p in row.index and p in nominal)
@@ -222,6 +234,8 @@ def run(args) -> int:
             rank = "- (variant failed)" if status != "not-run" else "- (not run)"
         elif not math.isfinite(x):
             text, change, pct, rank = "nan", "-", "-", "- (undefined for this variant)"
+            if info is not None and info.group == "physics":
+                rank = "- (not checked: `explorer physics`)"
         else:
             text = f"{x:.6g}"
             change = f"{x - r0:+.4g}" if math.isfinite(r0) else "-"
@@ -254,6 +268,9 @@ def run(args) -> int:
     if robust:
         lines.append("")
         lines += robust
+    if physics:
+        lines.append("")
+        lines += physics
     if si is not None:
         lines.append("")
         lines.append(operating_line(si.operating))
@@ -265,7 +282,39 @@ def run(args) -> int:
     op = res_operating
     if op:
         lines.append("")
-        lines.append("forces at the operating point: " + ", ".join(f"{k} = {val:g}" for k, val in op.items())
-                     + " (unit: metres per model unit; rpm: crank speed; gravity m/s²; load kg on the contact foot)")
+        lines.append("forces at the operating point: " + ", ".join(f"{k} = {val!r}" if isinstance(val, str) else
+                                                                    f"{k} = {val:g}" for k, val in op.items())
+                     + " (unit: metres per model unit; rpm: crank speed; gravity m/s²; load: the body's mass, kg; "
+                       "gear_ratio: motor turns per crank turn)")
+        lines += force_model_lines(body, row if status == "ok" else None, op)
     print("\n".join(lines))
     return 0
+
+
+def force_model_lines(body: str | None, row, op: dict) -> list[str]:
+    """What a forces file's figures mean: the walker's force model it used (``body``), the machine's
+    mass, and where its flywheel goes (``row``: the shown variant's metrics, None if it failed)."""
+    if body == "moving":
+        out = ["force model: body = \"moving\": the body (the load, everything but the legs) moves with the planted "
+               "contact foot, and the ground carries the whole machine through that foot"]
+    else:
+        out = ["force model: body = \"held\": the frame is held still in space, the legs hang from it and the ground "
+               "carries the load alone (`[operating] body = \"moving\"` for the machine walking: larger peaks)"]
+    if row is None:
+        return out
+    mass = row.get("machine_mass", math.nan)
+    if math.isfinite(mass):
+        legs = mass - float(op.get("load", 0.0))
+        out.append(f"machine mass {mass:.4g} kg: the legs {legs:.4g} kg and the body {float(op.get('load', 0.0)):.4g} kg")
+    fly = row.get("flywheel_inertia", math.nan)
+    if math.isfinite(fly) and fly > 0:
+        n = float(op.get("gear_ratio", 1.0))
+        disc = 2.0 * fly / 0.5 ** 2  # a solid disc 1 m across: I = m r²/2
+        motor = fly / (n * n)
+        text = (f"flywheel: {fly:.3g} kg·m² on the crank (a solid disc 1 m across weighing {disc:.3g} kg), {motor:.3g} "
+                f"kg·m² on the motor shaft (I/N², gear_ratio N = {n:g}): at a low crank speed ({float(op.get('rpm', math.nan)):g} rpm "
+                f"here) the flywheel belongs on the motor side of the gearbox, where it needs N² times less inertia")
+        if n == 1:
+            text += " (give [operating] gear_ratio to size it there)"
+        out.append(text)
+    return out

@@ -151,7 +151,7 @@ def to_si(frame, names, operating, crank_column="crank", parameters=None) -> SI:
         converted.append(col)
     notes = []
     if missing_load:
-        why = ("gives no load (kg carried: add `load = ...`)" if not operating.load
+        why = ("gives no load (the body's mass in kg: add `load = ...`)" if not operating.load
                else "gives no gravity" if not operating.gravity else "has no crank radius")
         notes.append(f"{', '.join(missing_load)} stay per weight × crank radius (model units): the study's "
                      f"[operating] table {why}")

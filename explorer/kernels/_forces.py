@@ -33,16 +33,41 @@ The force member m puts on pin v is f_{m→v} = Σ_{c∈m} (∂c/∂q_v)ᵀ·λ_
 frame, the crank and the ground (the load on the contact foot) are members too. A joint's reaction
 is the largest of its members' forces (the one that sets the pin's shear).
 
-Walker: the leg is replicated on one crankshaft (``_legs``); the load W = load·g rests on the
-contact foot (the lowest, ties to the lower leg) as the walker scene's force F = (u·drag·W, W), u
-the walking direction. Everything is linear in the load, so each sample of the base leg is solved
-for inertia and weight, and, only where some leg reads that sample while it carries the load, for
-the load alone (F as a plain leg carries it, the mirror image (−F_x, F_y) as a mirrored leg does;
-one solve when there is no drag); every leg at every crank angle is read off these sums: a plain
-leg at θ + φ_j, a mirrored leg as the mirror
-image of the base leg at π − θ − φ_j with the mirrored load, its torque negated (it is driven
-backwards). A phase between two samples is interpolated linearly. The motor torque, the frame force
-and the pin reactions are those of the whole walker; the stored joint forces are leg 0's.
+Walker: the leg is replicated on one crankshaft (``_legs``); the contact foot is the lowest (ties to
+the lower leg), as for the walker metrics; the body's mass is ``[operating] load``, its weight W =
+load·g, its drag D = drag·W against the walking direction u. Two models (``[operating] body``):
+
+* **held** (the frame still in space): the legs hang from the frame, and the ground pushes the contact
+  foot with the walker scene's force F = (u·D, W) alone; the legs' weight and inertia go to the frame
+  (the shaking force). Everything is linear in the load, so each sample of the base leg is solved for
+  inertia and weight, and, only where some leg reads that sample while it carries the load, for the
+  load alone (F as a plain leg carries it, the mirror image (−F_x, F_y) as a mirrored leg does; one
+  solve when there is no drag).
+* **moving** (the default): the body moves with the planted contact foot p_c (body frame), so its
+  acceleration is a_b = −ω²·d²p_c/dθ² (x and y; it does not pitch). The legs are solved in the body's
+  frame, which accelerates without turning: effective gravity g − a_b on every member (a d'Alembert
+  force −m·a_b). The body itself is carried by the legs: their force on it is m_b·(a_b − g⃗) − drag;
+  the ground's force G on the contact foot is whatever makes that so, G = m_b·(a_b − g⃗) − drag −
+  Σ_legs (their force on the body with no ground force), i.e. the whole machine's weight, drag and
+  momentum change (a leg in equilibrium passes a force on its foot to the frame unchanged). Each sample
+  of the base leg is solved for inertia and weight, for a unit body acceleration along x and y, and,
+  where some leg reads it while carrying the walker, for a unit ground force along x and y; every leg
+  at every angle combines them with its a_b (and G) in its own frame. The shaking force is then the
+  legs' force on the body.
+  Handovers: a_b is that of the foot carrying the walker at each sample, so it switches between two
+  samples (or at a sample where two feet are exactly level, e.g. a plain leg and a mirrored one
+  reading the same sample: the lower leg carries, as the walker metrics say). When the contact foot
+  changes, the landing foot's velocity relative to the body generally differs from the lifting
+  foot's, so the body's velocity jumps: an impact whose impulse the sampled model does not carry (its
+  peak force depends on the contact's stiffness; on the nominal Jansen walker the jump is 0.03–0.04
+  m/s, some 0.3 % of the energy per turn). Before and after a handover the model is exact; the peaks
+  are taken over the samples on either side.
+
+Every leg at every crank angle is read off the base leg's sums: a plain leg at θ + φ_j, a mirrored
+leg as the mirror image of the base leg at π − θ − φ_j with the mirrored loads, its torque negated
+(it is driven backwards). A phase between two samples is interpolated linearly. The motor torque,
+the frame force and the pin reactions are those of the whole walker; the stored joint forces are
+leg 0's.
 """
 
 from __future__ import annotations
@@ -54,6 +79,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..mechanism import BODY_MODELS
 from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, ROW_SLIDE, SLIDE, Plan
 from ._blocks import _general_jacobian, _general_rates, general_sign, lu_solve, slide_curvature, slide_row
 from ._design import pair_coordinates
@@ -527,11 +553,27 @@ def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_
     return -1
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _body_load(R, Fu, p, q, ip, iq, dpx, dpy, dqx, dqy):
+    """A body's generalised load (dpx, dpy) on its base vertex p and (dqx, dqy) on q: into R, and, negated,
+    into the body's incidence forces Fu at p (ip) and q (iq)."""
+    R[p, 0] += dpx
+    R[p, 1] += dpy
+    R[q, 0] += dqx
+    R[q, 1] += dqy
+    Fu[ip, 0] -= dpx
+    Fu[ip, 1] -= dpy
+    Fu[iq, 0] -= dqx
+    Fu[iq, 1] -= dqy
+
+
 def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b,
                    att, inc_vertex, dinc, ainc, body_pq, body_inc, body_mass, tip, tip_inc, fixed, fixed_inc, foot,
                    foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight, out_idx, slide, sinc,
+                   moving, load_mass,
                    P, status, uv, sdes, center, link_mass, body_cuv, body_J, crank_mass,
-                   torque, fsel, finc, vout, aout, pin_peak, shake_peak, travel, code, code_sample, code_block):
+                   torque, fsel, finc, vout, aout, pin_peak, shake_peak, travel, code, code_sample, code_block,
+                   body_acc, ground, contact):
     """Per variant i (rows last): positions P[i] (S, nv, 2), model units, of an ok variant (status 0)
     → torque[i] (S,) N·m, fsel[i] (S, n_sel, 2) N (leg 0's reaction at each joint in ``sel``),
     pin_peak[i] (nv,) N, shake_peak[i] N, travel[i] model units per turn, code[i] (F_OK, F_SINGULAR,
@@ -540,7 +582,10 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
     aout[i] (S, n_out, 2) the velocities (per radian) and accelerations (per radian²) of the vertices
     ``out_idx``, when asked for (second axis 0 otherwise). Shared: the :class:`ForceTables`
     arrays, body_mass (nb,) kg, sel (n_sel,), the walker's legs (base, frac, sign, mirrored), drag,
-    unit (m per model unit), omega (rad/s), gravity (m/s²), weight (N on the contact foot). Per row:
+    unit (m per model unit), omega (rad/s), gravity (m/s²), weight (N on the contact foot: the load's weight),
+    moving (the moving-body model, else the held frame), load_mass (kg, the walker's body); body_acc[i],
+    ground[i] (S, 2) the body's acceleration (m/s², 0 when held) and the ground's force on the contact foot
+    (N, the walker's frame), contact[i] (S,) the contact leg. Per row:
     uv (n_att, 2), sdes (n_slide, 6) the slide equations' lines (``Designs.slide``), center (2,), link_mass (n_links,) kg, body_cuv (nb, 2) centroids in base-pair
     coordinates, body_J (nb,) kg (the base-pair inertia, see the module), crank_mass kg."""
     N = P.shape[0]
@@ -568,10 +613,13 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
     sdi = np.empty((slide.shape[0], 6))
     lam_s = np.zeros(slide.shape[0])
     # zeros: without a load only the first right-hand side is ever written, and the others are read
-    # with weight 0 (0 × uninitialised memory could be NaN)
-    Fi = np.zeros((S, 3, K, 2))
-    tau = np.zeros((S, 3))
-    frame = np.zeros((S, 3, 2))
+    # with weight 0 (0 × uninitialised memory could be NaN). Held: inertia and weight, the load as a
+    # plain leg carries it, as a mirrored one does; moving: inertia and weight, a unit acceleration of
+    # the body along x, along y, a unit force of the ground on the foot along x, along y
+    nr = 5 if moving else 3
+    Fi = np.zeros((S, nr, K, 2))
+    tau = np.zeros((S, nr))
+    frame = np.zeros((S, nr, 2))
     loc = np.full(nv, -1, dtype=np.int64)
     M = np.empty((m, m))
     x = np.empty(m)
@@ -593,7 +641,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
             grid = False
     d = 2.0 * math.pi / S
     s2 = unit * omega * omega  # per radian² of crank, model units → m/s²
-    nrhs = 3 if weight > 0.0 else 1
+    nrhs = 5 if moving else 3 if weight > 0.0 else 1
     for i in range(N):
         code[i] = F_OK
         code_sample[i] = -1
@@ -610,6 +658,13 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
         cx = center[i, 0]
         cy = center[i, 1]
         mc = crank_mass[i]
+        weightless = mc == 0.0  # no member has mass: a body acceleration loads nothing (moving)
+        for e in range(nl):
+            if link_mass[i, e] != 0.0:
+                weightless = False
+        for bi in range(nb):
+            if body_mass[bi] != 0.0:
+                weightless = False
         failed = False
         # -- velocities and accelerations, block by block -------------------------------------------
         for u in range(S):
@@ -663,7 +718,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
         for k in range(S):
             for j in range(L):
                 u0 = (sign[j] * k + base[j]) % S
-                loaded = C[k] == j and nrhs == 3
+                loaded = C[k] == j and nrhs >= 3
                 for uu in range(2):
                     if uu == 1 and frac[j] == 0.0:
                         break
@@ -682,7 +737,7 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                 Pu[v, 0] = Pi[u, v, 0]
                 Pu[v, 1] = Pi[u, v, 1]
             for rhs in range(nrhs):
-                if rhs == 2 and vis_plain[u] and vis_mirr[u] and Fx == 0.0:  # the same load either way
+                if not moving and rhs == 2 and vis_plain[u] and vis_mirr[u] and Fx == 0.0:  # the same load either way
                     tau[u, 2] = tau[u, 1]
                     frame[u, 2, 0] = frame[u, 1, 0]
                     frame[u, 2, 1] = frame[u, 1, 1]
@@ -690,7 +745,9 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                         Fi[u, 2, kk, 0] = Fi[u, 1, kk, 0]
                         Fi[u, 2, kk, 1] = Fi[u, 1, kk, 1]
                     continue
-                if (rhs == 1 and not vis_plain[u]) or (rhs == 2 and not vis_mirr[u]):
+                if (not moving and ((rhs == 1 and not vis_plain[u]) or (rhs == 2 and not vis_mirr[u]))) or \
+                        (rhs >= 3 and not (vis_plain[u] or vis_mirr[u])) or \
+                        (moving and rhs <= 2 and rhs >= 1 and weightless):  # only what some leg reads: zeros
                     tau[u, rhs] = 0.0
                     frame[u, rhs, 0] = 0.0
                     frame[u, rhs, 1] = 0.0
@@ -744,14 +801,32 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                             dqy = fqy + mb * gravity * ub
                             dpx = fpx - mb * gravity * wb
                             dpy = fpy + mb * gravity * (1.0 - ub)
-                            R[p, 0] += dpx
-                            R[p, 1] += dpy
-                            R[q, 0] += dqx
-                            R[q, 1] += dqy
-                            Fu[body_inc[bi, 0], 0] -= dpx
-                            Fu[body_inc[bi, 0], 1] -= dpy
-                            Fu[body_inc[bi, 1], 0] -= dqx
-                            Fu[body_inc[bi, 1], 1] -= dqy
+                            _body_load(R, Fu, p, q, body_inc[bi, 0], body_inc[bi, 1], dpx, dpy, dqx, dqy)
+                elif moving and rhs <= 2:  # a unit acceleration of the body along x (1) or y (2): in its
+                    # frame every member's mass × it (the d'Alembert force of the frame's acceleration)
+                    ax = rhs - 1
+                    for e in range(nl):
+                        me = link_mass[i, e]
+                        if me > 0.0:
+                            R[dist_a[e], ax] += 0.5 * me
+                            R[dist_b[e], ax] += 0.5 * me
+                            Fu[dinc[e, 0], ax] -= 0.5 * me
+                            Fu[dinc[e, 1], ax] -= 0.5 * me
+                    for bi in range(nb):
+                        mb = body_mass[bi]
+                        if mb > 0.0:  # a uniform acceleration a of the base pair: m·Āᵀa on q, m·a minus that on p
+                            p = body_pq[bi, 0]
+                            q = body_pq[bi, 1]
+                            ub = body_cuv[i, bi, 0]
+                            wb = body_cuv[i, bi, 1]
+                            fqx = mb * (ub if ax == 0 else wb)
+                            fqy = mb * (-wb if ax == 0 else ub)
+                            fpx = (mb if ax == 0 else 0.0) - fqx
+                            fpy = (mb if ax == 1 else 0.0) - fqy
+                            _body_load(R, Fu, p, q, body_inc[bi, 0], body_inc[bi, 1], fpx, fpy, fqx, fqy)
+                elif moving:  # a unit force of the ground on the foot along x (3) or y (4)
+                    R[foot, rhs - 3] -= 1.0
+                    Fu[foot_inc, rhs - 3] += 1.0
                 else:  # the load on the foot from the ground, as a plain leg (1) or a mirrored one (2) carries it
                     ex = Fx if rhs == 1 else -Fx
                     R[foot, 0] -= ex
@@ -776,6 +851,12 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                     t += mc * gravity * tx * unit * 0.5
                     bx += -mc * omega * omega * unit * tx * 0.5
                     by += -mc * omega * omega * unit * ty * 0.5 + mc * gravity
+                elif moving and rhs == 1:  # the crank's share of a unit body acceleration along x, then y
+                    t -= mc * ty * unit * 0.5
+                    bx += mc
+                elif moving and rhs == 2:
+                    t += mc * tx * unit * 0.5
+                    by += mc
                 tau[u, rhs] = t
                 frame[u, rhs, 0] = -bx
                 frame[u, rhs, 1] = -by
@@ -791,6 +872,21 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
                 break
         if failed:
             continue
+        for k in range(S):
+            contact[i, k] = C[k]
+        if moving:  # the body moves with the contact foot: every leg at every angle, its ground force
+            first_bad = _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, s2,
+                                     load_mass, gravity, walk * drag * weight, torque, fsel, finc, pin_peak,
+                                     shake_peak, body_acc, ground, fm)
+            if first_bad >= 0:
+                code[i] = F_NONFINITE
+                code_sample[i] = first_bad
+            continue
+        for k in range(S):  # held: the frame still, the load on the contact foot
+            body_acc[i, k, 0] = 0.0
+            body_acc[i, k, 1] = 0.0
+            ground[i, k, 0] = Fx
+            ground[i, k, 1] = Fy
         # -- every leg at every crank angle --------------------------------------------------------
         for v in range(nv):
             pin_peak[i, v] = 0.0
@@ -906,6 +1002,136 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
 
 
 @njit(cache=True, nogil=True)
+def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, s2, load_mass, gravity,
+                 drag_force, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm):
+    """The moving-body walker of variant i, read off the base leg's five right-hand sides (inertia and
+    weight; a unit body acceleration along x, y; a unit ground force on the foot along x, y: Fi (S, 5,
+    K, 2), tau (S, 5), frame (S, 5, 2)) and its accelerations A (S, nv, 2) per radian², contact legs
+    C (S,). At each crank sample k: the body's acceleration a_b = −ω²·d²p_c/dθ² (s2 = ω²·unit) of
+    the contact foot p_c (the walker's frame; a mirrored leg's x reflected); the ground's force G on
+    the contact foot from the body's balance, legs' force on the body = m_b·(a_b − g) − drag
+    (drag_force = the ground's share of the drag, +x when walking towards +x): the legs' force on the
+    body under a unit foot force is that force (the leg is in equilibrium), so G = m_b·(a_b − g) −
+    drag − Σ_legs (their force on the body with no ground force); then every leg with a_b (and G on the
+    contact leg) in its own frame. Writes torque[i], pin_peak[i], shake_peak[i], fsel[i] / finc[i]
+    (leg 0), body_acc[i] (m/s²) and ground[i] (N); returns the first sample with a non-finite force or −1."""
+    S = C.shape[0]
+    L = base.shape[0]
+    K = inc_vertex.shape[0]
+    for v in range(pin_peak.shape[1]):
+        pin_peak[i, v] = 0.0
+    first_bad = -1
+    shake = 0.0
+    for k in range(S):
+        c = C[k]
+        f = frac[c]
+        u0 = (sign[c] * k + base[c]) % S
+        u1 = (u0 + 1) % S
+        ax = (1.0 - f) * A[u0, foot, 0]
+        ay = (1.0 - f) * A[u0, foot, 1]
+        if f != 0.0:
+            ax += f * A[u1, foot, 0]
+            ay += f * A[u1, foot, 1]
+        abx = s2 * ax if mirrored[c] else -s2 * ax
+        aby = -s2 * ay
+        # the legs' force on the body with no ground force, and from it the ground's force on the foot
+        sx = 0.0
+        sy = 0.0
+        for j in range(L):
+            f = frac[j]
+            u0 = (sign[j] * k + base[j]) % S
+            u1 = (u0 + 1) % S
+            lx = -abx if mirrored[j] else abx
+            fjx = (1.0 - f) * (frame[u0, 0, 0] + lx * frame[u0, 1, 0] + aby * frame[u0, 2, 0])
+            fjy = (1.0 - f) * (frame[u0, 0, 1] + lx * frame[u0, 1, 1] + aby * frame[u0, 2, 1])
+            if f != 0.0:
+                fjx += f * (frame[u1, 0, 0] + lx * frame[u1, 1, 0] + aby * frame[u1, 2, 0])
+                fjy += f * (frame[u1, 0, 1] + lx * frame[u1, 1, 1] + aby * frame[u1, 2, 1])
+            sx += -fjx if mirrored[j] else fjx
+            sy += fjy
+        gx = load_mass * abx + drag_force - sx
+        gy = load_mass * (aby + gravity) - sy
+        body_acc[i, k, 0] = abx
+        body_acc[i, k, 1] = aby
+        ground[i, k, 0] = gx
+        ground[i, k, 1] = gy
+        ttot = 0.0
+        frx = 0.0
+        fry = 0.0
+        for j in range(L):
+            f = frac[j]
+            w0 = 1.0 - f
+            u0 = (sign[j] * k + base[j]) % S
+            u1 = (u0 + 1) % S
+            mir = -1.0 if mirrored[j] else 1.0
+            c1 = mir * abx
+            c2 = aby
+            c3 = mir * gx if j == c else 0.0  # the ground pushes the contact leg's foot only
+            c4 = gy if j == c else 0.0
+            tj = w0 * (tau[u0, 0] + c1 * tau[u0, 1] + c2 * tau[u0, 2] + c3 * tau[u0, 3] + c4 * tau[u0, 4])
+            fjx = w0 * (frame[u0, 0, 0] + c1 * frame[u0, 1, 0] + c2 * frame[u0, 2, 0] + c3 * frame[u0, 3, 0]
+                        + c4 * frame[u0, 4, 0])
+            fjy = w0 * (frame[u0, 0, 1] + c1 * frame[u0, 1, 1] + c2 * frame[u0, 2, 1] + c3 * frame[u0, 3, 1]
+                        + c4 * frame[u0, 4, 1])
+            if f != 0.0:
+                tj += f * (tau[u1, 0] + c1 * tau[u1, 1] + c2 * tau[u1, 2] + c3 * tau[u1, 3] + c4 * tau[u1, 4])
+                fjx += f * (frame[u1, 0, 0] + c1 * frame[u1, 1, 0] + c2 * frame[u1, 2, 0] + c3 * frame[u1, 3, 0]
+                            + c4 * frame[u1, 4, 0])
+                fjy += f * (frame[u1, 0, 1] + c1 * frame[u1, 1, 1] + c2 * frame[u1, 2, 1] + c3 * frame[u1, 3, 1]
+                            + c4 * frame[u1, 4, 1])
+            ttot += mir * tj
+            frx += mir * fjx
+            fry += fjy
+            for kk in range(K):
+                fx = Fi[u0, 0, kk, 0] + c1 * Fi[u0, 1, kk, 0] + c2 * Fi[u0, 2, kk, 0]
+                fy = Fi[u0, 0, kk, 1] + c1 * Fi[u0, 1, kk, 1] + c2 * Fi[u0, 2, kk, 1]
+                if j == c:
+                    fx += c3 * Fi[u0, 3, kk, 0] + c4 * Fi[u0, 4, kk, 0]
+                    fy += c3 * Fi[u0, 3, kk, 1] + c4 * Fi[u0, 4, kk, 1]
+                if f != 0.0:
+                    gx_ = Fi[u1, 0, kk, 0] + c1 * Fi[u1, 1, kk, 0] + c2 * Fi[u1, 2, kk, 0]
+                    gy_ = Fi[u1, 0, kk, 1] + c1 * Fi[u1, 1, kk, 1] + c2 * Fi[u1, 2, kk, 1]
+                    if j == c:
+                        gx_ += c3 * Fi[u1, 3, kk, 0] + c4 * Fi[u1, 4, kk, 0]
+                        gy_ += c3 * Fi[u1, 3, kk, 1] + c4 * Fi[u1, 4, kk, 1]
+                    fx = w0 * fx + f * gx_
+                    fy = w0 * fy + f * gy_
+                mag2 = fx * fx + fy * fy  # squared: one square root per joint at the end
+                v = inc_vertex[kk]
+                if not (mag2 <= pin_peak[i, v]):
+                    pin_peak[i, v] = mag2
+                    if first_bad < 0 and not math.isfinite(mag2):
+                        first_bad = k
+                if j == 0:
+                    mag = math.sqrt(mag2)
+                    fm[kk] = mag
+                    if finc.shape[1] > 0:
+                        finc[i, k, kk, 0] = mir * fx
+                        finc[i, k, kk, 1] = fy
+                    for s_ in range(sel.shape[0]):
+                        if sel[s_] == v:  # the member that loads this pin most, at this sample
+                            best = True
+                            for k2 in range(kk):
+                                if inc_vertex[k2] == v and fm[k2] >= mag:
+                                    best = False
+                            if best:
+                                fsel[i, k, s_, 0] = mir * fx
+                                fsel[i, k, s_, 1] = fy
+        torque[i, k] = ttot
+        if not math.isfinite(ttot) and first_bad < 0:
+            first_bad = k
+        sh = math.sqrt(frx * frx + fry * fry)
+        if not (sh <= shake):
+            shake = sh
+    shake_peak[i] = shake
+    for v in range(pin_peak.shape[1]):
+        pin_peak[i, v] = math.sqrt(pin_peak[i, v])
+    if first_bad < 0 and not math.isfinite(shake):
+        first_bad = 0
+    return first_bad
+
+
+@njit(cache=True, nogil=True)
 def _no_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, X, loc, M, x, g,
                 *rest):
     return False
@@ -932,12 +1158,6 @@ forces_any = _specialise(_forces_kernel, "any", kinematics=_kin_any, reactions=_
 # -- the wrapper ------------------------------------------------------------------------------------
 _TABLES: dict = {}
 
-#: The metrics of the forces effect (SI units), in the order :func:`force_metrics` returns them;
-#: ``pin_force.<joint>`` follow for every joint. The metric table (``gait._table``) documents each.
-FORCE_METRICS = ("motor_torque_peak", "motor_torque_rms", "motor_power_peak", "energy_per_turn", "flywheel_inertia",
-                 "pin_force_max", "shaking_force_peak", "cost_of_transport")
-
-
 @dataclass(frozen=True)
 class Forces:
     """The forces effect of N variants over S crank samples (SI units).
@@ -953,6 +1173,13 @@ class Forces:
     members : {(member, joint): (N, S, 2)} leg 0's force of each member (a link or body by name,
         "crank", "frame", "ground") on each of its pins, N; empty unless asked for.
     velocities, accelerations : (N, S, n_out, 2) of the vertices asked for (see :func:`solve_forces`).
+    body : the walker's force model, "moving" or "held" (``[operating] body``).
+    body_acceleration : (N, S, 2) the walker body's acceleration, m/s² (zero when held).
+    ground_force : (N, S, 2) the ground's force on the contact foot, N, in the walker's frame (moving:
+        the whole machine's; held: the load's weight and drag).
+    contact : (N, S) the leg whose foot carries the walker at each sample (−1 where not computed).
+    machine_mass : (N,) kg, the whole machine: every leg (links, bodies, crank) and the body (``load``).
+    massive : whether the machine has any mass at all (:func:`has_mass`: a load or a mass given).
     """
 
     torque: np.ndarray
@@ -966,6 +1193,12 @@ class Forces:
     members: dict
     velocities: np.ndarray | None = None
     accelerations: np.ndarray | None = None
+    body: str = "held"
+    body_acceleration: np.ndarray | None = None
+    ground_force: np.ndarray | None = None
+    contact: np.ndarray | None = None
+    machine_mass: np.ndarray | None = None
+    massive: bool = False
 
 
 def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengths: np.ndarray, scale: np.ndarray,
@@ -1018,7 +1251,14 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
     base, frac, sign = leg_samples(walker, S)
     mirrored = np.array(walker.mirrored, dtype=np.bool_)
     weight = float(operating.load) * float(operating.gravity)
+    body = operating.body or "moving"
+    if body not in BODY_MODELS:
+        raise ValueError(f"operating.body: expected one of {BODY_MODELS}, got {body!r}")
+    moving = body == "moving"
     torque = np.zeros((N, S))
+    body_acc = np.zeros((N, S, 2))
+    ground = np.zeros((N, S, 2))
+    contact = np.full((N, S), -1, dtype=np.int64)
     fsel = np.zeros((N, S, len(sel), 2))
     finc = np.zeros((N, S if members else 0, len(tb.inc_vertex), 2))
     out_idx = np.zeros(0, dtype=np.int64) if out_idx is None else np.asarray(out_idx, dtype=np.int64)
@@ -1034,14 +1274,18 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
               tb.dist_a, tb.dist_b, tb.att, tb.inc_vertex, tb.dinc, tb.ainc, tb.body_pq, tb.body_inc, body_mass,
               tb.tip, tb.tip_inc, tb.fixed, tb.fixed_inc, tb.foot, tb.foot_inc, sel, base, frac, sign, mirrored,
               float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight, out_idx, tb.slide,
-              tb.sinc)
+              tb.sinc, moving, float(operating.load))
     rows = (np.ascontiguousarray(P), np.ascontiguousarray(status), des.uv, des.slide, des.center, link_mass, body_cuv,
             body_J,
-            crank_mass, torque, fsel, finc, vout, aout, pin_peak, shake, travel, code, csample, cblock)
+            crank_mass, torque, fsel, finc, vout, aout, pin_peak, shake, travel, code, csample, cblock, body_acc,
+            ground, contact)
     kernel = forces_any if np.any(tb.blk_kind == GENERAL) else forces_fast
     parallel_rows(kernel, shared, rows)
     bad = (code != F_OK) | (status != 0)
     torque[bad] = np.nan
+    body_acc[bad] = np.nan
+    ground[bad] = np.nan
+    contact[bad] = -1
     fsel[bad] = np.nan
     pin_peak[bad] = np.nan
     shake[bad] = np.nan
@@ -1051,28 +1295,43 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
         finc[bad] = np.nan
         member_forces = {(m, mech.vertices[v]): finc[:, :, k] for k, (m, v) in enumerate(zip(tb.inc_member,
                                                                                                tb.inc_vertex))}
+    # the whole machine: every leg with its crank, and the body
+    machine = walker.legs * (link_mass.sum(axis=1) + body_mass.sum() + crank_mass) + float(operating.load)
     return Forces(torque, {j: fsel[:, :, k] for k, j in enumerate(joints)}, pin_peak, shake, travel, code, csample,
-                  cblock, member_forces, vout, aout)
+                  cblock, member_forces, vout, aout, body, body_acc, ground, contact, machine, has_mass(mech, operating))
 
 
-def no_forces(N: int, S: int, nv: int, joints=()) -> Forces:
-    """The :class:`Forces` of N variants none of which could be solved: every figure NaN."""
+def has_mass(mech, operating) -> bool:
+    """Whether the machine weighs anything: a load, or a mass of a link, the crank or a body, or a link
+    density (then every link weighs something). Decided by the files alone, so that every chunk of a
+    study computes the same metrics."""
+    return bool(operating.load > 0 or (mech.link_density or 0.0) > 0 or any(lk.mass for lk in mech.links)
+                or (mech.crank is not None and mech.crank.mass) or any(b.mass for b in mech.bodies))
+
+
+def no_forces(N: int, S: int, nv: int, joints=(), massive: bool = False) -> Forces:
+    """The :class:`Forces` of N variants none of which could be solved: every figure NaN (``massive``:
+    :func:`has_mass` of the machine, which decides the metrics computed)."""
     nan = np.full(N, np.nan)
     fail = np.full(N, F_SINGULAR, dtype=np.int64)
     return Forces(np.full((N, S), np.nan), {j: np.full((N, S, 2), np.nan) for j in joints}, np.full((N, nv), np.nan),
-                  nan, nan.copy(), fail, np.full(N, -1, dtype=np.int64), np.full(N, -1, dtype=np.int64), {})
+                  nan, nan.copy(), fail, np.full(N, -1, dtype=np.int64), np.full(N, -1, dtype=np.int64), {},
+                  machine_mass=nan.copy(), massive=massive)
 
 
 def force_metrics(forces: Forces, operating, vertices) -> dict:
-    """{metric: (N,)} in SI units: FORCE_METRICS then ``pin_force.<joint>`` for each of ``vertices``
-    (names, in order); ``cost_of_transport`` only with a load. NaN where the forces are not computed.
+    """{metric: (N,)} in SI units, the forces group of the metric table (``gait._table``) then
+    ``pin_force.<joint>`` for each of ``vertices`` (names, in order); ``cost_of_transport`` only with
+    gravity and a machine that weighs something (``forces.massive``). NaN where the forces are not
+    computed.
 
     With τ_k the walker's motor torque at θ_k = 2πk/S, Δ = 2π/S and ω the crank speed:
     motor_torque_peak = max |τ_k|; motor_torque_rms = √(mean τ_k²); motor_power_peak = max τ_k·ω (the
     most power the motor delivers); energy_per_turn = Σ max(τ_k, 0)·Δ (J, the positive work per turn);
-    flywheel_inertia = ΔE / (C_s·ω²) with E_k = Σ_{m<k} (τ_m − mean τ)·Δ and ΔE = max E − min E;
-    pin_force_max = max over joints of pin_force.<joint>; shaking_force_peak; cost_of_transport =
-    energy_per_turn / (load·g·travel·unit).
+    flywheel_inertia = ΔE / (C_s·ω²) with E_k = Σ_{m<k} (τ_m − mean τ)·Δ and ΔE = max E − min E (on
+    the crank); flywheel_inertia_motor = flywheel_inertia / N² (N = gear_ratio: on the motor shaft);
+    pin_force_max = max over joints of pin_force.<joint>; shaking_force_peak; machine_mass (kg, every
+    leg and the body); cost_of_transport = energy_per_turn / (machine_mass·g·travel·unit).
     """
     tau = forces.torque
     S = tau.shape[1]
@@ -1088,11 +1347,13 @@ def force_metrics(forces: Forces, operating, vertices) -> dict:
         E = np.concatenate([np.zeros((tau.shape[0], 1)), np.cumsum((tau - tau.mean(axis=1, keepdims=True)) * d,
                                                                    axis=1)], axis=1)
         out["flywheel_inertia"] = (E.max(axis=1) - E.min(axis=1)) / (float(operating.speed_fluctuation) * w * w)
+        out["flywheel_inertia_motor"] = out["flywheel_inertia"] / float(operating.gear_ratio) ** 2
         out["pin_force_max"] = np.max(forces.pin_peak, axis=1)
         out["shaking_force_peak"] = forces.shaking_peak.copy()
-        if operating.load * operating.gravity > 0:
-            out["cost_of_transport"] = out["energy_per_turn"] / (operating.load * operating.gravity * forces.travel
-                                                                 * float(operating.unit))
+        out["machine_mass"] = np.where(np.isfinite(forces.travel), forces.machine_mass, np.nan)
+        if operating.gravity > 0 and forces.massive:
+            out["cost_of_transport"] = out["energy_per_turn"] / (out["machine_mass"] * operating.gravity
+                                                                 * forces.travel * float(operating.unit))
         for k, v in enumerate(vertices):
             out[f"pin_force.{v}"] = forces.pin_peak[:, k].copy()
     return out

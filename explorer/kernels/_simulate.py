@@ -11,13 +11,13 @@ import numpy as np
 
 from .._files import format_size
 from ..errors import UserError, where
-from ..mechanism import Mechanism, Operating, Walker, operating_from_dict
+from ..mechanism import Mechanism, Operating, Walker, operating_from_dict, walker_body
 from ..plan import ATTACH, DYAD, GENERAL, SLIDE, Plan, make_plan
 from ._blocks import solve_general
 from ._closed import closed_batch_jit
 from ._design import body_points
 from ._design import designs as _designs
-from ._forces import F_OK, force_metrics, no_forces, solve_forces
+from ._forces import F_OK, force_metrics, has_mass, no_forces, solve_forces
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
 from ._batch import fast_batch_jit, generic_batch_jit
 from ._fast import slide_root, slide_sign
@@ -41,7 +41,7 @@ STATUS_SINGULAR = 5
 STATUS_NAMES[STATUS_SINGULAR] = "singular"
 METHODS = ("block", "dense", "closed")
 #: Default tolerance: every solved position within 1e-11 × the design's longest link of the exact one
-#: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see the README's accuracy table).
+#: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see docs/accuracy.md).
 DEFAULT_TOLERANCE = 1e-11
 #: The range of tolerances accepted. Below 1e-12 rounding decides: solved positions differ from an
 #: exact closed form by up to 2.5e-13 of the longest link whatever the tolerance (measured on 2,000
@@ -146,6 +146,10 @@ class Cycle:
     torque : (steps,) motor torque, N·m (``forces=True``; see :mod:`explorer.kernels._forces`), or None.
     force_metrics : {metric: float} the forces effect's metrics in SI units (empty without forces).
     member_forces : {(member, joint): (steps, 2)} each member's force on each of its pins, N.
+    body : the walker's force model the forces used, "moving" or "held" (``[operating] body``).
+    body_acceleration : (steps, 2) the walker body's acceleration, m/s² (zero when held).
+    ground_force : (steps, 2) the ground's force on the contact foot, N, in the walker's frame.
+    contact : (steps,) the leg whose foot carries the walker at each sample (the walker scene's).
     """
 
     mechanism: Mechanism
@@ -160,6 +164,10 @@ class Cycle:
     joint_forces: dict | None = None
     force_metrics: dict | None = None
     member_forces: dict | None = None
+    body: str | None = None
+    body_acceleration: np.ndarray | None = None
+    ground_force: np.ndarray | None = None
+    contact: np.ndarray | None = None
 
     def force(self, joint: str) -> np.ndarray:
         """The reaction at ``joint`` at every sample, shape (steps, 2), N: the force its most heavily loaded
@@ -441,8 +449,10 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
         ``operating`` point (a dict of ``[operating]`` keys or an :class:`~explorer.mechanism.Operating`;
         keys not given come from the mechanism file's ``[operating]``; ``unit`` and ``rpm`` are
         required), for the ``walker`` scene (default: the mechanism's own ``[walker]``, else one leg);
-        see :mod:`explorer.kernels._forces` for the model. A sample where a Jacobian is singular fails
-        the cycle as "singular".
+        see :mod:`explorer.kernels._forces` for the model: ``operating["body"]`` "moving" (the default:
+        the body, of mass ``load``, moves with the planted contact foot and the ground carries the whole
+        machine) or "held" (the frame held still). A sample where a Jacobian is singular fails the cycle
+        as "singular".
     """
     _check_common(steps, tolerance, method, max_iterations)
     velocities = _default_velocities(velocities, method)
@@ -470,7 +480,8 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
         met = force_metrics(fo, operating, mech.vertices)
         extra = dict(torque=fo.torque[0], joint_forces={j: f[0] for j, f in fo.joint_forces.items()},
                      force_metrics={k: float(v[0]) for k, v in met.items()},
-                     member_forces={k: f[0] for k, f in fo.members.items()})
+                     member_forces={k: f[0] for k, f in fo.members.items()}, body=fo.body,
+                     body_acceleration=fo.body_acceleration[0], ground_force=fo.ground_force[0], contact=fo.contact[0])
     st = int(status[0])
     failure = None if st == STATUS_OK else _failure(mech, plan, st, float(fth[0]), float(fend[0]), int(fbl[0]))
     return Cycle(mech, drv.params, pos[0], vel[0] if velocities else None, acc[0] if accelerations else None,
@@ -493,7 +504,7 @@ def force_setup(mech: Mechanism, operating, walker) -> tuple[Operating, Walker]:
         if getattr(op, k) is None:
             raise UserError(f"operating.{k}: forces need it ({what}); give it in the study's or the mechanism's "
                             f"[operating] table")
-    return op, (walker or mech.walker or Walker(legs=1))
+    return walker_body(mech, op, "operating"), (walker or mech.walker or Walker(legs=1))
 
 
 def _force_status(fo, status, fth, fbl, params) -> None:
@@ -502,6 +513,18 @@ def _force_status(fo, status, fth, fbl, params) -> None:
     status[bad] = STATUS_SINGULAR
     fth[bad] = params[np.maximum(fo.sample[bad], 0)]
     fbl[bad] = fo.block[bad]
+
+
+def branch_signs(mech: Mechanism, positions) -> np.ndarray:
+    """The branch of a configuration: the sign (+1.0 / −1.0) of every block of ``mech``'s plan at
+    ``positions`` (n_vertices, 2), in plan order; 0.0 for a block at a singular point (a dyad whose
+    vertex is on its parents' line, a coupled block at a toggle) and for an ATTACH block, which has no
+    branch. Two configurations of one topology lie on the same branch where their signs agree: the
+    solver keeps every block's sign through a cycle and fails a variant whose sign changes."""
+    P = np.asarray(positions, dtype=np.float64)
+    if P.shape != (len(mech.vertices), 2):
+        raise UserError(f"positions: expected shape ({len(mech.vertices)}, 2), got {P.shape}")
+    return _signs(mech, plan_for(mech), P)
 
 
 def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
@@ -727,7 +750,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
                                                           method, max_iterations, P0, signs, blocks, kernel)
         fo = met = None
     if forces and fo is None:  # no start: every row failed, and every force figure is NaN
-        failed = no_forces(lengths.shape[0], steps, len(mech.vertices), force_joints)
+        failed = no_forces(lengths.shape[0], steps, len(mech.vertices), force_joints, has_mass(mech, operating))
         fo, met = (failed.torque, failed.joint_forces), force_metrics(failed, operating, mech.vertices)
     return Batch(
         theta=_drive_for(mech.crank or mech.path, steps).params,

@@ -225,10 +225,16 @@ class Operating:
     unit : metres per model unit (0.01 for Jansen's numbers in centimetres); None if not given.
     rpm : the crank's constant speed, revolutions per minute (> 0); None if not given.
     gravity : m/s², acting along −y (0 turns it off; default 9.81).
-    load : kg carried by the walker's contact foot (the walker scene's lowest foot, with its drag;
-        default 0).
+    load : kg, the mass of the walker's body: frame, motor, battery, everything but the legs (default 0).
+        It rides on the contact foot (the walker scene's lowest foot, with its drag).
     speed_fluctuation : the crank speed's allowed total fluctuation C_s = (ω_max − ω_min)/ω_mean that
         sizes the flywheel (default 0.05, i.e. ±2.5 %).
+    body : the force model, :data:`BODY_MODELS`: "moving" (the body moves with the planted contact
+        foot and the ground carries the whole machine through it) or "held" (the frame is held still
+        in space, the legs hang from it and the ground carries the load alone); None when not given:
+        the forces effect then takes "moving", or "held" for a foot that runs on a ground slider.
+    gear_ratio : N, the motor turns N times for one crank turn (default 1); the flywheel on the motor
+        shaft needs I/N² of the crank-side inertia.
     """
 
     unit: float | None = None
@@ -236,6 +242,8 @@ class Operating:
     gravity: float = 9.81
     load: float = 0.0
     speed_fluctuation: float = 0.05
+    body: str | None = None
+    gear_ratio: float = 1.0
 
     @property
     def omega(self) -> float:
@@ -245,7 +253,12 @@ class Operating:
     def as_dict(self) -> dict:
         """The TOML shape (keys not given are left out)."""
         return {k: v for k, v in (("unit", self.unit), ("rpm", self.rpm), ("gravity", self.gravity),
-                                  ("load", self.load), ("speed_fluctuation", self.speed_fluctuation)) if v is not None}
+                                  ("load", self.load), ("speed_fluctuation", self.speed_fluctuation),
+                                  ("body", self.body), ("gear_ratio", self.gear_ratio)) if v is not None}
+
+
+#: The walker's force models (``[operating] body``), the default first.
+BODY_MODELS = ("moving", "held")
 
 
 def _frozen(d: Mapping[str, tuple[float, float]]) -> Mapping[str, tuple[float, float]]:
@@ -288,6 +301,9 @@ class Mechanism:
         The file's ``[operating]`` table: the default operating point for the forces effect.
     sliders : tuple[Slider, ...]
         Prismatic joints (file order): a vertex on a ground line or in a slot of a moving member.
+    build : Build or None
+        The file's ``[build]`` table (:mod:`explorer.mechanism._build`): the sheet, part width, pin and
+        shaft materials and size the design is built with (the link masses come from it).
 
     Design parameters
     -----------------
@@ -314,6 +330,7 @@ class Mechanism:
     link_density: float | None = None
     operating: Operating | None = None
     sliders: tuple[Slider, ...] = ()
+    build: object = None  # a Build (explorer.mechanism._build), or None
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
     #: the parameter table (names → nominal, names → kind, link names), built once per mechanism on first
     #: use: a study asks for a parameter's kind per parameter, which rebuilt the table each time

@@ -119,10 +119,15 @@ def mechanism_toml(mech: Mechanism, header: str = "") -> str:
             lines += [f"point = {_point(sl.point)}", f"direction = {_point(sl.direction)}"]
         else:
             lines += [f"line = [{_str(sl.line[0])}, {_str(sl.line[1])}]", f"offset = {_num(sl.offset)}"]
-    if mech.link_density is not None:
+    from ._build import derived_link_density
+    if mech.link_density is not None and not derived_link_density(mech):
         lines += ["", "[mass]", f"link_density = {_num(mech.link_density)}   # kg per metre of link"]
+    if mech.build is not None:
+        lines += ["", "[build]"] + [f"{k} = {_str(v) if isinstance(v, str) else _num(v)}"
+                                    for k, v in mech.build.as_dict().items()]
     if mech.operating is not None:
-        lines += ["", "[operating]"] + [f"{k} = {_num(v)}" for k, v in mech.operating.as_dict().items()]
+        lines += ["", "[operating]"] + [f"{k} = {_str(v) if isinstance(v, str) else _num(v)}"
+                                        for k, v in mech.operating.as_dict().items()]
     if mech.walker is not None:
         w = mech.walker
         lines += ["", "[walker]", f"legs = {int(w.legs)}",

@@ -55,6 +55,7 @@ from ._integrity import seal
 from ._lock import OutputLock
 from ._shards import ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch, write_shard
 from ._read import RESOLVE_ROWS, Results, inspect, lean_file, open_results, probe, resolve_series
+from ._update import check_updatable, update_metrics
 from ._variants import check_variant, is_results, results_band, variant_design, variant_mechanism, variant_row
 from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN, Exclusive,
                      ResultsWriter, chunk_rows, copy_for_update, create_metric, fingerprint_diff, hdf5_rows,
@@ -66,4 +67,4 @@ __all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAM
            "variant_mechanism", "variant_row", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",
            "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason", "seal",
            "RESOLVE_ROWS", "lean_file", "resolve_series", "guarded", "Unreadable", "inspect",
-           "copy_for_update", "replace_with", "open_h5", "Exclusive"]
+           "copy_for_update", "replace_with", "open_h5", "Exclusive", "check_updatable", "update_metrics"]

@@ -233,7 +233,11 @@ class Results:
             from ..mechanism import parse_toml
             source = f"{self.filename} (its stored mechanism)"
             data = parse_toml(str(self.attrs.get("mechanism", "")), source)
-            self._mech = mechanism_from_dict(data, source)
+            mech = mechanism_from_dict(data, source)
+            if (self.study or {}).get("build"):  # the study's [build] over the mechanism's: its link masses
+                from ..mechanism._build import apply_build, build_from_dict
+                mech = apply_build(mech, build_from_dict(self.study["build"], source, base=mech.build), source)
+            self._mech = mech
         return self._mech
 
     @property
@@ -394,9 +398,17 @@ class Results:
     def operating(self):
         """The study's operating point (:class:`explorer.mechanism.Operating`: its ``[operating]`` over the
         mechanism's, as the run resolved it), or None when neither gave one."""
-        from ..mechanism import operating_from_dict
         table = self.study.get("operating")
-        return operating_from_dict(table, f"{self.filename} (its study)", "operating") if table else None
+        return stored_operating(table, f"{self.filename} (its study)") if table else None
+
+    @property
+    def body(self) -> str | None:
+        """The walker's force model its forces were computed with: "moving" (the body moves with the
+        contact foot) or "held" (the frame held still; every forces file made before the moving model),
+        from the root attribute ``body``; None for a file without forces."""
+        if not self.study.get("scene", {}).get("forces"):
+            return None
+        return _text(self.attrs.get("body", "held"))
 
     @property
     def screen(self):
@@ -664,6 +676,14 @@ def lean_file(f: h5py.File) -> bool:
     return f.attrs.get("store") == "metrics" and "series_solve" in f.attrs
 
 
+def stored_operating(table: dict, source: str):
+    """The :class:`~explorer.mechanism.Operating` of a results file's stored ``[operating]`` table
+    (``study_resolved``). A table without ``body`` was stored before the moving-body force model, when
+    the forces held the frame still: it reads as body = "held", so its series re-solve as they were."""
+    from ..mechanism import operating_from_dict
+    return operating_from_dict({"body": "held", **table}, source, "operating")
+
+
 def resolve_series(f: h5py.File, variants, *, mechanism: Mechanism | None = None, solve: dict | None = None,
                    study: dict | None = None, operating=None, vertices=None, velocities: bool | None = None):
     """Solve again, from their stored designs, variants of a lean results file ``f`` exactly as the run
@@ -697,9 +717,9 @@ def resolve_series(f: h5py.File, variants, *, mechanism: Mechanism | None = None
         if moved:
             extra["geometry"] = moved
     if solve["forces"]:
-        from ..mechanism import operating_from_dict, walker_from_dict
+        from ..mechanism import walker_from_dict
         if operating is None:
-            operating = operating_from_dict(study["operating"], "its study", "operating")
+            operating = stored_operating(study["operating"], "its study")
         walker = walker_from_dict(study.get("walker") or {}, "its study", "walker", base=mechanism.walker)
         extra.update(forces=True, operating=operating, walker=walker, force_joints=list(solve["force_joints"]))
     radii = crank if mechanism.crank is not None else None

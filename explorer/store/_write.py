@@ -203,6 +203,8 @@ class ResultsWriter:
             if lean:  # a lean study: no series; how to re-solve them bit for bit (explorer.store.Results)
                 f.attrs["store"] = "metrics"
                 f.attrs["series_solve"] = json.dumps(study.series_solve())
+            if getattr(study, "forces", False):  # the walker's force model, which `explorer show` names
+                f.attrs["body"] = study.operating.body
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S
             f.attrs["series_filter"] = f"{study.compression}: {SERIES_FILTER_WORDS[study.compression]}"
