@@ -116,7 +116,7 @@ def _orphans(folder: Path) -> list[int]:
 
 @pytest.mark.slow
 def test_every_verb_refuses_the_damaged_heap_and_run_force_replaces_it(small, tmp_path):
-    """Every verb that reads the file, ``--resume`` and ``metrics`` included: one line, exit 2, under a CPU
+    """Every verb that reads the file, ``--resume``, ``metrics`` and ``physics`` included: one line, exit 2, under a CPU
     limit; ``run --force`` overwrites it (it used to hang before it could)."""
     bad = zeroed(small, tmp_path / "bad.h5", gcol_headers(small.read_bytes())[0], 16)
     study = tmp_path / "s.toml"
@@ -125,7 +125,8 @@ def test_every_verb_refuses_the_damaged_heap_and_run_force_replaces_it(small, tm
     before = bad.read_bytes()
     argvs = [["rank", bad], ["show", bad, "0"], ["export", bad, "0", "--format", "csv", "-o", tmp_path / "x.csv"],
              ["plot", bad, "--top", "1", "-o", tmp_path / "x.png"], ["report", bad, "-o", tmp_path / "x.html"],
-             ["metrics", bad, "--band", "0.02"], ["run", study, "-o", bad, "--resume", "-q"]]
+             ["metrics", bad, "--band", "0.02"], ["run", study, "-o", bad, "--resume", "-q"],
+             ["physics", bad, "--variant", "0"]]
     for argv in argvs:
         p = python(f"import sys\nfrom explorer.cli import main\nsys.exit(main({[str(a) for a in argv]!r}))", cpu_s=60)
         assert p.returncode == 2, (argv, p.returncode, p.stderr[-500:])
