@@ -164,8 +164,16 @@ def _leave_now(code: int) -> None:
     """The command was stopped and has said so: exit now, without waiting for threads of its own that
     still run (a worker compiling a kernel, which no signal can stop, for seconds) nor for the
     interpreter's shutdown (Numba's and LLVM's, most of a second on a busy machine). Everything the
-    verb wrote is closed or committed by now (its ``finally`` blocks ran), as a kill would leave it."""
+    verb wrote is closed or committed by now (its ``finally`` blocks ran), as a kill would leave it.
+    multiprocessing's exit finalizers do run (a verb's stopped worker pool: its semaphores unlinked, or its
+    resource tracker prints leak warnings after the one line)."""
     try:
+        util = sys.modules.get("multiprocessing.util")
+        if util is not None:
+            try:
+                util._run_finalizers(0)
+            except Exception:  # noqa: BLE001 - leaving anyway
+                pass
         sys.stdout.flush()
         sys.stderr.flush()
     finally:
