@@ -140,6 +140,15 @@ def describe(mech) -> dict:
     unit = op.unit if op is not None else None
     density = mech.link_density
 
+    # each joint's links and bodies, indexed once (a scan of every link per joint was quadratic)
+    on_links: dict = {}
+    for lk in mech.links:
+        for v in dict.fromkeys((lk.a, lk.b)):
+            on_links.setdefault(v, []).append(lk.name)
+    on_bodies: dict = {}
+    for b in mech.bodies:
+        for v in dict.fromkeys(b.joints):
+            on_bodies.setdefault(v, []).append(b.name)
     joints = []
     for v in mech.vertices:
         if v == mech.driven:
@@ -153,8 +162,8 @@ def describe(mech) -> dict:
             j["position"] = _pt(mech.fixed[v])
         elif role == "moving":
             j["guess"] = _pt(mech.guess[v])
-        j["links"] = [lk.name for lk in mech.links if v in (lk.a, lk.b)]
-        j["bodies"] = [b.name for b in mech.bodies if v in b.joints]
+        j["links"] = on_links.get(v, [])
+        j["bodies"] = on_bodies.get(v, [])
         j["placed_by_step"] = placed_by.get(v)
         joints.append(j)
 
@@ -199,7 +208,7 @@ def describe(mech) -> dict:
                      "line": list(sl.line) if not sl.ground else None, "offset": float(sl.offset)}
                     for sl in mech.sliders],
         "parameters": params,
-        "parameter_kinds": {p: mech.parameter_kind(p) for p in params},
+        "parameter_kinds": dict(mech.parameter_kinds()),
         "walker": walker,
         "screen": Screen().as_dict() if mech.crank is not None else None,
         "mass": {"given": bool(masses_given), "link_density": None if density is None else float(density)},
@@ -228,9 +237,16 @@ def _kg(m) -> str:
     return "-" if m is None else f"{_g(m)} kg"
 
 
-def _meaning(d: dict, p: str) -> str:
-    """What design parameter ``p`` is, in words."""
-    links = {lk["name"]: lk for lk in d["links"]}
+def _lookups(d: dict) -> tuple[dict, dict, set]:
+    """The links, sliders (by name) and fixed joints of :func:`describe`'s dict, for :func:`_meaning`."""
+    return ({lk["name"]: lk for lk in d["links"]}, {sl["name"]: sl for sl in d.get("sliders", ())},
+            {j["name"] for j in d["joints"] if j["role"] == "fixed"})
+
+
+def _meaning(d: dict, p: str, lookups: tuple | None = None) -> str:
+    """What design parameter ``p`` is, in words (``lookups``: :func:`_lookups` of ``d``, made once for a
+    table of every parameter)."""
+    links, sliders, fixed = lookups or _lookups(d)
     if p in links:
         return f"length of link {links[p]['a']}-{links[p]['b']}"
     if p == "crank":
@@ -238,14 +254,12 @@ def _meaning(d: dict, p: str) -> str:
     if p in ("crank.x", "crank.y"):
         return f"crank centre {p[-1]}"
     head, axis = p.rsplit(".", 1)
-    sliders = {sl["name"]: sl for sl in d.get("sliders", ())}
     if head in sliders:
         sl = sliders[head]
         if axis == "offset":
             return f"offset of slider {head}'s slot {'-'.join(sl['line'])} (to its left)"
         what = "direction" if axis in ("dx", "dy") else "point"
         return f"slider {head}'s line: its {what} {axis[-1]}"
-    fixed = {j["name"] for j in d["joints"] if j["role"] == "fixed"}
     if head in fixed:
         return f"ground pivot {head} {axis}"
     body, _, joint = head.partition(".")
@@ -322,7 +336,8 @@ def text(d: dict) -> str:
 
     # parameters
     rows = [("parameter", "nominal", "kind", "what")]
-    rows += [(p, _g(v), d["parameter_kinds"][p], _meaning(d, p)) for p, v in d["parameters"].items()]
+    lookups = _lookups(d)
+    rows += [(p, _g(v), d["parameter_kinds"][p], _meaning(d, p, lookups)) for p, v in d["parameters"].items()]
     out += ["", f"design parameters ({len(d['parameters'])}; a length is varied relatively, a coordinate by a "
                 f"distance)"] + _table(rows, right=(1,))
 
