@@ -18,6 +18,17 @@ generated kernel, as a user's first run of a new mechanism does.
 
     python benchmarks/bench_size.py                      # chain and ring, n = 10 … 1000
     python benchmarks/bench_size.py --family chain --sizes 10 100 1000 --limit-gb 4 --timeout 60
+
+``--study`` times the study path instead (issue 43): for each chain size, a study of 10 variants × 36
+steps (``[scene] metrics = ["stride", "height"]``) through the command line, each step a fresh process
+whose CPU-seconds (its own and its children's) and wall time are reported: ``explorer run``, ``explorer
+describe`` of the mechanism, ``explorer show`` of a variant and ``open_results(...).frame()``. The
+parameter table used to be rebuilt per parameter (2,999 vertices: ~30 CPU-s in ``run``), the four-bar
+loops and describe's tables scanned every link per joint (9,999: ~140 CPU-s in ``describe``), and a
+9,999-vertex file could not be written ("object header message is too large").
+
+    python benchmarks/bench_size.py --study --sizes 2999 9999
+    python benchmarks/bench_size.py --study --sizes 2999 --code /path/to/older/checkout   # the same, another version
 """
 
 from __future__ import annotations
@@ -180,6 +191,72 @@ def run_size(family: str, n: int, limit_gb: float, timeout: float, env: dict, ke
     return {"family": family, "n": n, "rows": rows, "why": why, "wall": time.perf_counter() - t0}
 
 
+STUDY_STEPS = ("run", "describe", "show", "frame")
+
+
+def _timed(cmd: list[str], timeout: float, env: dict, cwd: str) -> dict:
+    """Run ``cmd`` in ``cwd``; its wall time, the CPU-seconds of it and its children, and how it ended."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd)
+        why = "" if p.returncode == 0 else ((p.stderr.strip().splitlines() or ["?"])[-1][:90])
+    except subprocess.TimeoutExpired:
+        why = f"over {timeout:.0f} s"
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"wall": time.perf_counter() - t0, "cpu": cpu, "why": why}
+
+
+def study_size(n: int, folder: str, timeout: float, env: dict, code_dir: str | None = None) -> dict:
+    """Time the study path of a chain of ``n`` vertices (see the module docstring), one process per step."""
+    mech = os.path.join(folder, f"chain{n}.toml")
+    with open(mech, "w", encoding="utf-8") as f:
+        f.write(to_toml(chain_dict(n)))
+    study = os.path.join(folder, f"study{n}.toml")
+    with open(study, "w", encoding="utf-8") as f:
+        f.write(f'[study]\nname = "chain{n}"\nmechanism = "chain{n}.toml"\nvariants = 10\nsteps = 36\n'
+                f'[scene]\nmetrics = ["stride", "height"]\n')
+    out = os.path.join(folder, f"chain{n}.h5")
+    prefix = [sys.executable, "-m", "explorer.cli"]
+    env = dict(env)
+    if code_dir:
+        env["PYTHONPATH"] = os.path.abspath(code_dir)
+    # in the temporary folder: `python -m` puts the working directory first on sys.path, where a checkout's
+    # own explorer/ would shadow --code's
+    rows = {"run": _timed(prefix + ["run", study, "-o", out, "-q", "--force"], timeout, env, folder)}
+    rows["describe"] = _timed(prefix + ["describe", mech], timeout, env, folder)
+    ok = not rows["run"]["why"]
+    rows["show"] = _timed(prefix + ["show", out, "3"], timeout, env, folder) if ok else {"why": "no file"}
+    frame = f"import explorer\nwith explorer.open_results({out!r}) as r:\n    r.frame()\n"
+    rows["frame"] = _timed([sys.executable, "-c", frame], timeout, env, folder) if ok else {"why": "no file"}
+    return rows
+
+
+def main_study(args, env) -> None:
+    import explorer  # the code measured (a --code checkout's, below, in each step's process)
+    print(f"study path of a chain: 10 variants x 36 steps (CPU-s / wall s per step, one process each; "
+          f"code: {args.code or os.path.dirname(os.path.dirname(explorer.__file__))})")
+    print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    with tempfile.TemporaryDirectory(prefix="bench-size-study-") as folder:
+        # the kernels compiled into Numba's cache, not timed: the metric kernels first (a run starts this
+        # warm-up in the background when they are missing, and its CPU would count in the run's)
+        warm_env = dict(env, **({"PYTHONPATH": os.path.abspath(args.code)} if args.code else {}))
+        subprocess.run([sys.executable, "-m", "explorer.gait._warm"], env=warm_env, cwd=folder, check=False)
+        study_size(41, folder, args.timeout, env, args.code)  # 20 blocks: the general kernel, as big chains use
+        print(f"{'n':>6}" + "".join(f" {s:>18}" for s in STUDY_STEPS))
+        for n in args.sizes:
+            rows = study_size(n, folder, args.timeout, env, args.code)
+            line = f"{n:>6}"
+            notes = []
+            for s in STUDY_STEPS:
+                r = rows[s]
+                line += f" {r['cpu']:8.2f} /{r['wall']:7.2f}" if "cpu" in r else f" {'-':>18}"  # (failed: noted)
+                if r["why"]:
+                    notes.append(f"{s}: {r['why']}")
+            print(line + (f"  ({'; '.join(notes)})" if notes else ""), flush=True)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--family", choices=sorted(FAMILIES), nargs="*", default=["chain", "ring"])
@@ -189,8 +266,17 @@ def main(argv=None) -> None:
     ap.add_argument("--kernel", default="auto", help="simulate_batch's kernel (auto, general, generated)")
     ap.add_argument("--warm-cache", action="store_true", help="use the usual Numba cache, not a fresh folder")
     ap.add_argument("--code", help="measure the explorer package in this folder (e.g. an older release's)")
+    ap.add_argument("--study", action="store_true", help="time the study path (run, describe, show, frame) of chains "
+                                                         "of --sizes vertices instead (default sizes 2999 9999)")
     args = ap.parse_args(argv)
     env = dict(os.environ)
+    if args.study:
+        if args.sizes == [10, 30, 100, 300, 1000]:
+            args.sizes = [2999, 9999]
+        if args.timeout == 120.0:
+            args.timeout = 600.0
+        main_study(args, env)
+        return
     tmp = None
     if not args.warm_cache:
         tmp = tempfile.TemporaryDirectory(prefix="bench-size-")

@@ -6,15 +6,20 @@ The public names below are imported on first use (PEP 562), so that ``import exp
 ``explorer --help`` stay light: Numba, h5py and the kernels load only when something needs them.
 """
 
-from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
+from . import _early  # noqa: F401  (first: the command catches SIGINT/SIGTERM from here on)
 
-from .errors import UserError
+from importlib import import_module  # noqa: E402
 
-try:
-    __version__ = version("explorer")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+unknown"
+from .errors import UserError  # noqa: E402
+
+
+def _version() -> str:
+    """The installed distribution's version (``importlib.metadata``, imported on first use: ~20 ms)."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("explorer")
+    except PackageNotFoundError:  # running from a source tree without installation
+        return "0.0.0+unknown"
 
 #: public name -> the subpackage that defines it
 _LAZY = {
@@ -33,6 +38,9 @@ _SUBPACKAGES = ("bench", "cli", "edit", "gait", "kernels", "mechanism", "plan", 
 
 
 def __getattr__(name: str):
+    if name == "__version__":
+        value = globals()["__version__"] = _version()
+        return value
     if name in _LAZY:
         value = getattr(import_module(f".{_LAZY[name]}", __name__), name)
         globals()[name] = value  # once imported, a plain attribute

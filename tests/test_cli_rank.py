@@ -303,7 +303,7 @@ ERRORS = [
     (["metrics", "{r}", "--band", "wide"], "--band: expected a number in [0, 1]"),
     (["metrics", "{r}", "--metrics", "stride,nope"], "unknown metric 'nope'"),
     (["metrics", "{missing}"], "no such results file"),
-    (["metrics", "{junk}"], "cannot open the results file for writing"),
+    (["metrics", "{junk}"], "cannot open as an HDF5 results file"),
 ]
 
 

@@ -66,14 +66,21 @@ def regions(path) -> dict[str, list[tuple[int, int]]]:
     with h5py.File(path, "r") as f:
         f.visititems(visit)
     data = path.read_bytes()
+    dense = "fractal heaps and v2 B-trees (dense attributes and names)"
+    out[dense] = []
     for sig, region, size in ((b"TREE", "B-trees (chunk and group indexes)", 24 + 64 * 40),
                               (b"GCOL", "global heap (attributes)", None), (b"HEAP", "local heaps and symbol nodes (names)", 32),
-                              (b"SNOD", "local heaps and symbol nodes (names)", 8 + 16 * 40)):
+                              (b"SNOD", "local heaps and symbol nodes (names)", 8 + 16 * 40),
+                              # files written with v2 object headers (explorer.store._write.LIBVER) keep more than
+                              # a few attributes of an object, or big ones, in a fractal heap indexed by a v2 B-tree
+                              (b"FRHP", dense, 146), (b"FHIB", dense, 64), (b"FHDB", dense, 512), (b"BTHD", dense, 38),
+                              (b"BTIN", dense, 512), (b"BTLF", dense, 512), (b"FSHD", dense, 64), (b"FSSE", dense, 64)):
         at = data.find(sig)
         while at >= 0:
             n = int.from_bytes(data[at + 8:at + 16], "little") if sig == b"GCOL" else size
             out[region].append((at, min(at + n, len(data))))
             at = data.find(sig, at + 4)
+    out = {k: v for k, v in out.items() if v or k in ("chunk data", "superblock")}  # the regions this file has
     taken = np.zeros(len(data), dtype=bool)
     for spans in out.values():
         for a, b in spans:

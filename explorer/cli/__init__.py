@@ -18,38 +18,20 @@ variant, whole numbers) are in :mod:`._args` and the one table formatter in :mod
 
 from __future__ import annotations
 
+import argparse
+import errno
+import importlib
+import os
+import pkgutil
 import signal
 import sys
 import threading
+import time
 
-
-def _is_the_command() -> bool:
-    """True in the process that runs the ``explorer`` command itself (its console script, or
-    ``python -m explorer.cli``), not in a program that imports this module (a test, a notebook)."""
-    if threading.current_thread() is not threading.main_thread():
-        return False
-    argv0 = (sys.argv[0] if sys.argv else "").replace("\\", "/").rsplit("/", 1)[-1]
-    orig = list(getattr(sys, "orig_argv", ()))
-    as_module = any(a == "-m" and b == __name__ for a, b in zip(orig, orig[1:])) or f"-m{__name__}" in orig
-    return argv0 in ("explorer", "explorer.exe") or as_module
-
-
-#: Signals (SIGINT, SIGTERM) that arrived while the command was still loading, before ``main``: they are
-#: held, not raised inside an import, and ``main`` reports them as it starts (exit 130 or 143).
-_EARLY: list[int] = []
-_COMMAND = _is_the_command()
-if _COMMAND:  # first thing, so that a SIGTERM in the start-up is not a plain kill
-    for _sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(_sig, lambda signum, frame: _EARLY.append(signum))
-
-import argparse  # noqa: E402
-import errno  # noqa: E402
-import importlib  # noqa: E402
-import os  # noqa: E402
-import pkgutil  # noqa: E402
-import time  # noqa: E402
-
-from ..errors import Interrupted, Terminated, UserError  # noqa: E402
+from .._early import COMMAND as _COMMAND  # the command catches signals from explorer's first instruction
+from .._early import EARLY as _EARLY  # (explorer/_early.py): those that came before main, held here
+from .._early import is_the_command as _is_the_command  # noqa: F401
+from ..errors import Interrupted, Terminated, UserError
 
 #: Verbs listed first in ``explorer --help``, in this order; other discovered verbs follow A→Z.
 VERB_ORDER = ("run", "rank", "show", "metrics", "plot", "animate", "bench")
@@ -74,10 +56,19 @@ def _broken(verb: str, exc: Exception):
     return run
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose usage errors are one line like every other error (argparse prints the
+    usage, several lines, before its message): ``explorer VERB: error: MESSAGE (see explorer VERB --help)``,
+    exit 2. Every verb's subparser is of this class (``add_subparsers`` makes them of its parser's)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {_one_line(message)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The top-level parser with every discovered verb registered."""
     from .. import __version__
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="explorer",
         description="Explore the design space of planar linkages (Jansen's Strandbeest leg first).")
     parser.add_argument("--version", action="version", version=f"explorer {__version__}")
@@ -98,6 +89,15 @@ class _Stop:
     stopping = False
     #: the handler ``main`` installed (an interrupt lost in a callback is sent to it again)
     handler = None
+    #: the signal that stopped the command (once its interrupt was raised), and when a signal that landed in
+    #: an import was first put off
+    signal = None
+    deferred_at = None
+
+
+#: Longest a signal that lands in an import waits for the import to finish, s: after it the interrupt is
+#: raised inside the import (the command is stopping: a module left half made is not used again).
+IMPORT_GRACE_S = 0.5
 
 
 def _catch_signals(command: bool):
@@ -114,10 +114,15 @@ def _catch_signals(command: bool):
             if _Stop.stopping:
                 return
             if _importing(frame):  # raising inside an import leaves that module half made (numba.core missing,
-                # then a traceback from whatever uses it next): let the import finish, and be signalled again
-                _send_again(signum)
-                return
+                # then a traceback from whatever uses it next): let the import finish, and be signalled again,
+                # for at most IMPORT_GRACE_S (an import can take seconds: Numba's, on a loaded machine)
+                now = time.monotonic()
+                _Stop.deferred_at = _Stop.deferred_at or now
+                if now - _Stop.deferred_at < IMPORT_GRACE_S:
+                    _send_again(signum)
+                    return
             _Stop.stopping = True
+            _Stop.signal = signum
         raise Terminated() if signum == signal.SIGTERM else (Interrupted() if command else KeyboardInterrupt())
 
     _Stop.handler = stop
@@ -143,13 +148,36 @@ def _one_line(text: str) -> str:
     return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)
 
 
-def _interrupted(exc: KeyboardInterrupt) -> int:
+def _interrupted(exc: KeyboardInterrupt, command: bool = False) -> int:
     terminated = isinstance(exc, Terminated) or type(exc).__name__ == "Terminated"
     word = "terminated" if terminated else "interrupted"
     text = " ".join(str(exc).split("\n")).strip()
     print(f"explorer: {text if text.split(': ', 1)[-1].startswith(word) else word + (': ' + text if text else '')}",
           file=sys.stderr)
-    return 143 if terminated else 130
+    code = 143 if terminated else 130
+    if command:
+        _leave_now(code)
+    return code
+
+
+def _leave_now(code: int) -> None:
+    """The command was stopped and has said so: exit now, without waiting for threads of its own that
+    still run (a worker compiling a kernel, which no signal can stop, for seconds) nor for the
+    interpreter's shutdown (Numba's and LLVM's, most of a second on a busy machine). Everything the
+    verb wrote is closed or committed by now (its ``finally`` blocks ran), as a kill would leave it.
+    multiprocessing's exit finalizers do run (a verb's stopped worker pool: its semaphores unlinked, or its
+    resource tracker prints leak warnings after the one line)."""
+    try:
+        util = sys.modules.get("multiprocessing.util")
+        if util is not None:
+            try:
+                util._run_finalizers(0)
+            except Exception:  # noqa: BLE001 - leaving anyway
+                pass
+        sys.stdout.flush()
+        sys.stderr.flush()
+    finally:
+        os._exit(code)
 
 
 def main(argv=None) -> int:
@@ -165,6 +193,7 @@ def main(argv=None) -> int:
             previous = _catch_signals(command)  # before the verbs load (they import Numba: seconds)
             if command and _EARLY:
                 _Stop.stopping = True
+                _Stop.signal = signal.SIGTERM if signal.SIGTERM in _EARLY else signal.SIGINT
                 raise Terminated() if signal.SIGTERM in _EARLY else Interrupted()
             parser = build_parser()
             args = parser.parse_args(argv)
@@ -180,10 +209,12 @@ def main(argv=None) -> int:
         print(f"explorer: error: {_one_line(str(exc))}", file=sys.stderr)
         return getattr(exc, "exit_code", 2)
     except KeyboardInterrupt as exc:
-        return _interrupted(exc)
+        return _interrupted(exc, command)
     except BrokenPipeError:  # e.g. `explorer rank ... | head`
         return 0
     except OSError as exc:  # a damaged results file (a checksum that fails), a full disk, …: one line, exit 2
+        if command and _Stop.signal is not None:
+            return _interrupted(Terminated() if _Stop.signal == signal.SIGTERM else Interrupted(), command)
         what = " ".join(str(exc).split()) or type(exc).__name__
         if "checksum" in what.lower() or "filter returned failure" in what.lower():
             what = f"corrupt data in a results file (a chunk fails its checksum): {what}"
@@ -192,6 +223,9 @@ def main(argv=None) -> int:
         print(f"explorer: error: {what[:400]}", file=sys.stderr)
         return 2
     except Exception as exc:
+        if command and _Stop.signal is not None:  # raised while stopping (a module an import left half made):
+            # what the user sees is the stop they asked for
+            return _interrupted(Terminated() if _Stop.signal == signal.SIGTERM else Interrupted(), command)
         if isinstance(exc, ValueError) and "embedded null byte" in str(exc):  # a path from an input file
             given = [a for a in (sys.argv[1:] if argv is None else argv) if "\0" in str(a)]
             what = f"{given[0]!r}: " if given else "a path in the study or mechanism file: "

@@ -71,9 +71,16 @@ def _kg(m) -> str:
     return "-" if m is None else f"{_g(m)} kg"
 
 
-def _meaning(d: dict, p: str) -> str:
-    """What design parameter ``p`` is, in words."""
-    links = {lk["name"]: lk for lk in d["links"]}
+def _lookups(d: dict) -> tuple[dict, dict, set]:
+    """The links, sliders (by name) and fixed joints of :func:`describe`'s dict, for :func:`_meaning`."""
+    return ({lk["name"]: lk for lk in d["links"]}, {sl["name"]: sl for sl in d.get("sliders", ())},
+            {j["name"] for j in d["joints"] if j["role"] == "fixed"})
+
+
+def _meaning(d: dict, p: str, lookups: tuple | None = None) -> str:
+    """What design parameter ``p`` is, in words (``lookups``: :func:`_lookups` of ``d``, made once for a
+    table of every parameter)."""
+    links, sliders, fixed = lookups or _lookups(d)
     if p in links:
         return f"length of link {links[p]['a']}-{links[p]['b']}"
     if p == "crank":
@@ -81,14 +88,12 @@ def _meaning(d: dict, p: str) -> str:
     if p in ("crank.x", "crank.y"):
         return f"crank centre {p[-1]}"
     head, axis = p.rsplit(".", 1)
-    sliders = {sl["name"]: sl for sl in d.get("sliders", ())}
     if head in sliders:
         sl = sliders[head]
         if axis == "offset":
             return f"offset of slider {head}'s slot {'-'.join(sl['line'])} (to its left)"
         what = "direction" if axis in ("dx", "dy") else "point"
         return f"slider {head}'s line: its {what} {axis[-1]}"
-    fixed = {j["name"] for j in d["joints"] if j["role"] == "fixed"}
     if head in fixed:
         return f"ground pivot {head} {axis}"
     body, _, joint = head.partition(".")
@@ -165,7 +170,8 @@ def text(d: dict) -> str:
 
     # parameters
     rows = [("parameter", "nominal", "kind", "what")]
-    rows += [(p, _g(v), d["parameter_kinds"][p], _meaning(d, p)) for p, v in d["parameters"].items()]
+    lookups = _lookups(d)
+    rows += [(p, _g(v), d["parameter_kinds"][p], _meaning(d, p, lookups)) for p, v in d["parameters"].items()]
     out += ["", f"design parameters ({len(d['parameters'])}; a length is varied relatively, a coordinate by a "
                 f"distance)"] + _table(rows, right=(1,))
 

@@ -40,6 +40,7 @@ def parallel_rows(kernel, shared: tuple, rows: tuple, threads: int | None = None
         kernel(*shared, *(part(a, lo, lo + size) for a in rows))
 
     pool = ThreadPoolExecutor(max_workers=min(threads, -(-n // size)))
+    finished = False
     try:
         # a Ctrl-C landing while a submit starts a worker thread broke threading's own lock
         # ("release unlocked lock", exit 1 instead of 130): the submits run with signals held, and
@@ -48,9 +49,11 @@ def parallel_rows(kernel, shared: tuple, rows: tuple, threads: int | None = None
             futures = [pool.submit(block, lo) for lo in range(0, n, size)]
         for f in futures:
             f.result()
+        finished = True
     finally:
-        # on Ctrl-C or an error, blocks not yet started are dropped (running ones cannot be stopped);
-        # a second Ctrl-C while waiting for them would break the same lock: held (and, with the first
-        # already being raised, not raised again)
+        # on Ctrl-C or an error, blocks not yet started are dropped, and the running ones (which cannot be
+        # stopped: a first call compiles the kernel, 10 s and more on a cold cache) are not waited for: the
+        # interrupt goes on at once (the command then exits without waiting for them either); a second
+        # Ctrl-C while the pool shuts down would break the same lock: held
         with signals_held():
-            pool.shutdown(wait=True, cancel_futures=True)
+            pool.shutdown(wait=finished, cancel_futures=True)

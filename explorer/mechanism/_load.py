@@ -63,9 +63,10 @@ def load_mechanism(name_or_path) -> Mechanism:
 
 
 def parse_toml(text: str, source: str) -> dict:
-    """tomllib.loads with one-line errors: invalid TOML, or nesting too deep for the parser."""
+    """tomllib.loads with one-line errors: invalid TOML, or nesting too deep for the parser. A leading
+    byte-order mark (what Windows editors write at the start of a UTF-8 file) is not part of the TOML."""
     try:
-        return tomllib.loads(text)
+        return tomllib.loads(text[1:] if text.startswith("\ufeff") else text)
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"{source}: not valid TOML: {exc}") from None
     except RecursionError:
@@ -516,13 +517,14 @@ def _crank(source: str, value) -> Crank:
 
 
 def _mass(source: str, key: str, value, what: str = "a mass in kg") -> float:
-    """A mass (kg), inertia (kg·m²) or density: a finite number > 0 (0 allowed: massless)."""
+    """A mass (kg), inertia (kg·m²) or density given in a file: a finite number > 0, as documented (a
+    member without mass leaves the key out: 0 would read as a mass someone measured)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise UserError(f"{where(source, key)}: expected {what}, a number ≥ 0, got {_short(value)}")
+        raise UserError(f"{where(source, key)}: expected {what}, a number > 0, got {_short(value)}")
     v = float(value) if abs(value) < 1e300 else math.inf
-    if not math.isfinite(v) or v < 0 or v > _MAX_MASS:
-        raise UserError(f"{where(source, key)}: expected {what}, a finite number from 0 to {_MAX_MASS:g}, "
-                        f"got {_short(value)}")
+    if not math.isfinite(v) or v <= 0 or v > _MAX_MASS:
+        raise UserError(f"{where(source, key)}: expected {what}, a finite number > 0 and at most {_MAX_MASS:g} "
+                        f"(leave the key out for none), got {_short(value)}")
     return v
 
 

@@ -332,11 +332,30 @@ class Mechanism:
     sliders: tuple[Slider, ...] = ()
     build: object = None  # a Build (explorer.mechanism._build), or None
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
+    #: the parameter table (names → nominal, names → kind, link names), built once per mechanism on first
+    #: use: a study asks for a parameter's kind per parameter, which rebuilt the table each time
+    #: (quadratic in the mechanism: 2,999 vertices spent ~60 CPU-s there)
+    _table: list = field(init=False, repr=False, compare=False, default_factory=list)
 
     def __post_init__(self):
         object.__setattr__(self, "fixed", _frozen(self.fixed))
         object.__setattr__(self, "guess", _frozen(self.guess))
         object.__setattr__(self, "_index", MappingProxyType({v: i for i, v in enumerate(self.vertices)}))
+        object.__setattr__(self, "_table", [])
+
+    def _parameter_table(self) -> tuple:
+        """(items, {name: nominal}, {name: kind}, link names, {link name: index}), built once (the mechanism
+        is frozen)."""
+        if not self._table:
+            items = self._parameter_items()
+            names = tuple(l.name for l in self.links)
+            links = set(names)
+            kinds = {n: "length" if n == "crank" or n in links else "coordinate" for n, _ in items}
+            index = {}
+            for i, n in enumerate(names):
+                index.setdefault(n, i)  # the first of a repeated name, as a scan finds it
+            self._table.append((tuple(items), dict(items), MappingProxyType(kinds), names, index))
+        return self._table[0]
 
     # -- lookups ---------------------------------------------------------------------------
     def vertex_index(self, name: str) -> int:
@@ -351,9 +370,9 @@ class Mechanism:
 
     def link_index(self, name: str) -> int:
         """Index of the link called ``name`` in :attr:`links` (UserError if unknown)."""
-        for i, link in enumerate(self.links):
-            if link.name == name:
-                return i
+        i = self._parameter_table()[4].get(name) if isinstance(name, str) else None
+        if i is not None:
+            return i
         raise UserError(
             f"{where(self.source, 'links')}: unknown link {name!r} "
             f"(known: {', '.join(l.name for l in self.links)})"
@@ -366,7 +385,7 @@ class Mechanism:
 
     @property
     def link_names(self) -> tuple[str, ...]:
-        return tuple(l.name for l in self.links)
+        return self._parameter_table()[3]
 
     @property
     def size(self) -> float:
@@ -377,12 +396,16 @@ class Mechanism:
     def parameters(self) -> dict[str, float]:
         """Every design parameter's nominal value by name, in a fixed order: link lengths
         (:attr:`links` order), the crank radius and centre, the ground pivots' coordinates, then the
-        body joints' coordinates (body, then joint order). Lengths are model units, coordinates too."""
-        return dict(self.parameter_items())
+        body joints' coordinates (body, then joint order). Lengths are model units, coordinates too.
+        A new dict each call (the table itself is built once per mechanism)."""
+        return dict(self._parameter_table()[1])
 
     def parameter_items(self) -> list[tuple[str, float]]:
         """(name, nominal) of every design parameter, in :meth:`parameters` order (as a list, so a
         loader can tell two parameters that would share a name)."""
+        return list(self._parameter_table()[0])
+
+    def _parameter_items(self) -> list[tuple[str, float]]:
         out = [(l.name, float(l.length)) for l in self.links]
         if self.crank is not None:
             out += [("crank", float(self.crank.radius)), ("crank.x", float(self.crank.center[0])),
@@ -406,10 +429,17 @@ class Mechanism:
         """``"length"`` (a link length or the crank radius: positive, varied relatively) or
         ``"coordinate"`` (a crank centre, ground pivot or body joint coordinate: varied by a
         distance). UserError naming the known parameters if ``name`` is not one."""
-        if name not in self.parameters():
-            known = ", ".join(self.parameters())
+        kinds = self._parameter_table()[2]
+        kind = kinds.get(name) if isinstance(name, str) else None
+        if kind is None:
+            known = ", ".join(kinds)
             raise UserError(f"{where(self.source, 'parameters')}: unknown design parameter {name!r} (known: {known})")
-        return "length" if name == "crank" or name in self.link_names else "coordinate"
+        return kind
+
+    def parameter_kinds(self) -> Mapping[str, str]:
+        """{parameter name: :meth:`parameter_kind`} of every design parameter, in :meth:`parameters` order
+        (read only; built once per mechanism)."""
+        return self._parameter_table()[2]
 
     def with_parameters(self, values: Mapping[str, float]) -> "Mechanism":
         """A variant with some design parameters (by name, see :meth:`parameters`) replaced."""

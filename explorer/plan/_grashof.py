@@ -49,23 +49,35 @@ def fourbar_loops(mech: Mechanism) -> list[tuple]:
     if mech.crank is None:
         return []
     tip = mech.crank.tip
+    # the members joining each pair of joints, indexed once (a scan of every link per pair was
+    # quadratic: 66 s for a 9,999-vertex chain): links first, then bodies, each in file order
+    pairs: dict = {}
+    for i, l in enumerate(mech.links):
+        pairs.setdefault(frozenset((l.a, l.b)), []).append(i)
+    for bi, b in enumerate(mech.bodies):
+        for j, u in enumerate(b.joints):
+            for w in b.joints[j + 1:]:
+                pairs.setdefault(frozenset((u, w)), []).append((bi, u, w))
 
-    def sides(u, w):
-        out = [i for i, l in enumerate(mech.links) if {l.a, l.b} == {u, w}]
-        out += [(bi, u, w) for bi, b in enumerate(mech.bodies) if u in b.joints and w in b.joints]
-        return out
+    def side(u, w):
+        """The first member joining u and w ((body, u, w) with the joints in the caller's order), or None."""
+        found = pairs.get(frozenset((u, w)))
+        if not found:
+            return None
+        first = found[0]
+        return first if isinstance(first, int) else (first[0], u, w)
 
     loops = []
     for v in mech.vertices:
         if v == tip or v in mech.fixed:
             continue
-        to_tip = sides(tip, v)
-        if not to_tip:
+        to_tip = side(tip, v)
+        if to_tip is None:
             continue
         for f in mech.fixed:
-            to_f = sides(f, v)
-            if to_f:
-                loops.append((v, f, to_tip[0], to_f[0]))
+            to_f = side(f, v)
+            if to_f is not None:
+                loops.append((v, f, to_tip, to_f))
     return loops
 
 

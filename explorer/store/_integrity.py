@@ -70,6 +70,17 @@ RESTORE = "run the study again or restore the file from a copy"
 
 _warned: set = set()
 
+#: Progress callback of a verification run in a guarded child process (:mod:`explorer.store._guard`
+#: sets it there): called after every object, attribute, block of rows and chunk-index entry, so that a
+#: child making no progress (HDF5 looping on damaged bytes) is told from one that is slow.
+PROGRESS: list = [None]
+
+
+def _tick() -> None:
+    cb = PROGRESS[0]
+    if cb is not None:
+        cb()
+
 
 class Damaged(Exception):
     """What is damaged, in words (turned into a UserError naming the file by :func:`verify`)."""
@@ -92,6 +103,7 @@ def _attrs(obj, h, skip=()) -> None:
     for k in sorted(a.keys()):
         if k in skip:
             continue
+        _tick()
         aid = a.get_id(k)
         h.update(b"\0A" + k.encode("utf-8", "surrogatepass") + b"\0")
         h.update(aid.get_type().encode())
@@ -125,6 +137,7 @@ def _group(g: h5py.Group, h) -> None:
     for name in sorted(g.keys()):
         if g.name == "/" and name in SCRATCH:
             continue
+        _tick()
         link = g.get(name, getlink=True)
         if not isinstance(link, h5py.HardLink):
             h.update(f"\0L{name}={link!r}".encode())
@@ -171,6 +184,7 @@ def per_variant(f: h5py.File, n: int) -> list[tuple[str, h5py.Dataset]]:
     out = []
 
     def visit(name, obj):
+        _tick()
         top = name.split("/")[0]
         if (isinstance(obj, h5py.Dataset) and top not in SCRATCH and top != "chunks" and not _is_series(name)
                 and obj.ndim >= 1 and obj.shape[0] == n):
@@ -182,12 +196,18 @@ def per_variant(f: h5py.File, n: int) -> list[tuple[str, h5py.Dataset]]:
 
 #: Rows of one dataset read at a time by the digests (rounded to whole HDF5 chunks of the dataset): the
 #: memory of a verification or a stitch is this many rows of the widest per-variant dataset (~4 MB for
-#: ``/variants/lengths`` of 8 links), whatever N or the chunk size.
+#: ``/variants/lengths`` of 8 links), whatever N or the chunk size...
 READ_ROWS = 1 << 16
+#: ... and at most about this many bytes (whole HDF5 chunks, at least one): the lengths of a 9,999-link
+#: mechanism are 80 kB a row, 5 GB for READ_ROWS rows.
+READ_BYTES = 8 << 20
 
 
 def _step(d: h5py.Dataset, block: int) -> int:
-    """Rows per read of ``d``: ``block`` rounded down to whole HDF5 chunks (at least one chunk)."""
+    """Rows per read of ``d``: ``block`` rows, fewer if they would pass :data:`READ_BYTES`, rounded down
+    to whole HDF5 chunks (at least one chunk). The digests do not depend on it."""
+    row = max(1, int(np.prod(d.shape[1:], dtype=np.int64)) * d.dtype.itemsize) if d.dtype.kind != "O" else 64
+    block = max(1, min(int(block), READ_BYTES // row))
     c = d.chunks[0] if d.chunks else 0
     return max(c, block // c * c) if c else max(1, block)
 
@@ -237,6 +257,7 @@ def digests_many(datasets, lists, block: int | None = None) -> list[list[bytes]]
             while p < hi:
                 q = min(hi, (p // step + 1) * step)  # to the next HDF5 chunk boundary of ``step`` rows
                 values = d[p:q]
+                _tick()
                 for m, rs in enumerate(lists):
                     k = ptr[m]
                     while k < len(rs) and rs[k][0] < q:
@@ -288,6 +309,7 @@ def _status(f: h5py.File, n: int) -> np.ndarray:
     step = _step(d, 1 << 20)
     for a in range(0, n, step):
         out[a:a + step] = d[a:min(a + step, n)]
+        _tick()
     return out
 
 
@@ -307,6 +329,8 @@ def _check_series(f: h5py.File, n: int, rows: int, done: np.ndarray, status: np.
 
             def seen(info, found=found):
                 found[info.chunk_offset] = info.filter_mask
+                if len(found) % 256 == 0:
+                    _tick()
 
             d.id.chunk_iter(seen)
             zeros = (0,) * (d.ndim - 1)
@@ -423,8 +447,13 @@ def seal(path) -> None:
     plain h5py (a dataset added, an attribute edited): the digest of every committed chunk, then the
     metadata checksum. Only for deliberate edits: sealing a damaged file makes its damage read as
     data. A file written by an earlier version gets checksums from now on."""
+    from ._guard import call
+    call(_seal, Path(path))  # in a child process: bytes that make HDF5 loop cannot hang the caller
+
+
+def _seal(path: Path) -> None:
     from ._datasets import create_dataset
-    with h5py.File(Path(path), "r+") as f:
+    with h5py.File(path, "r+") as f:
         if DIGEST not in f:
             create_dataset(f, DIGEST, {"chunks": f["chunks/done"].shape[0]})
         write_digests(f)

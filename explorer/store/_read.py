@@ -14,7 +14,7 @@ from ..errors import UserError
 from ..mechanism import Mechanism, mechanism_from_dict
 from ..plan import fourbar_loops, grashof_batch
 from ._datasets import SERIES, series_spec, vertex_series
-from ._integrity import READ_CACHE_BYTES, verify, warn_legacy
+from ._integrity import READ_CACHE_BYTES, RESTORE, is_legacy, warn_legacy
 from ._write import FILE_STATUS_NAMES, FORMAT
 
 if TYPE_CHECKING:
@@ -31,30 +31,26 @@ def open_results(path) -> "Results":
     metadata and every attribute and contiguous dataset, the digest of every committed chunk's
     per-variant rows, and the chunk index of every series. A file that does not verify is a one-line
     UserError naming it and what is damaged; a file written by an earlier version (no checksums) opens
-    with a one-line warning on stderr.
+    with a one-line warning on stderr. The verification runs first in a child process
+    (:mod:`explorer.store._guard`): damaged bytes that make HDF5 loop or crash are refused in one line
+    in bounded time, and Ctrl-C stops the wait at once.
     """
     p = Path(os.fspath(path))
-    if not p.is_file():
-        raise UserError(f"{p}: no such results file")
+    for _ in range(3):
+        before = _identity(p)
+        report = inspect(p, warn=False)
+        try:
+            f = h5py.File(p, "r", rdcc_nbytes=READ_CACHE_BYTES)  # the verification holds every dataset open
+        except OSError as exc:
+            raise UserError(f"{p}: cannot open as an HDF5 results file: {_open_error(exc)}") from None
+        if _identity(p, f) == before:
+            break
+        f.close()  # replaced or changed while the child read it: read it again
+    else:
+        raise UserError(f"{p}: the file keeps changing while it is read (is a run writing it?)")
     try:
-        f = h5py.File(p, "r", rdcc_nbytes=READ_CACHE_BYTES)  # the verification holds every dataset open
-    except OSError as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        if "unable to lock" in msg.lower():
-            msg = "the file is being written by another process (unable to lock it)"
-        elif "truncated" in msg.lower() or "signature" in msg.lower():
-            msg = f"truncated or corrupt ({msg})"
-        raise UserError(f"{p}: cannot open as an HDF5 results file: {msg}") from None
-    try:
-        if f.attrs.get("format") != FORMAT:
-            raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
-        if "shards" in f.attrs:  # a study stitched from shard files (explorer.run_study_dask): are they there?
-            from ._shards import check_sources
-            check_sources(f, p)
-        # before any number is read: metadata, attributes and committed rows match their checksums
-        verified = verify(f, p, warn=False)
         r = Results(f, p)
-        if not verified:  # an earlier version's file: one line, once the file has opened
+        if report["legacy"]:  # an earlier version's file: one line, once the file has opened
             warn_legacy(p)
         return r
     except UserError:
@@ -62,25 +58,134 @@ def open_results(path) -> "Results":
         raise
     except (KeyError, ValueError, TypeError, OSError, RuntimeError) as exc:  # foreign or damaged metadata
         f.close()
-        what = f"missing {exc.args[0]}" if isinstance(exc, KeyError) and exc.args else \
-            (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
-        raise UserError(f"{p}: not a readable explorer results file ({what[:200]})") from None
+        raise UserError(f"{p}: not a readable explorer results file ({_reason(exc)})") from None
+
+
+def _reason(exc: BaseException) -> str:
+    """What h5py or the reading code raised for foreign or damaged metadata, in words."""
+    what = f"missing {exc.args[0]}" if isinstance(exc, KeyError) and exc.args else \
+        (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    return what[:200]
+
+
+def _open_error(exc: BaseException) -> str:
+    """Why h5py could not open a file, in words."""
+    msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    if "unable to lock" in msg.lower():
+        return "the file is being written by another process (unable to lock it)"
+    if "truncated" in msg.lower() or "signature" in msg.lower():
+        return f"truncated or corrupt ({msg})"
+    return msg
+
+
+def _identity(p: Path, f: h5py.File | None = None) -> tuple | None:
+    """What tells one version of the file at ``p`` from another (device, inode, size, times): of the
+    path, or of the file ``f`` holds open."""
+    try:
+        st = os.fstat(f.id.get_vfd_handle()) if f is not None else os.stat(p)
+    except (OSError, ValueError, TypeError, AttributeError):
+        return None
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def inspect(path, verify: bool = True, warn: bool = True) -> dict:
+    """Read and verify the results file at ``path`` in a child process (:func:`explorer.store._guard.call`)
+    before the caller opens it: a UserError naming the file for one that is missing, cannot be opened,
+    is not an explorer results file or does not verify (or makes HDF5 loop or crash); else
+    {"legacy": bool (written without checksums), "complete", "fingerprint", "sharded"}. ``verify=False``
+    reads every attribute and the structure only (no digests of rows). ``warn``: the one-line warning
+    for a file written without checksums (:func:`~explorer.store._integrity.warn_legacy`)."""
+    from ._guard import Unreadable, call
+    p = Path(os.fspath(path))
+    if not p.is_file():
+        raise UserError(f"{p}: no such results file")
+    try:
+        report = call(_inspect, p, verify)
+    except Unreadable as exc:
+        raise UserError(f"{p}: not a readable explorer results file (damaged: {exc}); {RESTORE}") from None
+    if warn and report["legacy"]:
+        warn_legacy(p)
+    return report
+
+
+def _inspect(p: Path, verify: bool) -> dict:
+    """:func:`inspect`'s work, in the child."""
+    from ._integrity import metadata_checksum
+    from ._integrity import verify as verify_file
+    try:
+        f = h5py.File(p, "r", rdcc_nbytes=READ_CACHE_BYTES)
+    except OSError as exc:
+        raise UserError(f"{p}: cannot open as an HDF5 results file: {_open_error(exc)}") from None
+    try:
+        if f.attrs.get("format") != FORMAT:
+            raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
+        if "shards" in f.attrs:  # a study stitched from shard files (explorer.run_study_dask): are they there?
+            from ._shards import check_sources
+            check_sources(f, p)
+        # before any number is read: metadata, attributes and committed rows match their checksums
+        try:
+            legacy = not verify_file(f, p, warn=False) if verify else is_legacy(f)
+        except UserError as exc:
+            if "shards" not in f.attrs:
+                raise
+            folder = _text(f.attrs["shards"])  # its rows are read from its shard files: say where to look
+            raise UserError(str(exc).replace(f"; {RESTORE}", f" (its rows are those of the shard files in {folder}/: "
+                                                              f"one is damaged); {RESTORE}")) from None
+        if legacy or not verify:  # no checksum read them: every attribute and structure is read here once
+            metadata_checksum(f)
+        a = f.attrs
+        return {"legacy": legacy, "complete": bool(a.get("complete", False)), "sharded": "shards" in a,
+                "fingerprint": a.get("study_fingerprint")}
+    except UserError:
+        raise
+    except (KeyError, ValueError, TypeError, OSError, RuntimeError) as exc:  # foreign or damaged metadata
+        raise UserError(f"{p}: not a readable explorer results file ({_reason(exc)})") from None
+    finally:
+        f.close()
 
 
 def probe(path) -> dict:
     """What the file at ``path`` is, read from its root attributes only (for the runners' checks
     before they write): ``format`` (the attribute, None if absent), ``complete``, ``fingerprint``
     (the study fingerprint or None), ``sharded`` (stitched from shard files), ``error`` (None, or
-    "in use" when another process holds it, "unreadable" otherwise)."""
+    "in use" when another process holds it, "damaged" when reading it makes HDF5 loop or crash,
+    "unreadable" otherwise). Read in a child process (:mod:`explorer.store._guard`); for a damaged
+    file, ``format`` says whether its bytes hold explorer's format marker (so that ``--force`` may
+    replace it)."""
+    from ._guard import Unreadable, call
+    p = Path(os.fspath(path))
+    try:
+        return call(_probe, p)
+    except Unreadable:
+        return {"format": FORMAT if _marked(p) else None, "complete": False, "fingerprint": None,
+                "sharded": False, "error": "damaged"}
+
+
+def _probe(p: Path) -> dict:
     out = {"format": None, "complete": False, "fingerprint": None, "sharded": False, "error": None}
     try:
-        with h5py.File(Path(os.fspath(path)), "r") as f:
+        with h5py.File(p, "r") as f:
             a = f.attrs
             out.update(format=a.get("format"), complete=bool(a.get("complete", False)),
                        fingerprint=a.get("study_fingerprint"), sharded="shards" in a)
     except OSError as exc:
         out["error"] = "in use" if "unable to lock" in str(exc).lower() else "unreadable"
     return out
+
+
+#: Bytes of a file searched for explorer's format marker when HDF5 cannot read it (its root attributes
+#: are written first: they sit in the first kilobytes).
+MARK_BYTES = 16 << 20
+
+
+def _marked(p: Path) -> bool:
+    """Whether the file at ``p`` is an HDF5 file whose first :data:`MARK_BYTES` hold the format marker."""
+    try:
+        with open(p, "rb") as fh:
+            head = fh.read(MARK_BYTES)
+    except OSError:
+        return False
+    return head.startswith(b"\x89HDF\r\n\x1a\n") and FORMAT.encode() in head
 
 
 class Results:

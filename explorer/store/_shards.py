@@ -46,8 +46,9 @@ import numpy as np
 
 from ..errors import UserError
 from ._datasets import create_dataset
+from ._guard import call as guarded
 from ._integrity import DIGEST, READ_CACHE_BYTES, digests_many, has_integrity, per_variant, stamp
-from ._write import FORMAT, ResultsWriter, chunk_rows, hdf5_rows
+from ._write import FORMAT, LIBVER, ResultsWriter, chunk_rows, hdf5_rows
 
 #: Name of the shard-layout file in a shards folder.
 MANIFEST = "manifest.json"
@@ -191,7 +192,7 @@ def write_shard(folder, plan: ShardPlan, i: int, study, solve) -> bool:
     """
     folder = Path(folder)
     final = folder / shard_name(i)
-    if final.exists() and shard_complete(final, plan, i):
+    if final.exists() and guarded(shard_complete, final, plan, i):
         return False  # a retried task whose first attempt finished (e.g. the worker died after the rename)
     a, b = plan.range(i)
     tag = f"{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
@@ -255,8 +256,17 @@ def clean_folder(folder, everything: bool = False) -> None:
 
 
 def completed_shards(folder, plan: ShardPlan) -> list[bool]:
-    """For each shard of ``plan``: is a complete shard file in ``folder``?"""
-    folder = Path(folder)
+    """For each shard of ``plan``: is a complete shard file in ``folder``? (Read in a child process,
+    :mod:`explorer.store._guard`: a shard whose bytes make HDF5 loop cannot hang the run; then none is
+    taken for complete, and the stitch or the next open says which is damaged.)"""
+    from ._guard import Unreadable
+    try:
+        return guarded(_completed_shards, Path(folder), plan)
+    except Unreadable:
+        return [False] * plan.n_shards
+
+
+def _completed_shards(folder: Path, plan: ShardPlan) -> list[bool]:
     return [(folder / shard_name(i)).exists() and shard_complete(folder / shard_name(i), plan, i)
             for i in range(plan.n_shards)]
 
@@ -267,9 +277,24 @@ def stitch(output, folder, plan: ShardPlan) -> None:
 
     Every shard must be complete. The file is built under a hidden temporary name and renamed into
     place. Source paths are relative (``<folder name>/shard-00000.h5``), so ``output`` must be in
-    the parent folder of ``folder`` and the pair can be moved together.
+    the parent folder of ``folder`` and the pair can be moved together. The shards are read (and the
+    file written) in a child process (:mod:`explorer.store._guard`): a damaged shard that makes HDF5
+    loop or crash is a one-line error.
     """
-    out, folder = Path(output), Path(folder)
+    from ._guard import Unreadable
+    out = Path(output)
+    tmp = out.with_name(f".{out.name}.{os.getpid()}.partial")
+    try:
+        guarded(_stitch, out, Path(folder), plan, tmp)
+    except Unreadable as exc:
+        raise UserError(f"{output}: cannot stitch its shards in {folder}: {exc}; delete the damaged shard files "
+                        f"and run the study again with --resume") from None
+    finally:
+        tmp.unlink(missing_ok=True)  # the child's, when it was stopped (Ctrl-C) or died
+
+
+def _stitch(out: Path, folder: Path, plan: ShardPlan, tmp: Path) -> None:
+    """:func:`stitch`'s work (in the child), building the file at ``tmp``."""
     if folder.resolve().parent != out.resolve().parent:
         raise ValueError(f"{folder}: the shards folder must be beside {out}")
     names = [shard_name(i) for i in range(plan.n_shards)]
@@ -284,10 +309,9 @@ def stitch(output, folder, plan: ShardPlan) -> None:
             metric_names = these
         elif these != metric_names:
             raise RuntimeError(f"{folder / n}: metrics {sorted(these)} differ from shard 0's {sorted(metric_names)}")
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.partial")
     with h5py.File(folder / names[0], "r", rdcc_nbytes=READ_CACHE_BYTES) as src0:
         try:
-            with h5py.File(tmp, "w") as f:
+            with h5py.File(tmp, "w", libver=LIBVER) as f:
                 for k, v in src0.attrs.items():
                     if not k.startswith("shard_"):
                         f.attrs[k] = v

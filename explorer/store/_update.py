@@ -4,10 +4,12 @@
 verb that checks a shortlist: ``explorer physics``) and leaves every other value as it was. The file
 is never written in place:
 
-1. the original is checked first (it must be a complete explorer results file that verifies:
-   :func:`~explorer.store._integrity.verify`), and the disk must have room for a copy of it (else one
-   line saying how much is needed, and the file as it was);
-2. it is copied to a hidden temporary file beside it (``.NAME.PID.update``), the copy is changed (new
+1. the original is checked first, in a child process (it must be a complete explorer results file that
+   verifies: :func:`~explorer.store.inspect`; a damaged one cannot hang the verb), and room for a copy
+   of it plus the new values is reserved on its disk (else one line saying how much is needed, and the
+   file as it was);
+2. it is copied to a hidden temporary file beside it (``.NAME.PID.partial``,
+   :func:`~explorer.store._write.copy_for_update`, as ``explorer metrics`` does), the copy is changed (new
    metric datasets created NaN-filled from their row of the dataset table, the rows written, the
    attributes set), its chunk digests recomputed and its metadata checksum stamped, then flushed,
    closed and synced;
@@ -22,7 +24,6 @@ updates do not race (the later rename would drop the earlier's values).
 from __future__ import annotations
 
 import os
-import shutil
 from pathlib import Path
 
 import h5py
@@ -30,45 +31,18 @@ import numpy as np
 
 from ..errors import UserError, signals_held
 from ._datasets import now
-from ._integrity import has_integrity, stamp, verify, write_digests
-from ._write import FORMAT, create_metric, metrics_group, write_error_reason
-
-#: Room kept free on the disk beyond the copy itself (HDF5 metadata of new datasets, the file system's own).
-SPARE_BYTES = 4 << 20
-
-
-def _tmp(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.update")
-
-
-def _stale(path: Path) -> None:
-    """Remove temporary copies an update killed before its rename left beside ``path`` (those of dead pids)."""
-    for p in path.parent.glob(f".{path.name}.*.update"):
-        try:
-            pid = int(p.name[len(path.name) + 2:-len(".update")])
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            p.unlink(missing_ok=True)
-        except (ValueError, PermissionError, OSError):
-            continue
-
+from ._integrity import has_integrity, stamp, write_digests
+from ._write import copy_for_update, create_metric, metrics_group, replace_with, write_error_reason
 
 def check_updatable(path) -> Path:
     """``path`` as a Path if it is a complete explorer results file that verifies and can be replaced
-    (its folder writable); UserError otherwise."""
+    (its folder writable); UserError otherwise. The file is read and verified in a child process
+    (:func:`~explorer.store.inspect`): a damaged file is refused in one line, never hangs the verb."""
+    from ._read import inspect
     p = Path(os.fspath(path))
-    if not p.is_file():
-        raise UserError(f"{p}: no such results file")
-    try:
-        with h5py.File(p, "r") as f:
-            if f.attrs.get("format") != FORMAT:
-                raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
-            if not bool(f.attrs.get("complete", False)):
-                raise UserError(f"{p}: incomplete results file (an interrupted run); finish it first with "
-                                f"`explorer run STUDY -o {p} --resume`")
-            verify(f, p)
-    except OSError as exc:
-        raise UserError(f"{p}: cannot read the results file: {write_error_reason(exc)}") from None
+    if not inspect(p)["complete"]:
+        raise UserError(f"{p}: incomplete results file (an interrupted run); finish it first with "
+                        f"`explorer run STUDY -o {p} --resume`")
     if not os.access(p.parent if str(p.parent) else Path("."), os.W_OK):
         raise UserError(f"{p}: cannot update it: its folder is not writable (permission denied)")
     return p
@@ -91,20 +65,11 @@ def update_metrics(path, rows, values: dict, attrs: dict | None = None, clear=()
     rows = rows[order]
     if len(np.unique(rows)) != len(rows):
         raise ValueError("update_metrics: each row at most once")
-    _stale(p)
-    size = p.stat().st_size
-    free = shutil.disk_usage(p.parent if str(p.parent) else Path(".")).free
-    if free < size + SPARE_BYTES:
-        from .._files import format_size
-        raise UserError(f"{p}: cannot update it: writing through a copy needs {format_size(size + SPARE_BYTES)} "
-                        f"free on its disk, {format_size(free)} is; free some space and run again (the file is "
-                        f"as it was)")
-    tmp = _tmp(p)
+    with h5py.File(p, "r") as f:  # (verified by check_updatable)
+        N = int(f.attrs["n_variants"])
+    tmp = copy_for_update(p, 8 * N * len(values))  # room reserved first: a full disk is one line
     try:
-        shutil.copyfile(p, tmp)
-        shutil.copymode(p, tmp)
         with h5py.File(tmp, "r+") as f:
-            N = int(f.attrs["n_variants"])
             if len(rows) and (rows[0] < 0 or rows[-1] >= N):
                 raise ValueError(f"update_metrics: rows outside 0 … {N - 1}")
             g = f["metrics"] if "metrics" in f else metrics_group(f, band=None)
@@ -128,24 +93,11 @@ def update_metrics(path, rows, values: dict, attrs: dict | None = None, clear=()
             if has_integrity(f):  # a new dataset enters every chunk's digest: all are recomputed
                 write_digests(f)
                 stamp(f)
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
         with signals_held():
-            os.replace(tmp, p)
-        try:  # the rename itself reaches the disk
-            dfd = os.open(p.parent if str(p.parent) else ".", os.O_RDONLY)
-            try:
-                os.fsync(dfd)
-            finally:
-                os.close(dfd)
-        except OSError:
-            pass
-    except OSError as exc:
+            replace_with(tmp, p)
+    except (OSError, RuntimeError) as exc:  # h5py reports a failed write (a full disk) as either
         raise UserError(f"{p}: cannot update it: {write_error_reason(exc)} (the file is as it was)") from None
     finally:
-        if tmp.exists():
-            tmp.unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
     return p
+

@@ -52,6 +52,7 @@ import json
 import math
 import os
 import sys
+from glob import escape as glob_escape
 from pathlib import Path
 
 import h5py
@@ -59,9 +60,10 @@ import numpy as np
 
 from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
-from ._datasets import (SCALAR_FILTERS, SERIES, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group, metric_attrs,
-                        now)
-from ._integrity import DIGEST, RESTORE, chunk_digest, has_integrity, per_variant, salvage, stamp, verify
+from ._datasets import (SCALAR_FILTERS, SERIES, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group,
+                        metric_attrs, now)
+from ._integrity import (DIGEST, RESTORE, chunk_digest, has_integrity, is_legacy, metadata_checksum, per_variant,
+                         salvage, stamp, verify, warn_legacy)
 
 __all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
 
@@ -82,6 +84,12 @@ HDF5_CHUNK_BYTES = 1 << 20
 #: dataset, kept ~8 MiB of every metric dataset resident: 300 MB -> 485 MB of peak memory from 100,000 to
 #: 1,000,000 lean variants, where with 1 MiB memory is flat in N (benchmarks/bench_lean.py).
 WRITE_CACHE_BYTES = HDF5_CHUNK_BYTES
+#: HDF5 file-format bounds of every results file written (``h5py.File(..., libver=LIBVER)``): object
+#: headers of version 2 (HDF5 1.8 and later read them), whose attributes move to dense storage (a fractal
+#: heap) when they outgrow the 64 kB header message: the link names and nominal lengths of a 9,999-vertex
+#: chain (~80 kB each), or its mechanism text (~700 kB), where version-1 headers fail with "object header
+#: message is too large".
+LIBVER = ("v108", "latest")
 #: Default variants per study chunk (a multiple of the HDF5 chunk rows; see ``chunk_rows``).
 DEFAULT_CHUNK_VARIANTS = 2048
 #: Upper bound on the solver output one study chunk holds in memory, bytes.
@@ -174,7 +182,7 @@ class ResultsWriter:
         tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            f = h5py.File(tmp, "w", rdcc_nbytes=WRITE_CACHE_BYTES)
+            f = h5py.File(tmp, "w", rdcc_nbytes=WRITE_CACHE_BYTES, libver=LIBVER)
         except (OSError, ValueError) as exc:
             raise UserError(f"{path}: cannot create the results file: {write_error_reason(exc)} "
                             f"(set [output] path in {study.source} or pass -o)") from None
@@ -275,32 +283,22 @@ class ResultsWriter:
     def resume(cls, path, study) -> "ResultsWriter":
         """Open an existing results file of ``study`` to finish it (UserError if it is not one, or if it
         does not verify: :func:`~explorer.store._integrity.verify`, so that a resume never builds on
-        damaged metadata or committed rows)."""
+        damaged metadata or committed rows). The file is checked (and, after a kill in a commit,
+        salvaged) in a child process first (:mod:`explorer.store._guard`): damaged bytes that make
+        HDF5 loop are refused in one line."""
+        from ._guard import Unreadable, call
         path = Path(path)
+        try:
+            legacy = call(_check_resumable, path, study.fingerprint())
+        except Unreadable as exc:
+            raise UserError(f"{path}: not a readable explorer results file (damaged: {exc}); use --force to start "
+                            f"it over") from None
         try:
             f = h5py.File(path, "r+", rdcc_nbytes=WRITE_CACHE_BYTES)
         except (OSError, ValueError) as exc:
             raise UserError(f"{path}: cannot open the results file to resume it: {write_error_reason(exc)}") from None
-        try:
-            if f.attrs.get("format") != FORMAT or "chunks/done" not in f:
-                raise UserError(f"{path}: not an explorer results file; use --force to overwrite it")
-            if f.attrs.get("study_fingerprint") != study.fingerprint():
-                try:
-                    old = json.loads(f.attrs["study_fingerprint"])
-                except (KeyError, TypeError, ValueError):
-                    old = {}
-                raise UserError(f"{path}: written by a different run: {fingerprint_diff(old, json.loads(study.fingerprint()))}"
-                                f"; --resume would mix two designs' results; use --force to start it over")
-            try:
-                verify(f, path)
-            except UserError as exc:
-                # a kill during the last commit's flush may leave its marks half written: the chunks that
-                # do not match their digests are solved again; anything else is damage
-                if not salvage(f):
-                    raise UserError(f"{exc}".replace(RESTORE, "use --force to start it over")) from None
-        except BaseException:
-            f.close()
-            raise
+        if legacy:
+            warn_legacy(path)
         return cls(f, path)
 
     # -- filling ----------------------------------------------------------------------------------------
@@ -511,6 +509,42 @@ class ResultsWriter:
         self.close()
 
 
+def _check_resumable(path: Path, fingerprint: str) -> bool:
+    """What :meth:`ResultsWriter.resume` checks before it opens ``path`` (run in a child process): a
+    results file of the study with this fingerprint that verifies, or is salvaged (UserError otherwise).
+    True for a file written without checksums (the caller warns)."""
+    try:  # read only: a file HDF5 opens for writing is marked so in its superblock until it is closed, and
+        # this process may be stopped (the file looping HDF5): only the salvage below writes
+        f = h5py.File(path, "r", rdcc_nbytes=WRITE_CACHE_BYTES)
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{path}: cannot open the results file to resume it: {write_error_reason(exc)}") from None
+    try:
+        if f.attrs.get("format") != FORMAT or "chunks/done" not in f:
+            raise UserError(f"{path}: not an explorer results file; use --force to overwrite it")
+        if f.attrs.get("study_fingerprint") != fingerprint:
+            try:
+                old = json.loads(f.attrs["study_fingerprint"])
+            except (KeyError, TypeError, ValueError):
+                old = {}
+            raise UserError(f"{path}: written by a different run: {fingerprint_diff(old, json.loads(fingerprint))}"
+                            f"; --resume would mix two designs' results; use --force to start it over")
+        try:
+            legacy = not verify(f, path, warn=False)
+        except UserError as exc:
+            # a kill during the last commit's flush may leave its marks half written: the chunks that
+            # do not match their digests are solved again; anything else is damage
+            f.close()
+            f = h5py.File(path, "r+", rdcc_nbytes=WRITE_CACHE_BYTES)
+            if not salvage(f):
+                raise UserError(f"{exc}".replace(RESTORE, "use --force to start it over")) from None
+            legacy = False
+        if legacy:  # no checksum read every attribute: read them here, before the caller does
+            metadata_checksum(f)
+        return legacy
+    finally:
+        f.close()
+
+
 def _write_rows(d: h5py.Dataset, a: int, b: int, values) -> None:
     """d[a:b] = values, one HDF5 chunk per call. h5py holds the GIL while HDF5 filters and writes, so a
     commit thread writing a whole study chunk in one call (16 HDF5 chunks, 20-200 ms) keeps the
@@ -564,6 +598,135 @@ def _fallocate(fd: int, offset: int, length: int, punch: bool = False) -> int | 
     return ctypes.get_errno() or errno.EIO
 
 
+def copy_for_update(path, extra: int) -> Path:
+    """A copy of the results file ``path`` beside it (a hidden ``.NAME.<pid>.partial``), for a writer that
+    changes a finished file (``explorer metrics``) and renames the copy over it once complete
+    (:func:`replace_with`), so that a failure leaves ``path`` as it was. Room for the copy and for
+    ``extra`` more bytes (+10 %, + 1 MB for HDF5's metadata) is reserved first (``fallocate``, or the
+    free space checked where it is not supported): a disk without it is a one-line :class:`DiskFull`
+    before anything is written. The space reserved beyond the end is given back by :func:`replace_with`."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    for old in path.parent.glob(f".{glob_escape(path.name)}.*.partial"):  # a killed update's (the caller holds
+        old.unlink(missing_ok=True)                                       # the output lock: nobody's now)
+    size = path.stat().st_size
+    need = size + int(1.1 * max(0, int(extra))) + (1 << 20)
+    try:
+        src = os.open(path, os.O_RDONLY)
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read the results file: {exc.strerror or exc}") from None
+    try:
+        try:
+            dst = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_TRUNC, os.stat(path).st_mode & 0o777)
+        except OSError as exc:
+            raise UserError(f"{path}: cannot write beside it ({tmp.name}): {exc.strerror or exc}; it is unchanged") \
+                from None
+        try:
+            err = _fallocate(dst, 0, need)
+            free = None
+            if err is not None and err not in (errno.ENOSPC, errno.EDQUOT):  # not supported: the free space
+                import shutil
+                try:
+                    free = shutil.disk_usage(path.parent).free
+                except OSError:
+                    free = need
+                err = None if free >= need else errno.ENOSPC
+            if err is not None:
+                have = "" if free is None else f", {_size(free)} free"
+                raise DiskFull(f"{path}: the disk is full: updating the file needs up to {_size(need)} beside it "
+                               f"(a copy, renamed over it once complete){have}; nothing was written and the file is "
+                               f"unchanged: free some space and run it again")
+            _copy_bytes(src, dst, size)
+        except BaseException:
+            os.close(dst)
+            tmp.unlink(missing_ok=True)
+            raise
+        os.close(dst)
+    finally:
+        os.close(src)
+    return tmp
+
+
+def _copy_bytes(src: int, dst: int, size: int) -> None:
+    """Copy ``size`` bytes from ``src`` to ``dst`` (in the kernel where it can: copy_file_range, which
+    also shares the blocks on filesystems that can), without truncating ``dst`` (its reserved blocks)."""
+    done = 0
+    fast = hasattr(os, "copy_file_range")
+    while done < size:
+        n = 0
+        if fast:
+            try:
+                n = os.copy_file_range(src, dst, min(size - done, 1 << 30), done, done)
+            except OSError as exc:
+                if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO):
+                    raise
+                fast = False
+                continue
+        else:
+            data = os.pread(src, min(size - done, 1 << 22), done)
+            if data:
+                n = os.pwrite(dst, data, done)
+        if n <= 0:
+            raise OSError(errno.EIO, "the results file ended while it was copied")
+        done += n
+
+
+class Exclusive:
+    """``with Exclusive(path):`` — no process has the results file at ``path`` open (HDF5 takes a shared
+    ``flock`` on every file it opens, so this exclusive one fails while any reader holds it, and keeps new
+    readers out while held), without opening it for writing (HDF5 marks a file it opens for writing in
+    its superblock, a write to the file). UserError naming the file otherwise. Open the file yourself with
+    ``open_h5(path, "r", locking=False)`` meanwhile. Where ``fcntl`` does not exist, nothing is checked."""
+
+    def __init__(self, path):
+        self.path, self.fd = Path(path), None
+
+    def __enter__(self):
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows
+            return self
+        self.fd = os.open(self.path, os.O_RDONLY)
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(self.fd)
+            self.fd = None
+            raise UserError(f"{self.path}: cannot open the results file for writing: the file is open in another "
+                            f"process (close it, or wait for `explorer run` to finish)") from None
+        return self
+
+    def __exit__(self, *exc):
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
+
+
+def replace_with(tmp, path) -> None:
+    """Make the finished copy ``tmp`` (:func:`copy_for_update`) the file at ``path``: synced, renamed over
+    it in one step, the folder synced, and the space reserved beyond its end given back."""
+    tmp, path = Path(tmp), Path(path)
+    fd = os.open(tmp, os.O_RDWR)
+    try:
+        os.fsync(fd)
+        end = os.fstat(fd).st_size
+        _fallocate(fd, end, 1 << 40, punch=True)  # what the reservation left beyond the end
+        os.ftruncate(fd, end)  # (filesystems that punch no hole past the end free it on a truncate)
+    finally:
+        os.close(fd)
+    os.replace(tmp, path)
+    try:
+        dfd = os.open(path.parent, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(dfd)
+    except OSError:
+        pass
+    finally:
+        os.close(dfd)
+
+
 def fingerprint_diff(old: dict, new: dict) -> str:
     """What differs between two study fingerprints, in words."""
     words = {"mechanism_sha256": "the mechanism file's content changed",
@@ -579,29 +742,35 @@ def fingerprint_diff(old: dict, new: dict) -> str:
     return "differs in " + ", ".join(out) if out else "its layout differs"
 
 
-def open_for_update(path) -> h5py.File:
-    """An existing, complete-or-not explorer results file opened for writing (``r+``), the one way
-    besides :class:`ResultsWriter` that a results file is opened to be written (``explorer metrics``).
-    UserError for a missing, foreign, busy, unreadable or damaged file (it is verified first:
-    :func:`~explorer.store._integrity.verify`)."""
-    p = Path(os.fspath(path))
-    if not p.is_file():
-        raise UserError(f"{p}: no such results file")
+def open_h5(p: Path, mode: str, **kw) -> h5py.File:
+    """``h5py.File(p, mode, **kw)`` of a results file already verified (:func:`~explorer.store.inspect`);
+    a one-line UserError saying why it cannot be opened (another process holding it, permissions ...)."""
     try:
-        f = h5py.File(p, "r+")
+        return h5py.File(p, mode, **kw)
     except (OSError, ValueError) as exc:
         reason = write_error_reason(exc)
         if "unable to lock" in reason or "in use" in reason:
             reason = "the file is open in another process (close it, or wait for `explorer run` to finish)"
-        raise UserError(f"{p}: cannot open the results file for writing: {reason}") from None
+        raise UserError(f"{p}: cannot open the results file{' for writing' if mode != 'r' else ''}: {reason}") \
+            from None
+
+
+def open_for_update(path) -> h5py.File:
+    """An existing, complete-or-not explorer results file opened for writing (``r+``), for a deliberate
+    edit (``explorer metrics`` writes a copy instead: :func:`copy_for_update`). UserError for a missing,
+    foreign, busy, unreadable or damaged file (it is verified first, in a child process:
+    :func:`~explorer.store.inspect`)."""
+    p = Path(os.fspath(path))
+    if not p.is_file():
+        raise UserError(f"{p}: no such results file")
+    from ._read import inspect
+    inspect(p, warn=False)  # in a child process first: bytes that make HDF5 loop are refused in one line
+    f = open_h5(p, "r+")
     if f.attrs.get("format") != FORMAT:
         f.close()
         raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
-    try:
-        verify(f, p)  # never compute from (nor re-checksum) damaged metadata or rows
-    except BaseException:
-        f.close()
-        raise
+    if is_legacy(f):
+        warn_legacy(p)
     return f
 
 

@@ -16,7 +16,6 @@ import contextlib
 import json
 import os
 import time
-import tomllib
 from functools import lru_cache
 from pathlib import Path
 
@@ -71,8 +70,8 @@ class Recipe:
 
 @lru_cache(maxsize=4)
 def rebuild(recipe: Recipe) -> Study:
-    from ..mechanism import mechanism_from_dict
-    mech = mechanism_from_dict(tomllib.loads(recipe.mechanism_text), recipe.mechanism_source)
+    from ..mechanism import mechanism_from_dict, parse_toml
+    mech = mechanism_from_dict(parse_toml(recipe.mechanism_text, recipe.mechanism_source), recipe.mechanism_source)
     return Study(**dict(recipe.fields), _mech=mech)
 
 

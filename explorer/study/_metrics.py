@@ -5,13 +5,17 @@ stored, it solves them again from each variant's stored design) chunk by chunk,
 runs :func:`explorer.gait.compute_metrics` on each chunk and writes ``/metrics/<name>``. Memory is
 one chunk of foot paths whatever N is.
 
-Crash safety. The new metrics are written into a hidden group ``/metrics_partial`` (the metrics
-that are kept are copied there first, so it is a complete replacement); once every chunk is in, the
-file is flushed and the group is swapped in for ``/metrics`` (an unlink and a rename, two metadata
-operations, flushed at once). A run killed before the swap leaves ``/metrics`` as it was (the next
-run removes the stale ``/metrics_partial``); paths, velocities and every other dataset are never
-written. HDF5 does not reclaim the space of the replaced datasets (a few bytes per variant and
-metric); ``h5repack`` does.
+Crash safety. ``explorer metrics`` writes like every other writer: the file is verified first (in a
+child process, :func:`explorer.store.inspect`: a damaged file or a damaged shard of a Dask-stitched
+file is refused before anything is computed or written), the space the update needs (the file's size
+plus the new metric datasets) is reserved beside it, the file is copied there (a hidden
+``.NAME.<pid>.partial``), the new metrics are written into the copy (a hidden group ``/metrics_partial``
+swapped in for ``/metrics`` once complete, with the chunk digests and the metadata checksum that cover
+it), and the copy is synced and renamed over the original only when all of that succeeded. A full
+disk (no room for the copy, or a write that fails), an error or a kill at any point leave the original
+exactly as it was (at most the hidden copy, removed by the next run), and the message says so. The
+output lock (:class:`explorer.store.OutputLock`) keeps a run or another ``explorer metrics`` from
+writing the file meanwhile. Paths, velocities and every other dataset are copied, never changed.
 
 Band bookkeeping. Every metric dataset carries its ``band`` attribute and ``/metrics`` carries the
 band of the whole set (:attr:`explorer.store.Results.band`). Recomputing only some metrics with a
@@ -21,19 +25,19 @@ one file never mixes bands.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import sys
 import time
-import tomllib
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from ..errors import UserError
-from ..store import (STATUS_NOT_RUN, create_metric, hdf5_rows, lean_file, metrics_group, open_for_update,
-                     resolve_series, write_error_reason)
+from ..store import (STATUS_NOT_RUN, Exclusive, OutputLock, Unreadable, copy_for_update, create_metric, guarded, hdf5_rows, inspect,
+                     lean_file, metrics_group, open_h5, replace_with, resolve_series, write_error_reason)
 from ..store import now as timestamp
 from ..store._integrity import has_integrity, stamp, write_digests
 
@@ -96,9 +100,7 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
     Raises UserError for a missing, foreign, incomplete or busy file, an unknown metric, a bad band,
     or a file that lacks the foot path the metrics need (named in the message).
     """
-    from ..gait import (BAND_METRICS, METRICS, VELOCITY_METRICS, available_metrics, check_band, compute_metrics,
-                        load_target)
-    from ..mechanism import mechanism_from_dict, walker_from_dict
+    from ..gait import check_band
 
     t0 = time.perf_counter()
     p = Path(os.fspath(path))
@@ -108,7 +110,27 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             band = check_band(band)
         except UserError as exc:
             raise UserError(f"--{exc}") from None
-    f = open_for_update(p)
+    if not p.is_file():
+        raise UserError(f"{p}: no such results file")
+    lock = OutputLock(p)
+    try:
+        lock.acquire()  # no run, no other `explorer metrics` writes it meanwhile
+    except UserError as exc:
+        raise UserError(str(exc).split("; wait")[0] + "; wait for it to finish") from None
+    try:
+        inspect(p)  # verified in a child process (shards too) before anything is read or written
+        with Exclusive(p):  # and no reader has it open (nor opens it) until the update is renamed over it
+            return _recompute(p, band, names, progress, t0)
+    finally:
+        lock.release()
+
+
+def _recompute(p: Path, band, names, progress: bool, t0: float) -> dict:
+    """:func:`recompute_metrics` once the file is verified and locked."""
+    from ..gait import (BAND_METRICS, METRICS, VELOCITY_METRICS, available_metrics, compute_metrics, load_target)
+    from ..mechanism import mechanism_from_dict, parse_toml, walker_from_dict
+    f = open_h5(p, "r", locking=False)  # (Exclusive holds the file's lock)
+    copy = None
     try:
         N = int(f.attrs["n_variants"])
         if not bool(f.attrs.get("complete", False)):
@@ -116,7 +138,7 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
             src = src[len("builtin:"):] if src.startswith("builtin:") else src
             raise UserError(f"{p}: incomplete results file (an interrupted run); finish it first with "
                             f"`explorer run {src} -o {p} --resume`")
-        mech = mechanism_from_dict(tomllib.loads(_text(f.attrs["mechanism"])),
+        mech = mechanism_from_dict(parse_toml(_text(f.attrs["mechanism"]), f"{p} (its stored mechanism)"),
                                    _text(f.attrs.get("mechanism_source", p)))
         stored_group = f.get("metrics")
         stored = [k for k in stored_group.keys()] if stored_group is not None else []
@@ -191,93 +213,134 @@ def recompute_metrics(path, band: float | None = None, names=None, progress: boo
                 raise UserError(f"{p}: the stored link columns ({', '.join(links)}) do not match the mechanism's "
                                 f"links; cannot compute min_transmission_angle")
 
-        # -- compute into /metrics_partial, chunk by chunk ---------------------------------------------
-        if PARTIAL in f:
-            del f[PARTIAL]
-        rows = int(f["chunks"].attrs["rows"]) if "chunks" in f and "rows" in f["chunks"].attrs else \
-            max(hdf5_rows(int(f.attrs["steps"])), 1024)
-        rows = max(1, min(rows, N))
-        order = [m for m in METRICS if m in compute or m in kept] + [m for m in kept if m not in METRICS]
-        now = timestamp()
-        bar = None
-        try:
-            g = metrics_group(f, PARTIAL, band=band, computed=now)
-            for m in order:
-                if m in kept:
-                    f.copy(stored_group[m], g, name=m)
-                    continue
-                create_metric(g, m, N, rows, band, now)
-            if progress and hasattr(sys.stderr, "isatty") and sys.stderr.isatty() and N > rows:
-                from tqdm import tqdm
-                bar = tqdm(total=N, unit="variant", unit_scale=True, desc="metrics", file=sys.stderr, leave=False)
-            dpath = f["paths"][foot] if need_path and not lean else None
-            dvel = f["velocities"][foot] if need_vel and not resolve and not lean else None
-            if lean:
-                how = json.loads(_text(f.attrs["series_solve"]))
-                lean_vertices = how["vertices"] + ([foot] if foot not in how["vertices"] else [])
-                study_dict = json.loads(_text(f.attrs["study_resolved"]))
-            solver = _solver(f) if resolve else None
-            resolved = 0
-            dstatus, dlen, dcrank = f["status"], f["variants/lengths"], f["variants/crank"]
-            dgeom = f["variants/geometry"] if "variants/geometry" in f else None  # each variant's own pivots
-            gnames = [_text(s) for s in dgeom.attrs["names"]] if dgeom is not None else []
-            targets = [g[m] for m in compute]
-            ok = 0
-            S = int(f.attrs["steps"])
-            for a in range(0, N, rows):
-                b = min(a + rows, N)
-                status = dstatus[a:b]
-                if (status == STATUS_NOT_RUN).any():
-                    raise UserError(f"{p}: variants {a}..{b - 1} were never run although the file is marked "
-                                    f"complete; run the study again with --force")
-                ok += int((status == 0).sum())
-                paths = dpath[a:b] if dpath is not None else np.zeros((b - a, S, 2))
-                vel = dvel[a:b] if dvel is not None else None
-                G = dgeom[a:b] if dgeom is not None else None
-                geometry = {n: G[:, j] for j, n in enumerate(gnames)} if G is not None else None
-                if lean and (need_path or need_vel):  # solved again, a chunk at a time: memory stays one chunk whatever N is
-                    batch = resolve_series(f, slice(a, b), mechanism=mech, solve=how, study=study_dict,
-                                           vertices=lean_vertices, velocities=bool(need_vel))
-                    paths = batch.paths[foot]
-                    vel = batch.velocities.get(foot) if need_vel else None
-                    resolved += b - a
-                if resolve:
-                    vel = _velocities(mech, foot, status, dlen[a:b], dcrank[a:b], geometry, S, solver)
-                    resolved += int((status == 0).sum())
-                out = compute_metrics(paths, vel, status, compute, band, mechanism=mech,
-                                      lengths=dlen[a:b], crank=dcrank[a:b], walker=walker, geometry=geometry,
-                                      target=target)
-                for d, m in zip(targets, compute):
-                    d[a:b] = out[m]
-                if bar is not None:
-                    bar.update(b - a)
-            f.flush()
-            # the swap: the complete new group replaces the old one, and the checksums that cover it
-            # (chunk digests, metadata) reach the disk in the same flush
-            if "metrics" in f:
-                del f["metrics"]
-            f.move(PARTIAL, "metrics")
-            if has_integrity(f):
-                write_digests(f)
-                stamp(f)
-            f.flush()
-        except BaseException:
-            if f.id.valid and PARTIAL in f:
-                try:
-                    del f[PARTIAL]
-                    f.flush()
-                except Exception:  # leave it for the next run to remove
-                    pass
-            raise
-        finally:
-            if bar is not None:
-                bar.close()
-    except OSError as exc:
-        raise UserError(f"{p}: cannot update the metrics: {write_error_reason(exc)}") from None
-    finally:
+        # -- a copy of the file, with room for the new metrics, to write into --------------------------
         f.close()
+        copy = copy_for_update(p, 8 * N * (len(compute) + len(kept)))
+
+        def fill() -> tuple[int, int]:
+            """Compute the metrics into the copy (in a child process: a write that fails leaves HDF5's state
+            broken there, never in the caller's); (ok variants, variants solved again)."""
+            f = h5py.File(copy, "r+")
+            stored_group = f.get("metrics")
+            # -- compute into /metrics_partial, chunk by chunk -----------------------------------------
+            if PARTIAL in f:
+                del f[PARTIAL]
+            rows = int(f["chunks"].attrs["rows"]) if "chunks" in f and "rows" in f["chunks"].attrs else \
+                max(hdf5_rows(int(f.attrs["steps"])), 1024)
+            rows = max(1, min(rows, N))
+            order = [m for m in METRICS if m in compute or m in kept] + [m for m in kept if m not in METRICS]
+            now = timestamp()
+            bar = None
+            try:
+                g = metrics_group(f, PARTIAL, band=band, computed=now)
+                for m in order:
+                    if m in kept:
+                        f.copy(stored_group[m], g, name=m)
+                        continue
+                    create_metric(g, m, N, rows, band, now)
+                if progress and hasattr(sys.stderr, "isatty") and sys.stderr.isatty() and N > rows:
+                    from tqdm import tqdm
+                    bar = tqdm(total=N, unit="variant", unit_scale=True, desc="metrics", file=sys.stderr, leave=False)
+                dpath = f["paths"][foot] if need_path and not lean else None
+                dvel = f["velocities"][foot] if need_vel and not resolve and not lean else None
+                if lean:
+                    how = json.loads(_text(f.attrs["series_solve"]))
+                    lean_vertices = how["vertices"] + ([foot] if foot not in how["vertices"] else [])
+                    study_dict = json.loads(_text(f.attrs["study_resolved"]))
+                solver = _solver(f) if resolve else None
+                resolved = 0
+                dstatus, dlen, dcrank = f["status"], f["variants/lengths"], f["variants/crank"]
+                dgeom = f["variants/geometry"] if "variants/geometry" in f else None  # each variant's own pivots
+                gnames = [_text(s) for s in dgeom.attrs["names"]] if dgeom is not None else []
+                targets = [g[m] for m in compute]
+                ok = 0
+                S = int(f.attrs["steps"])
+                for a in range(0, N, rows):
+                    b = min(a + rows, N)
+                    status = dstatus[a:b]
+                    if (status == STATUS_NOT_RUN).any():
+                        raise UserError(f"{p}: variants {a}..{b - 1} were never run although the file is marked "
+                                        f"complete; run the study again with --force")
+                    ok += int((status == 0).sum())
+                    paths = dpath[a:b] if dpath is not None else np.zeros((b - a, S, 2))
+                    vel = dvel[a:b] if dvel is not None else None
+                    G = dgeom[a:b] if dgeom is not None else None
+                    geometry = {n: G[:, j] for j, n in enumerate(gnames)} if G is not None else None
+                    if lean and (need_path or need_vel):  # solved again, a chunk at a time: memory stays one chunk
+                        batch = resolve_series(f, slice(a, b), mechanism=mech, solve=how, study=study_dict,
+                                               vertices=lean_vertices, velocities=bool(need_vel))
+                        paths = batch.paths[foot]
+                        vel = batch.velocities.get(foot) if need_vel else None
+                        resolved += b - a
+                    if resolve:
+                        vel = _velocities(mech, foot, status, dlen[a:b], dcrank[a:b], geometry, S, solver)
+                        resolved += int((status == 0).sum())
+                    out = compute_metrics(paths, vel, status, compute, band, mechanism=mech,
+                                          lengths=dlen[a:b], crank=dcrank[a:b], walker=walker, geometry=geometry,
+                                          target=target)
+                    for d, m in zip(targets, compute):
+                        d[a:b] = out[m]
+                    if bar is not None:
+                        bar.update(b - a)
+                f.flush()
+                # the swap: the complete new group replaces the old one, and the checksums that cover it
+                # (chunk digests, metadata) reach the disk in the same flush
+                if "metrics" in f:
+                    del f["metrics"]
+                f.move(PARTIAL, "metrics")
+                if has_integrity(f):
+                    write_digests(f)
+                    stamp(f)
+                f.flush()
+            finally:
+                if bar is not None:
+                    bar.close()
+            f.close()
+            return ok, resolved
+
+        try:
+            ok, resolved = guarded(fill, stall=None)
+        except Unreadable as exc:  # HDF5 can crash when a write fails on a full disk (no reservation there)
+            why = _full(p) if _no_room(p.parent) else (f"the process writing its copy stopped ({exc.signal or exc.how}); "
+                                                        f"{p} is unchanged")
+            raise UserError(f"{p}: cannot update the metrics: {why}") from None
+        replace_with(copy, p)
+        copy = None
+    except (OSError, RuntimeError) as exc:  # h5py reports a failed write (a full disk) as either
+        full = "No space left" in str(exc) or "errno = 28" in str(exc) or getattr(exc, "errno", None) == errno.ENOSPC
+        why = _full(p) if full else f"{write_error_reason(exc)}; {p} is unchanged"
+        raise UserError(f"{p}: cannot update the metrics: {why}") from None
+    finally:
+        _close_quietly(f)
+        if copy is not None:
+            copy.unlink(missing_ok=True)
     return {"path": p, "band": band, "metrics": tuple(chosen), "also": tuple(also), "kept": tuple(kept),
             "n_variants": N, "ok": ok, "resolved": resolved, "lean": lean, "wall_s": time.perf_counter() - t0}
+
+
+def _full(p: Path) -> str:
+    """What a failed update of ``p`` says when the disk is full."""
+    return (f"the disk is full (no space left to write its updated copy); {p} is unchanged: free some space (the "
+            f"update writes a copy of the file beside it) and run `explorer metrics` again")
+
+
+def _no_room(folder: Path, slack: int = 1 << 20) -> bool:
+    """Whether the filesystem of ``folder`` has less than ``slack`` bytes free (asked while the update's
+    copy is still there: a writer that died of a full disk left it so)."""
+    try:
+        st = os.statvfs(folder)
+    except OSError:
+        return False
+    return st.f_bavail * st.f_frsize < slack
+
+
+def _close_quietly(f) -> None:
+    """Close ``f`` if it is open; a close that fails (a full disk) is the error already being reported."""
+    try:
+        if f is not None and f.id.valid:
+            f.close()
+    except Exception:  # noqa: BLE001
+        pass
 
 
 def _solver(f: h5py.File) -> dict:

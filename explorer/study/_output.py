@@ -168,16 +168,21 @@ def _pending_rows(out: Path) -> int | None:
     read (then the whole study counts; a file that commits nothing is started over by ``--resume``)."""
     if not out.is_file():
         return None
-    import h5py
+    from ..store import guarded
     try:
-        with h5py.File(out, "r") as f:
-            n, rows = int(f.attrs["n_variants"]), int(f["chunks"].attrs["rows"])
-            done = np.asarray(f["chunks/done"][...], dtype=bool)
-            if not done.any():
-                return None
-            return int(sum(min((i + 1) * rows, n) - i * rows for i in np.flatnonzero(~done)))
-    except Exception:  # noqa: BLE001 - unreadable or damaged: its own opening says so
+        return guarded(_pending, out)  # in a child process: damaged bytes cannot hang the run here
+    except Exception:  # noqa: BLE001 - unreadable or damaged (or looping: Unreadable): its own opening says so
         return None
+
+
+def _pending(out: Path) -> int | None:
+    import h5py
+    with h5py.File(out, "r") as f:
+        n, rows = int(f.attrs["n_variants"]), int(f["chunks"].attrs["rows"])
+        done = np.asarray(f["chunks/done"][...], dtype=bool)
+        if not done.any():
+            return None
+        return int(sum(min((i + 1) * rows, n) - i * rows for i in np.flatnonzero(~done)))
 
 
 def _same_file(a: Path, b: Path) -> bool:

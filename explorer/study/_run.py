@@ -130,20 +130,25 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
 def _nothing_committed(out: Path, study) -> int | None:
     """The chunk rows of ``out`` if it is a results file of ``study`` (its format and fingerprint) with
     no chunk committed, else None. Only the root attributes, ``/chunks`` and ``/chunks/done`` are read."""
+    from ..store import guarded
+    try:  # in a child process: damaged bytes cannot hang the run here
+        return guarded(_uncommitted_rows, out, study.fingerprint(), study.n_variants)
+    except Exception:  # noqa: BLE001 - unreadable: ResultsWriter.resume says why
+        return None
+
+
+def _uncommitted_rows(out: Path, fingerprint: str, n_variants: int) -> int | None:
     import h5py
     import numpy as np
 
     from ..store import FORMAT
-    try:
-        with h5py.File(out, "r") as f:
-            if f.attrs.get("format") != FORMAT or f.attrs.get("study_fingerprint") != study.fingerprint():
-                return None
-            if np.asarray(f["chunks/done"][...], dtype=bool).any():
-                return None
-            rows = int(f["chunks"].attrs["rows"])
-            return rows if 1 <= rows <= study.n_variants else None
-    except Exception:  # noqa: BLE001 - unreadable: ResultsWriter.resume says why
-        return None
+    with h5py.File(out, "r") as f:
+        if f.attrs.get("format") != FORMAT or f.attrs.get("study_fingerprint") != fingerprint:
+            return None
+        if np.asarray(f["chunks/done"][...], dtype=bool).any():
+            return None
+        rows = int(f["chunks"].attrs["rows"])
+        return rows if 1 <= rows <= n_variants else None
 
 
 #: The stages a run's wall time is broken into (``RunSummary.timings``, seconds): sampling the designs,

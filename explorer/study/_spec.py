@@ -113,7 +113,9 @@ COMPRESSIONS = ("blosc", "zstd", "lzf", "gzip", "none")
 #: [scene] store choices: "series" stores every (N, steps, 2) series the scene names; "metrics" (a lean
 #: study) stores the designs, statuses and metrics only, and the readers re-solve the series they need.
 STORES = ("series", "metrics")
-_NAME_RE = re.compile(r"^[A-Za-z0-9._-]+$")
+_NAME_RE = re.compile(r"[A-Za-z0-9._-]+")
+#: Longest study name: it names the default results file (``results/NAME.h5``, its lock and shards folder).
+MAX_NAME = 100
 
 
 @dataclass(frozen=True)
@@ -309,6 +311,12 @@ class Study:
         return (resources.files("explorer.mechanism") / "builtin" / f"{self.mechanism}.toml").read_text(encoding="utf-8")
 
 
+def _short(value, most: int = 80) -> str:
+    """repr of a value a user typed, shortened (a 2 MB name is not printed whole)."""
+    text = repr(value)
+    return text if len(text) <= most else f"{text[:most - 25]}... ({len(text):,} characters)"
+
+
 def variant_count(method: str, variants: int, k: int) -> int:
     """Total number of variants N for ``variants`` as written and k perturbed parameters.
 
@@ -396,8 +404,9 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
         if k not in st:
             raise UserError(f"{where(source, 'study.' + k)}: missing required key")
     name = v.string("study.name", st["name"])
-    if not _NAME_RE.match(name):
-        raise UserError(f"{where(source, 'study.name')}: expected letters, digits, '.', '_' or '-' only, got {name!r}")
+    if not _NAME_RE.fullmatch(name) or len(name) > MAX_NAME:
+        raise UserError(f"{where(source, 'study.name')}: expected 1 to {MAX_NAME} letters, digits, '.', '_' or '-', "
+                        f"got {_short(name)}")
     mech_name = v.string("study.mechanism", st["mechanism"])
     mech, mech_path = _mechanism(source, mech_name, base)
     if "build" in data:  # the study's [build] over the mechanism's, key by key: its link masses and size
@@ -636,7 +645,7 @@ class _Validator:
         self.source = source
 
     def fail(self, key: str, allowed: str, value) -> None:
-        raise UserError(f"{where(self.source, key)}: expected {allowed}, got {value!r}")
+        raise UserError(f"{where(self.source, key)}: expected {allowed}, got {_short(value)}")
 
     def string(self, key, value) -> str:
         if not isinstance(value, str) or not value.strip():

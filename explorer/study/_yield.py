@@ -95,12 +95,16 @@ class Robustness:
         return f"±{self.tolerance:g}{unit} ({law}) on {what}, {self.copies:,} copies (seed {self.seed})"
 
 
+#: Largest tolerance in model units or mm, as a share of the mechanism's size (``Mechanism.size``).
+MAX_TOLERANCE_OF_SIZE = 0.5
+
+
 def robustness_from_dict(table, source: str, mech: Mechanism, operating: Operating | None = None,
                          key: str = "robustness") -> Robustness:
     """Validate a ``[robustness]`` table for ``mech`` (``operating``: the study's operating point, whose
     ``unit`` a tolerance in mm needs). UserError naming ``source`` and the key on bad input."""
     def k(name):
-        return where(source, f"{key}.{name}")
+        return where(source, f"{key}.{name}" if key else name)
 
     if not isinstance(table, dict):
         raise UserError(f"{where(source, key)}: expected a table ([{key}] with tolerance = ...), got {table!r}")
@@ -145,6 +149,13 @@ def robustness_from_dict(table, source: str, mech: Mechanism, operating: Operati
             raise UserError(f"{k('unit')}: a tolerance in mm needs [operating] unit (metres per model unit, e.g. "
                             f"0.01 for a mechanism drawn in centimetres); or give unit = \"%\" or \"model\"")
         scale_mm = 1.0 / (1000.0 * float(operating.unit))
+    if unit != "%":  # an error as big as the mechanism is no tolerance: at most half its size (its longest member)
+        most = MAX_TOLERANCE_OF_SIZE * mech.size
+        model = float(tol) * (scale_mm if unit == "mm" else 1.0)
+        if model > most:
+            limit = most / scale_mm if unit == "mm" else most
+            raise UserError(f"{k('tolerance')}: expected at most {limit:.6g} {'mm' if unit == 'mm' else 'model units'} "
+                            f"(half the mechanism's size, its longest member), got {tol!r}")
     return Robustness(tolerance=float(tol), unit=unit, distribution=distribution, copies=int(copies), seed=int(seed),
                       parameters=parameters, scale_mm=scale_mm)
 
@@ -327,4 +338,4 @@ def parse_tolerance(text: str, operating: Operating | None, source: str, mech: M
         raise UserError(f"{source}: expected a tolerance > 0 such as 0.5% (relative, at most 50%), 0.1mm or 0.02 "
                         f"(model units), got {text!r}")
     return robustness_from_dict({"tolerance": value, "unit": unit, "copies": copies, "distribution": distribution,
-                                 "seed": seed}, source, mech, operating, key="tolerance")
+                                 "seed": seed}, source, mech, operating, key="")

@@ -102,6 +102,15 @@ def describe(mech) -> dict:
     unit = op.unit if op is not None else None
     density = mech.link_density
 
+    # each joint's links and bodies, indexed once (a scan of every link per joint was quadratic)
+    on_links: dict = {}
+    for lk in mech.links:
+        for v in dict.fromkeys((lk.a, lk.b)):
+            on_links.setdefault(v, []).append(lk.name)
+    on_bodies: dict = {}
+    for b in mech.bodies:
+        for v in dict.fromkeys(b.joints):
+            on_bodies.setdefault(v, []).append(b.name)
     joints = []
     for v in mech.vertices:
         if v == mech.driven:
@@ -115,8 +124,8 @@ def describe(mech) -> dict:
             j["position"] = _pt(mech.fixed[v])
         elif role == "moving":
             j["guess"] = _pt(mech.guess[v])
-        j["links"] = [lk.name for lk in mech.links if v in (lk.a, lk.b)]
-        j["bodies"] = [b.name for b in mech.bodies if v in b.joints]
+        j["links"] = on_links.get(v, [])
+        j["bodies"] = on_bodies.get(v, [])
         j["placed_by_step"] = placed_by.get(v)
         joints.append(j)
 
@@ -161,7 +170,7 @@ def describe(mech) -> dict:
                      "line": list(sl.line) if not sl.ground else None, "offset": float(sl.offset)}
                     for sl in mech.sliders],
         "parameters": params,
-        "parameter_kinds": {p: mech.parameter_kind(p) for p in params},
+        "parameter_kinds": dict(mech.parameter_kinds()),
         "walker": walker,
         "screen": Screen().as_dict() if mech.crank is not None else None,
         "mass": {"given": bool(masses_given), "link_density": None if density is None else float(density)},
