@@ -55,13 +55,13 @@ from ._guard import call as guarded
 from ._integrity import seal
 from ._lock import OutputLock
 from ._shards import ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch, write_shard
-from ._read import RESOLVE_ROWS, Results, inspect, lean_file, open_results, probe, resolve_series
+from ._read import RESOLVE_ROWS, Results, inspect, lean_file, open_for_update, open_results, probe, resolve_series
 from ._update import check_updatable, update_metrics
 from ._variants import (check_variant, is_results, results_band, variant_design, variant_mechanism, variant_peak_forces,
                         variant_row, variant_torque)
 from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN, Exclusive,
                      ResultsWriter, chunk_rows, copy_for_update, create_metric, fingerprint_diff, hdf5_rows,
-                     metrics_group, open_for_update, open_h5, replace_with, write_error_reason)
+                     metrics_group, open_h5, replace_with, write_error_reason)
 
 __all__ = ["SERIES", "SeriesSpec", "register_series", "DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION",
            "STATUS_NOT_RUN", "Results", "ResultsWriter", "check_variant", "chunk_rows", "create_dataset", "create_metric",

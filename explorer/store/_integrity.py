@@ -48,6 +48,7 @@ import numpy as np
 
 from ..errors import UserError
 from ._datasets import SERIES as _SERIES
+from ._guard import PROGRESS
 
 #: Root attribute holding the metadata checksum.
 ATTR = "integrity"
@@ -70,10 +71,9 @@ RESTORE = "run the study again or restore the file from a copy"
 
 _warned: set = set()
 
-#: Progress callback of a verification run in a guarded child process (:mod:`explorer.store._guard`
-#: sets it there): called after every object, attribute, block of rows and chunk-index entry, so that a
-#: child making no progress (HDF5 looping on damaged bytes) is told from one that is slow.
-PROGRESS: list = [None]
+#: Progress callback of a verification run in a guarded child process (:data:`explorer.store._guard.PROGRESS`,
+#: which the child sets): called after every object, attribute, block of rows and chunk-index entry, so that
+#: a child making no progress (HDF5 looping on damaged bytes) is told from one that is slow.
 
 
 def _tick() -> None:

@@ -15,7 +15,7 @@ from ..mechanism import Mechanism, mechanism_from_dict
 from ..plan import fourbar_loops, grashof_batch
 from ._datasets import SERIES, series_spec, vertex_series
 from ._integrity import READ_CACHE_BYTES, RESTORE, is_legacy, warn_legacy
-from ._write import FILE_STATUS_NAMES, FORMAT
+from ._write import FILE_STATUS_NAMES, FORMAT, open_h5
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -832,3 +832,21 @@ def _category_codes(codes: np.ndarray, order: list[int]) -> np.ndarray:
 
 def _text(s) -> str:
     return s.decode() if isinstance(s, bytes) else str(s)
+
+
+def open_for_update(path) -> h5py.File:
+    """An existing, complete-or-not explorer results file opened for writing (``r+``), for a deliberate
+    edit (``explorer metrics`` writes a copy instead: :func:`copy_for_update`). UserError for a missing,
+    foreign, busy, unreadable or damaged file (it is verified first, in a child process:
+    :func:`~explorer.store.inspect`)."""
+    p = Path(os.fspath(path))
+    if not p.is_file():
+        raise UserError(f"{p}: no such results file")
+    inspect(p, warn=False)  # in a child process first: bytes that make HDF5 loop are refused in one line
+    f = open_h5(p, "r+")
+    if f.attrs.get("format") != FORMAT:
+        f.close()
+        raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
+    if is_legacy(f):
+        warn_legacy(p)
+    return f

@@ -62,7 +62,7 @@ from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
 from ._datasets import (SCALAR_FILTERS, SERIES, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group,
                         metric_attrs, now)
-from ._integrity import (DIGEST, RESTORE, chunk_digest, has_integrity, is_legacy, metadata_checksum, per_variant,
+from ._integrity import (DIGEST, RESTORE, chunk_digest, has_integrity, metadata_checksum, per_variant,
                          salvage, stamp, verify, warn_legacy)
 
 __all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
@@ -753,25 +753,6 @@ def open_h5(p: Path, mode: str, **kw) -> h5py.File:
             reason = "the file is open in another process (close it, or wait for `explorer run` to finish)"
         raise UserError(f"{p}: cannot open the results file{' for writing' if mode != 'r' else ''}: {reason}") \
             from None
-
-
-def open_for_update(path) -> h5py.File:
-    """An existing, complete-or-not explorer results file opened for writing (``r+``), for a deliberate
-    edit (``explorer metrics`` writes a copy instead: :func:`copy_for_update`). UserError for a missing,
-    foreign, busy, unreadable or damaged file (it is verified first, in a child process:
-    :func:`~explorer.store.inspect`)."""
-    p = Path(os.fspath(path))
-    if not p.is_file():
-        raise UserError(f"{p}: no such results file")
-    from ._read import inspect
-    inspect(p, warn=False)  # in a child process first: bytes that make HDF5 loop are refused in one line
-    f = open_h5(p, "r+")
-    if f.attrs.get("format") != FORMAT:
-        f.close()
-        raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
-    if is_legacy(f):
-        warn_legacy(p)
-    return f
 
 
 def metrics_group(f: h5py.Group, name: str = "metrics", band: float | None = None, computed: str | None = None):
