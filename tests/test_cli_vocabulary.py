@@ -10,7 +10,7 @@ import json
 import pytest
 
 from explorer.cli import build_parser
-from explorer.cli._args import VOCABULARY
+from explorer.testing import VOCABULARY
 from clihelp import cli
 
 #: What each verb takes of the vocabulary (verb, or "bench accuracy"): the words of VOCABULARY.
@@ -99,7 +99,7 @@ def parse(*argv):
     (["describe", "jansen", "--format", "text"], ["describe", "jansen", "--format", "table"], ["format"]),
 ])
 def test_old_spellings_still_parse_with_a_one_line_note(old, new, same, capsys):
-    from explorer.cli._args import chosen_variant
+    from explorer.testing import chosen_variant
     a = parse(*old)
     err = capsys.readouterr().err
     b = parse(*new)
@@ -113,7 +113,7 @@ def test_old_spellings_still_parse_with_a_one_line_note(old, new, same, capsys):
 
 
 def test_top_zero_is_all_and_bad_values_are_one_line(capsys):
-    from explorer.cli._args import top_count
+    from explorer.testing import top_count
     assert parse("rank", "R.h5", "--top", "0").top == 0 and top_count(0, 10) is None
     assert top_count(None, 10) == 10 and top_count(3, 10) == 3
     assert parse("plot", "R.h5", "--top", "7").top == 7

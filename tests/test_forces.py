@@ -20,7 +20,7 @@ import pytest
 import explorer.mechanism as mechanism_pkg
 from explorer import STATUS_NAMES, UserError, load_mechanism, simulate, simulate_batch
 from explorer.gait import WALKER_METRICS
-from explorer.gait._walker import walker_metrics
+from explorer.testing import walker_metrics
 from explorer.mechanism import Walker, builtin_mechanisms, mechanism_from_dict, parse_toml
 
 BUILTIN = Path(mechanism_pkg.__file__).resolve().parent / "builtin"

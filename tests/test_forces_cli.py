@@ -110,7 +110,7 @@ def test_a_file_made_before_the_moving_body_reads_as_held(forces_file, tmp_path,
     import json
 
     from explorer.store import open_results
-    from explorer.store._integrity import stamp
+    from explorer.testing import stamp
     old = tmp_path / "old.h5"
     old.write_bytes(forces_file.read_bytes())
     with h5py.File(old, "r+") as f:

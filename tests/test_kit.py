@@ -20,7 +20,7 @@ import explorer
 from explorer.cli import main
 from explorer.errors import UserError
 from explorer.mechanism import load_mechanism
-from explorer.view._kit import Material, build_kit, kit_data, pin_diameter, shaft_diameter, write_kit
+from explorer.testing import Material, build_kit, kit_data, pin_diameter, shaft_diameter, write_kit
 
 SVG = "{http://www.w3.org/2000/svg}"
 BUILTIN_LEGS = ("jansen", "klann", "strider", "hoeken", "fourbar")
@@ -368,7 +368,7 @@ def test_the_svg_labels_and_holes(tmp_path_factory):
     """Every joint label once per hole of every copy; a part's label clear of its holes (the Hoeken coupler's
     B-C-P holes are in a line: its label stays off C)."""
     mech, kit, folder = kit_of("hoeken", tmp_path_factory)
-    from explorer.view._kit_sheet import CHAR_W, copy_labels
+    from explorer.testing import CHAR_W, copy_labels
     root = ET.parse(folder / "parts.svg").getroot()
     cut = root.find(f"{SVG}g[@id='cut']")
     assert len(cut.findall(f"{SVG}g[@class='part']")) == len(kit.placements)

@@ -416,8 +416,8 @@ def test_sizes_of_the_mechanism_match_the_reference():
 
 def test_sharded_study_file_carries_the_geometry(pivots_run, tmp_path):
     """Shards (what a Dask run writes) stitched into one file read as the single-process file."""
-    from explorer.store._shards import plan_shards, shards_folder, stitch, write_shard
-    from explorer.study._chunk import chunk_solver
+    from explorer.testing import plan_shards, shards_folder, stitch, write_shard
+    from explorer.testing import chunk_solver
     _, df, tmp = pivots_run
     study = load_study(tmp / "pivots.toml")
     out = tmp_path / "sharded.h5"

@@ -361,7 +361,8 @@ def test_a_full_disk_leaves_the_file_as_it_was(results, monkeypatch):
     import errno
 
     from explorer.errors import UserError
-    monkeypatch.setattr("explorer.store._write._fallocate", lambda *a, **k: errno.ENOSPC)  # no room to reserve
+    from explorer.testing import store_write
+    monkeypatch.setattr(store_write, "_fallocate", lambda *a, **k: errno.ENOSPC)  # no room to reserve
     before = sha(results)
     with pytest.raises(UserError, match="the disk is full: updating the file needs up to .* unchanged"):
         physics_check(results, variants=[0], turns=1, workers=1)

@@ -43,7 +43,7 @@ def toy_series():
 
 
 def test_a_toy_series_is_one_registry_entry(toy_series, tmp_path):
-    from explorer.store._integrity import series_groups
+    from explorer.testing import series_groups
     assert "speeds" in series_groups()  # the integrity checks read the registry
     full = explorer.run_study(STUDY, output=tmp_path / "full.h5", progress=False).path
     lean_study = {**STUDY, "scene": {**STUDY["scene"], "store": "metrics"}}
@@ -90,8 +90,8 @@ def test_series_of_the_registry_read_alike(tmp_path):
 
 def test_metric_groups_say_where_they_apply(monkeypatch):
     from explorer.gait import available_metrics
-    from explorer.gait._metrics import GROUPS, MetricGroup
-    from explorer.gait._table import BY_NAME
+    from explorer.testing import METRIC_GROUPS as GROUPS, MetricGroup
+    from explorer.testing import BY_NAME
     slider = explorer.load_mechanism("slidercrank")
     jansen = explorer.load_mechanism("jansen")
     assert all(isinstance(g, MetricGroup) and callable(g.where) for g in GROUPS.values())

@@ -130,7 +130,7 @@ def test_gif_foot_marker_follows_the_cycle(jansen, jansen_cycle, tmp_path):
     anim = LinkageAnimation(jansen, cycles=1, frames=6, dpi=DPI)
     frames = _gif_frames(anim.write(tmp_path / "leg.gif").path)
     foot = jansen.vertex_index(jansen.foot)
-    from explorer.view._draw import FOOT_COLOR
+    from explorer.testing import FOOT_COLOR
     for i, f in enumerate(frames):
         k = anim.frame_index(i)
         assert anim.cycle.theta[k] == pytest.approx(2 * math.pi * i / 6)
@@ -492,7 +492,7 @@ def test_bodies_are_drawn_as_their_outline():
     import matplotlib.pyplot as plt
 
     from explorer import load_mechanism, simulate
-    from explorer.view._draw import LegArtists, hull_order
+    from explorer.testing import LegArtists, hull_order
 
     assert hull_order([(0, 0), (2.5, 0), (5, 0)]) == [0, 2, 0]
     assert hull_order([(0, 0), (1, 0), (0.5, 1), (0.5, 0.3)]) == [0, 1, 2, 0]  # the inner point is no corner

@@ -19,7 +19,7 @@ from explorer.errors import UserError
 from explorer.gait import Screen
 from explorer.mechanism import load_mechanism
 from explorer.study import design_yield, load_study, robustness_from_dict, run_study
-from explorer.study import _yield as yield_module
+from explorer.testing import study_yield as yield_module
 
 from naive import JANSEN_LINKS, circle_circle, cross, jansen_signs
 

@@ -264,7 +264,7 @@ def test_library_writers_replace_a_link_never_follow_it(results, tmp_path):
 # -- the output lock's race (item 5) -------------------------------------------------------------------------
 STALLED = """
 import sys, time, fcntl
-import explorer.store._lock as lock
+from explorer.testing import store_lock as lock
 marker, stall = sys.argv[1], float(sys.argv[2])
 
 class Stalled:  # fcntl, with a stall before the first flock (as a busy machine may make)
@@ -287,7 +287,7 @@ def test_a_run_stalled_before_its_flock_does_not_share_the_lock(tmp_path):
     """Run A opens the lock file, stalls; its owner finishes and removes the file; run C takes a new one. A
     used to lock the removed file and run beside C (both exit 0, one's results lost): now it sees that the
     path names another file, tries that one, and stops in one line."""
-    from explorer.store._lock import OutputLock
+    from explorer.testing import OutputLock
     study = tmp_path / "study.toml"
     study.write_text(SMALL, encoding="utf-8")
     out, marker = tmp_path / "out.h5", tmp_path / "opened"
@@ -315,7 +315,7 @@ def test_a_run_stalled_before_its_flock_does_not_share_the_lock(tmp_path):
 
 
 def test_the_lock_is_not_removed_from_under_its_next_owner(tmp_path):
-    from explorer.store._lock import OutputLock, lock_path
+    from explorer.testing import OutputLock, lock_path
     out = tmp_path / "out.h5"
     a = OutputLock(out).acquire()
     os.unlink(lock_path(out))                # removed by hand (or by a run that lost the race)
@@ -382,7 +382,7 @@ def test_svg_is_well_formed_whatever_a_name_holds(tmp_path):
 def test_where_powers_are_exact_where_finite():
     import numpy as np
     import pandas as pd
-    from explorer.gait._filter import evaluate_filter
+    from explorer.testing import evaluate_filter
     df = pd.DataFrame({"x": [1e64, 1e100, 2e100, 1.0]})
     assert evaluate_filter(df, "x == 10**100").tolist() == [False, True, False, False]
     assert evaluate_filter(df, "x >= 10**100").tolist() == [False, True, True, False]
