@@ -123,7 +123,8 @@ def test_every_verb_refuses_the_damaged_heap_and_run_force_replaces_it(small, tm
     from explorer.testing import dumps_toml
     study.write_text(dumps_toml(SMALL), encoding="utf-8")
     before = bad.read_bytes()
-    argvs = [["rank", bad], ["show", bad, "0"], ["export", bad, "0", "--format", "csv", "-o", tmp_path / "x.csv"],
+    argvs = [["rank", bad], ["show", bad, "--variant", "0"],
+             ["export", bad, "--variant", "0", "--as", "csv", "-o", tmp_path / "x.csv"],
              ["plot", bad, "--top", "1", "-o", tmp_path / "x.png"], ["report", bad, "-o", tmp_path / "x.html"],
              ["metrics", bad, "--band", "0.02"], ["run", study, "-o", bad, "--resume", "-q"],
              ["physics", bad, "--variant", "0"]]
@@ -309,7 +310,7 @@ def consume(path):
     except UserError as exc:
         assert "\\n" not in str(exc)
         return ("refused", str(exc)), None
-    for argv in (["rank", path], ["show", path, "3"]):
+    for argv in (["rank", path], ["show", path, "--variant", "3"]):
         o, e = io.StringIO(), io.StringIO()
         with contextlib.redirect_stdout(o), contextlib.redirect_stderr(e):
             code = main([str(a) for a in argv])
@@ -754,7 +755,8 @@ def test_yield_tolerances_are_bounded(small, capsys):
         explorer.load_study({**SMALL, "robustness": {"tolerance": 100.0, "unit": "model"}})
 
 
-@pytest.mark.parametrize("argv", [["rank", "R", "--top"], ["export", "R", "0", "--format", "kit", "--crank-mm", "x"],
+@pytest.mark.parametrize("argv", [["rank", "R", "--top"],
+                                  ["export", "R", "--variant", "0", "--as", "kit", "--crank-mm", "x"],
                                   ["frobnicate"], ["run", "--nope"], ["bench", "nope"], ["show"]])
 def test_every_argparse_error_is_one_line(small, argv, capsys):
     argv = [str(small) if a == "R" else a for a in argv]
@@ -768,7 +770,7 @@ def test_every_argparse_error_is_one_line(small, argv, capsys):
 @pytest.mark.parametrize("sheet", ["1e9x1e9", "600x5001"])
 def test_kit_sheets_are_bounded(tmp_path, capsys, sheet):
     """A 10^9 mm sheet was accepted (and drawn): at most 5 m a side, one line, nothing written."""
-    code, _, err = cli(capsys, "export", "jansen", "--format", "kit", "-o", tmp_path / "k", "--sheet", sheet)
+    code, _, err = cli(capsys, "export", "jansen", "--as", "kit", "-o", tmp_path / "k", "--sheet", sheet)
     assert code == 2 and err.count("\n") == 1 and "--sheet: " in err and "at most 5000" in err, err
     assert not (tmp_path / "k").exists()
 
@@ -837,4 +839,4 @@ def test_a_study_of_a_9999_vertex_chain_runs_and_reads(tmp_path, capsys):
         assert len(r.link_names) == 9998 and sum(counts.values()) == 10 and counts.get("not-run", 0) == 0
         assert r.frame().loc[0, "status"] == "ok" and len(r.nominal) == 9999
     assert cli(capsys, "describe", mech)[0] == 0
-    assert cli(capsys, "show", tmp_path / "c.h5", "3")[0] == 0
+    assert cli(capsys, "show", tmp_path / "c.h5", "--variant", "3")[0] == 0
