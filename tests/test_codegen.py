@@ -20,7 +20,7 @@ import pytest
 
 import explorer
 from explorer.kernels import _codegen, _simulate
-from explorer.kernels._fast import place_dyad
+from explorer.kinds.dyad import place_dyad
 from explorer.kernels._sweep import STATUS_NOCONV
 
 #: each leg with a spread at which some of its designs turn and some fail

@@ -117,10 +117,11 @@ def test_the_hole_marker_answers_introspection_as_an_ordinary_object():
 
 
 def test_kernel_cache_key_covers_the_plan():
-    """The block kinds (``plan``) are constants frozen into the kernels' machine code (and into the
-    generated sources): a change there must key a fresh cache folder."""
+    """The block kinds (``kinds``) are code and constants frozen into the kernels' machine code (and into
+    the generated sources): a change there must key a fresh cache folder."""
     from explorer.kernels._cache import kernel_sources
 
     names = {name for name, _ in kernel_sources()}
-    for module in ("plan/_kinds.py", "kernels/_sweep_template.py", "kernels/_sweep_array.py", "kernels/_fast.py"):
+    for module in ("plan/_kinds.py", "kinds/__init__.py", "kinds/dyad.py", "kernels/_sweep_template.py",
+                   "kernels/_sweep_array.py", "kernels/_kinds_array.py"):
         assert module in names

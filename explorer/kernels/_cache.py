@@ -2,12 +2,12 @@
 
 Numba checks only the source file that defines a cached function, not the files of the functions it
 calls or inlines or the globals it freezes in as constants, so after an upgrade that changes
-``_fast.py`` alone (the dyad's arithmetic) the cached sweep in ``_sweep_array.py`` would still run the old
-step, and one that renumbers the block kinds in ``plan/_kinds.py`` would leave every cached kernel
-comparing against the old numbers. Instead of deleting cache files, every explorer kernel is
+``kinds/dyad.py`` alone (the dyad's arithmetic) the cached sweep in ``_sweep_array.py`` would still run
+the old step, and one that renumbers the block kinds would leave every cached kernel comparing against
+the old numbers. Instead of deleting cache files, every explorer kernel is
 cached in a folder named after a hash of the code of every module that defines or feeds a kernel
-(:data:`KERNEL_PACKAGES`: ``explorer/kernels``, ``explorer/plan``, ``explorer/gait``,
-``explorer/bench``): changed code, a new folder, a fresh
+(:data:`KERNEL_PACKAGES`: ``explorer/kernels``, ``explorer/kinds``, ``explorer/plan``,
+``explorer/gait``, ``explorer/bench``): changed code, a new folder, a fresh
 compile; a changed docstring or comment leaves the hash alone (it is taken over the syntax tree,
 docstrings removed), so it costs at most the recompile of the functions in that one file (Numba's own
 check). The folder is ``$NUMBA_CACHE_DIR/explorer-<hash>`` when that variable is set, else the user's
@@ -33,8 +33,8 @@ from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parents[1]      # explorer/
 #: Subpackages whose modules define kernels, code the kernels inline, or constants frozen into their
-#: machine code (``plan``: the block kinds).
-KERNEL_PACKAGES = ("kernels", "plan", "gait", "bench")
+#: machine code (``kinds``: the block kinds' numerics and numbers).
+KERNEL_PACKAGES = ("kernels", "kinds", "plan", "gait", "bench")
 
 
 def _strip_docstrings(tree: ast.AST) -> ast.AST:

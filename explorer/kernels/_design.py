@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import UserError
 from ..mechanism import Mechanism
 from ..plan import Plan
-from ._inputs import Designs
+from ._inputs import BLOCK_DTYPE, Designs
 
 
 def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray, geometry: dict | None,
@@ -70,9 +70,11 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
           & np.all(np.isfinite(center), axis=1) & np.isfinite(tol) & (tol > 0)
           & np.all(np.isfinite(slide), axis=(1, 2)) & np.all(slide[..., 5] > 0, axis=1))
     dist[~ok] = np.nan
+    # the block tables, starts and closing scales are the kernels' setup's (``_batch.setup``)
     return Designs(np.ascontiguousarray(dist), np.ascontiguousarray(uv), np.ascontiguousarray(fixed),
                    np.ascontiguousarray(center), np.ascontiguousarray(scale, dtype=np.float64), tol,
-                   np.ascontiguousarray(slide))
+                   np.ascontiguousarray(slide), np.zeros((N, 0), dtype=BLOCK_DTYPE), np.zeros((N, 0, 2)),
+                   np.full(N, np.inf))
 
 
 def slide_numbers(mech: Mechanism, plan: Plan, lengths: np.ndarray, points: list, col, N: int) -> np.ndarray:

@@ -81,7 +81,9 @@ from numba import njit
 
 from ..mechanism import BODY_MODELS
 from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, ROW_SLIDE, SLIDE, Plan
-from ._blocks import _general_jacobian, _general_rates, general_sign, lu_solve, slide_curvature, slide_row
+from ..kinds._common import lu_solve
+from ..kinds.eq_slide import slide_curvature, slide_row
+from ..kinds.general import _general_jacobian, general_rates as _general_rates, general_sign
 from ._design import pair_coordinates
 from ._legs import ground_contact, leg_feet, leg_samples
 

@@ -12,17 +12,17 @@ import numpy as np
 from .._files import format_size
 from ..errors import UserError, where
 from ..mechanism import Mechanism, Operating, Walker, operating_from_dict, walker_body
-from ..plan import ATTACH, DYAD, GENERAL, SLIDE, Plan, make_plan
-from ._blocks import solve_general
+from ..kinds import KINDS
+from ..plan import Plan, make_plan
 from ._closed import closed_batch_jit
 from ._design import body_points
 from ._design import designs as _designs
 from ._forces import F_OK, force_metrics, has_mass, no_forces, solve_forces
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
-from ._batch import fast_batch_jit, generic_batch_jit
-from ._fast import slide_root, slide_sign
+from ._batch import fast_batch_jit, generic_batch_jit, setup
 from ._codegen import kernel_for, supported
-from ._inputs import Drive, Options, Outputs, topology
+from ._inputs import BLOCK_DTYPE, Drive, Options, Outputs, topology
+from ._kinds_array import block_table
 from ._rows import parallel_rows
 from ._step import BLOCK, DENSE
 from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
@@ -305,7 +305,7 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
     """Positions (n_vertices, 2) of ``mech`` at its first sample on the branch its guess selects.
 
     A dyad takes the circle–circle intersection on the same side of its parents as the guess; a
-    pin–slider (SLIDE) block the line–circle intersection on the guess's side (``_fast.slide_sign``);
+    pin–slider (SLIDE) block the line–circle intersection on the guess's side (``explorer.kinds.slide``);
     a body joint follows its base pair rigidly; a general block runs damped Newton from the guess.
     Returns (positions, None) or (partial, Failure).
     """
@@ -317,79 +317,44 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
         P[mech.vertex_index(v)] = xy
     drv = _drive_for(mech.crank or mech.path, 3)
     P[plan.tip] = np.array(drv.center) + _scale(mech) * drv.table[0, :2]
-    des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
-    L, uv = des.dist[0], des.uv[0]
-    topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
-    n = 2 * _largest_general(plan)  # scratch of the largest coupled block, not of the whole mechanism
-    loc, M, rhs = np.full(len(mech.vertices), -1, dtype=np.int64), np.empty((n, n)), np.empty(n)
-    Z = np.zeros_like(P)
+    ctx = _nominal_context(mech, plan, P)
     for k, blk in enumerate(plan.blocks):
-        if blk.kind == DYAD:
-            v = blk.vertices[0]
-            (a, la), (b, lb) = [(_other(plan, e, v), e) for e in blk.links]
-            p = _circle_intersection(P[a], P[b], L[la], L[lb], P[v])
-            if p is None:
-                return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, math.nan, k)
-            P[v] = p
-        elif blk.kind == SLIDE:
-            tab = _slide_table(topo, des, P, k)
-            v = blk.vertices[0]
-            code, x, y = slide_root(tab[k], float(np.sign(slide_sign(tab[k], P))), P, P[v, 0], P[v, 1])
-            if code != 0:
-                return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, math.nan, k)
-            P[v] = x, y
-        elif blk.kind == ATTACH:
-            j, p, q = plan.attach[blk.attaches[0][0]]
-            (u, w), g = uv[blk.attaches[0][0]], P[q] - P[p]
-            P[j] = P[p] + u * g + w * np.array([-g[1], g[0]])
-        else:
-            P1 = P.copy()
-            g = topo.gen[k]
-            rows = topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]]
-            code, _ = solve_general(P, Z, Z, P1, Z.copy(), Z.copy(), np.array(blk.vertices), rows, plan.link_a,
-                                    plan.link_b, plan.attach, L, uv, topo.slide, des.slide[0], 0.0, 0.0,
-                                    1e-12 * mech.size, 200, 0.0, False, False, loc, M, rhs)
-            if code != 0:
-                return P, _failure(mech, plan, STATUS_NOCONV, 0.0, math.nan, k)
-            P = P1
+        kind = KINDS[blk.kind]
+        if not kind.assemble(k, P, ctx):
+            status = STATUS_NOCONV if getattr(kind, "FAILS_AS", "assembly") == "no-convergence" else STATUS_ASSEMBLY
+            return P, _failure(mech, plan, status, 0.0, math.nan, k)
     return P, None
 
 
-def _slide_table(topo, des, P, k=None):
-    """The nominal design's block table (``_step.block_table``), for its SLIDE rows."""
-    from ._step import block_table
+def _nominal_context(mech: Mechanism, plan: Plan, P: np.ndarray):
+    """What the kinds' ``assemble`` and ``branch`` read (Python, once per topology): the plan, the nominal
+    design (``des``), the lowered plan of every block (``topo``), the nominal's block table at positions
+    P (``table``), a coupled block's Newton tolerance and scratch of the largest coupled block."""
+    from types import SimpleNamespace
 
-    return block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, des.dist[0],
-                       des.uv[0], P, des.center[0, 0], des.center[0, 1], des.scale[0], False, topo.slid, topo.slide,
-                       des.slide[0])
+    des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
+    topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
+    table = np.zeros(plan.n_blocks, dtype=BLOCK_DTYPE)
+    block_table(table, topo.kind, topo.blk, topo.tip, des.dist[0], des.uv[0], des.slide[0], topo.att_vpq, topo.slide, P,
+                des.center[0, 0], des.center[0, 1], des.scale[0], False)
+    n = 2 * _largest_general(plan)  # scratch of the largest coupled block, not of the whole mechanism
+    return SimpleNamespace(plan=plan, des=des, topo=topo, table=table, tol=1e-12 * mech.size,
+                           loc=np.full(len(mech.vertices), -1, dtype=np.int64), M=np.empty((n, n)), rhs=np.empty(n))
 
 
 def _largest_general(plan: Plan) -> int:
     """Vertices of the plan's largest coupled (GENERAL) block, 0 if it has none."""
-    return max((len(b.vertices) for b in plan.blocks if b.kind == GENERAL), default=0)
+    return max((len(b.vertices) for b in plan.blocks if _coupled(b.kind)), default=0)
+
+
+def _coupled(kind: int) -> bool:
+    """Whether blocks of this kind need the generic context (coupled blocks: ``kinds.general``)."""
+    return getattr(KINDS[int(kind)], "CONTEXT", False)
 
 
 def _nominal_design(mech: Mechanism, plan: Plan, tolerance: float):
     """The nominal design as the kernels read it (``_inputs.Designs`` of one row)."""
     return _designs(mech, plan, mech.lengths[None, :], np.array([_scale(mech)]), None, tolerance)
-
-
-def _other(plan: Plan, link: int, v: int) -> int:
-    return int(plan.link_b[link] if plan.link_a[link] == v else plan.link_a[link])
-
-
-def _circle_intersection(a, b, da, db, guess):
-    """The point at distances da from a and db from b on the side of line a→b where ``guess`` lies."""
-    g = b - a
-    d = math.hypot(g[0], g[1])
-    if d == 0.0 or d > da + db or d < abs(da - db):
-        return None
-    x = (da * da - db * db + d * d) / (2.0 * d)
-    y = math.sqrt(max(da * da - x * x, 0.0))
-    u = g / d
-    perp = np.array([-u[1], u[0]])
-    side = g[0] * (guess[1] - a[1]) - g[1] * (guess[0] - a[0])
-    return a + x * u + (y if side >= 0.0 else -y) * perp
 
 
 def _failure(mech: Mechanism, plan: Plan, status: int, theta: float, theta_end: float, block: int) -> Failure:
@@ -530,36 +495,9 @@ def branch_signs(mech: Mechanism, positions) -> np.ndarray:
 def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
     """Branch sign (+1.0 / −1.0; 0.0 if singular or for an ATTACH block, which has none) of every block
     at positions P (n_vertices, 2)."""
-    # a dyad's orientation (``_blocks.dyad_sign``); a coupled block's determinant sign
-    # (``_blocks.general_sign``, compiled only for plans that have one) with scratch of the largest
-    # coupled block's size (``_step.block_signs`` takes scratch of the whole mechanism's, (2 n)²)
-    out = np.zeros(plan.n_blocks)
-    general = [k for k, blk in enumerate(plan.blocks) if blk.kind == GENERAL]
-    if any(blk.kind == SLIDE for blk in plan.blocks):
-        des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
-        tab = _slide_table(topology(plan, range(plan.n_blocks), [], [], mech.crank is not None), des, P)
-        for k, blk in enumerate(plan.blocks):
-            if blk.kind == SLIDE:
-                out[k] = np.sign(slide_sign(tab[k], P))
-    for k, blk in enumerate(plan.blocks):
-        if blk.kind == DYAD:
-            v = blk.vertices[0]
-            a, b = (_other(plan, e, v) for e in blk.links)
-            g, w = P[b] - P[a], P[v] - P[a]
-            out[k] = np.sign(g[0] * w[1] - g[1] * w[0])
-    if general:
-        from ._blocks import general_sign
-
-        des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
-        topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
-        n = 2 * _largest_general(plan)
-        loc, M, rhs = np.full(len(mech.vertices), -1, dtype=np.int64), np.empty((n, n)), np.empty(n)
-        for k in general:
-            g = topo.gen[k]
-            out[k] = general_sign(P, topo.gen_verts[topo.gen_vptr[g]:topo.gen_vptr[g + 1]],
-                                  topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]], topo.dist_a, topo.dist_b,
-                                  topo.att_vpq, des.uv[0], topo.slide, des.slide[0], loc, M, rhs)
-    return out
+    # each kind's own sign (a dyad's orientation, a coupled block's determinant sign, ...)
+    ctx = _nominal_context(mech, plan, P)
+    return np.array([KINDS[blk.kind].branch(k, P, ctx) for k, blk in enumerate(plan.blocks)], dtype=np.float64)
 
 
 KERNELS = ("auto", "general", "generated")
@@ -587,12 +525,15 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
     topo = topology(plan, blocks, moving, out_idx, mech.crank is not None)
     kdrv = Drive(drv.kind, drv.prm, drv.table, drv.params, drv.t_end, drv.closed)
     sg = np.ascontiguousarray(signs[blocks])
-    general = bool(np.any(topo.kind == GENERAL))
+    general = any(_coupled(k) for k in topo.kind)
+    nv, nb = len(mech.vertices), len(blocks)
+    des = setup(plan, blocks, topo, kdrv, P0, sg, des._replace(
+        table=np.zeros((N, nb), dtype=BLOCK_DTYPE), start=np.empty((N, nv, 2)), shortest=np.empty(N)))
     if method == "closed":
         if velocities or accelerations or general:
             raise UserError("method 'closed': the closed form gives positions only, and only for plans of dyads and "
                             "rigid bodies (no coupled blocks)")
-        parallel_rows(closed_batch_jit, (topo, kdrv, P0, sg), (des, outs))
+        parallel_rows(closed_batch_jit, (topo, kdrv, sg), (des, outs))
     else:
         opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations), bool(velocities),
                        bool(accelerations))
@@ -606,7 +547,7 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
             fn = kernel_for(topo, bool(velocities))  # this plan's code, generated (same results)
         else:
             fn = fast_batch_jit
-        parallel_rows(fn, (topo, kdrv, opts, P0, sg), (des, outs))
+        parallel_rows(fn, (topo, kdrv, opts, sg), (des, outs))
     fbl = outs.fail_block
     if len(blocks):  # report the failing block by its index in the full plan
         fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
@@ -614,12 +555,12 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
 
 
 def warm_dyad() -> None:
-    """Compile the dyad's arithmetic (``_fast.place_dyad``, with ``_blocks.gap_suspect``) into the
+    """Compile the dyad's arithmetic (``explorer.kinds.dyad.place_dyad``, with ``gap_suspect``) into the
     on-disk kernel cache, for a warm-up process (``explorer.gait._warm``): it is called here once, on
     numbers it settles at once, with the argument types every solver kernel (generated or general)
     calls it with, so a cold ``explorer run``, whose own compile of the solver reaches it seconds
     later, loads it from the cache instead of compiling it (1.7-2 CPU-s)."""
-    from ._fast import place_dyad
+    from ..kinds.dyad import place_dyad
 
     place_dyad(True, True, *([0.0] * 31), 1)
 

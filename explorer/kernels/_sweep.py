@@ -5,7 +5,7 @@ the dialect (:data:`ARRAY`) that fills the template's holes with state in (n_ver
 a call of a global ``step``, and the rendering, committed as ``_sweep_array.py`` (rewrite it with
 ``python -c "from explorer.kernels import _sweep; _sweep.write_array_module()"`` after editing the
 template or the dialect; tests/test_sweep_template.py fails while they differ). :func:`_specialise`
-binds ``step`` to the fast DYAD / ATTACH step or to the generic block / dense step and jits each copy
+binds ``step`` to the fast step (plans without coupled blocks) or to the generic block / dense step and jits each copy
 under its own name, so each compiles (and caches) only the step it calls, and calls it directly.
 (Passing the step as an argument instead disables caching; dispatching through ``@overload``
 measured 2x slower.) The kernels generated per topology (``_codegen``) render the same template in
@@ -28,7 +28,7 @@ from pathlib import Path
 
 from numba import njit
 
-from ._fast import fast_step
+from ._kinds_array import fast_step
 from ._step import generic_step
 from ._sweep_array import sweep
 from ._sweep_template import (MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS, STATUS_ASSEMBLY, STATUS_BRANCH,
@@ -137,7 +137,7 @@ jits copies of :func:`sweep` with the global ``step`` bound to a step function.
 
 import numpy as np
 
-from ._blocks import SUSPECT
+from explorer.kinds._common import SUSPECT
 from ._drive import drive
 from ._sweep_template import MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS, STATUS_BRANCH, STATUS_OK, status_of
 
@@ -170,7 +170,7 @@ def _specialise(step_fn, name: str):
     return njit(cache=True)(copy)
 
 
-#: :func:`sweep` with the fast DYAD / ATTACH step; its context is the design's block table (``_step.block_table``).
+#: :func:`sweep` with the fast step (no coupled blocks); its context is the design's block table (``_batch.setup``).
 fast_sweep = _specialise(fast_step, "fast")
 #: :func:`sweep` with the generic block / dense step; its context comes from ``_step.generic_context``.
 generic_sweep = _specialise(generic_step, "generic")

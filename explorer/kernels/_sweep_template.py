@@ -26,7 +26,7 @@ The holes:
   the driver's unit values ``X`` (a row of the driver table, or ``d``): centre + scale · X;
 * ``code, blk, iters = hole.step(h, hp, checks, iters)``: every block placed at the trial driver
   position, a step of h after one of hp; checks: run the gap and move checks (the step is not at the
-  smallest size). code: ``_blocks``' OK (0), INFEASIBLE, SIGN, NOCONV or SUSPECT; blk: the failing
+  smallest size). code: ``explorer.kinds._common``' OK (0), INFEASIBLE, SIGN, NOCONV or SUSPECT; blk: the failing
   block or −1; the Newton iterations are added to iters;
 * ``hole.accept()``: the trial state made current, the previous tangent kept (the predictor's curvature);
 * ``hole.keep_first()``: after sample 0, its configuration kept (the closing check, the backward
@@ -56,7 +56,7 @@ import textwrap
 import numpy as np
 from numba import njit
 
-from ._blocks import INFEASIBLE, SIGN, SUSPECT
+from ..kinds._common import INFEASIBLE, SIGN, SUSPECT
 from ._drive import drive
 
 # Per-variant status codes (public: they are stored in results files).
@@ -108,7 +108,7 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     ``_inputs`` Topology, Drive and Options. The driver's S samples are t_k = k·t_end/S (closed: a
     crank, t_end = 2π) or k·t_end/(S−1) (open: a path from 0 to t_end). P_init (n_vertices, 2):
     start of the first Newton solve (the design assembled on the nominal's branch where the closed form
-    can, ``_batch.design_setup``). signs (n_blocks,): the
+    can, ``_batch.setup``). signs (n_blocks,): the
     branch each block keeps. (cx, cy), scale: the design's crank centre and radius. shortest: its
     shortest dyad length; tol: Newton's stopping distance (model units).
     out_pos[k, j] = position of vertex topo.out_idx[j] at sample k, likewise out_vel (d/dparameter)
