@@ -158,22 +158,18 @@ def describe(mech) -> dict:
         j["placed_by_step"] = placed_by.get(v)
         joints.append(j)
 
-    def effective(given, length):
-        if given is not None:
-            return float(given)
-        if density is not None and unit is not None:
-            return float(density) * float(length) * float(unit)
-        return None if density is not None else 0.0
+    from ..mechanism import effective_mass
 
     links = [{"name": lk.name, "a": lk.a, "b": lk.b, "length": float(lk.length),
-              "mass": None if lk.mass is None else float(lk.mass), "effective_mass": effective(lk.mass, lk.length)}
+              "mass": None if lk.mass is None else float(lk.mass),
+              "effective_mass": effective_mass(mech, lk.mass, lk.length, unit)}
              for lk in mech.links]
     bodies = [{"name": b.name, "joints": {j: _pt(p) for j, p in zip(b.joints, b.points)}, "span": b.span,
                "mass": float(b.mass), "centroid": None if b.centroid is None else _pt(b.centroid),
                "inertia": None if b.inertia is None else float(b.inertia)} for b in mech.bodies]
     driver = _driver(mech)
     if mech.crank is not None:
-        driver["effective_mass"] = effective(mech.crank.mass, mech.crank.radius)
+        driver["effective_mass"] = effective_mass(mech, mech.crank.mass, mech.crank.radius, unit)
 
     params = mech.parameters()
     walker = None

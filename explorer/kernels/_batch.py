@@ -6,52 +6,26 @@ the nominal's branch by the closed form). It is one compiled function for every 
 lowered plan and the block table are arrays), so the kernels generated per topology do not compile
 it again, and a cache built once serves every plan.
 
-For every row they are handed, the ``*_batch_jit`` kernels check the variant's lengths and run
-:func:`~._sweep.sweep`, serially and without the GIL: :func:`~._rows.parallel_rows` runs them in
-parallel over blocks of rows.
+For every row they are handed, the batch kernels check the variant's lengths and run
+:func:`~._sweep.sweep` (and, with forces, the forces effect), serially and without the GIL:
+:func:`~._rows.parallel_rows` runs them in parallel over blocks of rows. Their per-design loop is
+written once, ``_sweep_template.batch``, rendered here in the array form (``_batch_array.py``) and in
+the code generated per topology in the scalar form (``_codegen``).
 """
+
+import types
 
 import numpy as np
 from numba import njit
 
+from . import _batch_array
 from ._drive import CRANK
+from ._forces import design_forces_any, design_forces_fast
 from ._kinds_array import block_table, place_closed
 from ._rows import parallel_rows
 from ._step import generic_context
-from ._sweep import STATUS_INVALID, fast_sweep, generic_sweep
-
-# Lengths outside this range are "invalid": their squares (the residuals are in squared lengths)
-# would underflow to 0 or overflow to inf (NaN compares false, so NaN is invalid as well).
-MIN_LENGTH = 1e-150
-MAX_LENGTH = 1e150
-
-
-@njit(cache=True)
-def valid_lengths(L, scale):
-    """True if every link length and the driver scale (crank radius) lie in [MIN_LENGTH, MAX_LENGTH]:
-    finite, positive, and with squares that neither underflow nor overflow in double precision."""
-    ok = MIN_LENGTH <= scale <= MAX_LENGTH
-    for e in range(L.shape[0]):
-        ok = ok and MIN_LENGTH <= L[e] <= MAX_LENGTH
-    return ok
-
-
-@njit(cache=True)
-def _nan_fill(out):
-    """out[...] = NaN, as a flat loop (a slice assignment compiles for about a second more)."""
-    flat = out.reshape(-1)
-    for i in range(flat.shape[0]):
-        flat[i] = np.nan
-
-
-@njit(cache=True)
-def _invalid(out_pos, out_vel, out_acc, want_vel, want_acc):
-    """NaN outputs and the sweep's 5-tuple for a design with a non-finite or non-positive length.
-    (out_vel and out_acc have no rows when not wanted, so filling them costs nothing.)"""
-    _nan_fill(out_pos)
-    _nan_fill(out_vel)
-    _nan_fill(out_acc)
-    return STATUS_INVALID, 0.0, np.nan, -1, 0
+from ._sweep import fast_sweep, generic_sweep
+from ._sweep_template import MAX_LENGTH, MIN_LENGTH, valid_lengths  # noqa: F401 (the kernels' length range)
 
 
 @njit(cache=True, nogil=True)
@@ -100,45 +74,39 @@ def setup(plan, blocks, topo, drv, P_init, signs, des):
     return des
 
 
-@njit(cache=True, nogil=True)
-def fast_batch_jit(topo, drv, opts, signs, designs, outs):
-    """Every design (row) of ``designs`` through :func:`_sweep.sweep` with the fast step (plans without
-    coupled blocks), serially, writing ``outs`` in place.
-
-    topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by :func:`setup`);
-    signs (n_blocks,): the nominal's branch of each block. The per-row arguments come last
-    (``designs``, ``outs``), for :func:`~._rows.parallel_rows`.
-    """
-    for i in range(designs.scale.shape[0]):
-        L = designs.dist[i]
-        scale = designs.scale[i]
-        if not valid_lengths(L, scale):
-            res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], opts.want_vel, opts.want_acc)
-        else:
-            res = fast_sweep(designs.table[i], topo, drv, opts, designs.start[i], signs, designs.center[i, 0],
-                             designs.center[i, 1], scale, designs.shortest[i], designs.tol[i], outs.pos[i],
-                             outs.vel[i], outs.acc[i])
-        outs.status[i], outs.fail_t[i], outs.fail_end[i], outs.fail_block[i], outs.iters[i] = res
+@njit(cache=True, inline="always")
+def table_context(opts, topo, designs, i, known):
+    """The fast step's context: design i's block table."""
+    return designs.table[i]
 
 
-@njit(cache=True, nogil=True)
-def generic_batch_jit(topo, drv, opts, signs, designs, outs):
-    """Every design through :func:`_sweep.sweep` with the generic step (``opts.method``: block or
-    dense), serially; arguments as for :func:`fast_batch_jit`."""
-    known = np.empty(topo.fixed.shape[0] + 1, dtype=np.int64)
-    known[0] = topo.tip
-    for f in range(topo.fixed.shape[0]):
-        known[f + 1] = topo.fixed[f]
-    for i in range(designs.scale.shape[0]):
-        L = designs.dist[i]
-        scale = designs.scale[i]
-        if not valid_lengths(L, scale):
-            res = _invalid(outs.pos[i], outs.vel[i], outs.acc[i], opts.want_vel, opts.want_acc)
-        else:
-            ctx = generic_context(opts.method, designs.table[i], topo.gen_vptr, topo.gen_verts, topo.gen_rptr,
-                                  topo.gen_rows, topo.dist_a, topo.dist_b, topo.att_vpq, L, designs.uv[i], known,
-                                  designs.fixed[i], topo.slide, designs.slide[i])
-            res = generic_sweep(ctx, topo, drv, opts, designs.start[i], signs, designs.center[i, 0],
-                                designs.center[i, 1], scale, designs.shortest[i], designs.tol[i], outs.pos[i],
-                                outs.vel[i], outs.acc[i])
-        outs.status[i], outs.fail_t[i], outs.fail_end[i], outs.fail_block[i], outs.iters[i] = res
+@njit(cache=True)
+def generic_context_of(opts, topo, designs, i, known):
+    """The generic step's context of design i (``_step.generic_context``)."""
+    return generic_context(opts.method, designs.table[i], topo.gen_vptr, topo.gen_verts, topo.gen_rptr, topo.gen_rows,
+                           topo.dist_a, topo.dist_b, topo.att_vpq, designs.dist[i], designs.uv[i], known,
+                           designs.fixed[i], topo.slide, designs.slide[i])
+
+
+def _specialise(fn, name: str, **bind):
+    """Jit a copy of the batch loop ``fn`` (``_batch_array``) with its globals bound: each copy compiles
+    (and caches) only what it calls."""
+    env = dict(fn.__globals__, **bind)
+    copy = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
+    copy.__qualname__ = f"{fn.__name__}_{name}"
+    copy.__doc__ = fn.__doc__
+    return njit(cache=True, nogil=True)(copy)
+
+
+#: Every design (row) of ``designs`` through the sweep with the fast step (plans without coupled
+#: blocks) or the generic one (any plan; the block or dense method), serially, writing ``outs`` in place
+#: (``_sweep_template.batch``: arguments (topo, drv, opts, signs, designs, outs), the per-row ones last,
+#: for ``_rows.parallel_rows``); the ``*_forces`` ones also compute the forces effect (arguments
+#: (..., fmodel, frows)).
+fast_batch_jit = _specialise(_batch_array.batch_plain, "fast", run_sweep=fast_sweep, make_context=table_context)
+generic_batch_jit = _specialise(_batch_array.batch_plain, "generic", run_sweep=generic_sweep,
+                                make_context=generic_context_of)
+fast_forces_jit = _specialise(_batch_array.batch_forces, "fast", run_sweep=fast_sweep, make_context=table_context,
+                              design_forces=design_forces_fast)
+generic_forces_jit = _specialise(_batch_array.batch_forces, "generic", run_sweep=generic_sweep,
+                                 make_context=generic_context_of, design_forces=design_forces_any)

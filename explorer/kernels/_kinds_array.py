@@ -9,8 +9,9 @@ from numba import njit
 
 from explorer.kinds._common import MAX_MOVE, OK, SIGN, SUSPECT, frame_point, gap_suspect
 from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, place_dyad
-from explorer.kinds.general import general_sign, general_solve
-from explorer.kinds.slide import slide_root, slide_sign, slide_step
+from explorer.kinds.eq_slide import slide_row
+from explorer.kinds.general import general_reactions, general_sign, general_solve
+from explorer.kinds.slide import slide_partial, slide_root, slide_sign, slide_step
 
 #: the dense method's check: a dyad on the mirror root at a fold (not a branch change)
 FOLD = -1
@@ -279,3 +280,260 @@ def block_signs(P, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_
         elif rec.kind == 3:  # SLIDE
             out[k] = np.sign(slide_sign(rec, P))
     return out
+
+
+@njit(cache=True, nogil=True)
+def singular_closed(table, topo, uv, sd, P, loc, M, x, tol):
+    """The forces effect's check at positions P: the first block whose Jacobian is singular (for a
+    dyad or a slider, |det| ≤ tol × the sum of its terms' sizes), or −1."""
+    blk = topo.blk
+    for k in range(table.shape[0]):
+        rec = table[k]
+        if rec.kind == 0:  # DYAD
+            v = rec.vertex
+            a = rec.a
+            b = rec.b
+            c1x = P[v, 0] - P[a, 0]
+            c1y = P[v, 1] - P[a, 1]
+            c2x = P[v, 0] - P[b, 0]
+            c2y = P[v, 1] - P[b, 1]
+            det = c1x * c2y - c1y * c2x
+            if not (abs(det) > tol * (abs(c1x * c2y) + abs(c1y * c2x))):
+                return k
+        elif rec.kind == 3:  # SLIDE
+            v = rec.vertex
+            c = rec.a
+            s = blk[k, 3]
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, topo.slide, sd)
+            jx, jy = slide_partial(topo.slide, s, v, jpx, jpy, jax, jay, jbx, jby)
+            ex = P[v, 0] - P[c, 0]
+            ey = P[v, 1] - P[c, 1]
+            det = ex * jy - ey * jx
+            if not (abs(det) > tol * (abs(ex * jy) + abs(ey * jx))):
+                return k
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def singular_any(table, topo, uv, sd, P, loc, M, x, tol):
+    """The forces effect's check at positions P: the first block whose Jacobian is singular (for a
+    dyad or a slider, |det| ≤ tol × the sum of its terms' sizes), or −1."""
+    blk = topo.blk
+    for k in range(table.shape[0]):
+        rec = table[k]
+        if rec.kind == 0:  # DYAD
+            v = rec.vertex
+            a = rec.a
+            b = rec.b
+            c1x = P[v, 0] - P[a, 0]
+            c1y = P[v, 1] - P[a, 1]
+            c2x = P[v, 0] - P[b, 0]
+            c2y = P[v, 1] - P[b, 1]
+            det = c1x * c2y - c1y * c2x
+            if not (abs(det) > tol * (abs(c1x * c2y) + abs(c1y * c2x))):
+                return k
+        elif rec.kind == 2:  # GENERAL
+            g = rec.slot
+            if general_sign(P, topo.gen_verts[topo.gen_vptr[g]:topo.gen_vptr[g + 1]],
+                            topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]], topo.dist_a, topo.dist_b, topo.att_vpq, uv,
+                            topo.slide, sd, loc, M, x) == 0.0:
+                return k
+        elif rec.kind == 3:  # SLIDE
+            v = rec.vertex
+            c = rec.a
+            s = blk[k, 3]
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, topo.slide, sd)
+            jx, jy = slide_partial(topo.slide, s, v, jpx, jpy, jax, jay, jbx, jby)
+            ex = P[v, 0] - P[c, 0]
+            ey = P[v, 1] - P[c, 1]
+            det = ex * jy - ey * jx
+            if not (abs(det) > tol * (abs(ex * jy) + abs(ey * jx))):
+                return k
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def reactions_closed(table, topo, uv, sd, P, R, act, lam_d, lam_a, lam_s, loc, M, x):
+    """The forces effect's multipliers: Φ_qᵀ λ = R solved block by block in reverse plan order for
+    every right-hand side r with act[r] (R (nr, n_vertices, 2) the loads, left holding what the plan's
+    constraints do not carry: the crank's force on the tip, the frame's on the fixed vertices). Each
+    block's multipliers by its kind into lam_d (nr, n_dist), lam_a (nr, n_attach, 2), lam_s (nr, n_slide),
+    in the equation types' convention. Returns the first singular block or −1."""
+    blk = topo.blk
+    for k in range(table.shape[0] - 1, -1, -1):
+        rec = table[k]
+        if rec.kind == 0:  # DYAD
+            v = rec.vertex
+            a = rec.a
+            b = rec.b
+            c1x = P[v, 0] - P[a, 0]
+            c1y = P[v, 1] - P[a, 1]
+            c2x = P[v, 0] - P[b, 0]
+            c2y = P[v, 1] - P[b, 1]
+            det = c1x * c2y - c1y * c2x
+            if det == 0.0:
+                return k
+            inv = 1.0 / det
+            ea = blk[k, 3]
+            eb = blk[k, 4]
+            for r in range(R.shape[0]):
+                if act[r]:
+                    rx = R[r, v, 0]
+                    ry = R[r, v, 1]
+                    l1 = (rx * c2y - ry * c2x) * inv
+                    l2 = (c1x * ry - c1y * rx) * inv
+                    lam_d[r, ea] = 0.5 * l1  # the distance row's gradient is 2(v − a): its multiplier is half
+                    lam_d[r, eb] = 0.5 * l2
+                    R[r, v, 0] = 0.0
+                    R[r, v, 1] = 0.0
+                    R[r, a, 0] += c1x * l1
+                    R[r, a, 1] += c1y * l1
+                    R[r, b, 0] += c2x * l2
+                    R[r, b, 1] += c2y * l2
+        elif rec.kind == 1:  # ATTACH
+            t = blk[k, 3]
+            j = rec.vertex
+            p = rec.a
+            q = rec.b
+            u = rec.u
+            w = rec.v
+            for r in range(R.shape[0]):
+                if act[r]:
+                    lx = R[r, j, 0]
+                    ly = R[r, j, 1]
+                    lam_a[r, t, 0] = lx
+                    lam_a[r, t, 1] = ly
+                    R[r, j, 0] = 0.0
+                    R[r, j, 1] = 0.0
+                    atx = u * lx + w * ly  # Aᵀ λ with A = [[u, −w], [w, u]]
+                    aty = -w * lx + u * ly
+                    R[r, p, 0] += lx - atx
+                    R[r, p, 1] += ly - aty
+                    R[r, q, 0] += atx
+                    R[r, q, 1] += aty
+        elif rec.kind == 3:  # SLIDE
+            v = rec.vertex
+            c = rec.a
+            e = blk[k, 2]
+            s = blk[k, 3]
+            sl = topo.slide
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, sl, sd)
+            jx, jy = slide_partial(sl, s, v, jpx, jpy, jax, jay, jbx, jby)
+            ex = P[v, 0] - P[c, 0]
+            ey = P[v, 1] - P[c, 1]
+            det = ex * jy - ey * jx
+            if det == 0.0:
+                return k
+            inv = 1.0 / det
+            for r in range(R.shape[0]):
+                if act[r]:
+                    rx = R[r, v, 0]
+                    ry = R[r, v, 1]
+                    l1 = (rx * jy - ry * jx) * inv
+                    l2 = (ex * ry - ey * rx) * inv
+                    lam_d[r, e] = 0.5 * l1
+                    lam_s[r, s] = l2
+                    R[r, v, 0] = 0.0
+                    R[r, v, 1] = 0.0
+                    R[r, c, 0] += ex * l1
+                    R[r, c, 1] += ey * l1
+                    for vv, gx, gy in ((sl[s, 0], jpx, jpy), (sl[s, 1], jax, jay), (sl[s, 2], jbx, jby)):
+                        if vv >= 0 and vv != v:
+                            R[r, vv, 0] -= gx * l2
+                            R[r, vv, 1] -= gy * l2
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def reactions_any(table, topo, uv, sd, P, R, act, lam_d, lam_a, lam_s, loc, M, x):
+    """The forces effect's multipliers: Φ_qᵀ λ = R solved block by block in reverse plan order for
+    every right-hand side r with act[r] (R (nr, n_vertices, 2) the loads, left holding what the plan's
+    constraints do not carry: the crank's force on the tip, the frame's on the fixed vertices). Each
+    block's multipliers by its kind into lam_d (nr, n_dist), lam_a (nr, n_attach, 2), lam_s (nr, n_slide),
+    in the equation types' convention. Returns the first singular block or −1."""
+    blk = topo.blk
+    for k in range(table.shape[0] - 1, -1, -1):
+        rec = table[k]
+        if rec.kind == 0:  # DYAD
+            v = rec.vertex
+            a = rec.a
+            b = rec.b
+            c1x = P[v, 0] - P[a, 0]
+            c1y = P[v, 1] - P[a, 1]
+            c2x = P[v, 0] - P[b, 0]
+            c2y = P[v, 1] - P[b, 1]
+            det = c1x * c2y - c1y * c2x
+            if det == 0.0:
+                return k
+            inv = 1.0 / det
+            ea = blk[k, 3]
+            eb = blk[k, 4]
+            for r in range(R.shape[0]):
+                if act[r]:
+                    rx = R[r, v, 0]
+                    ry = R[r, v, 1]
+                    l1 = (rx * c2y - ry * c2x) * inv
+                    l2 = (c1x * ry - c1y * rx) * inv
+                    lam_d[r, ea] = 0.5 * l1  # the distance row's gradient is 2(v − a): its multiplier is half
+                    lam_d[r, eb] = 0.5 * l2
+                    R[r, v, 0] = 0.0
+                    R[r, v, 1] = 0.0
+                    R[r, a, 0] += c1x * l1
+                    R[r, a, 1] += c1y * l1
+                    R[r, b, 0] += c2x * l2
+                    R[r, b, 1] += c2y * l2
+        elif rec.kind == 1:  # ATTACH
+            t = blk[k, 3]
+            j = rec.vertex
+            p = rec.a
+            q = rec.b
+            u = rec.u
+            w = rec.v
+            for r in range(R.shape[0]):
+                if act[r]:
+                    lx = R[r, j, 0]
+                    ly = R[r, j, 1]
+                    lam_a[r, t, 0] = lx
+                    lam_a[r, t, 1] = ly
+                    R[r, j, 0] = 0.0
+                    R[r, j, 1] = 0.0
+                    atx = u * lx + w * ly  # Aᵀ λ with A = [[u, −w], [w, u]]
+                    aty = -w * lx + u * ly
+                    R[r, p, 0] += lx - atx
+                    R[r, p, 1] += ly - aty
+                    R[r, q, 0] += atx
+                    R[r, q, 1] += aty
+        elif rec.kind == 2:  # GENERAL
+            if not general_reactions(rec.slot, topo, uv, sd, P, R, act, lam_d, lam_a, lam_s, loc, M, x):
+                return k
+        elif rec.kind == 3:  # SLIDE
+            v = rec.vertex
+            c = rec.a
+            e = blk[k, 2]
+            s = blk[k, 3]
+            sl = topo.slide
+            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, sl, sd)
+            jx, jy = slide_partial(sl, s, v, jpx, jpy, jax, jay, jbx, jby)
+            ex = P[v, 0] - P[c, 0]
+            ey = P[v, 1] - P[c, 1]
+            det = ex * jy - ey * jx
+            if det == 0.0:
+                return k
+            inv = 1.0 / det
+            for r in range(R.shape[0]):
+                if act[r]:
+                    rx = R[r, v, 0]
+                    ry = R[r, v, 1]
+                    l1 = (rx * jy - ry * jx) * inv
+                    l2 = (ex * ry - ey * rx) * inv
+                    lam_d[r, e] = 0.5 * l1
+                    lam_s[r, s] = l2
+                    R[r, v, 0] = 0.0
+                    R[r, v, 1] = 0.0
+                    R[r, c, 0] += ex * l1
+                    R[r, c, 1] += ey * l1
+                    for vv, gx, gy in ((sl[s, 0], jpx, jpy), (sl[s, 1], jax, jay), (sl[s, 2], jbx, jby)):
+                        if vv >= 0 and vv != v:
+                            R[r, vv, 0] -= gx * l2
+                            R[r, vv, 1] -= gy * l2
+    return -1

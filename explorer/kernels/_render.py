@@ -118,11 +118,34 @@ def block_signs(P, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_
     for k in range(nb):
         rec = table[k]
 ''', 8, "sign", "all", "    return out\n"),
+    ('''
+
+@njit(cache=True, nogil=True)
+def singular_{which}(table, topo, uv, sd, P, loc, M, x, tol):
+    """The forces effect's check at positions P: the first block whose Jacobian is singular (for a
+    dyad or a slider, |det| ≤ tol × the sum of its terms' sizes), or −1."""
+    blk = topo.blk
+    for k in range(table.shape[0]):
+        rec = table[k]
+''', 8, "singular", "both", "    return -1\n"),
+    ('''
+
+@njit(cache=True, nogil=True)
+def reactions_{which}(table, topo, uv, sd, P, R, act, lam_d, lam_a, lam_s, loc, M, x):
+    """The forces effect's multipliers: Φ_qᵀ λ = R solved block by block in reverse plan order for
+    every right-hand side r with act[r] (R (nr, n_vertices, 2) the loads, left holding what the plan's
+    constraints do not carry: the crank's force on the tip, the frame's on the fixed vertices). Each
+    block's multipliers by its kind into lam_d (nr, n_dist), lam_a (nr, n_attach, 2), lam_s (nr, n_slide),
+    in the equation types' convention. Returns the first singular block or −1."""
+    blk = topo.blk
+    for k in range(table.shape[0] - 1, -1, -1):
+        rec = table[k]
+''', 8, "reactions", "both", "    return -1\n"),
 ]
 
 
 def _kinds(which: str):
-    return [k for k in KINDS if which == "all" or not getattr(k, "CONTEXT", False)]
+    return [k for k in KINDS if which in ("all", "any") or not getattr(k, "CONTEXT", False)]
 
 
 def _dispatch(key: str, kinds, indent: int) -> str:
@@ -144,7 +167,9 @@ def kinds_module_source() -> str:
     imports = "\n".join(sorted({ln for k in KINDS for ln in k.ARRAY.get("imports", "").splitlines() if ln.strip()}))
     out = _HEADER.format(imports=imports)
     for head, indent, key, which, tail in _FUNCTIONS:
-        out += head + _dispatch(key, _kinds(which), indent) + tail
+        # "both": one copy for plans without coupled blocks ("closed"), one for any plan ("any")
+        for w in (("closed", "any") if which == "both" else (which,)):
+            out += head.replace("{which}", w) + _dispatch(key, _kinds(w), indent) + tail
     return out
 
 

@@ -17,9 +17,9 @@ from ..plan import Plan, make_plan
 from ._closed import closed_batch_jit
 from ._design import body_points
 from ._design import designs as _designs
-from ._forces import F_OK, force_metrics, has_mass, no_forces, solve_forces
+from ._forces import F_OK, collect, force_inputs, force_metrics, has_mass, no_forces
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
-from ._batch import fast_batch_jit, generic_batch_jit, setup
+from ._batch import fast_batch_jit, fast_forces_jit, generic_batch_jit, generic_forces_jit, setup
 from ._codegen import kernel_for, supported
 from ._inputs import BLOCK_DTYPE, Drive, Options, Outputs, topology
 from ._kinds_array import block_table
@@ -56,9 +56,9 @@ _KIND_TEXT = {
     "invalid": "has a non-finite or non-positive length",
     "singular": "is at or too near a toggle for its forces (a singular Jacobian: the joint reactions are unbounded)",
 }
-#: Variants solved at once when forces are asked for (every vertex's positions are needed; this
-#: bounds the memory they take: 1,024 × 360 steps × 7 vertices is 41 MB), fewer for a large
-#: mechanism, so that their positions stay within FORCE_MEMORY.
+#: Variants solved at once when forces are asked for (the forces read every vertex's positions, per
+#: design, from scratch; this bounds a chunk's designs and outputs as an earlier release bounded the
+#: positions it kept: 1,024 × 360 steps × 7 vertices), fewer for a large mechanism (FORCE_MEMORY).
 FORCE_CHUNK = 1024
 FORCE_MEMORY = 64 << 20
 
@@ -434,13 +434,18 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
                      nan.copy() if accelerations else None, False, fail, 0)
     signs = _signs(mech, plan, P0)
     des = _nominal_design(mech, plan, tolerance)
+    fin = None
+    if forces:  # computed in the same kernel call as the sweep
+        model, frows, tb = force_inputs(mech, plan, mech.lengths[None, :], np.array([_scale(mech)]),
+                                        body_points(mech, None, 1), operating, walker, steps, mech.vertices,
+                                        members=True, out_idx=np.arange(nv))
+        fin = (model, frows)
     pos, vel, acc, status, fth, fend, fbl, its = _run(
         mech, plan, des, steps, np.arange(nv), velocities, accelerations, method, max_iterations, P0, signs,
-        np.arange(plan.n_blocks))
+        np.arange(plan.n_blocks), forces=fin)
     extra = {}
     if forces:
-        fo = solve_forces(mech, plan, pos, status, des, mech.lengths[None, :], np.array([_scale(mech)]),
-                          body_points(mech, None, 1), operating, walker, mech.vertices, members=True)
+        fo = collect(mech, operating, walker, model, frows, tb, status, mech.vertices, members=True)
         _force_status(fo, status, fth, fbl, drv.params)
         met = force_metrics(fo, operating, mech.vertices)
         extra = dict(torque=fo.torque[0], joint_forces={j: f[0] for j, f in fo.joint_forces.items()},
@@ -511,22 +516,25 @@ GENERATED_MAX_BLOCKS = 12
 
 
 def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max_iterations, P0, signs, blocks,
-         kernel="auto"):
+         kernel="auto", forces=None):
     """Allocate the outputs and call the kernel for ``method`` on the plan restricted to ``blocks``;
-    ``des``: the variants' ``_inputs.Designs``; ``kernel``: see :func:`simulate_batch`."""
+    ``des``: the variants' ``_inputs.Designs``; ``kernel``: see :func:`simulate_batch`. ``forces``:
+    None, or the forces effect's (``_forces.ForceModel``, ``ForceRows``), computed in the same kernel
+    call (every vertex solved with its rates into per-design scratch; the rows of ``out_idx`` stored)."""
     drv = _drive_for(mech.crank or mech.path, steps)
     N = des.scale.shape[0]
     k = len(out_idx)
     outs = Outputs(np.empty((N, steps, k, 2)), np.empty((N, steps if velocities else 0, k, 2)),
                    np.empty((N, steps if accelerations else 0, k, 2)), np.empty(N, dtype=np.int8), np.empty(N),
                    np.full(N, np.nan), np.full(N, -1, dtype=np.int64), np.zeros(N, dtype=np.int64))
+    nv, nb = len(mech.vertices), len(blocks)
     solved = sorted({plan.tip, *(v for b in blocks for v in plan.blocks[b].vertices)})
-    moving = np.arange(len(mech.vertices)) if method == "dense" else np.array(solved, dtype=np.int64)
-    topo = topology(plan, blocks, moving, out_idx, mech.crank is not None)
+    moving = np.arange(nv) if method == "dense" else np.array(solved, dtype=np.int64)
+    # with forces the sweep stores every vertex (the forces' scratch), and the kernel copies out_idx's rows
+    topo = topology(plan, blocks, moving, np.arange(nv) if forces is not None else out_idx, mech.crank is not None)
     kdrv = Drive(drv.kind, drv.prm, drv.table, drv.params, drv.t_end, drv.closed)
     sg = np.ascontiguousarray(signs[blocks])
     general = any(_coupled(k) for k in topo.kind)
-    nv, nb = len(mech.vertices), len(blocks)
     des = setup(plan, blocks, topo, kdrv, P0, sg, des._replace(
         table=np.zeros((N, nb), dtype=BLOCK_DTYPE), start=np.empty((N, nv, 2)), shortest=np.empty(N)))
     if method == "closed":
@@ -535,19 +543,25 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
                             "rigid bodies (no coupled blocks)")
         parallel_rows(closed_batch_jit, (topo, kdrv, sg), (des, outs))
     else:
-        opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations), bool(velocities),
-                       bool(accelerations))
+        # with forces the sweep carries every vertex's rates (the forces read them)
+        opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations),
+                       bool(velocities) or forces is not None, bool(accelerations) or forces is not None)
         if kernel == "generated" and (method == "dense" or general or not supported(topo, opts)):
             raise UserError("kernel 'generated': per-topology code is generated only for the block method on plans "
-                            "of dyads and rigid bodies, without accelerations; use kernel='auto' or 'general'")
+                            "whose kinds have a generated form (not coupled blocks or sliders); use kernel='auto' "
+                            "or 'general'")
         if method == "dense" or general:
-            fn = generic_batch_jit
+            fn = generic_batch_jit if forces is None else generic_forces_jit
         elif kernel != "general" and supported(topo, opts) and (kernel == "generated"
                                                                 or topo.kind.shape[0] <= GENERATED_MAX_BLOCKS):
-            fn = kernel_for(topo, bool(velocities))  # this plan's code, generated (same results)
+            # this plan's code, generated (the same results)
+            fn = kernel_for(topo, opts.want_vel, opts.want_acc, forces is not None)
         else:
-            fn = fast_batch_jit
-        parallel_rows(fn, (topo, kdrv, opts, sg), (des, outs))
+            fn = fast_batch_jit if forces is None else fast_forces_jit
+        if forces is None:
+            parallel_rows(fn, (topo, kdrv, opts, sg), (des, outs))
+        else:
+            parallel_rows(fn, (topo, kdrv, opts, sg, forces[0]), (des, outs, forces[1]))
     fbl = outs.fail_block
     if len(blocks):  # report the failing block by its index in the full plan
         fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
@@ -711,12 +725,12 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
 
 def _batch_forces(mech, plan, lengths, scale, geometry, tolerance, steps, out_idx, velocities, accelerations, method,
                   max_iterations, P0, kernel, operating, walker, force_joints):
-    """simulate_batch with forces: FORCE_CHUNK variants at a time, every vertex solved, then the forces
-    effect; returns the outputs for ``out_idx`` and (torque, {joint: forces}) and the force metrics."""
-    N, nv = lengths.shape[0], len(mech.vertices)
+    """simulate_batch with forces: FORCE_CHUNK variants at a time, every vertex solved and the forces
+    effect computed in one kernel call per chunk; returns the outputs for ``out_idx`` and (torque,
+    {joint: forces}) and the force metrics."""
+    N = lengths.shape[0]
     signs = _signs(mech, plan, P0)
     blocks = np.arange(plan.n_blocks)
-    allv = np.arange(nv)
     k = len(out_idx)
     pos = np.empty((N, steps, k, 2))
     vel = np.empty((N, steps if velocities else 0, k, 2))
@@ -728,24 +742,18 @@ def _batch_forces(mech, plan, lengths, scale, geometry, tolerance, steps, out_id
     met: dict = {}
     params = _drive_for(mech.crank, steps).params
     geometry = dict(geometry or {})
-    rows = force_chunk(steps, nv)
+    rows = force_chunk(steps, len(mech.vertices))
     for lo in range(0, N, rows):
         hi = min(N, lo + rows)
         g = {n: np.asarray(c, dtype=np.float64).reshape(-1)[lo:hi] for n, c in geometry.items()}
         des = _designs(mech, plan, lengths[lo:hi], scale[lo:hi], g, tolerance)
-        # positions only from the sweep: the forces' own block-by-block solves give the velocities
-        # and accelerations (the same linear systems), so the sweep need not carry them for every vertex
-        p, _, _, st, th, te, bl, it = _run(mech, plan, des, steps, allv, False, False, method, max_iterations, P0,
-                                           signs, blocks, kernel)
-        fo = solve_forces(mech, plan, p, st, des, lengths[lo:hi], scale[lo:hi], body_points(mech, g, hi - lo),
-                          operating, walker, force_joints, out_idx=out_idx, velocities=velocities,
-                          accelerations=accelerations)
+        model, frows, tb = force_inputs(mech, plan, lengths[lo:hi], scale[lo:hi], body_points(mech, g, hi - lo),
+                                        operating, walker, steps, force_joints, out_idx=out_idx)
+        p, v, a, st, th, te, bl, it = _run(mech, plan, des, steps, out_idx, velocities, accelerations, method,
+                                           max_iterations, P0, signs, blocks, kernel, forces=(model, frows))
+        fo = collect(mech, operating, walker, model, frows, tb, st, force_joints)
         _force_status(fo, st, th, bl, params)
-        pos[lo:hi] = p[:, :, out_idx]
-        if velocities:
-            vel[lo:hi] = fo.velocities
-        if accelerations:
-            acc[lo:hi] = fo.accelerations
+        pos[lo:hi], vel[lo:hi], acc[lo:hi] = p, v, a
         status[lo:hi], fth[lo:hi], fend[lo:hi], fbl[lo:hi], its[lo:hi] = st, th, te, bl, it
         torque[lo:hi] = fo.torque
         for j in force_joints:

@@ -77,6 +77,30 @@ if want_acc:
 """,
     "check": "",  # no branch, nothing to check
     "sign": "",   # no branch: 0
+    "singular": "",  # never singular
+    # the forces effect: its two rows' multipliers are the load on the joint; Aᵀλ goes to q, λ − Aᵀλ to p
+    "reactions": """\
+t = blk[k, 3]
+j = rec.vertex
+p = rec.a
+q = rec.b
+u = rec.u
+w = rec.v
+for r in range(R.shape[0]):
+    if act[r]:
+        lx = R[r, j, 0]
+        ly = R[r, j, 1]
+        lam_a[r, t, 0] = lx
+        lam_a[r, t, 1] = ly
+        R[r, j, 0] = 0.0
+        R[r, j, 1] = 0.0
+        atx = u * lx + w * ly  # Aᵀ λ with A = [[u, −w], [w, u]]
+        aty = -w * lx + u * ly
+        R[r, p, 0] += lx - atx
+        R[r, p, 1] += ly - aty
+        R[r, q, 0] += atx
+        R[r, q, 1] += aty
+""",
 }
 
 SCALAR = {

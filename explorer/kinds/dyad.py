@@ -360,6 +360,50 @@ if checks:
         return SUSPECT, k
 """,
     "sign": "out[k] = np.sign(dyad_sign(P, rec.vertex, rec.a, rec.b))\n",
+    # the forces effect: a Jacobian too near singular for its reactions (|det| relative to its terms)
+    "singular": """\
+v = rec.vertex
+a = rec.a
+b = rec.b
+c1x = P[v, 0] - P[a, 0]
+c1y = P[v, 1] - P[a, 1]
+c2x = P[v, 0] - P[b, 0]
+c2y = P[v, 1] - P[b, 1]
+det = c1x * c2y - c1y * c2x
+if not (abs(det) > tol * (abs(c1x * c2y) + abs(c1y * c2x))):
+    return k
+""",
+    # the forces effect: the multipliers of its two distance rows for every right-hand side r with act[r]
+    # (R (nr, nv, 2) the loads; the 2x2 Jacobian transposed, its inverse taken once), passed to its parents
+    "reactions": """\
+v = rec.vertex
+a = rec.a
+b = rec.b
+c1x = P[v, 0] - P[a, 0]
+c1y = P[v, 1] - P[a, 1]
+c2x = P[v, 0] - P[b, 0]
+c2y = P[v, 1] - P[b, 1]
+det = c1x * c2y - c1y * c2x
+if det == 0.0:
+    return k
+inv = 1.0 / det
+ea = blk[k, 3]
+eb = blk[k, 4]
+for r in range(R.shape[0]):
+    if act[r]:
+        rx = R[r, v, 0]
+        ry = R[r, v, 1]
+        l1 = (rx * c2y - ry * c2x) * inv
+        l2 = (c1x * ry - c1y * rx) * inv
+        lam_d[r, ea] = 0.5 * l1  # the distance row's gradient is 2(v − a): its multiplier is half
+        lam_d[r, eb] = 0.5 * l2
+        R[r, v, 0] = 0.0
+        R[r, v, 1] = 0.0
+        R[r, a, 0] += c1x * l1
+        R[r, a, 1] += c1y * l1
+        R[r, b, 0] += c2x * l2
+        R[r, b, 1] += c2y * l2
+""",
 }
 
 #: What the code generated per topology (``explorer.kernels._codegen``) writes for DYAD block {k}

@@ -96,16 +96,16 @@ def rates_rhs(R, t, ax, att_vpq, uv, loc):
 
 
 @njit(cache=True, inline="always")
-def pull(t, uv, lx, ly, F, inc_j, inc_p, inc_q):
+def pull(t, uv, lx, ly, F, r, inc_j, inc_p, inc_q):
     """Add the pull of multiplier (lx, ly) of attach equation t on its three pins to the incidence
-    forces F: λ on j, (Aᵀ − I)λ on p, −Aᵀλ on q."""
+    forces F[r] (F: (n_rhs, K, 2)): λ on j, (Aᵀ − I)λ on p, −Aᵀλ on q."""
     u = uv[t, 0]
     w = uv[t, 1]
     atx = u * lx + w * ly
     aty = -w * lx + u * ly
-    F[inc_j, 0] += lx
-    F[inc_j, 1] += ly
-    F[inc_p, 0] -= lx - atx
-    F[inc_p, 1] -= ly - aty
-    F[inc_q, 0] -= atx
-    F[inc_q, 1] -= aty
+    F[r, inc_j, 0] += lx
+    F[r, inc_j, 1] += ly
+    F[r, inc_p, 0] -= lx - atx
+    F[r, inc_p, 1] -= ly - aty
+    F[r, inc_q, 0] -= atx
+    F[r, inc_q, 1] -= aty

@@ -92,14 +92,14 @@ def rates_rhs(P, V, R, e, dist_a, dist_b, loc, accel):
 
 
 @njit(cache=True, inline="always")
-def pull(P, e, dist_a, dist_b, lam, F, inc_a, inc_b):
+def pull(P, e, dist_a, dist_b, lam, F, r, inc_a, inc_b):
     """Add the pull of multiplier ``lam`` of equation e on its two pins, (∂r/∂p)ᵀλ, to the incidence
-    forces F at inc_a (vertex a) and inc_b (vertex b)."""
+    forces F[r] (F: (n_rhs, K, 2)) at inc_a (vertex a) and inc_b (vertex b)."""
     a = dist_a[e]
     b = dist_b[e]
     dx = 2.0 * (P[b, 0] - P[a, 0]) * lam
     dy = 2.0 * (P[b, 1] - P[a, 1]) * lam
-    F[inc_b, 0] += dx
-    F[inc_b, 1] += dy
-    F[inc_a, 0] -= dx
-    F[inc_a, 1] -= dy
+    F[r, inc_b, 0] += dx
+    F[r, inc_b, 1] += dy
+    F[r, inc_a, 0] -= dx
+    F[r, inc_a, 1] -= dy

@@ -104,14 +104,14 @@ def rates_rhs(P, V, R, k, slide, sd, loc, accel):
 
 
 @njit(cache=True, inline="always")
-def pull(P, k, slide, sd, lam, F, sinc):
-    """Add the pull of multiplier ``lam`` of slide equation k to the incidence forces F at its guide's
-    incidences sinc[k] (p, a, b)."""
+def pull(P, k, slide, sd, lam, F, r, sinc):
+    """Add the pull of multiplier ``lam`` of slide equation k to the incidence forces F[r] (F: (n_rhs,
+    K, 2)) at its guide's incidences sinc[k] (p, a, b)."""
     _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, k, slide, sd)
-    F[sinc[k, 0], 0] += jpx * lam
-    F[sinc[k, 0], 1] += jpy * lam
+    F[r, sinc[k, 0], 0] += jpx * lam
+    F[r, sinc[k, 0], 1] += jpy * lam
     if slide[k, 1] >= 0:
-        F[sinc[k, 1], 0] += jax * lam
-        F[sinc[k, 1], 1] += jay * lam
-        F[sinc[k, 2], 0] += jbx * lam
-        F[sinc[k, 2], 1] += jby * lam
+        F[r, sinc[k, 1], 0] += jax * lam
+        F[r, sinc[k, 1], 1] += jay * lam
+        F[r, sinc[k, 2], 0] += jbx * lam
+        F[r, sinc[k, 2], 1] += jby * lam

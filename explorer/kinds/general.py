@@ -232,8 +232,89 @@ def general_solve(ctx, k, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want
                          ctx.M, ctx.rhs)
 
 
+@njit(cache=True)
+def general_reactions(g, topo, uv, sd, P, R, act, lam_d, lam_a, lam_s, loc, M, x):
+    """The forces effect: the multipliers of coupled block g's rows for every right-hand side r with
+    act[r] (R (nr, nv, 2) the loads on its vertices): its Jacobian (``_general_jacobian``) transposed,
+    solved per right-hand side; each row's pull on the vertices outside the block (its equation type's
+    gradient times the multiplier) moves to them. False if the Jacobian is singular."""
+    verts = topo.gen_verts[topo.gen_vptr[g]:topo.gen_vptr[g + 1]]
+    rows = topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]]
+    dist_a = topo.dist_a
+    dist_b = topo.dist_b
+    att = topo.att_vpq
+    slide = topo.slide
+    nb = verts.shape[0]
+    n = 2 * nb
+    for j in range(nb):
+        loc[verts[j]] = j
+    ok = True
+    for rr in range(R.shape[0]):
+        if not act[rr]:
+            continue
+        _general_jacobian(P, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M)
+        for r in range(n):  # transpose in place
+            for c in range(r + 1, n):
+                t = M[r, c]
+                M[r, c] = M[c, r]
+                M[c, r] = t
+        for j in range(nb):
+            x[2 * j] = R[rr, verts[j], 0]
+            x[2 * j + 1] = R[rr, verts[j], 1]
+            R[rr, verts[j], 0] = 0.0
+            R[rr, verts[j], 1] = 0.0
+        if lu_solve(M, x, n) == 0.0:
+            ok = False
+            break
+        for r in range(n):  # store the multipliers; push what the rows put on vertices outside the block
+            typ = rows[r, 0]
+            e = rows[r, 1]
+            lam = x[r]
+            if typ == eq_slide.ROW:
+                lam_s[rr, e] = lam
+                _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, e, slide, sd)
+                for vv, gx, gy in ((slide[e, 0], jpx, jpy), (slide[e, 1], jax, jay), (slide[e, 2], jbx, jby)):
+                    if vv >= 0 and loc[vv] < 0:
+                        R[rr, vv, 0] -= gx * lam
+                        R[rr, vv, 1] -= gy * lam
+            elif typ == eq_distance.ROW:
+                lam_d[rr, e] = lam
+                a = dist_a[e]
+                b = dist_b[e]
+                gx = 2.0 * (P[b, 0] - P[a, 0])
+                gy = 2.0 * (P[b, 1] - P[a, 1])
+                if loc[a] < 0:
+                    R[rr, a, 0] += gx * lam
+                    R[rr, a, 1] += gy * lam
+                if loc[b] < 0:
+                    R[rr, b, 0] -= gx * lam
+                    R[rr, b, 1] -= gy * lam
+            else:
+                ax = 0 if typ == eq_attach.ROW_X else 1
+                lam_a[rr, e, ax] = lam
+                u = uv[e, 0]
+                w = uv[e, 1]
+                j_ = att[e, 0]
+                p = att[e, 1]
+                q = att[e, 2]
+                # the row's gradient: e_ax on j, (A − I) row ax on p, −A row ax on q (A = [[u, −w], [w, u]])
+                a0 = u if ax == 0 else w
+                a1 = -w if ax == 0 else u
+                if loc[j_] < 0:
+                    R[rr, j_, ax] -= lam
+                if loc[p] < 0:
+                    R[rr, p, 0] -= (a0 - (1.0 if ax == 0 else 0.0)) * lam
+                    R[rr, p, 1] -= (a1 - (1.0 if ax == 1 else 0.0)) * lam
+                if loc[q] < 0:
+                    R[rr, q, 0] += a0 * lam
+                    R[rr, q, 1] += a1 * lam
+    for j in range(nb):
+        loc[verts[j]] = -1
+    return ok
+
+
 ARRAY = {
-    "imports": "from explorer.kinds.general import general_sign, general_solve",
+    "imports": "from explorer.kinds.general import general_reactions, general_sign, general_solve",
     "fill": "rec.slot = row[0]\n",
     "place": "return j\n",
     "step": """\
@@ -254,6 +335,17 @@ if sg == 0.0 or (sg > 0.0) != (signs[k] > 0.0):
 g = rec.slot
 out[k] = general_sign(P, gen_verts[gen_vptr[g]:gen_vptr[g + 1]], gen_rows[gen_rptr[g]:gen_rptr[g + 1]],
                       dist_a, dist_b, att_vpq, uv, slide, sd, loc, M, rhs)
+""",
+    "singular": """\
+g = rec.slot
+if general_sign(P, topo.gen_verts[topo.gen_vptr[g]:topo.gen_vptr[g + 1]],
+                topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]], topo.dist_a, topo.dist_b, topo.att_vpq, uv,
+                topo.slide, sd, loc, M, x) == 0.0:
+    return k
+""",
+    "reactions": """\
+if not general_reactions(rec.slot, topo, uv, sd, P, R, act, lam_d, lam_a, lam_s, loc, M, x):
+    return k
 """,
 }
 

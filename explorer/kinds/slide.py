@@ -233,8 +233,19 @@ def slide_step(rec, sign, P0, V0, Vp, P1, V1, A1, h, c2, want_acc, checks):
     return OK
 
 
+@njit(cache=True)
+def slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby):
+    """Slide equation s's partial derivative in vertex v (one of its p, a, b)."""
+    if slide[s, 0] == v:
+        return jpx, jpy
+    if slide[s, 1] == v:
+        return jax, jay
+    return jbx, jby
+
+
 ARRAY = {
-    "imports": "from explorer.kinds.slide import slide_root, slide_sign, slide_step",
+    "imports": ("from explorer.kinds.slide import slide_partial, slide_root, slide_sign, slide_step\n"
+                "from explorer.kinds.eq_slide import slide_row"),
     "fill": """\
 v = row[0]
 e = row[3]
@@ -278,6 +289,50 @@ if sg == 0.0 or (sg > 0.0) != (signs[k] > 0.0):
     return SIGN, k
 """,
     "sign": "out[k] = np.sign(slide_sign(rec, P))\n",
+    "singular": """\
+v = rec.vertex
+c = rec.a
+s = blk[k, 3]
+_, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, topo.slide, sd)
+jx, jy = slide_partial(topo.slide, s, v, jpx, jpy, jax, jay, jbx, jby)
+ex = P[v, 0] - P[c, 0]
+ey = P[v, 1] - P[c, 1]
+det = ex * jy - ey * jx
+if not (abs(det) > tol * (abs(ex * jy) + abs(ey * jx))):
+    return k
+""",
+    # the forces effect: λ_d 2(v − c) + λ_s J = R_v, its distance row's and slide row's multipliers
+    "reactions": """\
+v = rec.vertex
+c = rec.a
+e = blk[k, 2]
+s = blk[k, 3]
+sl = topo.slide
+_, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, sl, sd)
+jx, jy = slide_partial(sl, s, v, jpx, jpy, jax, jay, jbx, jby)
+ex = P[v, 0] - P[c, 0]
+ey = P[v, 1] - P[c, 1]
+det = ex * jy - ey * jx
+if det == 0.0:
+    return k
+inv = 1.0 / det
+for r in range(R.shape[0]):
+    if act[r]:
+        rx = R[r, v, 0]
+        ry = R[r, v, 1]
+        l1 = (rx * jy - ry * jx) * inv
+        l2 = (ex * ry - ey * rx) * inv
+        lam_d[r, e] = 0.5 * l1
+        lam_s[r, s] = l2
+        R[r, v, 0] = 0.0
+        R[r, v, 1] = 0.0
+        R[r, c, 0] += ex * l1
+        R[r, c, 1] += ey * l1
+        for vv, gx, gy in ((sl[s, 0], jpx, jpy), (sl[s, 1], jax, jay), (sl[s, 2], jbx, jby)):
+            if vv >= 0 and vv != v:
+                R[r, vv, 0] -= gx * l2
+                R[r, vv, 1] -= gy * l2
+""",
 }
 
 #: no generated (scalar) form yet: plans with sliders run the table-driven kernels
