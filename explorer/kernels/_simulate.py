@@ -41,7 +41,7 @@ STATUS_SINGULAR = 5
 STATUS_NAMES[STATUS_SINGULAR] = "singular"
 METHODS = ("block", "dense", "closed")
 #: Default tolerance: every solved position within 1e-11 × the design's longest link of the exact one
-#: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see the README's accuracy table).
+#: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see docs/accuracy.md).
 DEFAULT_TOLERANCE = 1e-11
 #: The range of tolerances accepted. Below 1e-12 rounding decides: solved positions differ from an
 #: exact closed form by up to 2.5e-13 of the longest link whatever the tolerance (measured on 2,000

@@ -10,11 +10,12 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
+from ._build import BUILD_KEYS
 from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Gear, Link, Mechanism, Operating, PathDriver, Slider,
                      Walker, _check_length, _short, actuator_path)
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
-             "operating", "sliders", "gears"}
+             "operating", "sliders", "build", "gears"}
 #: Keys of an [operating] table (in a study, or a mechanism file's default), see :class:`Operating`.
 OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation", "body", "gear_ratio")
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
@@ -34,6 +35,13 @@ _SLIDER_KEYS = {"name", "vertex", "point", "direction", "line", "offset"}
 _GEAR_KEYS = {"name", "center", "radius", "tip", "ratio", "phase"}
 #: A linear actuator's [driver] keys (``slider`` instead of ``vertex`` and ``path``).
 _ACTUATOR_KEYS = {"slider", "stroke", "duration", "timing"}
+_MASS_KEYS = {"link_density"}
+#: Every table of a mechanism file and the keys it accepts ("" is the top level; [fixed] and [guess] take
+#: vertex names): what the docs' mechanism-file reference is generated from.
+MECHANISM_KEYS = {"": _TOP_KEYS, "crank": _CRANK_KEYS, "fixed": set(), "guess": set(), "links": _LINK_KEYS,
+                  "bodies": _BODY_KEYS, "sliders": _SLIDER_KEYS, "driver": _DRIVER_KEYS, "walker": set(WALKER_KEYS),
+                  "mass": _MASS_KEYS, "operating": set(OPERATING_KEYS), "build": set(BUILD_KEYS),
+                  "gears": _GEAR_KEYS}
 #: Largest mass (kg) or inertia (kg·m²) accepted: beyond it the forces overflow long before any build.
 _MAX_MASS = 1e12
 
@@ -129,6 +137,36 @@ def _unknown_keys(source: str, prefix: str, table: dict, allowed: set[str]) -> N
             )
 
 
+#: A triangle of links whose two shorter sides sum to the longest within this fraction of it is flat.
+FLAT_TRIANGLE = 1e-9
+
+
+def _flat_triangles(source: str, links: list[Link]) -> None:
+    """Refuse three links that close a triangle with its three joints on one line (a + b = c, to
+    :data:`FLAT_TRIANGLE`; a triangle that cannot close, a + b < c, is the solver's to report): such a
+    triangle sits on a fold, where its two assemblies meet, and a collinear coupler is one [[bodies]]
+    table instead (its joints may be collinear)."""
+    index = {frozenset((ln.a, ln.b)): i for i, ln in enumerate(links)}
+    around: dict[str, set] = {}
+    for ln in links:
+        around.setdefault(ln.a, set()).add(ln.b)
+        around.setdefault(ln.b, set()).add(ln.a)
+    for i, ln in enumerate(links):
+        for c in sorted(around[ln.a] & around[ln.b]):
+            three = sorted((i, index[frozenset((ln.a, c))], index[frozenset((ln.b, c))]))
+            if i != three[0]:
+                continue  # each triangle once, from its first link
+            sides = sorted(three, key=lambda j: links[j].length)
+            a, b, longest = (links[j].length for j in sides)
+            if abs(a + b - longest) <= FLAT_TRIANGLE * longest:
+                names = ", ".join(repr(links[j].name) for j in three)
+                raise UserError(
+                    f"{where(source, f'links[{sides[2]}]')}: links {names} make a flat triangle ({a:g} + {b:g} "
+                    f"= {longest:g}): its three joints lie on one line, on a fold "
+                    f"where the solver cannot tell its two assemblies apart; write a collinear coupler as one "
+                    f"[[bodies]] table (its joints may lie on a line)")
+
+
 def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     """Validate a parsed mechanism table (the TOML shape) and build a :class:`Mechanism`."""
     _table(source, "", data)
@@ -213,6 +251,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         mass = _mass(source, f"{key}.mass", lt["mass"]) if "mass" in lt else None
         links.append(Link(lname, a, b, length, mass))
 
+    _flat_triangles(source, links)
     bodies = _bodies(source, data.get("bodies", []), known, fixed, seen_pairs, seen_names)
     sliders = _sliders(source, data.get("sliders", []), known, fixed, tip, seen_pairs, seen_names,
                        path.slider if path is not None else None)
@@ -233,7 +272,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     link_density = None
     if "mass" in data:
         mt = _table(source, "mass", data["mass"])
-        _unknown_keys(source, "mass.", mt, {"link_density"})
+        _unknown_keys(source, "mass.", mt, _MASS_KEYS)
         if "link_density" in mt:
             link_density = _mass(source, "mass.link_density", mt["link_density"], "a density in kg per metre of link")
     operating = operating_from_dict(data["operating"], source) if "operating" in data else None
@@ -242,6 +281,9 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
                         f"mechanism is driven by a path, got {_short(operating.load)}")
     mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
                      walker, bodies, link_density, operating, sliders, gears)
+    if "build" in data:  # the design's build: its link masses and size (explorer.mechanism._build)
+        from ._build import apply_build, build_from_dict
+        mech = apply_build(mech, build_from_dict(data["build"], source), source, explicit_density=link_density)
     _check_parameter_names(mech)
     if operating is not None and operating.body is not None:
         walker_body(mech, operating, source)
@@ -526,6 +568,17 @@ def _mass(source: str, key: str, value, what: str = "a mass in kg") -> float:
     return v
 
 
+def bounded_number(source: str, key: str, v, lo: float, lo_ok: bool, hi: float, what: str) -> float:
+    """A number of a table: finite, above ``lo`` (or equal to it where ``lo_ok``), at most ``hi``; else a one-line
+    UserError naming the file, the key and the value."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise UserError(f"{where(source, key)}: expected {what}, got {_short(v)}")
+    f = float(v) if abs(v) < 1e300 else math.inf
+    if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
+        raise UserError(f"{where(source, key)}: expected {what} (at most {hi:g}), got {_short(v)}")
+    return f
+
+
 def operating_from_dict(table, source: str, key: str = "operating", base: Operating | None = None) -> Operating:
     """Validate an ``[operating]`` table (keys :data:`OPERATING_KEYS`) into an :class:`Operating`; keys
     it leaves out keep ``base``'s values (the mechanism file's default), else the defaults."""
@@ -551,15 +604,8 @@ def operating_from_dict(table, source: str, key: str = "operating", base: Operat
                             f"{_short(t['body'])}")
         out["body"] = t["body"]
     for k, (lo, lo_ok, hi, what) in rules.items():
-        if k not in t:
-            continue
-        v = t[k]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what}, got {_short(v)}")
-        f = float(v) if abs(v) < 1e300 else math.inf
-        if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what} (at most {hi:g}), got {_short(v)}")
-        out[k] = f
+        if k in t:
+            out[k] = bounded_number(source, f"{key}.{k}", t[k], lo, lo_ok, hi, what)
     return Operating(**{**{k: getattr(base, k) for k in OPERATING_KEYS}, **out})
 
 

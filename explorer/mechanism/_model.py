@@ -327,6 +327,9 @@ class Mechanism:
     gears : tuple[Gear, ...]
         Grounded cranks geared to the driving crank (file order); each tip is a vertex (in ``guess``,
         at its exact place at θ = 0).
+    build : Build or None
+        The file's ``[build]`` table (:mod:`explorer.mechanism._build`): the sheet, part width, pin and
+        shaft materials and size the design is built with (the link masses come from it).
 
     Design parameters
     -----------------
@@ -354,6 +357,7 @@ class Mechanism:
     operating: Operating | None = None
     sliders: tuple[Slider, ...] = ()
     gears: tuple[Gear, ...] = ()
+    build: object = None  # a Build (explorer.mechanism._build), or None
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
