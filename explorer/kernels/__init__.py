@@ -4,7 +4,7 @@ from ._cache import guard_cache, is_cached
 
 guard_cache()  # before any kernel is loaded from the on-disk cache
 
-from ._blocks import lu_solve  # noqa: E402
+from ..kinds._common import lu_solve  # noqa: E402
 from ._legs import ground_contact, leg_feet, leg_samples  # noqa: E402
 from ._rows import parallel_rows  # noqa: E402
 from ._simulate import check_dense  # noqa: E402
