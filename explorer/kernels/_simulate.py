@@ -21,10 +21,11 @@ from ._forces import F_OK, collect, force_inputs, force_metrics, has_mass, no_fo
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
 from ._batch import fast_batch_jit, fast_forces_jit, generic_batch_jit, generic_forces_jit, setup
 from ._codegen import kernel_for, supported
-from ._inputs import BLOCK_DTYPE, Drive, Options, Outputs, topology
+from ._inputs import BLOCK_DTYPE, Designs, Drive, Options, Outputs, topology
 from ._kinds_array import block_table
 from ._rows import parallel_rows
 from ._step import BLOCK, DENSE
+from ._vector import FLAGGED, applies, vector_batch_jit
 from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
 
 #: Status code -> name; the same codes are stored in results files as ``/status``.
@@ -39,7 +40,7 @@ STATUS_NAMES = {
 #: reactions and the motor torque are unbounded.
 STATUS_SINGULAR = 5
 STATUS_NAMES[STATUS_SINGULAR] = "singular"
-METHODS = ("block", "dense", "closed")
+METHODS = ("block", "dense", "closed", "vector", "auto")
 #: Default tolerance: every solved position within 1e-11 × the design's longest link of the exact one
 #: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see the README's accuracy table).
 DEFAULT_TOLERANCE = 1e-11
@@ -537,35 +538,58 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
     general = any(_coupled(k) for k in topo.kind)
     des = setup(plan, blocks, topo, kdrv, P0, sg, des._replace(
         table=np.zeros((N, nb), dtype=BLOCK_DTYPE), start=np.empty((N, nv, 2)), shortest=np.empty(N)))
+    if method in ("auto", "vector"):
+        fits = forces is None and not accelerations and not general and applies(topo.kind, sg)
+        if method == "vector" and not fits:
+            raise UserError("method 'vector': the vectorised first pass solves plans of dyads, rigid bodies and "
+                            "sliders (no coupled blocks), positions and velocities (no accelerations or forces); "
+                            "use method 'auto', which runs Newton where it does not apply")
+        method = "vector" if fits else "block"
     if method == "closed":
         if velocities or accelerations or general:
             raise UserError("method 'closed': the closed form gives positions only, and only for plans of dyads and "
                             "rigid bodies (no coupled blocks)")
         parallel_rows(closed_batch_jit, (topo, kdrv, sg), (des, outs))
+    elif method == "vector":
+        # the first pass for every design; the ones it flags through the Newton sweep, which reports failures
+        parallel_rows(vector_batch_jit, (topo, kdrv, bool(velocities), sg), (des, outs))
+        rows = np.flatnonzero(outs.status == FLAGGED)
+        if rows.size:
+            sub = Outputs(*(a[rows] for a in outs))
+            _newton(topo, kdrv, sg, Designs(*(a[rows] for a in des)), sub, "block", max_iterations, velocities,
+                    False, kernel, general, None)
+            for a, b in zip(outs, sub):
+                a[rows] = b
     else:
-        # with forces the sweep carries every vertex's rates (the forces read them)
-        opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations),
-                       bool(velocities) or forces is not None, bool(accelerations) or forces is not None)
-        if kernel == "generated" and (method == "dense" or general or not supported(topo, opts)):
-            raise UserError("kernel 'generated': per-topology code is generated only for the block method on plans "
-                            "whose kinds have a generated form (not coupled blocks or sliders); use kernel='auto' "
-                            "or 'general'")
-        if method == "dense" or general:
-            fn = generic_batch_jit if forces is None else generic_forces_jit
-        elif kernel != "general" and supported(topo, opts) and (kernel == "generated"
-                                                                or topo.kind.shape[0] <= GENERATED_MAX_BLOCKS):
-            # this plan's code, generated (the same results)
-            fn = kernel_for(topo, opts.want_vel, opts.want_acc, forces is not None)
-        else:
-            fn = fast_batch_jit if forces is None else fast_forces_jit
-        if forces is None:
-            parallel_rows(fn, (topo, kdrv, opts, sg), (des, outs))
-        else:
-            parallel_rows(fn, (topo, kdrv, opts, sg, forces[0]), (des, outs, forces[1]))
+        _newton(topo, kdrv, sg, des, outs, method, max_iterations, velocities, accelerations, kernel, general, forces)
     fbl = outs.fail_block
     if len(blocks):  # report the failing block by its index in the full plan
         fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
     return outs.pos, outs.vel, outs.acc, outs.status, outs.fail_t, outs.fail_end, fbl, outs.iters
+
+
+def _newton(topo, kdrv, sg, des, outs, method, max_iterations, velocities, accelerations, kernel, general, forces):
+    """The Newton sweep ("block" or "dense") for every row of ``des`` into ``outs``; the kernel chosen
+    as :func:`simulate_batch` documents (``kernel``), with the forces effect when ``forces`` is given."""
+    # with forces the sweep carries every vertex's rates (the forces read them)
+    opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations),
+                   bool(velocities) or forces is not None, bool(accelerations) or forces is not None)
+    if kernel == "generated" and (method == "dense" or general or not supported(topo, opts)):
+        raise UserError("kernel 'generated': per-topology code is generated only for the block method on plans "
+                        "whose kinds have a generated form (not coupled blocks or sliders); use kernel='auto' "
+                        "or 'general'")
+    if method == "dense" or general:
+        fn = generic_batch_jit if forces is None else generic_forces_jit
+    elif kernel != "general" and supported(topo, opts) and (kernel == "generated"
+                                                            or topo.kind.shape[0] <= GENERATED_MAX_BLOCKS):
+        # this plan's code, generated (the same results)
+        fn = kernel_for(topo, opts.want_vel, opts.want_acc, forces is not None)
+    else:
+        fn = fast_batch_jit if forces is None else fast_forces_jit
+    if forces is None:
+        parallel_rows(fn, (topo, kdrv, opts, sg), (des, outs))
+    else:
+        parallel_rows(fn, (topo, kdrv, opts, sg, forces[0]), (des, outs, forces[1]))
 
 
 def warm_dyad() -> None:

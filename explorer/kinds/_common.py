@@ -81,6 +81,38 @@ def gap_suspect(q0, m0, q1, m1, h, hi2, lo2):
     return hi >= hi2 * (1.0 - GAP_MARGIN) or lo <= lo2 * (1.0 + GAP_MARGIN)
 
 
+@njit(cache=True, error_model="numpy")
+def vector_moves_gaps(xv, yv, uv, wv, Q, M, h, closed, hi2, lo2, lim2, gap):
+    """The vectorised first pass's checks between samples of one block (``explorer.kernels._vector``):
+    True if between two samples a step h apart (``closed``: the last and the first as well) its vertex
+    moves further than √lim2 from its linear prediction (xv, yv, uv, wv (S,): its positions and
+    tangents), or (when ``gap``) its squared parent distance Q (S,), of slope M (S,), may leave
+    [lo2, hi2] (the cheap Hermite bound as a branch-free pass; where it cannot rule a gap out, the
+    interpolant's extremes, :func:`gap_suspect`)."""
+    S = xv.shape[0]
+    n = S if closed else S - 1
+    hi = hi2 * (1.0 - GAP_MARGIN)
+    lo = lo2 * (1.0 + GAP_MARGIN)
+    c = (4.0 / 27.0) * abs(h)
+    bad = 0
+    near = 0
+    for k in range(n):
+        j = k + 1 if k + 1 < S else 0
+        mx = xv[j] - xv[k] - h * uv[k]
+        my = yv[j] - yv[k] - h * wv[k]
+        bad += mx * mx + my * my > lim2
+        ext = c * (abs(M[k]) + abs(M[j]))
+        near += (max(Q[k], Q[j]) + ext >= hi) | (min(Q[k], Q[j]) - ext <= lo)
+    if bad:
+        return True
+    if near and gap:
+        for k in range(n):
+            j = k + 1 if k + 1 < S else 0
+            if gap_suspect(Q[k], M[k], Q[j], M[j], h, hi2, lo2):
+                return True
+    return False
+
+
 @njit(cache=True, forceinline=True)
 def frame_point(u, w, ax, ay, bx, by):
     """The point (u, w) of the frame of a → b: a + u (b − a) + w R(b − a), R a quarter turn
