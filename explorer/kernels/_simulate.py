@@ -592,6 +592,19 @@ def _newton(topo, kdrv, sg, des, outs, method, max_iterations, velocities, accel
         parallel_rows(fn, (topo, kdrv, opts, sg, forces[0]), (des, outs, forces[1]))
 
 
+def vector_applies(mech: Mechanism, vertices="all") -> bool:
+    """Whether method "auto" solves ``mech`` (the blocks that place ``vertices``: names, or "all") by
+    the vectorised closed-form first pass (without accelerations or forces): every block a dyad, a body
+    joint or a slider, and the nominal assembles off a fold. Otherwise "auto" runs the Newton sweep."""
+    P0, fail = assemble(mech)
+    if fail is not None:
+        return False
+    plan = plan_for(mech)
+    names = list(mech.vertices) if vertices == "all" else [str(v) for v in vertices]
+    blocks = plan.needed_blocks(np.array([mech.vertex_index(v) for v in names], dtype=np.int64))
+    return applies([plan.blocks[b].kind for b in blocks], _signs(mech, plan, P0)[blocks])
+
+
 def warm_dyad() -> None:
     """Compile the dyad's arithmetic (``explorer.kinds.dyad.place_dyad``, with ``gap_suspect``) into the
     on-disk kernel cache, for a warm-up process (``explorer.gait._warm``): it is called here once, on

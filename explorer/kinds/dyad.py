@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from ._common import (GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIGN, SUSPECT, gap_suspect, other_end,
-                      vector_moves_gaps)
+                      vector_gaps, vector_moves)
 
 NAME = "DYAD"
 NUMBER = 0
@@ -280,10 +280,11 @@ def dyad_vector(v, a, b, da2, db2, hi2, lo2, lim2, gap, sign, X, Y, VX, VY, Q, M
     positions and tangents, x and y apart), written into row v; then its checks as passes over the
     step arrays. Returns True (flagged: leave the design to Newton) if at any sample the circles do not
     meet or the angle at the vertex is within :data:`VECTOR_FOLD` of a fold, or between two samples
-    (a step h apart; ``closed``: the last and the first too) the parents' squared distance may leave
-    [lo2, hi2] (the gap bound, checked when ``gap``), or the vertex moves further than √lim2 from its
-    linear prediction (the move limit). Q, M (S,): scratch. The loops have no branches (a negative
-    square root gives NaN, which fails the fold test) so that LLVM vectorises them."""
+    (a step h apart; ``closed``: the last and the first too) the vertex moves further than √lim2 from
+    its linear prediction (the move limit, ``_common.vector_moves``) or, when ``gap``, the parents'
+    squared distance may leave [lo2, hi2] (the gap bound, ``_common.vector_gaps``; Q, M (S,): scratch).
+    The loops have no branches (a negative square root gives NaN, which fails the fold test) so that
+    LLVM vectorises them."""
     xa = X[a]
     ya = Y[a]
     xb = X[b]
@@ -304,27 +305,39 @@ def dyad_vector(v, a, b, da2, db2, hi2, lo2, lim2, gap, sign, X, Y, VX, VY, Q, M
         gx = xb[k] - xa[k]
         gy = yb[k] - ya[k]
         d2 = gx * gx + gy * gy
-        inv = 1.0 / d2
-        x = 0.5 * (da2 - db2 + d2) * inv
-        y = s * np.sqrt(da2 * inv - x * x)
-        ex = x * gx - y * gy
+        # one square root and one division for the position and the tangent: with c = (da2 − db2 + d2)/2
+        # and K = da2 d2 − c² (4 K = the squared doubled area of the triangle), w = √K, z = 1/(d2 w):
+        # the offsets along and across a → b are x = c/d2 = c z w and y = ±w/d2 = ±K z, and the
+        # Jacobian's determinant cross(p − a, p − b) = y d2, so 1/det = ±z d2
+        c = 0.5 * (da2 - db2 + d2)
+        K = da2 * d2 - c * c
+        w = np.sqrt(K)
+        z = 1.0 / (d2 * w)
+        x = c * z * w
+        y = s * K * z
+        ex = x * gx - y * gy  # p − a
         ey = x * gy + y * gx
-        px = xa[k] + ex
-        py = ya[k] + ey
-        fx = px - xb[k]
-        fy = py - yb[k]
-        det = ex * fy - ey * fx
-        idet = 1.0 / det
+        fx = ex - gx  # p − b
+        fy = ey - gy
+        det = y * d2  # cross(p − a, p − b); NaN where the circles do not meet
+        idet = s * z * d2
         r1 = ex * ua[k] + ey * wa[k]
         r2 = fx * ub[k] + fy * wb[k]
-        xv[k] = px
-        yv[k] = py
+        xv[k] = xa[k] + ex
+        yv[k] = ya[k] + ey
         uv[k] = (r1 * fy - ey * r2) * idet
         wv[k] = (ex * r2 - fx * r1) * idet
-        Q[k] = d2
-        M[k] = 2.0 * (gx * (ub[k] - ua[k]) + gy * (wb[k] - wa[k]))
         bad += not (abs(det) >= rs)  # NaN (no assembly) fails too
-    return bad > 0 or vector_moves_gaps(xv, yv, uv, wv, Q, M, h, closed, hi2, lo2, lim2, gap)
+    if bad or vector_moves(xv, yv, uv, wv, h, closed, lim2):
+        return True
+    if not gap:
+        return False
+    for k in range(S):
+        gx = xb[k] - xa[k]
+        gy = yb[k] - ya[k]
+        Q[k] = gx * gx + gy * gy
+        M[k] = 2.0 * (gx * (ub[k] - ua[k]) + gy * (wb[k] - wa[k]))
+    return vector_gaps(Q, M, h, closed, hi2, lo2)
 
 
 @njit(cache=True, forceinline=True)

@@ -16,7 +16,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ._common import INFEASIBLE, NOCONV, OK, SIGN, SUSPECT, gap_suspect, other_end, vector_moves_gaps
+from ._common import (INFEASIBLE, NOCONV, OK, SIGN, SUSPECT, gap_suspect, other_end, vector_gaps,
+                      vector_moves)
 from .dyad import VECTOR_FOLD
 from .eq_slide import slide_eval
 
@@ -253,7 +254,7 @@ def slide_vector(rec, sign, X, Y, VX, VY, Q, M, P, V, h, closed):
     scalar). Returns True (flagged: leave the design to Newton) where the circle misses the line, the
     angle between the distance row and the slide row is within ``dyad.VECTOR_FOLD`` of a fold, or
     between samples the line may leave the circle's reach or the vertex moves too far
-    (``_common.vector_moves_gaps``)."""
+    (``_common.vector_moves``, ``vector_gaps``)."""
     v = rec.vertex
     c = rec.a
     S = X.shape[1]
@@ -281,7 +282,8 @@ def slide_vector(rec, sign, X, Y, VX, VY, Q, M, P, V, h, closed):
         VX[v, k] = V[v, 0]
         VY[v, k] = V[v, 1]
         Q[k], M[k] = _slide_gap(rec, P, V)
-    return vector_moves_gaps(X[v], Y[v], VX[v], VY[v], Q, M, h, closed, rec.hi2, rec.lo2, rec.lim2, True)
+    return (vector_moves(X[v], Y[v], VX[v], VY[v], h, closed, rec.lim2)
+            or vector_gaps(Q, M, h, closed, rec.hi2, rec.lo2))
 
 
 @njit(cache=True)
