@@ -10,6 +10,7 @@ module             extra           needed by
 ``imageio_ffmpeg`` ``movie``       ``explorer animate`` to .mp4 (a .gif needs nothing more)
 ``dask``           ``dask``        ``--workers``, ``client=`` (see :mod:`explorer.study._dask`)
 ``flask``          ``edit``        ``explorer edit`` (:mod:`explorer.edit`)
+``mujoco``         ``physics``     ``explorer physics`` (:func:`~explorer.physics.physics_check`)
 =================  ==============  ===============================================
 
 ``pip install 'explorer[all]'`` installs all of them. A library is imported where it is used, never at
@@ -32,6 +33,7 @@ EXTRAS = {
     "ezdxf": ("cad", "ezdxf"),
     "imageio_ffmpeg": ("movie", "imageio-ffmpeg"),
     "flask": ("edit", "flask"),
+    "mujoco": ("physics", "mujoco"),
 }
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Regenerate the README's pictures, so that they show what the code draws today.
+"""Regenerate the docs' pictures (docs/*.png), so that they show what the code draws today.
 
     python scripts/make_pictures.py            # writes docs/foot_paths.png, pareto.png, report.png, accuracy.png
     python scripts/make_pictures.py --out /tmp/pictures --no-report
@@ -33,7 +33,7 @@ STUDY = {
     "perturb": {"method": "uniform", "spread": 0.02, "links": "all", "crank": True},
     "scene": {"vertices": ["7"], "velocities": True, "metrics": True},
 }
-#: docs/accuracy.csv does not say where it ran: the README's "What accuracy costs in time" does.
+#: docs/accuracy.csv does not say where it ran: docs/accuracy.md does.
 ACCURACY_META = {"mechanism": "jansen", "spread": 0.02, "threads": 2}
 
 

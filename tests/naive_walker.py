@@ -40,8 +40,14 @@ def legs_at(foot, S: int, phases, mirrored, cx: float = 0.0):
     return np.array(Y), np.array(VX), np.array(VY)
 
 
-def naive_walker(Y, VX, VY, crank: float, drag: float = 0.0, contact: float = 0.01) -> dict[str, float]:
-    """The walker metrics of legs sampled at θ_k = 2πk/S (arrays (L, S) from :func:`legs_at`)."""
+def naive_walker(Y, VX, VY, crank: float, drag: float = 0.0, contact: float = 0.01, fine=None) -> dict[str, float]:
+    """The walker metrics of legs sampled at θ_k = 2πk/S (arrays (L, S) from :func:`legs_at`).
+
+    fine : None, or the legs' heights (L, S, R) at R points evenly spaced inside each sample interval
+    (θ_k + 2π/S·r/R, r = 0 … R−1, from the closed form): a leg that comes within the contact band at one
+    of them, between two samples it is off the ground at, taps the ground there; the nearer of the two
+    samples (the lower height above the ground) then counts as down for the swing (the clearance).
+    """
     L, S = Y.shape
     d = 2.0 * np.pi / S
     k = np.arange(S)
@@ -64,9 +70,19 @@ def naive_walker(Y, VX, VY, crank: float, drag: float = 0.0, contact: float = 0.
     out["contact_fraction"] = float(touching.mean(axis=1).min())
     spread = [VX[touching[:, i], i].max() - VX[touching[:, i], i].min() for i in range(S)]
     out["slip"] = float(d * np.sum(spread) / out["travel"]) if out["travel"] > 0 else math.nan
+    down = touching.copy()
+    if fine is not None:
+        gf = fine.min(axis=0)                                   # (S, R) the ground between the samples
+        for j in range(L):
+            for i in range(S):
+                i1 = (i + 1) % S
+                if touching[j, i] or touching[j, i1]:
+                    continue
+                if (fine[j, i, 1:] - gf[i, 1:] <= contact * crank).any():
+                    down[j, i if Y[j, i] - g[i] <= Y[j, i1] - g[i1] else i1] = True
     heights = []
     for j in range(L):
-        off = ~touching[j]
+        off = ~down[j]
         if not off.any():
             heights.append(0.0)
             continue

@@ -220,3 +220,41 @@ def test_a_frame_by_name_in_any_column_order_does_what_it_says():
         ref = body_leg_closed_form(THETA, {"B": [0.0, 0.0], "C": [2.5, 0.0], "P": [5.0, r["coupler.P.y"]]},
                                    crank=r["crank"], pivot=(r["R.x"], 0.0), rocker=r["R-C"])
         assert np.max(np.abs(ordered.paths["P"][i] - ref["P"])) < 1e-9 * mech.size
+
+
+# -- a collinear coupler written as a triangle of links (issue 40) -------------------------------------------
+def _hoeken_of_links(bp: float) -> dict:
+    """Hoeken's leg with its coupler B–C–P written as three links (B-C 2.5, C-P 2.5, B-P ``bp``)."""
+    return {"name": "hk", "foot": "P", "crank": {"center": [0.0, 0.0], "radius": 1.0, "tip": "B"},
+            "fixed": {"D": [2.0, 0.0]}, "guess": {"C": [1.5, -2.45], "P": [2.0, -4.9]},
+            "links": [{"a": "D", "b": "C", "length": 2.5}, {"a": "B", "b": "C", "length": 2.5},
+                      {"a": "C", "b": "P", "length": 2.5}, {"a": "B", "b": "P", "length": bp}]}
+
+
+def test_a_flat_triangle_of_links_is_refused_in_one_line(tmp_path, capsys):
+    """The docs say a collinear coupler written as a triangle of links is refused; it was loaded, and its
+    nominal then failed to assemble at θ = 0. Now the file is refused, naming the links (2.5 + 2.5 = 5:
+    the three joints on one line, checked here by the triangle's area, which is zero)."""
+    import math
+    import tomllib
+
+    a, b, c = 2.5, 2.5, 5.0
+    s = (a + b + c) / 2
+    assert math.sqrt(max(s * (s - a) * (s - b) * (s - c), 0.0)) == 0.0   # Heron: no area, a line
+    with pytest.raises(UserError, match=r"links\[3\]: links 'B-C', 'C-P', 'B-P' make a flat triangle"):
+        mechanism_from_dict(_hoeken_of_links(5.0), "hk.toml")
+    # a thin triangle that is not flat is a design like any other (and turns)
+    assert simulate(mechanism_from_dict(_hoeken_of_links(4.9), "hk.toml"), steps=36).ok
+    # from the command line: exit 2, one line naming the file and the key
+    from clihelp import cli
+    path = tmp_path / "hk.toml"
+    d = _hoeken_of_links(5.0)
+    lines = [f'name = "{d["name"]}"', f'foot = "{d["foot"]}"', "[crank]", "center = [0.0, 0.0]", "radius = 1.0",
+             'tip = "B"', "[fixed]", "D = [2.0, 0.0]", "[guess]", "C = [1.5, -2.45]", "P = [2.0, -4.9]"]
+    for ln in d["links"]:
+        lines += ["[[links]]", f'a = "{ln["a"]}"', f'b = "{ln["b"]}"', f"length = {ln['length']}"]
+    path.write_text("\n".join(lines) + "\n")
+    assert tomllib.loads(path.read_text())["links"] == d["links"]
+    code, out, err = cli(capsys, "describe", path)
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert f"{path}: links[3]:" in err and "flat triangle" in err and "[[bodies]]" in err

@@ -30,7 +30,7 @@ from explorer.gait import METRICS as ALL_METRICS
 #: every metric a leg study stores (path synthesis's path_error needs a [target] path, the forces effect's
 #: need [scene] forces)
 METRICS = tuple(m for m in ALL_METRICS if m not in TARGET_METRICS and m not in FORCE_METRICS
-                and m not in ROBUSTNESS_METRICS and BY_NAME[m].group != "slider")  # slider: a foot on a slider
+                and m not in ROBUSTNESS_METRICS and BY_NAME[m].group not in ("slider", "physics"))  # slider: a foot on a slider; physics: `explorer physics`
 
 STUDY = {
     "study": {"name": "clirank", "mechanism": "jansen", "variants": 40, "seed": 11, "steps": 36},
@@ -79,7 +79,7 @@ def test_rank_table(results, capsys):
     assert head[1].startswith(f"{n_ok} ok of 40 variants; {n_ok} ranked; showing 10")
     assert head[2].startswith(f"buildability screen: not applied (--include-screened); it would remove {removed}")
     assert list(table.columns[:3]) == ["rank", "variant", "stride"] and table.columns[-1] == "screen"
-    assert set(table.columns) == {"rank", "variant", "stride", "screen"} | set(WALKER_METRICS)
+    assert set(table.columns) == {"rank", "variant", "stride", "screen", "tightest", "margin%"} | set(WALKER_METRICS)
     assert list(table["rank"].astype(int)) == list(range(1, 11))
     assert list(table["variant"].astype(int)) == list(api["variant"])
     for m in WALKER_METRICS:  # shown to 5 significant digits of the column's largest value
@@ -379,3 +379,29 @@ def test_rank_table_ends_with_the_reference_and_its_changes(results, capsys):
     out = ok_cli(capsys, "rank", results, "--top", "2", "--vs", v)
     last = [ln.split() for ln in out.splitlines() if ln.startswith("reference:")][-1]
     assert last[:2] == ["reference:5", str(v)]
+
+
+def test_rank_table_shows_each_designs_tightest_screen_margin(results, capsys):
+    """Issue 40: the default ranking's #2 passed the foot-whip limit by 0.3 % (5.98 of 6 crank radii per
+    radian) and the table showed it nowhere. Each row now names its closest screen limit and how far
+    inside it is, recomputed here from the frame's own columns by the definitions written out plainly."""
+    head, table = parse_table(ok_cli(capsys, "rank", results, "--top", "0", "--include-screened"))
+    assert any(line.startswith("tightest, margin%:") and "--yield 0.5mm" in line for line in head)
+    assert list(table.columns[2:3]) == ["score"]
+    with open_results(results) as res:
+        df = res.frame().set_index("variant", drop=False)
+        limits = res.screen
+    for _, row in table.iterrows():
+        r = df.loc[int(row["variant"])]
+        margins = {"toggle": (r["min_transmission_angle"] - limits.min_transmission_angle) / limits.min_transmission_angle,
+                   "foot-above-the-frame": (r["foot_headroom"] - limits.min_foot_headroom) / r["crank"],
+                   "foot-whip": (limits.max_foot_speed - r["max_speed"] / r["crank"]) / limits.max_foot_speed}
+        which = min(margins, key=margins.get)
+        assert row["tightest"] == which, (row["variant"], margins)
+        assert float(row["margin%"]) == pytest.approx(100 * margins[which], rel=1e-3, abs=1e-3)
+        # a design the screen removes is outside a limit: its margin is negative
+        outside = any(c in row["screen"] for c in ("toggle", "foot-whip", "foot-above-the-frame"))
+        assert (float(row["margin%"]) < 0) == outside, row
+    # beside the yield too
+    _, t = parse_table(ok_cli(capsys, "rank", results, "--top", "2", "--yield", "0.5%", "--copies", "4"))
+    assert {"tightest", "margin%", "yield", "yield_se"} <= set(t.columns)

@@ -24,7 +24,8 @@ from explorer.kinds.dyad import place_dyad
 from explorer.kernels._sweep import STATUS_NOCONV
 
 #: each leg with a spread at which some of its designs turn and some fail
-LEGS = {"jansen": 0.25, "klann": 0.12, "hoeken": 0.4, "strider": 0.12, "fourbar": 0.4, "arm": 0.25}
+LEGS = {"jansen": 0.25, "klann": 0.12, "hoeken": 0.4, "strider": 0.12, "fourbar": 0.4, "arm": 0.25,
+        "geared5bar": 0.6}
 #: at least this many of the 400 designs compared in each regime (about half of what the data hold), so
 #: that the bit-for-bit test cannot pass having checked nothing. "swept back": crank cycles that failed
 #: and were swept backward from θ = 0 (Hoeken's failures all fail at the start; the arm has no crank).
@@ -35,6 +36,7 @@ MINIMUM = {
     "strider": {"ok": 150, "failed": 30, "swept back": 30},
     "fourbar": {"ok": 150, "failed": 30, "swept back": 10},
     "arm": {"ok": 100, "failed": 100},
+    "geared5bar": {"ok": 150, "failed": 25, "swept back": 20},
 }
 for _least in MINIMUM.values():
     _least.update({"ok, more iterations than the least": 20, "solved samples": 100 * 180})

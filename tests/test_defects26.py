@@ -342,10 +342,10 @@ def test_a_one_footed_leg_draws_one_path(name):
     assert len(LinkageAnimation(mech, cycles=1, frames=2, dpi=30, legs=2).foot_paths) == 2  # and its mirror image
 
 
-def test_animation_axis_labels_use_brackets_as_the_readme_promises():
+def test_animation_axis_labels_use_brackets_as_the_docs_promise():
     from explorer.view import LinkageAnimation
-    readme = (ROOT / "README.md").read_text()
-    assert "units in square brackets in the axis labels" in readme
+    pictures = (ROOT / "docs" / "pictures.md").read_text()  # the README's "Pictures", moved to the docs site
+    assert "units in square brackets in the axis labels" in pictures
     anim = LinkageAnimation("jansen", cycles=1, frames=2, dpi=30)
     for label in (anim.ax.get_xlabel(), anim.ax.get_ylabel()):
         assert label.endswith("[model units]") and "(" not in label, label

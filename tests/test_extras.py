@@ -37,6 +37,7 @@ def one_line_error(capsys, args, expected: str) -> None:
     ("report", "plotly", "report"),
     ("optimize", "pymoo", "optimize"),
     ("sensitivity", "SALib", "sensitivity"),
+    ("physics", "mujoco", "physics"),
 ])
 def test_verb_without_its_extra_says_which_to_install(monkeypatch, capsys, tmp_path, verb, module, extra):
     missing(monkeypatch, module)

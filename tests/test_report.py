@@ -274,3 +274,77 @@ def test_report_in_headless_chromium(study, page, browser):
     assert listed == "failed: assembly: variants " + ", ".join(map(str, failed))
     severe = [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
     assert not severe, severe
+
+
+# -- the force axes: scaled to the buildable designs, their end labels apart (issue 40) ---------------------
+@pytest.fixture(scope="module")
+def forces_page(tmp_path_factory):
+    """300 plywood Jansen walkers within ±3 %, with forces: a few screened-out designs near a toggle reach
+    motor torques 20 times the buildable ones'."""
+    root = tmp_path_factory.mktemp("report-forces")
+    out = explorer.run_study({"study": {"name": "repf", "mechanism": "studies/mechanisms/jansen-plywood.toml",
+                                        "variants": 300, "seed": 1, "steps": 72},
+                              "perturb": {"method": "uniform", "spread": 0.03},
+                              "scene": {"metrics": True, "forces": True},
+                              "walker": {"legs": 4, "mirrored": True, "drag": 0.1}},
+                             output=root / "repf.h5", progress=False).path
+    with explorer.open_results(out) as res:
+        df = res.frame()
+    page = root / "report.html"
+    write_report(out, page)
+    return df, page
+
+
+@pytest.mark.slow
+def test_force_axes_span_the_buildable_designs_and_say_what_is_off_scale(forces_page, browser):
+    """The report's motor-torque axis was scaled by screened-out near-toggle designs (2,192 N·m against
+    8.1 for the buildable ones), so every buildable design sat in its bottom pixels. Each force axis now
+    spans the buildable designs (checked against pandas' min and max of the frame), the page lists what
+    lies beyond with the counts pandas gives, and in headless Chromium no axis' end label runs into its
+    neighbour's."""
+    df, page = forces_page
+    ok = df[df["status"].astype(str) == "ok"]
+    build = ok["buildable"].to_numpy(dtype=bool)
+    text = page.read_text()
+    data = _data(text)
+    fig = json.loads(re.search(r"<script type='application/json' id='fig-parcoords'>(.*?)</script>", text, re.S)
+                     .group(1).replace("<\\/", "</"))
+    dims = {d["label"].split(" ")[0]: d for d in fig["data"][0]["dimensions"]}
+    note = htmlmod.unescape(re.search(r"<p class='note' id='off-scale-note'>(.*?)</p>", text, re.S).group(1))
+    for m in ("motor_torque_peak", "motor_power_peak", "pin_force_max"):
+        v = ok[m].to_numpy(dtype=np.float64)
+        lo, hi = v[build].min(), v[build].max()
+        assert v.max() > 5 * hi                               # the near-toggle designs the screen removed
+        a, b = dims[m]["range"]
+        assert a <= lo < hi <= b and b - a <= 1.05 * (hi - lo)   # the buildable designs fill the axis
+        off = int(((v < a) | (v > b)).sum())
+        assert off > 0 and f"{m} ({off:,} designs, up to {v.max():.4g}" in note
+        col = next(c for c in data["columns"] if c["key"] == m)
+        assert col["clip"] == [a, b]
+    # the screen's own inputs keep their whole span: they show why designs were screened out
+    assert "range" not in dims["max_speed"] and "range" not in dims["min_transmission_angle"]
+
+    drv = browser
+    drv.get(page.as_uri())
+    assert _wait(drv, "return document.body.getAttribute('data-ready')", "1") == "1"
+    boxes = drv.execute_script("""
+      return ['axis-extent-top-text', 'axis-extent-bottom-text'].map(function (cls) {
+        return Array.from(document.querySelectorAll('#parcoords .' + cls)).map(function (e) {
+          var r = e.getBoundingClientRect(); return [e.textContent, r.left, r.right]; }); });""")
+    assert all(len(side) >= 40 for side in boxes)
+    for side in boxes:
+        side = sorted((b for b in side if b[0]), key=lambda b: b[1])
+        clash = [(a[0], b[0]) for a, b in zip(side, side[1:]) if a[2] > b[1]]
+        assert not clash, clash
+    # a brush on the top end of the motor-torque axis keeps the designs beyond it (drawn there)
+    v = ok["motor_torque_peak"].to_numpy(dtype=np.float64).astype(np.float32)
+    a, b = dims["motor_torque_peak"]["range"]
+    lo = float(np.quantile(v[build], 0.9))
+    drv.execute_script("""
+        var gd = document.getElementById('parcoords');
+        var k = gd.data[0].dimensions.findIndex(function (d) { return d.label.startsWith('motor_torque_peak'); });
+        var u = {}; u['dimensions[' + k + '].constraintrange'] = [[arguments[0], arguments[1]]];
+        Plotly.restyle(gd, u, [0]);""", lo, b)
+    want = str(int((v >= np.float32(lo)).sum()))
+    assert _wait(drv, "return document.getElementById('n-selected').getAttribute('data-count')", want) == want
+    assert not [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]

@@ -22,7 +22,7 @@ from explorer.study import recompute_metrics
 #: every metric a leg study stores (path synthesis's path_error needs a [target] path, the forces effect's
 #: need [scene] forces)
 METRICS = tuple(m for m in ALL_METRICS if m not in TARGET_METRICS and m not in FORCE_METRICS
-                and m not in ROBUSTNESS_METRICS and BY_NAME[m].group != "slider")  # slider: a foot on a slider
+                and m not in ROBUSTNESS_METRICS and BY_NAME[m].group not in ("slider", "physics"))  # slider: a foot on a slider; physics: `explorer physics`
 
 STUDY = {
     "study": {"name": "rank", "mechanism": "jansen", "variants": 48, "seed": 7, "steps": 72},

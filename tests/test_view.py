@@ -508,3 +508,29 @@ def test_bodies_are_drawn_as_their_outline():
              if np.isfinite(xy[i]).all() and np.isfinite(xy[i + 1]).all()}
     assert pairs == {frozenset((D, C)), frozenset((B, P_))}  # the rocker, and the coupler bar there and back
     plt.close(fig)
+
+
+# -- a long title stays on the canvas (issue 40) -------------------------------------------------------------
+def test_a_long_plot_title_is_wrapped_not_clipped(results, tmp_path):
+    """`plot --top` with a --where filter had a title wider than the figure, centred over an axes that sits
+    left of its legend: its second line ran off the canvas on the left. Rasterised here: every line of
+    the title lies inside the image, and the image's first and last pixel columns (white margin) carry no
+    ink in the title's rows."""
+    from explorer.view import plot_top, save_figure
+    where = "bob < 100 and slip < 100 and travel > 0 and clearance > -1 and body_speed_ripple < 1000"
+    fig = plot_top(results, top=3, where=where)
+    path = save_figure(fig, tmp_path / "top.png")
+    img = np.asarray(Image.open(path).convert("L"), dtype=np.float64)
+    renderer = fig.canvas.get_renderer()
+    fig.canvas.draw()
+    title = fig.axes[0].title
+    box = title.get_window_extent(renderer)
+    W, H = fig.canvas.get_width_height()
+    assert img.shape == (H, W)
+    assert box.x0 >= 0 and box.x1 <= W, (box, W)
+    assert where in title._get_wrapped_text().replace("\n", " ")
+    assert title._get_wrapped_text().count("\n") >= 2          # it was wrapped onto more lines
+    rows = slice(max(0, int(H - box.y1)), min(H, int(H - box.y0) + 1))   # image rows count from the top
+    edge = np.concatenate([img[rows, :2].ravel(), img[rows, -2:].ravel()])
+    assert (edge > 250).all(), "ink at the image's edge in the title's rows: the title is cut off"
+    assert (img[rows] < 128).any()                           # and the title is there

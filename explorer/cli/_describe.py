@@ -93,35 +93,18 @@ def _wrist(mech) -> dict:
 def _plan(mech) -> tuple[list[dict], dict]:
     """The plan's blocks (steps numbered from 1) and, for each vertex it places, its step."""
     from ..kernels import plan_for
+    from ..kinds import EQUATION_BY_NAME
 
     plan = plan_for(mech)
     names = mech.vertices
-    n_links = plan.n_links
     steps, placed_by = [], {}
     for i, b in enumerate(plan.blocks):
         kind = _kind_name(b.kind)
         placed = [names[v] for v in b.vertices]
         equations, used = [], set()
-        for e in b.links:
-            e = int(e)
-            used.update((int(plan.link_a[e]), int(plan.link_b[e])))
-            if e < n_links:
-                lk = mech.links[e]
-                equations.append(f"link {lk.name}" + (f" ({lk.a}-{lk.b})" if lk.name != f"{lk.a}-{lk.b}" else ""))
-            else:
-                body = mech.bodies[e - n_links]
-                p, q = (int(k) for k in plan.body_base[e - n_links])
-                equations.append(f"body {body.name}: distance {body.joints[p]}-{body.joints[q]}")
-        for a in dict.fromkeys(int(a) for a, _axis in b.attaches):
-            j, p, q = (int(k) for k in plan.attach[a])
-            used.update((j, p, q))
-            body = mech.bodies[int(plan.attach_body[a])]
-            equations.append(f"body {body.name}: {names[j]} rigidly from {names[p]}, {names[q]}")
-        for k in b.slides:
-            sl = mech.sliders[int(plan.slide_slider[k])]
-            used.update(int(v) for v in plan.slide[k] if v >= 0)
-            equations.append(f"slider {sl.name}: {sl.vertex} on " + (f"the line through {_pt(sl.point)}" if sl.ground
-                                                                      else f"the slot {sl.line[0]}-{sl.line[1]}"))
+        for typ, e in dict.fromkeys((typ, int(e)) for typ, e, _ax in b.rows):  # each equation once, in words
+            used.update(int(v) for v in plan.tables[typ][e] if v >= 0)
+            equations.append(EQUATION_BY_NAME[typ].describe(mech, plan, e))
         known = [names[v] for v in sorted(used - set(b.vertices))]
         steps.append({"step": i + 1, "kind": kind, "places": placed, "from": known, "equations": equations,
                       "after": [int(d) + 1 for d in b.depends]})
@@ -194,6 +177,8 @@ def describe(mech) -> dict:
                      "direction": _pt(sl.direction) if sl.ground else None,
                      "line": list(sl.line) if not sl.ground else None, "offset": float(sl.offset)}
                     for sl in mech.sliders],
+        "gears": [{"name": g.name, "center": _pt(g.center), "radius": float(g.radius), "tip": g.tip,
+                   "ratio": int(g.ratio), "phase": float(g.phase)} for g in mech.gears],
         "parameters": params,
         "parameter_kinds": {p: mech.parameter_kind(p) for p in params},
         "walker": walker,
@@ -233,7 +218,12 @@ def _meaning(d: dict, p: str) -> str:
         return "crank radius"
     if p in ("crank.x", "crank.y"):
         return f"crank centre {p[-1]}"
+    gears = {g["name"]: g for g in d.get("gears", ())}
+    if p in gears:
+        return f"radius of geared crank {p} (tip {gears[p]['tip']})"
     head, axis = p.rsplit(".", 1)
+    if head in gears:
+        return f"geared crank {head}'s centre {axis}"
     sliders = {sl["name"]: sl for sl in d.get("sliders", ())}
     if head in sliders:
         sl = sliders[head]
@@ -286,6 +276,9 @@ def text(d: dict) -> str:
     if crank:
         out.append(f"crank: centre {_xy(drv['center'])}, radius {_g(drv['radius'])}, tip {drv['tip']} "
                    f"(θ counter-clockwise from +x; the centre is a ground pivot too)")
+        for g in d.get("gears", ()):
+            out.append(f"geared crank {g['name']}: centre {_xy(g['center'])}, radius {_g(g['radius'])}, tip {g['tip']}, "
+                       f"angle {g['ratio']:+d} × θ + {_g(g['phase'])}° (geared to the crank)")
     else:
         what = {"line": lambda: f"a straight line from {_xy(drv['points'][0])} to {_xy(drv['points'][1])}",
                 "arc": lambda: f"an arc about {_xy(drv['center'])}, radius {_g(drv['radius'])}, from "

@@ -22,12 +22,16 @@ def register(sub) -> None:
                     "as a mechanism file (`explorer run`, `explorer.load_mechanism`), its guess at the variant's "
                     "own positions at the first sample. A failed variant exports as svg, dxf and toml (its design "
                     "exists) but not as csv (it has no full path). kit: a folder DIR for a laser cutter and a "
-                    "workbench: parts.svg and parts.dxf (every part once per leg, mirrored copies of asymmetric "
-                    "parts marked M, nested on --sheet sheets, holes labelled with their joints, a scale bar, cut "
-                    "and engrave layers), bom.csv (parts, pins sized from the study's joint forces where it computed "
-                    "them, spacers, the crankshaft), README.txt (scale, material, the tolerance the design needs, "
-                    "the command); the design is scaled so its crank is --crank-mm (30 mm) unless --scale is "
-                    "given; RESULTS may then also be a mechanism (a built-in name or a .toml) with no VARIANT. "
+                    "workbench, a machine that turns: every part keeps --clearance from every pin, spacer, nut and "
+                    "the crankshaft on its layer over the whole turn (a crank with throws where parts cross the "
+                    "shaft's axis); kit.json (the kit as data), parts.svg and parts.dxf (every part once per leg, "
+                    "mirrored copies marked M, crank arms with a D-hole at their leg's phase, frame, motor and end "
+                    "plates on standoffs, nested on --sheet sheets), bom.csv (made from kit.json: pins and the "
+                    "crankshaft sized from the forces of the parts cut, spacers, bushings, standoffs, the motor), "
+                    "assembly.pdf, README.txt (scale, material, the worst clearance, the command); the size and "
+                    "the material come from the design's [build] table, else a 30 mm crank (--crank-mm or --scale) "
+                    "and 3 mm plywood; RESULTS may then also be a mechanism (a built-in name or a .toml) with no "
+                    "VARIANT. "
                     "An existing PATH (or a kit's file in DIR) is never replaced without --force; missing folders "
                     "are created.")
     p.add_argument("results", metavar="RESULTS",
@@ -38,22 +42,39 @@ def register(sub) -> None:
                    help="what to write (default: from the extension of -o; kit: a folder)")
     p.add_argument("-o", "--output", metavar="PATH", required=True, help="the file to write (kit: the folder)")
     p.add_argument("--force", action="store_true", help="overwrite PATH if it exists (never done without it)")
-    p.add_argument("--scale", type=float, default=None, metavar="MM",
+    p.add_argument("--scale", default=None, metavar="MM",
                    help="svg, dxf, kit: millimetres per model unit (default: 1, one model unit = 1 mm; kit: the "
-                        "scale that makes the crank --crank-mm)")
-    p.add_argument("--width", type=float, default=None, metavar="MM",
+                        "design's [build] unit, else the scale that makes the crank --crank-mm; not with --crank-mm)")
+    p.add_argument("--width", default=None, metavar="MM",
                    help="width of every part, mm (svg, dxf default: 20 %% of the shortest distance between two "
-                        "holes of one part: the crank radius or the shortest link, usually; kit: 3 pin diameters)")
-    p.add_argument("--hole", type=float, default=None, metavar="MM",
+                        "holes of one part: the crank radius or the shortest link, usually; kit: the design's [build] "
+                        "part_width, else 3 pin diameters)")
+    p.add_argument("--hole", default=None, metavar="MM",
                    help="svg, dxf, kit: diameter of the pin holes, mm (default: 40 %% of the part width; kit: every "
-                        "pin sized from the study's joint forces, else M3 at a 30 mm crank, scaled)")
-    p.add_argument("--thickness", type=float, default=None, metavar="MM",
-                   help="kit: the thickness of the sheet the parts are cut from, mm (default 3); one stack layer, "
-                        "and the bearing length that sizes a pin from a joint force")
-    p.add_argument("--crank-mm", dest="crank_mm", type=float, default=None, metavar="MM",
-                   help="kit: the crank radius of the build, mm (default 30; sets the scale unless --scale)")
+                        "pin sized from its joint's force, else M3 at a 30 mm crank, scaled; a kit refuses a hole "
+                        "below what a force needs unless --undersized)")
+    p.add_argument("--thickness", default=None, metavar="MM",
+                   help="kit: the thickness of the sheet the parts are cut from, mm (default: the design's [build] "
+                        "thickness, else 3); one stack layer, and the bearing length that sizes a pin")
+    p.add_argument("--crank-mm", dest="crank_mm", default=None, metavar="MM",
+                   help="kit: the crank radius of the build, mm (default 30 where the design states no size; sets "
+                        "the scale; not with --scale)")
     p.add_argument("--sheet", default=None, metavar="WxH",
-                   help="kit: the size of the sheets to cut from, mm (default 600x400)")
+                   help="kit: the size of the sheets to cut from, mm, each side at most 5000 (default 600x400)")
+    p.add_argument("--motor-shaft", dest="motor_shaft", default=None, metavar="MM",
+                   help="kit: the gearmotor's shaft diameter, mm (default 6: a 37 mm metal gearmotor); smaller than "
+                        "the crank")
+    p.add_argument("--motor-holes", dest="motor_holes", default=None, metavar="NxD@PCD",
+                   help="kit: the motor's mounting holes: count x size @ pitch circle, mm (default 6xM3@31)")
+    p.add_argument("--clearance", default=None, metavar="MM",
+                   help="kit: the running clearance every part keeps from every pin, spacer, nut, the shaft and "
+                        "the parts of its layer over the whole turn, mm (default 1)")
+    p.add_argument("--plates", action="store_true",
+                   help="kit: cut every rigid triangle of links (three links pinned into a triangle, as Jansen's "
+                        "2-3-4 and 5-6-7) as one plate")
+    p.add_argument("--undersized", action="store_true",
+                   help="kit: cut a --hole below what a joint's force needs (the kit says so in README.txt and "
+                        "bom.csv)")
     p.set_defaults(func=run)
 
 
@@ -83,9 +104,34 @@ def parse_sheet(text) -> tuple[float, float]:
         W, H = (float(parts[0]), float(parts[1])) if len(parts) == 2 else (math.nan, math.nan)
     except ValueError:
         W = H = math.nan
-    if not (math.isfinite(W) and math.isfinite(H) and W > 0 and H > 0):
-        raise UserError(f"--sheet: expected WIDTHxHEIGHT in mm such as 600x400, got {text!r}")
+    if not (math.isfinite(W) and math.isfinite(H) and 0 < W <= 5000 and 0 < H <= 5000):
+        raise UserError(f"--sheet: expected WIDTHxHEIGHT in mm such as 600x400, each side > 0 and at most 5000, "
+                        f"got {text!r}")
     return W, H
+
+
+#: The kit's size options: (option, attribute, highest, what): one-line errors naming the option and value.
+KIT_SIZES = (("--scale", "scale", 1e9, "mm per model unit"), ("--crank-mm", "crank_mm", 5000.0, "the crank radius in mm"),
+             ("--width", "width", 1000.0, "the part width in mm"), ("--hole", "hole", 100.0, "the pin diameter in mm"),
+             ("--thickness", "thickness", 100.0, "the sheet thickness in mm"),
+             ("--motor-shaft", "motor_shaft", 100.0, "the motor's shaft diameter in mm"),
+             ("--clearance", "clearance", 100.0, "the running clearance in mm"))
+
+
+def parse_mm(option: str, text, hi: float, what: str) -> float | None:
+    """A size option's text → a finite number in (0, hi], or a one-line UserError naming the option and value."""
+    import math
+
+    from ..errors import UserError
+    if text is None:
+        return None
+    try:
+        v = float(str(text).strip())
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and 0 < v <= hi):
+        raise UserError(f"{option}: expected {what}, a number > 0 and at most {hi:g}, got {text!r}")
+    return v
 
 
 def _is_results(path) -> bool:
@@ -128,20 +174,55 @@ def _kit_command(args, chosen) -> str:
     words = ["explorer", "export", args.results] + ([str(chosen)] if chosen is not None else [])
     words += ["--format", "kit", "-o", str(args.output)]
     for opt, val in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--thickness", args.thickness),
-                     ("--scale", args.scale),
-                     ("--width", args.width), ("--hole", args.hole)):
+                     ("--scale", args.scale), ("--width", args.width), ("--hole", args.hole),
+                     ("--motor-shaft", args.motor_shaft), ("--motor-holes", args.motor_holes),
+                     ("--clearance", args.clearance)):
         if val is not None:
-            words += [opt, f"{val:g}" if isinstance(val, float) else str(val)]
+            words += [opt, str(val)]
+    words += [f for f, on in (("--plates", args.plates), ("--undersized", args.undersized)) if on]
     return " ".join(shlex.quote(w) for w in words)
+
+
+def _variant_torque(res, v: int) -> float | None:
+    """The variant's stored motor_torque_peak (N·m), or None."""
+    import math
+
+    from ..store import variant_row
+    row = variant_row(res, v)
+    try:
+        f = float(row.get("motor_torque_peak")) if "motor_torque_peak" in row.index else math.nan
+    except (TypeError, ValueError):
+        f = math.nan
+    return f if math.isfinite(f) else None
+
+
+def kit_options(args) -> dict:
+    """Every kit option checked (one line naming the option and the value, before anything is read or written)."""
+    from ..errors import UserError
+    from ..view._kit_chassis import motor_pattern
+    out = {attr: parse_mm(opt, getattr(args, attr), hi, what) for opt, attr, hi, what in KIT_SIZES}
+    if out["scale"] is not None and out["crank_mm"] is not None:
+        raise UserError(f"--scale {args.scale} and --crank-mm {args.crank_mm}: each sets the build's size; give one")
+    out["sheet"] = parse_sheet(args.sheet) if args.sheet is not None else (600.0, 400.0)
+    if args.motor_holes is not None:
+        from ..view._kit import MOTOR_SHAFT
+        motor_pattern(args.motor_holes, MOTOR_SHAFT if out["motor_shaft"] is None else out["motor_shaft"])
+    if args.undersized and out["hole"] is None:
+        raise UserError("--undersized: it goes with --hole (a pin diameter below what a joint's force needs)")
+    return out
 
 
 def run_kit(args) -> int:
     """``--format kit``: the build kit of a variant of a results file, or of a mechanism."""
+    import math
+
     from ..errors import UserError
     from ..mechanism import load_mechanism
     from ..view import build_kit, design_yield_note, write_kit
+    from ..view._kit import kit_loads, material_of
 
-    sheet = parse_sheet(args.sheet) if args.sheet is not None else (600.0, 400.0)
+    opts = kit_options(args)
+    sheet = opts["sheet"]
     out = Path(args.output)
     if not str(args.output).strip():
         raise UserError(f"-o: expected a folder name, got {str(args.output)!r}")
@@ -154,9 +235,11 @@ def run_kit(args) -> int:
             if os.path.lexists(out / name):
                 output_path(out / name, args.force, protect=[args.results])
     chosen = args.variant if args.variant is not None else args.variant_opt
-    forces: dict[str, float] = {}
+    stored: dict[str, float] = {}
+    stored_torque = None
     note = ""
     tolerance_note = None
+    study_unit = None
     if _is_results(args.results):
         from ..store import FILE_STATUS_NAMES, open_results, variant_row
         from ..view import variant_design
@@ -167,7 +250,8 @@ def run_kit(args) -> int:
             code = int(res.file["status"][v])
             status = FILE_STATUS_NAMES.get(code, f"code {code}")
             mech = variant_design(res, v)
-            forces = _variant_forces(res, v)
+            stored = _variant_forces(res, v)
+            stored_torque = _variant_torque(res, v)
             row = variant_row(res, v)
             y = row.get("yield") if "yield" in row.index else None
             try:
@@ -180,38 +264,50 @@ def run_kit(args) -> int:
                                   f"±{rob.get('tolerance', '?')} {rob.get('unit', '%')} of every design parameter "
                                   f"that still work)")
             source = f"{res.filename}, variant {v} (status {status})"
-            unit = res.operating.unit if res.operating is not None else None
+            operating = res.operating
+            study_unit = operating.unit if operating is not None else None
         if status != "ok":
             note = f"; note: variant {v} did not solve over its whole cycle ({status})"
     else:
-        unit = None
         if chosen is not None:
             raise UserError(f"{args.results}: a mechanism has no variants; drop {chosen!r} (a VARIANT goes with a "
                             f"results file)")
         mech = load_mechanism(args.results)
+        operating = mech.operating
         source = f"mechanism {args.results}" + (f" ({mech.source})" if mech.source and mech.source != args.results else "")
     if mech.crank is None:
         raise UserError(f"{args.results}: mechanism {mech.name!r} is driven along a path, not by a crank: a build kit needs a "
                         f"crankshaft (export its parts with --format svg or dxf)")
-    scale = args.scale
-    if forces and unit:  # the joint forces are those of a machine of the study's own size: build that one
-        study_scale = 1000.0 * float(unit)
-        if scale is None and args.crank_mm is None:
-            scale = study_scale
-        else:
-            built = scale if scale is not None else args.crank_mm / mech.crank.radius
-            if abs(built / study_scale - 1.0) > 1e-9:
-                note += (f"; note: the pins are sized from the forces of the study's machine, {study_scale:.4g} mm per "
-                         f"model unit ([operating] unit), not of this {built:.4g} mm build: rerun the forces study at "
-                         f"the build's size, or drop --scale/--crank-mm")
-    from ..view import Material
-    material = Material()
-    if args.thickness is not None:
-        if not (args.thickness > 0 and args.thickness < 1000):
-            raise UserError(f"--thickness: expected the sheet thickness in mm, a number > 0, got {args.thickness!r}")
-        material = Material(thickness=float(args.thickness))
-    kit = build_kit(mech, crank_mm=30.0 if args.crank_mm is None else args.crank_mm, scale=scale, material=material,
-                    width=args.width, hole=args.hole, sheet=sheet, forces=forces, source=source,
+    material = material_of(mech.build, thickness=opts["thickness"])
+    walker = mech.walker
+    can_compute = operating is not None and operating.rpm is not None
+
+    def loads(scale, width):
+        """The forces of the parts the kit cuts: the study's own where it computed them for this build, else
+        computed again (explorer.simulate with forces) for it."""
+        density = material.density * material.thickness * width / 1e6
+        same_size = study_unit is not None and math.isclose(scale / 1000.0, study_unit, rel_tol=1e-9)
+        same_mass = mech.link_density is not None and math.isclose(mech.link_density, density, rel_tol=1e-6)
+        if stored and stored_torque is not None and same_size and same_mass:
+            return stored, stored_torque, (f"pins and crankshaft sized from the study's own forces (its build: "
+                                           f"{scale:.4g} mm per model unit, links of {density:.4g} kg/m)")
+        if not can_compute:
+            if stored:
+                return {}, None, ("the study's forces are those of another build (its size or its links' mass) and "
+                                  "there is no operating speed to compute them again: pins and shaft are the "
+                                  "default sizes, not sized from a load")
+            return {}, None, None
+        forces, torque = kit_loads(mech, walker, operating, scale, density)
+        why = ("" if not stored else f"; the study's were for {1000 * study_unit:.4g} mm per model unit and links of "
+               f"{(mech.link_density or 0.0):.4g} kg/m" if study_unit else "")
+        return forces, torque, (f"pins and crankshaft sized from forces computed for this build ({scale:.4g} mm per "
+                                f"model unit, {material.thickness:g} mm {material.name} links {width:.4g} mm wide: "
+                                f"{density:.4g} kg/m; {operating.rpm:g} rpm){why}")
+
+    kit = build_kit(mech, crank_mm=opts["crank_mm"], scale=opts["scale"], material=material, width=opts["width"],
+                    hole=opts["hole"], sheet=sheet, loads=loads, source=source, plates=args.plates,
+                    undersized=args.undersized, motor_shaft=opts["motor_shaft"], motor_holes=args.motor_holes,
+                    clearance=1.0 if opts["clearance"] is None else opts["clearance"],
                     commands=(_kit_command(args, chosen),))
     if tolerance_note is None:
         try:
@@ -223,9 +319,14 @@ def run_kit(args) -> int:
     kit.tolerance_note = tolerance_note
     paths = write_kit(kit, out, force=args.force)
     n = sum(p.copies for p in kit.parts)
+    worst = kit.worst
     print(f"wrote {os.fspath(out)}: {', '.join(p.name for p in paths)}; {n} parts for {kit.walker.legs} legs on "
           f"{kit.sheets} sheet(s) of {sheet[0]:g} x {sheet[1]:g} mm; scale: 1 model unit = {kit.scale:.4g} mm "
-          f"(crank {kit.scale * mech.crank.radius:.3g} mm, parts {kit.width:.3g} mm wide){note}")
+          f"(crank {kit.scale * mech.crank.radius:.3g} mm, links {kit.width:.3g} mm wide); crankshaft "
+          f"{kit.shaft.diameter:g} mm ({kit.shaft.mode}); worst clearance margin "
+          f"{'-' if worst is None else f'{worst.margin:.2f}'} mm{note}")
+    for line in kit.notes:
+        print(f"note: {line}")
     return 0
 
 
@@ -239,13 +340,18 @@ def run(args) -> int:
 
     if args.fmt == "kit":
         return run_kit(args)
-    given = [o for o, v in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--thickness", args.thickness))
+    given = [o for o, v in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--thickness", args.thickness),
+                            ("--motor-shaft", args.motor_shaft), ("--motor-holes", args.motor_holes),
+                            ("--clearance", args.clearance), ("--plates", args.plates or None),
+                            ("--undersized", args.undersized or None))
              if v is not None]
     if given:
         raise UserError(f"export: {', '.join(given)} go{'es' if len(given) == 1 else ''} with --format kit")
     chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format FORMAT -o PATH")
     fmt = _format(args)
-    sheet_opts = {"scale": args.scale, "width": args.width, "hole": args.hole}
+    sheet_opts = {"scale": parse_mm("--scale", args.scale, 1e9, "mm per model unit"),
+                  "width": parse_mm("--width", args.width, 1000.0, "the part width in mm"),
+                  "hole": parse_mm("--hole", args.hole, 100.0, "the hole diameter in mm")}
     if fmt in ("csv", "toml"):
         given = [f"--{k}" for k, v in sheet_opts.items() if v is not None]
         if given:

@@ -11,7 +11,7 @@ from ._format import frame_table as format_table
 
 # the argument types and the table formatter are shared (._args, ._format); their names stay importable here
 __all__ = ["FORMATS", "better", "format_column", "format_floats", "format_table", "json_records", "parse_list",
-           "parse_top", "parse_weights", "register", "run", "screen_line", "short_screen"]
+           "parse_top", "parse_weights", "register", "run", "screen_line", "short_screen", "with_margins"]
 
 
 def register(sub) -> None:
@@ -127,6 +127,21 @@ def yields(res, args, variants) -> tuple[dict, object]:
     return {v: (float(p), float(se)) for v, p, se in zip(wanted, y.share, y.se)}, y.robustness
 
 
+#: What the tightest / margin% columns of the table are (``explorer rank`` prints it under the table's head).
+MARGIN_LINE = ("tightest, margin%: each design's closest screen limit and how far inside it (toggle: % of the "
+               "limit angle; foot-whip: % of the limit speed; foot-above-the-frame: % of the crank radius); a "
+               "design a few % inside passes here, but cut with a workshop's errors it may not: --yield 0.5mm "
+               "(or 0.5%) gives the share of copies that still turn and pass")
+
+
+def with_margins(rows, screen):
+    """``rows`` with each design's tightest screen margin (:func:`explorer.gait.screen_margins`): the
+    columns screen_check, screen_margin (a fraction, positive inside), screen_value and screen_limit."""
+    from ..gait import screen_margins
+    margin, check, value, limit = screen_margins(rows, screen)
+    return rows.assign(screen_check=check, screen_margin=margin, screen_value=value, screen_limit=limit)
+
+
 #: What the two torque columns of a forces study are (``explorer rank`` prints it under the table's head).
 TORQUES_LINE = ("torques: peak_torque is the walker metric, quasi-static: the load alone on massless legs; "
                 "motor_torque_peak is the motor's (the forces effect: the legs' inertia and weight, the body as "
@@ -168,6 +183,7 @@ def run(args) -> int:
                         frame=frame)
         counts = res.status_counts()
         screened = res.screen_summary(frame)
+        thresholds = res.screen
         n, complete, name = res.n_variants, res.complete, res.filename
         ref = res.check_variant(args.vs)
         # --units si: the rows shown in SI, the ranking itself over the stored values (--where too)
@@ -217,6 +233,10 @@ def run(args) -> int:
     lines.append(screen_line(screened, args.include_screened))
     if unstored:
         lines.append(f"ranked without {', '.join(unstored)}: not stored in this file")
+    from ..physics._compare import rank_note
+    note = rank_note(full, keys)
+    if note:
+        lines.append(note)
     if ranked.empty:
         lines.append("(no variant to show)")
         print("\n".join(lines))
@@ -241,6 +261,8 @@ def run(args) -> int:
         ref_row = ref_row.assign(**{"yield": ys[ref][0], "yield_se": ys[ref][1]})
     place = f"{int(ref_row['rank'].iloc[0])}" if len(in_full) else "-"
     table_rows = pd.concat([ranked, ref_row], ignore_index=True)
+    if screened["applied"]:  # each design's tightest screen margin: which check, how close
+        table_rows = with_margins(table_rows, thresholds)
     marks = [str(r) for r in table_rows["rank"].iloc[:-1]] + [f"{ref_label}:{place}"]
     table_rows = table_rows.assign(rank=marks)
     cols = lead + rest
@@ -254,6 +276,12 @@ def run(args) -> int:
                                                                               ("yield", "yield_se")]
         lines.append(f"yield: the share of copies, {robustness.describe()}, that turn and pass the screen; "
                      f"yield_se its binomial standard error")
+    if extra is None and screened["applied"]:  # the closest screen limit, right after the ranking metrics
+        cols[len(lead):len(lead)] = ["tightest", "margin%"]
+        table_rows = table_rows.assign(**{
+            "tightest": [short_screen(c) if c else "-" for c in table_rows["screen_check"]],
+            "margin%": 100.0 * table_rows["screen_margin"].to_numpy(dtype=float)})
+        lines.append(MARGIN_LINE)
     conv = None
     if si is not None:  # the shown rows (the reference's included) in SI; speed follows travel
         conv = si.apply(table_rows)

@@ -122,6 +122,16 @@ def _robustness_lines(res, args, v: int, ref: int, row, ref_row) -> list[str]:
     return out
 
 
+def _physics_lines(res, v: int, row) -> list[str]:
+    """The physics check of this design beside its kinematic figures, with a verdict
+    (:func:`explorer.physics._compare.show_lines`); [] for a file no physics check has written to."""
+    if "physics_travel" not in res.metric_names or res.operating is None or res.operating.unit is None:
+        return []
+    from ..physics import stored_physics
+    from ..physics._compare import show_lines
+    return show_lines(row, res.operating, stored_physics(res), v, res.filename)
+
+
 def warn_ignored_metrics(res) -> None:
     """One line on stderr per dataset under /metrics that is not one value per variant (shape (N,)): the
     results reader leaves it out of every frame, which a verb showing "each stored metric" must not do
@@ -166,6 +176,7 @@ def run(args) -> int:
         res_operating = res.study.get("operating") if res.study.get("scene", {}).get("forces") else None
         body = res.body
         robust = _robustness_lines(res, args, v, ref, row, ref_row)
+        physics = _physics_lines(res, v, row)
 
     # variant 0 is the nominal of a sampled study; of an optimisation only when the nominal lies in its bounds
     is_nominal = v == 0 and all(row[p] == nominal[p] for p in perturbed if p in row.index and p in nominal)
@@ -223,6 +234,8 @@ def run(args) -> int:
             rank = "- (variant failed)" if status != "not-run" else "- (not run)"
         elif not math.isfinite(x):
             text, change, pct, rank = "nan", "-", "-", "- (undefined for this variant)"
+            if info is not None and info.group == "physics":
+                rank = "- (not checked: `explorer physics`)"
         else:
             text = f"{x:.6g}"
             change = f"{x - r0:+.4g}" if math.isfinite(r0) else "-"
@@ -255,6 +268,9 @@ def run(args) -> int:
     if robust:
         lines.append("")
         lines += robust
+    if physics:
+        lines.append("")
+        lines += physics
     if si is not None:
         lines.append("")
         lines.append(operating_line(si.operating))

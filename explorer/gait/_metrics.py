@@ -321,6 +321,9 @@ def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
         if "forces" in needs:
             why = ("comes from the forces effect: a study's [scene] forces = true with an [operating] table, or "
                    "simulate_batch(..., forces=True, operating=...)")
+        elif "physics" in needs:
+            why = ("comes from the physics check of a shortlist (MuJoCo): `explorer physics RESULTS`, or "
+                   "explorer.physics.physics_check")
         elif "robustness" in needs:
             why = ("comes from copies of each design cut with a manufacturing error: a study's [robustness] table "
                    "with yield in [scene] metrics, `explorer rank RESULTS --yield 0.5%` for the designs it shows, "

@@ -29,10 +29,13 @@ forces     what it takes to drive and hold the machine, in SI units, at the ``[o
            forces effect, :mod:`explorer.kernels._forces`, computed with the positions when a study's
            ``[scene] forces = true``); ``pin_force.<joint>`` (N, each joint's peak reaction) follow
            for every joint (see :func:`metric`).
+physics    the physics check of a shortlist (``explorer physics``, :mod:`explorer.physics`): each design's
+           walker scene as a MuJoCo model, measured over whole turns; SI units; NaN for a design not checked.
 
 ``needs`` is a subset of {"velocity", "band", "mechanism", "crank", "walker", "target", "forces",
-"robustness"}: the foot velocities dF/dθ, the stance band, the mechanism and each variant's lengths,
-the crank radius, the walker spec, a target path, the forces effect, copies of the design.
+"robustness", "physics"}: the foot velocities dF/dθ, the stance band, the mechanism and each variant's
+lengths, the crank radius, the walker spec, a target path, the forces effect, copies of the design, the
+physics check.
 Every metric but the forces and robustness groups needs the foot path; the forces group needs the
 forces effect, ``yield`` a study's ``[robustness]`` table.
 """
@@ -45,7 +48,7 @@ from dataclasses import dataclass
 @dataclass(frozen=True)
 class Metric:
     """One metric: ``name``; ``unit`` ("length" = the model units of the link lengths); ``direction``
-    "max" (larger is better) or "min"; ``group`` (walker | leg | screen | target | forces); ``description`` (one line);
+    "max" (larger is better) or "min"; ``group`` (walker | leg | screen | target | forces | physics …); ``description`` (one line);
     ``needs`` (see the module docstring)."""
 
     name: str
@@ -144,6 +147,29 @@ TABLE: tuple[Metric, ...] = (
        "the whole machine: every leg (links, bodies, crank) and the body ([operating] load)", "forces"),
     _m("cost_of_transport", "1", "min", "forces",
        "energy per turn / (machine_mass·g·travel in metres), the whole machine's (legs and body)", "forces"),
+    # -- the physics check of a shortlist (MuJoCo, `explorer physics`; SI units; NaN: not checked) ----------
+    _m("physics_travel", "m/turn", "max", "physics",
+       "how far the body moves per crank turn, along the kinematic walking direction, in the MuJoCo walker",
+       "physics"),
+    _m("physics_bob", "m", "min", "physics", "max − min of the body's height over the measured turns", "physics"),
+    _m("physics_pitch", "rad", "min", "physics",
+       "max − min of the body's pitch over the measured turns (0 when the check holds the pitch)", "physics"),
+    _m("physics_loaded_feet_max", "count", "min", "physics",
+       "most feet loaded at once (each carrying over 5 % of the machine's weight) at the samples of a turn",
+       "physics"),
+    _m("physics_friction_work", "J/turn", "min", "physics",
+       "work the feet's friction dissipates per turn, Σ|F_x·v_slip|·dt: feet that share the ground and fight",
+       "physics"),
+    _m("physics_torque_peak", "N·m", "min", "physics",
+       "largest |motor torque| of the crank servo, averaged over the measured turns at each crank angle", "physics"),
+    _m("physics_torque_rms", "N·m", "min", "physics",
+       "root mean square of the phase-averaged motor torque of the crank servo", "physics"),
+    _m("physics_impact_peak", "N", "min", "physics",
+       "largest normal force on a foot within 10° of crank after it lands (depends on the contact stiffness)",
+       "physics"),
+    _m("physics_travel_diff", "%", "max", "physics",
+       "physics_travel − travel, in % of the kinematic travel (negative: the machine walks less far than the "
+       "kinematic walker says)", "physics"),
 )
 #: Prefix of the per-joint reaction metrics, ``pin_force.<joint>`` (N): each joint's peak reaction.
 PIN_FORCE = "pin_force."
@@ -180,6 +206,8 @@ TARGET_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "tar
 BAND_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if "band" in m.needs)
 #: Metrics of the forces effect (``pin_force.<joint>`` follow them for every joint).
 FORCE_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "forces")
+#: Metrics of the physics check of a shortlist (``explorer physics``, :mod:`explorer.physics`).
+PHYSICS_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "physics")
 #: Metrics a study computes by re-solving copies of each design (its ``[robustness]`` table): ``yield``.
 ROBUSTNESS_METRICS: tuple[str, ...] = tuple(m.name for m in TABLE if m.group == "robustness")
 #: Metrics that need the foot velocities dF/dθ.

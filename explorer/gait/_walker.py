@@ -30,8 +30,16 @@ At each sample, with Δ = 2π/S:
 * ``contact_fraction`` = min_j (samples in which leg j touches) / S;
 * ``slip`` = Δ Σ_k (max − min of x'_j(θ_k) over the legs j touching at θ_k) / travel: how far, per
   unit of travel, the feet sharing the ground would have to slide against each other;
-* ``clearance``: leg j's swing is its longest cyclic run of n samples not touching (ties: the run
-  with the smallest start index); over the middle
+* taps between samples: leg j also comes down between two samples it is off the ground at when the
+  cubic Hermite interpolants of the legs' heights (from the samples and velocities) bring
+  y_j − min_i y_i within δ somewhere between them (tested at 32 points of the interval, after a
+  bound on the interpolants rules most intervals out); the nearer of the two samples (the lower
+  y_j − g) then counts as down for the swing. So a brief near-touch mid-swing (Klann's foot comes
+  within 0.02 of the ground near 145°, for 1.6°) splits the swing whether or not a sample lands in
+  it, and ``clearance`` converges as S grows instead of jumping with S (2.38 at 184 steps, 0.031 at
+  180, before). ``contact_fraction`` and ``slip`` count the samples only;
+* ``clearance``: leg j's swing is its longest cyclic run of n samples neither touching nor down at
+  a tap (ties: the run with the smallest start index); over the middle
   half of it (run offsets i with ⌊n/4⌋ ≤ i < n − ⌊n/4⌋) the height above the ground y_j − g is at
   least h_j = min of y_j − g there; ``clearance`` = min_j h_j (0 for a leg that never leaves the
   ground): the tallest obstacle every foot steps over mid-swing.
@@ -58,6 +66,62 @@ _COL = {name: i for i, name in enumerate(WALKER_METRICS)}
     _COL["clearance"], _COL["slip"], _COL["contact_fraction"])
 
 
+#: Points per sample interval at which a possible tap is tested (see the module docstring).
+_TAP_POINTS = 32
+
+
+@njit(cache=True, nogil=True)
+def _hermite(y0, y1, v0, v1, d, t):
+    """The cubic Hermite interpolant of (y0, v0) at 0 and (y1, v1) at d (v per unit of θ), at t·d."""
+    t2 = t * t
+    t3 = t2 * t
+    return ((2.0 * t3 - 3.0 * t2 + 1.0) * y0 + (t3 - 2.0 * t2 + t) * d * v0
+            + (-2.0 * t3 + 3.0 * t2) * y1 + (t3 - t2) * d * v1)
+
+
+@njit(cache=True, nogil=True)
+def _low_bound(f0, f1, v0, v1, d):
+    """A lower bound of the cubic Hermite interpolant of (f0, v0), (f1, v1) over an interval d: the chord
+    less d·4/27·(|v0 − s| + |v1 − s|), s the chord's slope (the cubic part is d·t(1−t)·((v0 − s)(1 − t)
+    − (v1 − s)t), and t(1−t)² and t²(1−t) are at most 4/27 on [0, 1])."""
+    s = (f1 - f0) / d
+    return min(f0, f1) - d * (4.0 / 27.0) * (abs(v0 - s) + abs(v1 - s))
+
+
+@njit(cache=True, nogil=True)
+def _taps(j, d, delta, Y, VY, G, C, touch, down):
+    """Mark in ``down`` (S,) the sample nearer each tap of leg j between two samples it is off the ground
+    at: where the legs' Hermite interpolants bring y_j − min_i y_i within ``delta``."""
+    L, S = Y.shape
+    for k in range(S):
+        k1 = (k + 1) % S
+        if touch[j, k] or touch[j, k1]:
+            continue
+        # y_j − g ≥ y_j − y_c for any leg c: the interval is clear if it stays above delta for the
+        # ground leg at either end (a bound on the interpolants, no evaluation)
+        clear = False
+        for c in (C[k], C[k1]):
+            lb = _low_bound(Y[j, k] - Y[c, k], Y[j, k1] - Y[c, k1], VY[j, k] - VY[c, k], VY[j, k1] - VY[c, k1], d)
+            if lb > delta:
+                clear = True
+        if clear:
+            continue
+        for m in range(1, _TAP_POINTS):
+            t = m / _TAP_POINTS
+            yj = _hermite(Y[j, k], Y[j, k1], VY[j, k], VY[j, k1], d, t)
+            g = np.inf
+            for i in range(L):
+                yi = _hermite(Y[i, k], Y[i, k1], VY[i, k], VY[i, k1], d, t)
+                if yi < g:
+                    g = yi
+            if yj - g <= delta:
+                if Y[j, k] - G[k] <= Y[j, k1] - G[k1]:
+                    down[k] = True
+                else:
+                    down[k1] = True
+                break
+
+
 @njit(cache=True, nogil=True)
 def _walker_kernel(base, frac, sign, mirrored, drag, contact, paths, vel, status, crank, out):
     """Fill out[i, :] with the walker metrics (WALKER_METRICS order) of every ok variant i; out comes
@@ -71,6 +135,7 @@ def _walker_kernel(base, frac, sign, mirrored, drag, contact, paths, vel, status
     VX = np.empty((L, S))
     VY = np.empty((L, S))
     touch = np.empty((L, S), dtype=np.bool_)
+    down = np.empty(S, dtype=np.bool_)
     G = np.empty(S)
     C = np.empty(S, dtype=np.int64)
     for i in range(N):
@@ -143,8 +208,12 @@ def _walker_kernel(base, frac, sign, mirrored, drag, contact, paths, vel, status
             if n_touch == S:  # never leaves the ground
                 clear = 0.0
                 continue
-            # the swing: the longest cyclic run of samples off the ground (ties: the smallest start)
-            best_s, best_n = longest_cyclic_run(~touch[j])
+            # the swing: the longest cyclic run of samples off the ground (ties: the smallest start),
+            # a tap between two samples counting as down (see the module docstring)
+            for k in range(S):
+                down[k] = touch[j, k]
+            _taps(j, d, delta, Y, VY, G, C, touch, down)
+            best_s, best_n = longest_cyclic_run(~down)
             q = best_n // 4
             h = np.inf
             for m in range(q, best_n - q):

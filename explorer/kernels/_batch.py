@@ -55,8 +55,8 @@ def setup_jit(topo, d0, P_init, signs, crank, designs):
         cx = designs.center[i, 0]
         cy = designs.center[i, 1]
         tab = designs.table[i]
-        block_table(tab, topo.kind, topo.blk, topo.tip, L, designs.uv[i], designs.slide[i], topo.att_vpq, topo.slide,
-                    P, cx, cy, scale, crank)
+        block_table(tab, topo.kind, topo.blk, topo.tip, L, designs.uv[i], designs.slide[i], designs.extra[i],
+                    topo.att_vpq, topo.slide, P, cx, cy, scale, crank)
         place_closed(tab, topo.tip, cx, cy, scale, d0, signs, P, True)
 
 
@@ -85,7 +85,7 @@ def generic_context_of(opts, topo, designs, i, known):
     """The generic step's context of design i (``_step.generic_context``)."""
     return generic_context(opts.method, designs.table[i], topo.gen_vptr, topo.gen_verts, topo.gen_rptr, topo.gen_rows,
                            topo.dist_a, topo.dist_b, topo.att_vpq, designs.dist[i], designs.uv[i], known,
-                           designs.fixed[i], topo.slide, designs.slide[i])
+                           designs.fixed[i], topo.slide, designs.slide[i], topo.explicit)
 
 
 def _specialise(fn, name: str, **bind):

@@ -33,10 +33,13 @@ def batch_plain(topo, drv, opts, signs, designs, outs):
     there when the design is ok, and the requested rows (``fmodel.out_idx``) are copied out: a forces
     study holds no position array it does not store.
     """
-    known = np.empty(topo.fixed.shape[0] + 1, dtype=np.int64)
+    nf_ = topo.fixed.shape[0]
+    known = np.empty(nf_ + 1 + topo.explicit.shape[0], dtype=np.int64)
     known[0] = topo.tip
-    for f_ in range(topo.fixed.shape[0]):
+    for f_ in range(nf_):
         known[f_ + 1] = topo.fixed[f_]
+    for f_ in range(topo.explicit.shape[0]):  # an explicit block's vertex: its first column
+        known[nf_ + 1 + f_] = topo.blk[topo.explicit[f_], 0]
     for i in range(designs.scale.shape[0]):
         L = designs.dist[i]
         scale = designs.scale[i]
@@ -92,10 +95,13 @@ def batch_forces(topo, drv, opts, signs, fmodel, designs, outs, frows):
     there when the design is ok, and the requested rows (``fmodel.out_idx``) are copied out: a forces
     study holds no position array it does not store.
     """
-    known = np.empty(topo.fixed.shape[0] + 1, dtype=np.int64)
+    nf_ = topo.fixed.shape[0]
+    known = np.empty(nf_ + 1 + topo.explicit.shape[0], dtype=np.int64)
     known[0] = topo.tip
-    for f_ in range(topo.fixed.shape[0]):
+    for f_ in range(nf_):
         known[f_ + 1] = topo.fixed[f_]
+    for f_ in range(topo.explicit.shape[0]):  # an explicit block's vertex: its first column
+        known[nf_ + 1 + f_] = topo.blk[topo.explicit[f_], 0]
     fs = force_scratch(drv.table.shape[0], designs.start.shape[1], fmodel, topo)
     for i in range(designs.scale.shape[0]):
         L = designs.dist[i]

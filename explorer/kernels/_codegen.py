@@ -44,7 +44,7 @@ import threading
 from pathlib import Path
 
 from ..kinds import KINDS
-from ._cache import KEY, cache_bases
+from ._cache import GENERATED_PREFIX, KEY, cache_bases
 from ._sweep_template import indexed, render
 
 _HEADER = '''\
@@ -257,7 +257,7 @@ def _load(tkey, topo, want_vel: bool, want_acc: bool, forces: bool):
     if key in _LOADED:
         _BY_TOPOLOGY[tkey] = _LOADED[key]
         return _LOADED[key]
-    name = f"explorer_gen_{key}"
+    name = f"{GENERATED_PREFIX}{key}"
     folder = _folder()
     path = folder / f"{name}.py"
     try:

@@ -39,6 +39,8 @@ Topology = namedtuple("Topology", [
     "out_idx",    # (n_out,) int64, the vertices written to the outputs, in output order
     "slide",      # (n_slide, 3) int64, slider vertex p and line vertices a, b of each slide equation
                   # (a = b = −1: a ground line)
+    "explicit",   # (n_explicit,) int64, the blocks whose kind places its vertex from the driver alone
+                  # (``EXPLICIT``: a geared crank's tip); the dense method takes their vertices as known
 ])
 
 Drive = namedtuple("Drive", [
@@ -67,6 +69,8 @@ Designs = namedtuple("Designs", [
     "tol",        # (N,) float64, Newton's stopping distance, model units
     "slide",      # (N, n_slide, 6) float64, each slide equation's line: a ground line's point (x, y) and
                   # unit direction (nx, ny), then the offset and the slot's length |b − a| (1 for a ground line)
+    "extra",      # (N, n_extra) float64, the per-design numbers of the equation types beyond these
+                  # (``explorer.kinds.extra_columns``: a geared crank's centre, radius, phase)
     "table",      # (N, nb) BLOCK_DTYPE, each design's block table (``_batch.setup``)
     "start",      # (N, n_vertices, 2) float64, each design's start: assembled at the first sample on the
                   # nominal's branch by the closed form where it can be (``_batch.setup``)
@@ -113,8 +117,9 @@ def topology(plan: Plan, blocks, moving, out_idx, crank: bool) -> Topology:
         row = KINDS[b.kind].lower(plan, b, crank, shared)
         blk[i, :len(row)] = row
     vptr, gv, rptr, gr = shared.get("gen", ([0], [], [0], []))  # the coupled blocks' CSR tables (kinds.general)
+    explicit = [i for i, k in enumerate(blocks) if getattr(KINDS[plan.blocks[k].kind], "EXPLICIT", False)]
     return Topology(kind, blk, np.array(vptr, dtype=np.int64), np.array(gv, dtype=np.int64),
                     np.array(rptr, dtype=np.int64), np.array(gr, dtype=np.int64).reshape(-1, 2),
                     plan.link_a, plan.link_b, plan.attach, int(plan.tip), plan.fixed,
                     np.asarray(moving, dtype=np.int64), np.asarray(out_idx, dtype=np.int64),
-                    np.ascontiguousarray(plan.slide, dtype=np.int64).reshape(-1, 3))
+                    np.ascontiguousarray(plan.slide, dtype=np.int64).reshape(-1, 3), np.array(explicit, dtype=np.int64))

@@ -11,6 +11,7 @@ from explorer.kinds._common import MAX_MOVE, OK, SIGN, SUSPECT, frame_point, gap
 from explorer.kinds.attach import attach_vector
 from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, dyad_vector, place_dyad
 from explorer.kinds.eq_slide import slide_row
+from explorer.kinds.gears import gear_place
 from explorer.kinds.general import general_reactions, general_sign, general_solve
 from explorer.kinds.slide import slide_partial, slide_root, slide_sign, slide_step, slide_vector
 
@@ -19,11 +20,12 @@ FOLD = -1
 
 
 @njit(cache=True)
-def block_table(tab, kind, blk, tip, dist, uv, sd, att_vpq, slide, P, cx, cy, scale, crank):
+def block_table(tab, kind, blk, tip, dist, uv, sd, extra, att_vpq, slide, P, cx, cy, scale, crank):
     """Fill the block table of one design, tab (nb,) records of ``BLOCK_DTYPE`` (zeros) in plan order,
     each block by its kind from its row of the lowered plan (``blk``) and the design's numbers: dist
-    (n_dist,), uv (n_attach, 2), sd (n_slide, 6); P (n_vertices, 2) its start (fixed vertices in place);
-    (cx, cy), scale: its crank centre and radius; crank: whether the driver is a crank."""
+    (n_dist,), uv (n_attach, 2), sd (n_slide, 6), extra (n_extra,) (``Designs``); P (n_vertices, 2) its
+    start (fixed vertices in place); (cx, cy), scale: its crank centre and radius; crank: whether the
+    driver is a crank."""
     nb = kind.shape[0]
     for k in range(nb):
         rec = tab[k]
@@ -75,6 +77,18 @@ def block_table(tab, kind, blk, tip, dist, uv, sd, att_vpq, slide, P, cx, cy, sc
             rec.ny = sd[e, 3]
             rec.off = sd[e, 4]
             rec.sl = sd[e, 5]
+        elif rec.kind == 4:  # GEARS
+            o = row[4]
+            rec.vertex = row[0]
+            rec.a = row[1]
+            rec.gx = extra[o]
+            rec.gy = extra[o + 1]
+            rec.gr = extra[o + 2]
+            rec.gph = extra[o + 3]
+            rec.gn = row[3]
+            rec.ccx = cx
+            rec.ccy = cy
+            rec.cr = scale
 
 
 @njit(cache=True)
@@ -120,6 +134,10 @@ def place_closed(tab, tip, cx, cy, scale, d, signs, P, start):
                 return j
             P[rec.vertex, 0] = x
             P[rec.vertex, 1] = y
+        elif rec.kind == 4:  # GEARS
+            t = rec.a
+            P[rec.vertex, 0], P[rec.vertex, 1], _, _, _, _ = gear_place(P[t, 0], P[t, 1], rec.ccx, rec.ccy, rec.gx, rec.gy,
+                                                                       rec.gr, rec.gn, rec.gph)
     return -1
 
 
@@ -165,6 +183,14 @@ def fast_step(table, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc,
             code = slide_step(rec, signs[k], P0, V0, Vp, P1, V1, A1, h, c2, want_acc, checks)
             if code != OK:
                 return code, k, iters
+        elif rec.kind == 4:  # GEARS
+            v = rec.vertex
+            t = rec.a
+            P1[v, 0], P1[v, 1], V1[v, 0], V1[v, 1], ax_, ay_ = gear_place(P1[t, 0], P1[t, 1], rec.ccx, rec.ccy, rec.gx, rec.gy,
+                                                                         rec.gr, rec.gn, rec.gph)
+            if want_acc:
+                A1[v, 0] = ax_
+                A1[v, 1] = ay_
     return OK, -1, iters
 
 
@@ -216,6 +242,14 @@ def block_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, 
             code = slide_step(rec, signs[k], P0, V0, Vp, P1, V1, A1, h, c2, want_acc, checks)
             if code != OK:
                 return code, k, iters
+        elif rec.kind == 4:  # GEARS
+            v = rec.vertex
+            t = rec.a
+            P1[v, 0], P1[v, 1], V1[v, 0], V1[v, 1], ax_, ay_ = gear_place(P1[t, 0], P1[t, 1], rec.ccx, rec.ccy, rec.gx, rec.gy,
+                                                                         rec.gr, rec.gn, rec.gph)
+            if want_acc:
+                A1[v, 0] = ax_
+                A1[v, 1] = ay_
     return OK, -1, iters
 
 
@@ -281,6 +315,23 @@ def block_signs(P, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_
         elif rec.kind == 3:  # SLIDE
             out[k] = np.sign(slide_sign(rec, P))
     return out
+
+
+@njit(cache=True)
+def place_explicit(table, explicit, P1, V1, A1, want_acc):
+    """Place the blocks ``explicit`` (kinds that place their vertex from the driver alone, ``EXPLICIT``)
+    at the driver's new position (already in P1, V1, A1): the dense method then takes them as known."""
+    for q in range(explicit.shape[0]):
+        k = explicit[q]
+        rec = table[k]
+        if rec.kind == 4:  # GEARS
+            v = rec.vertex
+            t = rec.a
+            P1[v, 0], P1[v, 1], V1[v, 0], V1[v, 1], ax_, ay_ = gear_place(P1[t, 0], P1[t, 1], rec.ccx, rec.ccy, rec.gx, rec.gy,
+                                                                         rec.gr, rec.gn, rec.gph)
+            if want_acc:
+                A1[v, 0] = ax_
+                A1[v, 1] = ay_
 
 
 @njit(cache=True, nogil=True)

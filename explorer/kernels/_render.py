@@ -42,11 +42,12 @@ _FUNCTIONS = [
     ('''
 
 @njit(cache=True)
-def block_table(tab, kind, blk, tip, dist, uv, sd, att_vpq, slide, P, cx, cy, scale, crank):
+def block_table(tab, kind, blk, tip, dist, uv, sd, extra, att_vpq, slide, P, cx, cy, scale, crank):
     """Fill the block table of one design, tab (nb,) records of ``BLOCK_DTYPE`` (zeros) in plan order,
     each block by its kind from its row of the lowered plan (``blk``) and the design's numbers: dist
-    (n_dist,), uv (n_attach, 2), sd (n_slide, 6); P (n_vertices, 2) its start (fixed vertices in place);
-    (cx, cy), scale: its crank centre and radius; crank: whether the driver is a crank."""
+    (n_dist,), uv (n_attach, 2), sd (n_slide, 6), extra (n_extra,) (``Designs``); P (n_vertices, 2) its
+    start (fixed vertices in place); (cx, cy), scale: its crank centre and radius; crank: whether the
+    driver is a crank."""
     nb = kind.shape[0]
     for k in range(nb):
         rec = tab[k]
@@ -120,6 +121,16 @@ def block_signs(P, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_
 ''', 8, "sign", "all", "    return out\n"),
     ('''
 
+@njit(cache=True)
+def place_explicit(table, explicit, P1, V1, A1, want_acc):
+    """Place the blocks ``explicit`` (kinds that place their vertex from the driver alone, ``EXPLICIT``)
+    at the driver's new position (already in P1, V1, A1): the dense method then takes them as known."""
+    for q in range(explicit.shape[0]):
+        k = explicit[q]
+        rec = table[k]
+''', 8, "step", "explicit", ""),
+    ('''
+
 @njit(cache=True, nogil=True)
 def vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed):
     """The vectorised first pass over one design's blocks (``explorer.kernels._vector``): each block of
@@ -159,6 +170,8 @@ def reactions_{which}(table, topo, uv, sd, P, R, act, lam_d, lam_a, lam_s, loc, 
 
 
 def _kinds(which: str):
+    if which == "explicit":
+        return [k for k in KINDS if getattr(k, "EXPLICIT", False)]
     return [k for k in KINDS if which in ("all", "any") or not getattr(k, "CONTEXT", False)]
 
 
@@ -183,7 +196,13 @@ def kinds_module_source() -> str:
     for head, indent, key, which, tail in _FUNCTIONS:
         # "both": one copy for plans without coupled blocks ("closed"), one for any plan ("any")
         for w in (("closed", "any") if which == "both" else (which,)):
-            out += head.replace("{which}", w) + _dispatch(key, _kinds(w), indent) + tail
+            body = _dispatch(key, _kinds(w), indent)
+            text = head.replace("{which}", w)
+            if not body:  # no kind has code here: the loop does nothing
+                lines = text.splitlines()
+                loop = max(n for n, ln in enumerate(lines) if ln.startswith("    for "))
+                text = "\n".join(lines[:loop + 1]) + "\n        pass  # no kind of this sort\n"
+            out += text + body + tail
     return out
 
 

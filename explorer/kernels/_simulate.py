@@ -12,7 +12,7 @@ import numpy as np
 from .._files import format_size
 from ..errors import UserError, where
 from ..mechanism import Mechanism, Operating, Walker, operating_from_dict, walker_body
-from ..kinds import KINDS
+from ..kinds import EQUATIONS, KINDS
 from ..plan import Plan, make_plan
 from ._closed import closed_batch_jit
 from ._design import body_points
@@ -42,7 +42,7 @@ STATUS_SINGULAR = 5
 STATUS_NAMES[STATUS_SINGULAR] = "singular"
 METHODS = ("block", "dense", "closed", "vector", "auto")
 #: Default tolerance: every solved position within 1e-11 × the design's longest link of the exact one
-#: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see the README's accuracy table).
+#: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see docs/accuracy.md).
 DEFAULT_TOLERANCE = 1e-11
 #: The range of tolerances accepted. Below 1e-12 rounding decides: solved positions differ from an
 #: exact closed form by up to 2.5e-13 of the longest link whatever the tolerance (measured on 2,000
@@ -239,9 +239,9 @@ class Batch:
 
 # -- cached per topology and per driver and step count --------------------------------------------
 def _topology(mech: Mechanism) -> tuple:
-    return (mech.vertices, tuple((l.a, l.b) for l in mech.links), mech.driven, tuple(mech.fixed),
-            tuple(b.joints for b in mech.bodies), tuple((s.vertex, s.line) for s in mech.sliders),
-            mech.path.slider if mech.path is not None else None)
+    """What a mechanism's plan depends on: its vertices, driven and fixed ones, and each equation type's
+    structure (``key`` of ``explorer.kinds.EQUATIONS``)."""
+    return (mech.vertices, mech.driven, tuple(mech.fixed), *(eq.key(mech) for eq in EQUATIONS))
 
 
 _PLANS: dict = {}
@@ -336,8 +336,8 @@ def _nominal_context(mech: Mechanism, plan: Plan, P: np.ndarray):
     des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
     topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
     table = np.zeros(plan.n_blocks, dtype=BLOCK_DTYPE)
-    block_table(table, topo.kind, topo.blk, topo.tip, des.dist[0], des.uv[0], des.slide[0], topo.att_vpq, topo.slide, P,
-                des.center[0, 0], des.center[0, 1], des.scale[0], False)
+    block_table(table, topo.kind, topo.blk, topo.tip, des.dist[0], des.uv[0], des.slide[0], des.extra[0], topo.att_vpq,
+                topo.slide, P, des.center[0, 0], des.center[0, 1], des.scale[0], False)
     n = 2 * _largest_general(plan)  # scratch of the largest coupled block, not of the whole mechanism
     return SimpleNamespace(plan=plan, des=des, topo=topo, table=table, tol=1e-12 * mech.size,
                            loc=np.full(len(mech.vertices), -1, dtype=np.int64), M=np.empty((n, n)), rhs=np.empty(n))
@@ -466,6 +466,12 @@ def force_setup(mech: Mechanism, operating, walker) -> tuple[Operating, Walker]:
     if mech.crank is None:
         raise UserError(f"{where(mech.source, 'driver')}: forces are computed for crank-driven mechanisms (the motor "
                         f"torque is the crank's); this one is driven by a path")
+    for b in plan_for(mech).blocks:  # a kind whose forces are not written yet says so (``FORCES``)
+        kind = KINDS[b.kind]
+        if not getattr(kind, "FORCES", True):
+            raise UserError(f"{where(mech.source, 'operating')}: forces are not computed for a mechanism with "
+                            f"{kind.FORCES_REFUSED} yet (the {kind.NAME} block placing "
+                            f"{', '.join(mech.vertices[v] for v in b.vertices)})")
     if isinstance(operating, Operating):
         op = operating
     else:
@@ -635,7 +641,7 @@ def _by_name(mech: Mechanism, lengths, crank, geometry):
                         f"columns given: {', '.join(columns)})")
     if crank is None and "crank" in columns and mech.crank is not None:
         crank = columns["crank"]
-    coords = [n for n, kind in ((n, mech.parameter_kind(n)) for n in mech.parameters()) if kind == "coordinate"]
+    coords = [n for n in mech.parameters() if n != "crank" and n not in mech.link_names]  # coordinates, gear radii
     geometry = dict(geometry or {})
     for n in coords:
         if n in columns and n not in geometry:
@@ -664,7 +670,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
         no parameter are ignored.
     crank : (N,) crank radii (None: the nominal radius for every variant; must be None for a
         path-driven mechanism).
-    geometry : {coordinate parameter name: (N,) values}, model units: the crank centre, ground
+    geometry : {coordinate parameter name: (N,) values}, model units: geared cranks' radii, the crank centre, ground
         pivots and body joints of each variant (those not given keep their nominal values).
     vertices : names whose paths are returned (default: the foot; "all" for every vertex). Blocks
         that neither place a requested vertex nor feed one are not solved (block and closed

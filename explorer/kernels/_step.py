@@ -21,7 +21,7 @@ from numba import njit
 
 from ..kinds._common import INFEASIBLE, NOCONV, OK, SUSPECT
 from ._dense import solve_dense
-from ._kinds_array import FOLD, block_step, check_dense
+from ._kinds_array import FOLD, block_step, check_dense, place_explicit
 
 BLOCK = 0
 DENSE = 1
@@ -35,10 +35,11 @@ GenericContext = namedtuple("GenericContext", [
     "uv",         # (n_attach, 2) the attach equations' (u, v)
     "slide",      # (n_slide, 3) the slide equations' vertices (``_inputs.Topology.slide``)
     "sd",         # (n_slide, 6) their lines (``_inputs.Designs.slide``)
-    "known",      # (n_known,) int64: the driven vertex, then the fixed ones (dense)
+    "known",      # (n_known,) int64: the driven vertex, the fixed ones, the explicit blocks' (dense)
     "kpos", "kvel", "kacc",  # (n_known, 2) their targets (dense)
     "loc", "M", "rhs",       # scratch
     "ident",      # (n_vertices,) 0 … n−1: every vertex an unknown (the dense method's columns)
+    "explicit",   # (n_explicit,) the blocks that place their vertex from the driver alone (``Topology``)
 ])
 
 
@@ -56,6 +57,15 @@ def generic_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc
         kpos[0, ax] = P1[tip, ax]
         kvel[0, ax] = V1[tip, ax]
         kacc[0, ax] = A1[tip, ax]
+    ne = ctx.explicit.shape[0]
+    if ne > 0:  # vertices placed from the driver alone (a geared crank's tip): known rows too
+        place_explicit(ctx.table, ctx.explicit, P1, V1, A1, want_acc)
+        for q in range(ne):
+            i = known.shape[0] - ne + q
+            for ax in range(2):
+                kpos[i, ax] = P1[known[i], ax]
+                kvel[i, ax] = V1[known[i], ax]
+                kacc[i, ax] = A1[known[i], ax]
     code, iters = solve_dense(P0, V0, Vp, P1, V1, A1, ctx.dist_a, ctx.dist_b, ctx.dist, ctx.att_vpq, ctx.uv, ctx.slide,
                               ctx.sd, known, kpos, kvel, kacc, h, hp, tol, maxit, want_acc, ctx.M, ctx.rhs, ctx.ident)
     for i in range(known.shape[0]):  # the known rows exactly as given
@@ -84,9 +94,9 @@ def generic_step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc
 
 @njit(cache=True)
 def generic_context(method, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_b, att_vpq, dist, uv,
-                    known, fixed_pos, slide, sd):
+                    known, fixed_pos, slide, sd, explicit):
     """The :class:`GenericContext` of one design (scratch included); fixed_pos (n_fixed, 2) are the
-    targets of ``known[1:]``."""
+    targets of ``known[1:1 + n_fixed]`` (the explicit blocks' vertices follow, placed at each step)."""
     nv = 0
     for e in range(dist_a.shape[0]):
         nv = max(nv, dist_a[e] + 1, dist_b[e] + 1)
@@ -100,10 +110,10 @@ def generic_context(method, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist
             nv = max(nv, slide[t, c] + 1)
     nk = known.shape[0]
     kpos = np.zeros((nk, 2))
-    for i in range(1, nk):
+    for i in range(1, 1 + fixed_pos.shape[0]):
         kpos[i, 0] = fixed_pos[i - 1, 0]
         kpos[i, 1] = fixed_pos[i - 1, 1]
     n = 2 * nv
     return GenericContext(method, table, gen_vptr, gen_verts, gen_rptr, gen_rows, dist_a, dist_b, att_vpq, dist, uv,
                           slide, sd, known, kpos, np.zeros((nk, 2)), np.zeros((nk, 2)), np.full(nv, -1, dtype=np.int64),
-                          np.empty((n, n)), np.empty(n), np.arange(nv))
+                          np.empty((n, n)), np.empty(n), np.arange(nv), explicit)

@@ -165,10 +165,13 @@ def write_array_module() -> Path:
 #: ``run_sweep`` on the context ``make_context`` gives (both bound by ``_batch``), the generic
 #: context's known vertices and, with forces, the forces' scratch made once per call.
 def batch_array_dialect(forces: bool) -> dict:
-    state = ["known = np.empty(topo.fixed.shape[0] + 1, dtype=np.int64)",
+    state = ["nf_ = topo.fixed.shape[0]",
+             "known = np.empty(nf_ + 1 + topo.explicit.shape[0], dtype=np.int64)",
              "known[0] = topo.tip",
-             "for f_ in range(topo.fixed.shape[0]):",
-             "    known[f_ + 1] = topo.fixed[f_]"]
+             "for f_ in range(nf_):",
+             "    known[f_ + 1] = topo.fixed[f_]",
+             "for f_ in range(topo.explicit.shape[0]):  # an explicit block's vertex: its first column",
+             "    known[nf_ + 1 + f_] = topo.blk[topo.explicit[f_], 0]"]
     if forces:
         state.append("fs = force_scratch(drv.table.shape[0], designs.start.shape[1], fmodel, topo)")
     return {

@@ -19,21 +19,35 @@ has one *kind*, which decides how the kernels place its vertices. A kind is one 
   ``SCALAR`` snippets, rendered into the code generated per topology (``explorer.kernels._codegen``;
   None: plans with it run the table-driven kernels);
 * ``START``: how a design's start places it ("sign": by its closed form on the nominal's branch,
-  "always": exactly, "stop": not at all, Newton starts from the nominal's configuration).
+  "always": exactly, "stop": not at all, Newton starts from the nominal's configuration);
+* optional: ``EXPLICIT`` (its vertex, its first column, follows from the driver alone: the dense
+  method takes it as known), ``CONTEXT`` (its snippets read the generic context: coupled blocks),
+  ``FORCES = False`` with ``FORCES_REFUSED`` (a phrase) where the forces effect does not take it yet,
+  ``FAILS_AS`` ("no-convergence" where a failed first assembly is Newton's, not a proof).
 
 An *equation type* is a module ``eq_*.py`` (distance, attach, slide), or an ``EQUATION`` namespace a
 kind module defines for itself: ``NAME``, ``ORDER`` (the order of the plan's rows), ``ROWS`` per
-equation, ``gather(mech, index, bases)`` (its equations' vertices and the plan fields they fill) and
-its residual, gradient and curvature in one sign and scale convention.
+equation, ``gather(mech, index, bases)`` (its equations' vertices and the plan fields they fill),
+``key(mech)`` (what of the mechanism its structure depends on: the plan's cache key), ``describe``
+(an equation in words), its residual, gradient and curvature in one sign and scale convention, and,
+where its equations carry per-design numbers beyond the core three's, ``NUMBERS`` per equation and
+``numbers(mech, plan, col, N)`` → (N, n·NUMBERS) columns of ``Designs.extra``.
 
 How to add a block kind
 -----------------------
-1. Write its module here (copy the closest: ``attach`` for an exact placement, ``dyad`` for a Newton
-   step); if it needs a new equation type, define it in the module as ``EQUATION``. It is found by
-   its file name: nothing else lists it.
-2. If it comes from a new part of the mechanism file, the loader's entry (``explorer.mechanism``).
-3. Its tests against an independent reference, and re-render the table-driven kernels
-   (``python -m explorer.kernels._render``; tests/test_kinds.py fails while they differ).
+1. Write its module here (copy the closest: ``attach`` or ``gears`` for an exact placement, ``dyad``
+   for a Newton step); if it needs a new equation type, define it in the module as ``EQUATION``
+   (per-design numbers of its own: ``NUMBERS`` and ``numbers``, read from ``Designs.extra``). It is
+   found by its file name: nothing else in the kernels, the plan or the generator lists it.
+2. Re-render the table-driven kernels (``python -m explorer.kernels._render``; tests/test_kinds.py
+   fails while they differ).
+3. If it comes from a new part of the mechanism file, that part's entry in ``explorer.mechanism``:
+   its dataclass and design parameters (``_model``), its table (``_load``), its writing back
+   (``_toml``); ``explorer describe`` words it (``cli/_describe``).
+4. Its tests against an independent reference (``tests/test_gears.py`` is the pattern).
+
+The geared pair (``gears``, issue 38) was added this way: its module, the mechanism's ``Gear`` (model,
+loader, TOML writer), its words in ``describe``, the built-in ``geared5bar`` and its tests.
 """
 
 from __future__ import annotations
@@ -84,6 +98,19 @@ ROW_ATTACH_Y = eq_attach.ROW_Y
 ROW_SLIDE = eq_slide.ROW
 
 
+def extra_columns(plan) -> dict:
+    """{equation type name: (its first column, columns per equation)} of ``Designs.extra``, the per-design
+    numbers of the equation types that keep numbers of their own (``NUMBERS`` per equation and a
+    ``numbers`` function), in the equation types' order."""
+    out, col = {}, 0
+    for eq in EQUATIONS:
+        width = getattr(eq, "NUMBERS", 0)
+        if width:
+            out[eq.NAME] = (col, width)
+            col += width * len(plan.tables.get(eq.NAME, ()))
+    return out
+
+
 def classify(vertices, rows, tables) -> int:
     """The kind of a block of ``vertices`` and ``rows`` ((equation type, equation, row) each): the
     first kind other than GENERAL whose ``classify`` takes it, else GENERAL."""
@@ -94,4 +121,5 @@ def classify(vertices, rows, tables) -> int:
 
 
 __all__ = ["ATTACH", "DYAD", "EQUATIONS", "EQUATION_BY_NAME", "GENERAL", "KINDS", "KIND_TEXT", "ROW_ATTACH_X",
+           "extra_columns",
            "ROW_ATTACH_Y", "ROW_DIST", "ROW_SLIDE", "SLIDE", "BlockKind", "classify"]

@@ -35,6 +35,11 @@ def gather(mech, index, bases):
                     "attach_joint": np.array(attach_joint, dtype=np.int64)}
 
 
+def key(mech) -> tuple:
+    """Its structure is the bodies' (in the distance equations' key)."""
+    return ()
+
+
 def describe(mech, plan, t: int) -> str:
     names = mech.vertices
     j, p, q = (int(k) for k in plan.attach[t])

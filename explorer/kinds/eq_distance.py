@@ -34,6 +34,11 @@ def gather(mech, index, bases):
                   "body_base": np.array(bases, dtype=np.int64).reshape(-1, 2)}
 
 
+def key(mech) -> tuple:
+    """What of the mechanism its equations' structure depends on (part of the plan's cache key)."""
+    return (tuple((lk.a, lk.b) for lk in mech.links), tuple(b.joints for b in mech.bodies))
+
+
 def describe(mech, plan, e: int) -> str:
     """The equation in words (``explorer describe``)."""
     if e < plan.n_links:

@@ -35,9 +35,14 @@ def gather(mech, index, bases):
                    "slide_slider": np.array(slide_slider, dtype=np.int64)}
 
 
+def key(mech) -> tuple:
+    """What of the mechanism its equations' structure depends on (part of the plan's cache key)."""
+    return (tuple((s.vertex, s.line) for s in mech.sliders), mech.path.slider if mech.path is not None else None)
+
+
 def describe(mech, plan, k: int) -> str:
     sl = mech.sliders[int(plan.slide_slider[k])]
-    where = (f"the line through ({sl.point[0]:g}, {sl.point[1]:g})" if sl.ground
+    where = (f"the line through {[float(sl.point[0]), float(sl.point[1])]}" if sl.ground
              else f"the slot {sl.line[0]}-{sl.line[1]}")
     return f"slider {sl.name}: {sl.vertex} on {where}"
 

@@ -10,11 +10,12 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UserError, where
-from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker,
-                     _check_length, _short, actuator_path)
+from ._build import BUILD_KEYS
+from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Gear, Link, Mechanism, Operating, PathDriver, Slider,
+                     Walker, _check_length, _short, actuator_path)
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
-             "operating", "sliders"}
+             "operating", "sliders", "build", "gears"}
 #: Keys of an [operating] table (in a study, or a mechanism file's default), see :class:`Operating`.
 OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation", "body", "gear_ratio")
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
@@ -31,8 +32,16 @@ _CRANK_KEYS = {"center", "radius", "tip", "mass"}
 _LINK_KEYS = {"a", "b", "length", "name", "mass"}
 _BODY_KEYS = {"name", "joints", "mass", "centroid", "inertia"}
 _SLIDER_KEYS = {"name", "vertex", "point", "direction", "line", "offset"}
+_GEAR_KEYS = {"name", "center", "radius", "tip", "ratio", "phase"}
 #: A linear actuator's [driver] keys (``slider`` instead of ``vertex`` and ``path``).
 _ACTUATOR_KEYS = {"slider", "stroke", "duration", "timing"}
+_MASS_KEYS = {"link_density"}
+#: Every table of a mechanism file and the keys it accepts ("" is the top level; [fixed] and [guess] take
+#: vertex names): what the docs' mechanism-file reference is generated from.
+MECHANISM_KEYS = {"": _TOP_KEYS, "crank": _CRANK_KEYS, "fixed": set(), "guess": set(), "links": _LINK_KEYS,
+                  "bodies": _BODY_KEYS, "sliders": _SLIDER_KEYS, "driver": _DRIVER_KEYS, "walker": set(WALKER_KEYS),
+                  "mass": _MASS_KEYS, "operating": set(OPERATING_KEYS), "build": set(BUILD_KEYS),
+                  "gears": _GEAR_KEYS}
 #: Largest mass (kg) or inertia (kg·m²) accepted: beyond it the forces overflow long before any build.
 _MAX_MASS = 1e12
 
@@ -128,6 +137,36 @@ def _unknown_keys(source: str, prefix: str, table: dict, allowed: set[str]) -> N
             )
 
 
+#: A triangle of links whose two shorter sides sum to the longest within this fraction of it is flat.
+FLAT_TRIANGLE = 1e-9
+
+
+def _flat_triangles(source: str, links: list[Link]) -> None:
+    """Refuse three links that close a triangle with its three joints on one line (a + b = c, to
+    :data:`FLAT_TRIANGLE`; a triangle that cannot close, a + b < c, is the solver's to report): such a
+    triangle sits on a fold, where its two assemblies meet, and a collinear coupler is one [[bodies]]
+    table instead (its joints may be collinear)."""
+    index = {frozenset((ln.a, ln.b)): i for i, ln in enumerate(links)}
+    around: dict[str, set] = {}
+    for ln in links:
+        around.setdefault(ln.a, set()).add(ln.b)
+        around.setdefault(ln.b, set()).add(ln.a)
+    for i, ln in enumerate(links):
+        for c in sorted(around[ln.a] & around[ln.b]):
+            three = sorted((i, index[frozenset((ln.a, c))], index[frozenset((ln.b, c))]))
+            if i != three[0]:
+                continue  # each triangle once, from its first link
+            sides = sorted(three, key=lambda j: links[j].length)
+            a, b, longest = (links[j].length for j in sides)
+            if abs(a + b - longest) <= FLAT_TRIANGLE * longest:
+                names = ", ".join(repr(links[j].name) for j in three)
+                raise UserError(
+                    f"{where(source, f'links[{sides[2]}]')}: links {names} make a flat triangle ({a:g} + {b:g} "
+                    f"= {longest:g}): its three joints lie on one line, on a fold "
+                    f"where the solver cannot tell its two assemblies apart; write a collinear coupler as one "
+                    f"[[bodies]] table (its joints may lie on a line)")
+
+
 def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     """Validate a parsed mechanism table (the TOML shape) and build a :class:`Mechanism`."""
     _table(source, "", data)
@@ -166,6 +205,9 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     for v in guess:
         if v in fixed or v == tip:
             raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is fixed or driven and takes no guess")
+
+    gears = _gears(source, data.get("gears", []), crank, fixed, guess)
+    guess.update({g.tip: g.tip_at(0.0) for g in gears})  # a geared crank's tip: its exact place at θ = 0
 
     raw_links = data["links"]
     if raw_links == [] and data.get("bodies"):
@@ -209,6 +251,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         mass = _mass(source, f"{key}.mass", lt["mass"]) if "mass" in lt else None
         links.append(Link(lname, a, b, length, mass))
 
+    _flat_triangles(source, links)
     bodies = _bodies(source, data.get("bodies", []), known, fixed, seen_pairs, seen_names)
     sliders = _sliders(source, data.get("sliders", []), known, fixed, tip, seen_pairs, seen_names,
                        path.slider if path is not None else None)
@@ -220,7 +263,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     if foot in fixed:
         raise UserError(f"{where(source, 'foot')}: vertex {foot!r} is fixed; the foot must be a moving vertex")
     _check_degrees_of_freedom(source, tip, "crank.tip" if crank is not None else "driver.vertex", fixed, guess, links,
-                              bodies, [s for s in sliders if path is None or s.name != path.slider])
+                              bodies, [s for s in sliders if path is None or s.name != path.slider], gears)
     walker = None
     if "walker" in data:
         if crank is None:
@@ -229,7 +272,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     link_density = None
     if "mass" in data:
         mt = _table(source, "mass", data["mass"])
-        _unknown_keys(source, "mass.", mt, {"link_density"})
+        _unknown_keys(source, "mass.", mt, _MASS_KEYS)
         if "link_density" in mt:
             link_density = _mass(source, "mass.link_density", mt["link_density"], "a density in kg per metre of link")
     operating = operating_from_dict(data["operating"], source) if "operating" in data else None
@@ -237,7 +280,10 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         raise UserError(f"{where(source, 'operating.load')}: a load is carried by a walker's contact foot; this "
                         f"mechanism is driven by a path, got {_short(operating.load)}")
     mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
-                     walker, bodies, link_density, operating, sliders)
+                     walker, bodies, link_density, operating, sliders, gears)
+    if "build" in data:  # the design's build: its link masses and size (explorer.mechanism._build)
+        from ._build import apply_build, build_from_dict
+        mech = apply_build(mech, build_from_dict(data["build"], source), source, explicit_density=link_density)
     _check_parameter_names(mech)
     if operating is not None and operating.body is not None:
         walker_body(mech, operating, source)
@@ -411,7 +457,9 @@ def _check_parameter_names(mech: Mechanism) -> None:
             key = next((f"links[{i}].name" for i, l in enumerate(mech.links) if l.name == name),
                        next((f"fixed.{v}" for v in mech.fixed if name in (f"{v}.x", f"{v}.y")),
                             next((f"sliders[{i}].name" for i, sl in enumerate(mech.sliders)
-                                  if name.startswith(sl.name + ".")), "bodies")))
+                                  if name.startswith(sl.name + ".")),
+                                 next((f"gears[{i}].name" for i, g in enumerate(mech.gears)
+                                       if name == g.name or name.startswith(g.name + ".")), "bodies"))))
             raise UserError(f"{where(mech.source, key)}: two design parameters would be called {name!r} (a link, the "
                             f"crank's or a ground pivot's coordinates, a body joint's, a slider's); rename the link or vertex")
         seen.add(name)
@@ -460,6 +508,41 @@ def walker_from_dict(table, source: str, key: str = "walker", base: Walker | Non
     return Walker(legs, phases, mirrored, float(drag), float(contact))
 
 
+def _gears(source: str, raw, crank, fixed: dict, guess: dict) -> tuple[Gear, ...]:
+    """The ``[[gears]]`` tables: a grounded crank (``center``, ``radius``) whose tip ``tip`` (a new
+    vertex) turns ``ratio`` × the driving crank's angle + ``phase`` (degrees); ``ratio`` a nonzero
+    integer, so the mechanism repeats every crank turn."""
+    if not isinstance(raw, list):
+        raise UserError(f"{where(source, 'gears')}: expected [[gears]] tables, got {raw!r}")
+    if raw and crank is None:
+        raise UserError(f"{where(source, 'gears')}: a geared crank turns with the driving crank; this mechanism is "
+                        f"driven by a path")
+    out, names, tips = [], set(), set()
+    for i, gt in enumerate(raw):
+        key = f"gears[{i}]"
+        gname = _named_table(source, key, gt, _GEAR_KEYS, ("name", "center", "radius", "tip", "ratio"), names,
+                             "geared crank", "{}.x", "another geared crank")
+        tip = _string(source, f"{key}.tip", gt["tip"])
+        if not NAME_RE.fullmatch(tip):
+            raise UserError(f"{where(source, f'{key}.tip')}: vertex name {tip!r} must be 1 to 64 letters, digits or "
+                            f"_ . + - (it names datasets in results files)")
+        if tip == crank.tip or tip in fixed or tip in tips:
+            raise UserError(f"{where(source, f'{key}.tip')}: vertex {tip!r} is already the driving crank's tip, fixed, "
+                            f"or another geared crank's tip")
+        ratio = gt["ratio"]
+        if isinstance(ratio, bool) or not isinstance(ratio, int) or ratio == 0 or abs(ratio) > 64:
+            raise UserError(f"{where(source, f'{key}.ratio')}: expected a nonzero integer from −64 to 64 (turns per "
+                            f"turn of the driving crank; negative: the other way), got {_short(ratio)}")
+        phase = gt.get("phase", 0.0)
+        if isinstance(phase, bool) or not isinstance(phase, (int, float)) or not math.isfinite(phase) \
+                or abs(phase) > 1e6:
+            raise UserError(f"{where(source, f'{key}.phase')}: expected an angle in degrees, got {_short(phase)}")
+        tips.add(tip)
+        out.append(Gear(gname, _point(source, f"{key}.center", gt["center"]),
+                        _check_length(source, f"{key}.radius", gt["radius"]), tip, int(ratio), float(phase)))
+    return tuple(out)
+
+
 def _crank(source: str, value) -> Crank:
     crank_t = _table(source, "crank", value)
     _unknown_keys(source, "crank.", crank_t, _CRANK_KEYS)
@@ -483,6 +566,17 @@ def _mass(source: str, key: str, value, what: str = "a mass in kg") -> float:
         raise UserError(f"{where(source, key)}: expected {what}, a finite number from 0 to {_MAX_MASS:g}, "
                         f"got {_short(value)}")
     return v
+
+
+def bounded_number(source: str, key: str, v, lo: float, lo_ok: bool, hi: float, what: str) -> float:
+    """A number of a table: finite, above ``lo`` (or equal to it where ``lo_ok``), at most ``hi``; else a one-line
+    UserError naming the file, the key and the value."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise UserError(f"{where(source, key)}: expected {what}, got {_short(v)}")
+    f = float(v) if abs(v) < 1e300 else math.inf
+    if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
+        raise UserError(f"{where(source, key)}: expected {what} (at most {hi:g}), got {_short(v)}")
+    return f
 
 
 def operating_from_dict(table, source: str, key: str = "operating", base: Operating | None = None) -> Operating:
@@ -510,15 +604,8 @@ def operating_from_dict(table, source: str, key: str = "operating", base: Operat
                             f"{_short(t['body'])}")
         out["body"] = t["body"]
     for k, (lo, lo_ok, hi, what) in rules.items():
-        if k not in t:
-            continue
-        v = t[k]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what}, got {_short(v)}")
-        f = float(v) if abs(v) < 1e300 else math.inf
-        if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
-            raise UserError(f"{where(source, f'{key}.{k}')}: expected {what} (at most {hi:g}), got {_short(v)}")
-        out[k] = f
+        if k in t:
+            out[k] = bounded_number(source, f"{key}.{k}", t[k], lo, lo_ok, hi, what)
     return Operating(**{**{k: getattr(base, k) for k in OPERATING_KEYS}, **out})
 
 
@@ -586,7 +673,7 @@ def _actuator(source: str, t: dict) -> PathDriver:
                       timing=timing, slider=_string(source, "driver.slider", t["slider"]), stroke=stroke)
 
 
-def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=(), sliders=()) -> None:
+def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=(), sliders=(), gears=()) -> None:
     """Count check: 2 unknowns per guessed vertex, one equation per link that moves something and
     2n − 3 per body of n joints (a rigid shape of n points has 2n coordinates less 3 for its place).
 
@@ -605,7 +692,7 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=
             raise UserError(f"{where(source, f'bodies[{i}].joints')}: body {b.name!r} holds two driven or fixed "
                             f"vertices; it would lock the crank or duplicate the ground")
     touched = {v for l in links for v in (l.a, l.b)} | {j for b in bodies for j in b.joints} \
-        | {s.vertex for s in sliders}
+        | {s.vertex for s in sliders} | {g.tip for g in gears}
     if tip not in touched:
         raise UserError(f"{where(source, tip_key)}: vertex {tip!r} is on no link; the driver would move nothing")
     for v in guess:
@@ -614,7 +701,8 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=
     for v in fixed:
         if v not in touched:
             raise UserError(f"{where(source, 'fixed.' + v)}: vertex {v!r} is on no link")
-    n_eq, n_unknown = len(links) + sum(2 * len(b.joints) - 3 for b in bodies) + len(sliders), 2 * len(guess)
+    n_eq = len(links) + sum(2 * len(b.joints) - 3 for b in bodies) + len(sliders) + 2 * len(gears)
+    n_unknown = 2 * len(guess)
     if n_eq != n_unknown:
         dof = n_unknown - n_eq + 1
         what = "link, body and slider equations" if bodies or sliders else "link equations"

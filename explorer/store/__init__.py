@@ -53,6 +53,7 @@ from ._integrity import seal
 from ._lock import OutputLock
 from ._shards import ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch, write_shard
 from ._read import RESOLVE_ROWS, Results, lean_file, open_results, probe, resolve_series
+from ._update import check_updatable, update_metrics
 from ._variants import check_variant, is_results, results_band, variant_design, variant_mechanism, variant_row
 from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN,
                      ResultsWriter, chunk_rows, create_metric, fingerprint_diff, hdf5_rows, metrics_group,
@@ -63,4 +64,4 @@ __all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAM
            "dataset_spec", "hdf5_rows", "is_results", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe", "results_band", "variant_design",
            "variant_mechanism", "variant_row", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",
            "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason", "seal",
-           "RESOLVE_ROWS", "lean_file", "resolve_series"]
+           "RESOLVE_ROWS", "lean_file", "resolve_series", "check_updatable", "update_metrics"]

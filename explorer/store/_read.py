@@ -128,7 +128,11 @@ class Results:
             from ..mechanism import parse_toml
             source = f"{self.filename} (its stored mechanism)"
             data = parse_toml(str(self.attrs.get("mechanism", "")), source)
-            self._mech = mechanism_from_dict(data, source)
+            mech = mechanism_from_dict(data, source)
+            if (self.study or {}).get("build"):  # the study's [build] over the mechanism's: its link masses
+                from ..mechanism._build import apply_build, build_from_dict
+                mech = apply_build(mech, build_from_dict(self.study["build"], source, base=mech.build), source)
+            self._mech = mech
         return self._mech
 
     @property

@@ -26,13 +26,13 @@ from ._run import RunSummary, Terminated, run_study
 from ._sample import (BLOCK, Sampler, apply_multipliers, apply_samples, saltelli_design, sample_variants,
                       study_sampler, study_variants)
 from ._sensitivity import INDEX_METHODS, INDEX_NAMES, main_index, sensitivity, sensitivity_frame, summary_frame, tolerance_summary
-from ._spec import (MAX_VARIANTS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHODS, Study, builtin_studies,
+from ._spec import (MAX_VARIANTS, STUDY_KEYS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHODS, Study, builtin_studies,
                     default_study_text, dumps_toml, load_study, study_from_dict, variant_count)
 from ._tolerance import PARAMETER_SETS, PARAMETER_WORDS, ToleranceResult, tolerance
 from ._yield import (Robustness, YieldResult, design_yield, results_robustness, results_yield,
                      robustness_from_dict)
 
-__all__ = ["HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_history", "hypervolume_per_generation", "dask_client", "require_dask", "INDEX_NAMES", "main_index", "PARAMETER_SETS", "PARAMETER_WORDS", "ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
+__all__ = ["STUDY_KEYS", "HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_history", "hypervolume_per_generation", "dask_client", "require_dask", "INDEX_NAMES", "main_index", "PARAMETER_SETS", "PARAMETER_WORDS", "ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
            "run_optimize", "Terminated", "BLOCK", "INDEX_METHODS", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
            "RunSummary", "Sampler", "Study", "ToleranceResult", "apply_multipliers", "apply_samples", "builtin_studies",
            "default_study_text", "dumps_toml", "load_study", "recompute_metrics", "run_study", "run_study_dask",

@@ -49,7 +49,7 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
     study = load_study(study)
     out = results_path(study, output, resume, force, chunk_size=chunk_size)
     # on an empty Numba cache, a second process compiles the metric kernels while this one compiles
-    # the solver (Numba compiles under one lock per process): 20.4 s -> see the README's cold start
+    # the solver (Numba compiles under one lock per process): 20.4 s -> see docs/speed.md, cold start
     warm = start_kernel_warmup() if metric_plan(study)[2] else None
     try:
         validate_study(study)

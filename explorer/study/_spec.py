@@ -80,7 +80,7 @@ import numpy as np
 from ..errors import UserError, where
 from ..gait import SCREEN_KEYS, TARGET_KEYS, Screen, Target, load_target, screen_from_dict
 from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
-from ..mechanism import (OPERATING_KEYS, Mechanism, Operating, Walker, builtin_mechanisms, load_mechanism,
+from ..mechanism import (BUILD_KEYS, OPERATING_KEYS, Mechanism, Operating, Walker, builtin_mechanisms, load_mechanism,
                          operating_from_dict, parse_toml, walker_body, walker_from_dict)
 from ._objectives import OPTIMIZE_KEYS, Optimize, parse_optimize
 from ._yield import ROBUSTNESS_KEYS, YIELD, Robustness, robustness_from_dict
@@ -104,7 +104,10 @@ _SECTIONS = {
     "optimize": OPTIMIZE_KEYS,
     "target": TARGET_KEYS,
     "robustness": ROBUSTNESS_KEYS,
+    "build": BUILD_KEYS,
 }
+#: Every section of a study file and the keys it accepts: what the docs' study-file reference is generated from.
+STUDY_KEYS = _SECTIONS
 #: [output] compression choices: HDF5 filters of the (N, steps, 2) series (see explorer.store._write).
 COMPRESSIONS = ("blosc", "zstd", "lzf", "gzip", "none")
 #: [scene] store choices: "series" stores every (N, steps, 2) series the scene names; "metrics" (a lean
@@ -177,6 +180,7 @@ class Study:
     operating: Operating | None = None
     robustness: Robustness | None = None
     store: str = "series"
+    build: dict | None = None  # the study's [build] table as written (over the mechanism's, key by key)
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
 
     # -- derived -------------------------------------------------------------------------------
@@ -270,6 +274,8 @@ class Study:
             out["operating"] = self.operating.as_dict()
         if self.robustness is not None:  # only when given: a study without it keeps its fingerprint
             out["robustness"] = self.robustness.as_dict()
+        if self.build:  # only when given: the study's [build] over the mechanism's
+            out["build"] = dict(self.build)
         if self.target is not None:  # the points themselves (a CSV's content), so a changed target changes the fingerprint
             t = self.target
             out["target"] = {"points": t.points.tolist(), "match": t.match, "ignore": list(t.ignore)}
@@ -391,6 +397,9 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
         raise UserError(f"{where(source, 'study.name')}: expected letters, digits, '.', '_' or '-' only, got {name!r}")
     mech_name = v.string("study.mechanism", st["mechanism"])
     mech, mech_path = _mechanism(source, mech_name, base)
+    if "build" in data:  # the study's [build] over the mechanism's, key by key: its link masses and size
+        from ..mechanism._build import apply_build, build_from_dict
+        mech = apply_build(mech, build_from_dict(data["build"], source, base=mech.build), source)
 
     opt_table = data.get("optimize")
     if opt_table is not None:
@@ -441,7 +450,7 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
     return Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
                  method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
                  source=source, text=text if text is not None else dumps_toml(data), mechanism_path=mech_path,
-                 _mech=mech, parameters=parameters, **common)
+                 _mech=mech, parameters=parameters, build=data.get("build"), **common)
 
 
 def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, sc, ou, wa, scr, ta=None,
@@ -471,6 +480,10 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
     operating = mech.operating
     if op is not None:
         operating = operating_from_dict(op, source, "operating", base=mech.operating)
+        bu = getattr(mech.build, "unit", None)
+        if bu is not None and operating.unit is not None and abs(operating.unit / bu - 1.0) > 1e-12:
+            raise UserError(f"{where(source, 'operating.unit')}: {operating.unit:g} m per model unit, but the build "
+                            f"says unit = {bu:g}: one machine has one size (give it once)")
     if forces:
         if mech.crank is None:
             raise UserError(f"{where(source, 'scene.forces')}: mechanism {mech.name!r} is driven along a path; the "
@@ -551,7 +564,8 @@ def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st,
     return Study(name=name, mechanism=mech_name, variants=opt.evaluations, seed=seed, steps=steps,
                  tolerance=tolerance, method=method, perturb_method="optimize", spread=0.0, links=links,
                  crank="crank" in params, source=source, text=text if text is not None else dumps_toml(data),
-                 mechanism_path=mech_path, _mech=mech, parameters=params, optimize=opt, **common)
+                 mechanism_path=mech_path, _mech=mech, parameters=params, optimize=opt, build=data.get("build"),
+                 **common)
 
 
 def _parameters(v: "_Validator", pe: dict, mech: Mechanism):

@@ -32,8 +32,9 @@ mechanism file that ``load_mechanism`` reads back), ``variant_design(results, va
 of one variant, as written).
 
 Build kit of one design (:mod:`explorer.view._kit`): ``write_kit(build_kit(mech, crank_mm=30), "kit/")`` —
-parts.svg / parts.dxf (every part once per leg, nested on sheets, labelled), bom.csv, README.txt (and
-assembly.pdf).
+kit.json (the kit as data, ``kit_data(kit)``), parts.svg / parts.dxf (every part once per leg, nested on
+sheets, labelled), bom.csv, README.txt and assembly.pdf; a stack that keeps every part clear of every pin,
+spacer and the crankshaft over the turn, crank arms on a D-flat at the legs' phases, a standoff chassis.
 """
 
 from ._animate import DEFAULT_FPS, FRAMES_PER_CYCLE, MOVIE_FORMATS, LinkageAnimation, Movie, animate, ffmpeg_exe
@@ -41,8 +42,8 @@ from ._draw import FOOT_PATH_COLOR, LegArtists, draw_ground, draw_path, mirror_p
 from ._export import (EXPORT_FORMATS, Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                       mechanism_toml, trajectory_frame, variant_design)
 from ._front import plot_front
-from ._kit import (Kit, KitLeg, KitPart, KitPin, Material, Placement, build_kit, design_yield_note, pin_diameter,
-                   write_kit)
+from ._kit import (Kit, KitLeg, KitPart, KitPin, Material, Placement, build_kit, design_yield_note, kit_data,
+                   pin_diameter, shaft_diameter, write_kit)
 from ._indices import plot_indices
 from ._report import Report, report_html, write_report
 from ._plots import (FIGURE_FORMATS, central_differences, new_figure, oat_sensitivity, plot_scatter,
@@ -57,4 +58,4 @@ __all__ += ["EXPORT_FORMATS", "Sheet", "cut_sheet", "export_csv", "export_dxf", 
             "mechanism_toml", "trajectory_frame", "variant_design"]
 __all__ += ["Report", "report_html", "write_report"]
 __all__ += ["Kit", "KitLeg", "KitPart", "KitPin", "Material", "Placement", "build_kit", "design_yield_note",
-            "pin_diameter", "write_kit"]
+            "kit_data", "pin_diameter", "shaft_diameter", "write_kit"]

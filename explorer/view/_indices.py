@@ -72,11 +72,11 @@ def plot_indices(indices, outputs=None, *, columns: int | None = None, figsize=N
         note = str(sel["note"].iloc[0])
         what = str(sel["what"].iloc[0]) if "what" in sel.columns and kind != "metric" else ""
         ax.set_title(f"{name}  (n = {n:,})" + (f"\n{what}" if what else "") + (f"\n{note}" if note else ""),
-                     fontsize=14)
+                     fontsize=14, wrap=True)
         ax.set_xlabel(f"sensitivity index ({', '.join(kinds)})", fontsize=12)
         if len(kinds) > 1:
             ax.legend(fontsize=11, loc="lower right", frameon=False)
     labels = ", ".join(INDEX_NAMES.get(i, i) for i in dict.fromkeys(indices["index"]))
     level = indices.attrs.get("conf_level", 0.95)
-    fig.suptitle(f"{METHOD_TITLES.get(method, method)}: {labels}; bars ± {100 * level:g} % interval", fontsize=15)
+    fig.suptitle(f"{METHOD_TITLES.get(method, method)}: {labels}; bars ± {100 * level:g} % interval", fontsize=15, wrap=True)
     return fig

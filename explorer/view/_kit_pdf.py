@@ -133,6 +133,31 @@ def _outline_xy(holes, r: float) -> np.ndarray:
     return np.asarray(pts, dtype=np.float64)
 
 
+def hole_groups(part) -> list[str]:
+    """The holes of a part as its page lists them: "2 Ø3.0", runs of numbered holes of one size joined
+    ("motor hole 1–6 Ø3.0", "standoff 1–3 Ø4.0")."""
+    import re
+    out: list[list] = []  # [prefix, first, last, d] or [name, None, None, d]
+    for j, d in zip(part.joints, part.diameters):
+        m = re.fullmatch(r"(.*\D) (\d+)", j)
+        if m and out and out[-1][1] is not None and out[-1][0] == m.group(1) and out[-1][3] == d \
+                and int(m.group(2)) == out[-1][2] + 1:
+            out[-1][2] = int(m.group(2))
+        elif m:
+            out.append([m.group(1), int(m.group(2)), int(m.group(2)), d])
+        else:
+            out.append([j, None, None, d])
+    return [f"{p} Ø{mm(d)}" if a is None else (f"{p} {a} Ø{mm(d)}" if a == b else f"{p} {a}–{b} Ø{mm(d)}")
+            for p, a, b, d in out]
+
+
+def shown_pairs(part) -> list[tuple[str, str, float]]:
+    """The hole-to-hole distances a part's page prints and dimensions: every pair (:func:`pair_distances`) up
+    to six holes, else those from the first hole (a plate's centre)."""
+    pairs = pair_distances(part)
+    return pairs if len(part.holes) <= 6 else [t for t in pairs if t[0] == part.joints[0]]
+
+
 def pair_distances(part) -> list[tuple[str, str, float]]:
     """Centre-to-centre distance of every pair of the part's holes, mm: [(joint i, joint j, d)], i < j in
     hole order."""
@@ -345,6 +370,9 @@ def _page_assembly(fig, kit) -> None:
     pos = assembly_positions(mech)
     o = _origin(mech)
     world = {name: (p - o) * s for name, p in pos.items()}
+    if kit.chassis is not None:
+        for name, x, y in kit.chassis.standoffs:
+            world[name] = np.array([x, y])
 
     _text(fig, 10, 200, f"{mech.name}: assembly at θ = 0°", fontsize=14, weight="bold", va="baseline")
     _text(fig, 10, 194.5, f"all lengths in mm · scale {kit.scale:g} mm per model unit · part width "
@@ -354,13 +382,16 @@ def _page_assembly(fig, kit) -> None:
     # the assembly drawing: placed outlines, coloured by layer
     placed = []
     for part in kit.parts:
+        if part.layer is None or part.kind == "crank" and part.name != "crank":
+            continue  # chassis plates are drawn on the chassis page; one crank web is enough here
         pts = [_joint_position(world, j) for j in part.joints]
         if any(p is None for p in pts):
             continue
         placed.append((kit.layers.get(part.name, 0), part, np.asarray(pts)))
     placed.sort(key=lambda t: t[0])
     allpts = np.vstack([p for _, _, p in placed] + [np.zeros((1, 2))])
-    lo, hi = allpts.min(axis=0) - kit.width, allpts.max(axis=0) + kit.width
+    wmax = max(part.width for _, part, _ in placed)
+    lo, hi = allpts.min(axis=0) - wmax, allpts.max(axis=0) + wmax
     box = (10.0, 32.0, 165.0, 156.0)  # x, y, w, h of the drawing on the page, mm
     k = _fit_scale(hi[0] - lo[0], hi[1] - lo[1], box[2], box[3], margin=5.0)
     ax = _axes(fig, *box)
@@ -374,7 +405,7 @@ def _page_assembly(fig, kit) -> None:
         ax.plot(r * np.cos(t), r * np.sin(t), ls=(0, (4, 3)), lw=0.5, color="#888888", zorder=1)
     for layer, part, P in placed:
         col = _layer_color(layer)
-        poly = _outline_xy(P, 0.5 * kit.width)
+        poly = _outline_xy(P, 0.5 * part.width)
         ax.fill(poly[:, 0], poly[:, 1], fc=col, alpha=0.35, ec="none", zorder=2 + 2 * layer)
         ax.plot(np.r_[poly[:, 0], poly[0, 0]], np.r_[poly[:, 1], poly[0, 1]], color=col, lw=0.8, zorder=3 + 2 * layer)
         for (x, y), d in zip(P, part.diameters):
@@ -406,13 +437,14 @@ def _page_assembly(fig, kit) -> None:
         spokes.setdefault(name, []).append(-0.5 * math.pi)
     labels = _Labels(k)
     for _, part, P in placed:
-        labels.polygon(_outline_xy(P, 0.5 * kit.width))
+        labels.polygon(_outline_xy(P, 0.5 * part.width))
     for name, x, y in frame_pivots(kit):
         if name == CRANK_CENTRE:
             labels.box(x - 2.4 * k, y - 2.4 * k, x + 2.4 * k, y + 2.4 * k)
         else:
             labels.box(x - tri, y - 0.5 * kit.width - 1.6 * tri, x + tri, y - 0.5 * kit.width)
     names = [v for v in mech.vertices] + ([CRANK_CENTRE] if mech.crank is not None else [])
+    names += [n for n, *_ in (kit.chassis.standoffs if kit.chassis is not None else ())]
     for name in sorted(names, key=len, reverse=True):
         labels.place(ax, world[name], name, 7.5, 0.5 * kit.width + 1.2 * k, prefer=_free_direction(spokes.get(name, [])),
                      weight="bold", color=INK, zorder=top + 5,
@@ -437,6 +469,145 @@ def _page_assembly(fig, kit) -> None:
     _footer(fig, kit)
 
 
+# -- page 2: the crankshaft and the chassis ----------------------------------------------------------------
+def leg_order_lines(kit) -> list[str]:
+    """The crank arrangement table of the chassis page, one line per leg in its order along the shaft from the
+    motor: "leg 2 at z = 62.5 mm: crank 90.0°, mirrored; webs on layers 1 and 4; D-flat normal 270.0°"."""
+    sh = kit.shaft
+    out = []
+    webs = [kit.layers["crank"]] + ([kit.layers["crank-outer"]] if sh.mode == "throws" else [])
+    for leg in sorted(kit.legs, key=lambda lg: lg.z):
+        w = (f"webs on layers {webs[0]} and {webs[1]}" if len(webs) == 2 else f"arm on layer {webs[0]}")
+        out.append(f"leg {leg.index + 1} at z = {mm(leg.z)} mm: crank {degrees(leg.phase_deg)}"
+                   + (", mirrored" if leg.mirrored else "") + f"; {w}; D-flat normal {degrees(-leg.phase_deg)}")
+    return out
+
+
+def shaft_lines(kit) -> list[str]:
+    """What the chassis page says of the shaft and its sizing."""
+    sh, m, ch = kit.shaft, kit.material, kit.chassis
+    mode = {"through": "one straight rod through every leg",
+            "outboard": "it ends at the outboard crank arm",
+            "throws": f"a crank with throws: {len(sh.segments)} pieces between the webs"}[sh.mode]
+    out = [f"crankshaft: Ø{mm(sh.diameter)} mm {m.shaft_material}, {mm(sh.length)} mm of rod; {mode}",
+           f"D-flat {mm(sh.flat)} mm deep along it; bushings Ø{mm(sh.diameter)}/{mm(sh.bushing_od)} mm in every frame "
+           f"plate" + ("" if sh.mode == "outboard" else " and the end plate")]
+    if sh.torque is not None:
+        out.append(f"sized for T = {sh.torque:.3g} N·m (peak motor torque) and M = {sh.bending:.3g} N·m (crank pin "
+                   f"{sh.arm_force:.4g} N at {mm(sh.arm)} mm from a bushing): needs Ø{mm(sh.required)} mm")
+    else:
+        out.append("not sized from a load (no forces): the standard size nearest a fifth of the crank radius")
+    out.append(f"standoffs: {len(ch.standoffs)} × M{ch.standoff_d:g} threaded rod, {mm(ch.standoff_length)} mm, "
+               f"a nut each side of each plate")
+    out.append(f"motor: Ø{mm(ch.motor_shaft)} mm shaft, {ch.motor_holes[0]} × Ø{mm(ch.motor_holes[1])} on "
+               f"Ø{mm(ch.motor_holes[2])} mm; coupler to the crankshaft")
+    return out
+
+
+def _page_chassis(fig, kit) -> None:
+    """The crankshaft and the chassis: a section along the shaft (z across, y up, at θ = 0: each leg's crank
+    pin where its phase puts it), the legs' order, the crank arrangement, the shaft's sizing, the motor
+    plate, and the clearance found."""
+    from matplotlib.patches import Rectangle
+    from ._kit import WASHER
+    from ._kit_chassis import COUPLER, MOTOR_GAP
+    mech, sh, ch = kit.mechanism, kit.shaft, kit.chassis
+    t = kit.material.thickness
+    _text(fig, 10, 200, f"{mech.name}: crankshaft and chassis", fontsize=14, weight="bold", va="baseline")
+    _text(fig, 10, 194.5, "section along the shaft at θ = 0 (z from the motor plate across, y up; the legs' parts "
+          "are the coloured layers, each leg's crank pin at its phase), all lengths in mm", fontsize=7.5,
+          va="baseline")
+    r = mech.crank.radius * kit.scale
+    ys = [0.0, r, -r] + [y for _, _, y in ch.standoffs]
+    ylo, yhi = min(ys) - 8.0, max(ys) + 8.0
+    zlo, zhi = -45.0, ch.length + 15.0
+    box = (10.0, 80.0, 277.0, 106.0)
+    k = _fit_scale(zhi - zlo, yhi - ylo, box[2], box[3] - 8.0)
+    ax = _axes(fig, *box)
+    _set_view(ax, (0.5 * (zlo + zhi), 0.5 * (ylo + yhi)), k, box[2], box[3])
+    ax.set_aspect("equal", adjustable="box")
+    _set_view(ax, (0.5 * (zlo + zhi), 0.5 * (ylo + yhi)), k, box[2], box[3])
+    p = t + WASHER
+    top = max(v for v in kit.layers.values())
+    depth = (top + 1) * t + top * WASHER
+    # the legs' layers
+    for leg in kit.legs:
+        for layer in range(1, top + 1):
+            z = leg.z + layer * p
+            ax.add_patch(Rectangle((z, ylo + 4 * k), t, yhi - ylo - 8 * k, fc=_layer_color(layer), alpha=0.18,
+                                   ec="none", zorder=1))
+        ax.text(leg.z + 0.5 * (t + depth), yhi + 0.5 * k, f"leg {leg.index + 1}\n{degrees(leg.phase_deg)}"
+                + (" M" if leg.mirrored else ""), ha="center", va="bottom", fontsize=6, color=INK, zorder=30)
+    # the plates
+    for name, z in ch.plates:
+        ax.add_patch(Rectangle((z, ylo + 2 * k), t, yhi - ylo - 4 * k, fc="#c8a26b", ec=INK, lw=0.5, zorder=3))
+        if not name.startswith("frame"):
+            ax.text(z + 0.5 * t, ylo + 1.0 * k, name, ha="center", va="top", fontsize=6, color=INK, zorder=30)
+    # the standoffs
+    by_y: dict[float, list] = {}
+    for name, x, y in ch.standoffs:
+        by_y.setdefault(round(y, 6), []).append((name, x))
+    for y, items in by_y.items():
+        ax.plot([-2.0 * ch.standoff_d, ch.length + 2.0 * ch.standoff_d], [y, y], color="#555555", lw=1.0, zorder=4)
+        label = ", ".join(f"{n} (x = {mm(x)})" for n, x in items)
+        ax.text(ch.length + 3.0 * ch.standoff_d, y, label, fontsize=5.5, va="center", zorder=30)
+    # the motor and the coupler
+    ax.add_patch(Rectangle((-40.0, -18.0), 40.0, 36.0, fc="#dddddd", ec=INK, lw=0.6, zorder=2))
+    ax.text(-20.0, 0.0, "motor", ha="center", va="center", fontsize=6, zorder=30)
+    zc = t + 0.5 * MOTOR_GAP
+    ax.add_patch(Rectangle((zc - 0.5 * COUPLER, -0.5 * max(10.0, 2 * sh.diameter)), COUPLER,
+                           max(10.0, 2 * sh.diameter), fc="#999999", ec=INK, lw=0.5, zorder=5))
+    # the shaft, the webs and the crank pins at θ = 0
+    for a, b in sh.segments:
+        ax.add_patch(Rectangle((a, -0.5 * sh.diameter), b - a, sh.diameter, fc="#444444", ec="none", zorder=6))
+    webs = [kit.layers["crank"]] + ([kit.layers["crank-outer"]] if sh.mode == "throws" else [])
+    pin_r = 0.5 * kit.pin(mech.crank.tip).diameter
+    for leg in kit.legs:
+        yp = r * math.sin(math.radians(leg.phase_deg))
+        for w in webs:
+            z = leg.z + w * p
+            ax.add_patch(Rectangle((z, min(0.0, yp) - 0.5 * kit.part("crank").width), t,
+                                   abs(yp) + kit.part("crank").width, fc="#1f77b4", ec=INK, lw=0.4, zorder=7))
+        z0 = leg.z + webs[0] * p
+        z1 = leg.z + (webs[-1] * p + t if len(webs) == 2 else (max(kit.pin(mech.crank.tip).layers) + 1) * p)
+        ax.add_patch(Rectangle((z0, yp - pin_r), z1 - z0, 2 * pin_r, fc="#d62728", ec="none", zorder=8))
+    ax.plot([zlo, zhi], [0, 0], color=INK, lw=0.3, ls=(0, (6, 2, 1, 2)), zorder=9)
+    _scale_bar(ax, zlo, yhi - 1.0 * k, k, 0.5 * (zhi - zlo) / k)
+    _text(fig, box[0] + box[2], box[1] + box[3] + 1.0, f"drawn {scale_text(k)}", fontsize=6, ha="right",
+          color="#555555")
+    # tables
+    y = 72.0
+    _text(fig, 10, y, "The legs along the shaft, from the motor", fontsize=8.5, weight="bold")
+    lines = leg_order_lines(kit)
+    fs = 6.5 if len(lines) <= 8 else max(4.5, 6.5 * 8 / len(lines))
+    for i, line in enumerate(lines):
+        _text(fig, 10, y - 3.5 - i * fs * _PT * 1.3, line, fontsize=fs, va="top")
+    y2 = y - 5.0 - len(lines) * fs * _PT * 1.3 - 2.0
+    _text(fig, 10, y2, "Crankshaft, bushings, standoffs, motor", fontsize=8.5, weight="bold")
+    for i, line in enumerate(shaft_lines(kit)):
+        _text(fig, 10, y2 - 3.5 - i * 3.0, line, fontsize=6.5, va="top")
+    y3 = y2 - 5.0 - len(shaft_lines(kit)) * 3.0 - 2.0
+    from ._kit import clearance_line
+    for i, line in enumerate(textwrap.wrap("Clearance: " + clearance_line(kit), 105)):
+        _text(fig, 10, y3 - i * 3.0, line, fontsize=6.5, va="top", weight="bold" if i == 0 else "normal")
+    # the motor plate, front view
+    motor = kit.part("motor plate")
+    bx, by, bw, bh = 200.0, 12.0, 87.0, 58.0
+    _text(fig, bx, by + bh + 1.0, "motor plate (front)", fontsize=8.5, weight="bold")
+    H = np.asarray(motor.holes, dtype=np.float64)
+    poly = _outline_xy(H, 0.5 * motor.width)
+    lo, hi = poly.min(axis=0), poly.max(axis=0)
+    km = _fit_scale(hi[0] - lo[0], hi[1] - lo[1], bw, bh, margin=4.0)
+    axm = _axes(fig, bx, by, bw, bh)
+    _set_view(axm, 0.5 * (lo + hi), km, bw, bh)
+    axm.fill(poly[:, 0], poly[:, 1], fc="#c8a26b", alpha=0.3, ec=INK, lw=0.6)
+    for (x, yy), d, j in zip(H, motor.diameters, motor.joints):
+        axm.add_patch(_circle((x, yy), 0.5 * d, fc="white", ec=INK, lw=0.5, zorder=3))
+        if j.startswith("standoff") or j == "motor":
+            axm.text(x, yy + 0.5 * d + 1.0 * km, j, ha="center", va="bottom", fontsize=5.5, zorder=4)
+    axm.text(0.02, 0.02, f"drawn {scale_text(km)}", transform=axm.transAxes, fontsize=5.5, color="#555555")
+
+
 def _circle(c, r, **kw):
     from matplotlib.patches import Circle
     return Circle(c, r, **kw)
@@ -453,7 +624,12 @@ def pin_lines(kit) -> list[tuple[str, str]]:
     "frame [0] · 2-3 [1] · 2-4 [2]" (bottom → top, each part with its layer)."""
     out = []
     for pin in kit.pins:
+        if pin.kind == "standoff":
+            continue
         head = f"{pin.joint}: Ø{mm(pin.diameter)} × {mm(pin.length)} mm, {pin.count} pin{'s' if pin.count != 1 else ''}"
+        if pin.kind == "shaft":
+            head = (f"{pin.joint} (the crankshaft, {kit.shaft.mode}): Ø{mm(pin.diameter)}, layers "
+                    f"{', '.join(map(str, pin.layers))} of every leg")
         stack = " · ".join(f"{p} [{kit.layers.get(p, '?')}]" for p in pin.stack)
         out.append((head, stack))
     return out
@@ -463,14 +639,14 @@ def _pins_block(fig, kit, x: float, ytop: float) -> float:
     """The pin stack table from ytop (mm of paper) down; returns the y of its bottom."""
     _text(fig, x, ytop, "Pins: stack order, bottom (frame side) → top [layer]", fontsize=8.5, weight="bold")
     lines = pin_lines(kit)
-    n = sum(1 + len(textwrap.wrap(stack, 62)) for _, stack in lines)
+    n = sum(1 + len(textwrap.wrap(stack, 62, break_on_hyphens=False)) for _, stack in lines)
     fs = 6.5 if n <= 20 else max(4.5, 6.5 * 20 / n)
     lh = fs * _PT * 1.3
     y = ytop - 3.0
     for head, stack in lines:
         _text(fig, x, y, head, fontsize=fs, weight="bold", va="top")
         y -= lh
-        for part in textwrap.wrap(stack, 62):
+        for part in textwrap.wrap(stack, 62, break_on_hyphens=False):
             _text(fig, x + 4.0, y, part, fontsize=fs, va="top")
             y -= lh
         y -= 0.3 * lh
@@ -613,9 +789,10 @@ def _footer(fig, kit) -> None:
 
 
 # -- part pages ------------------------------------------------------------------------------------------
-def _draw_part(ax, part, H: np.ndarray, width: float, k: float, color: str) -> None:
-    """One part drawn with its holes at H (H, 2), data mm: outline, hole circles with centre marks, joint
-    labels with diameters, and a dimension for every pair of holes."""
+def _draw_part(ax, part, H: np.ndarray, width: float, k: float, color: str, flats=None, depth: float = 0.0) -> None:
+    """One part drawn with its holes at H (H, 2), data mm: outline, hole circles (a D-hole where ``flats``, per
+    hole the flat's normal in degrees or None, says) with centre marks, joint labels with diameters, and a
+    dimension for every pair of holes."""
     poly = _outline_xy(H, 0.5 * width)
     ax.fill(poly[:, 0], poly[:, 1], fc=color, alpha=0.18, ec="none", zorder=1)
     ax.plot(np.r_[poly[:, 0], poly[0, 0]], np.r_[poly[:, 1], poly[0, 1]], color=INK, lw=0.8, zorder=2)
@@ -623,7 +800,14 @@ def _draw_part(ax, part, H: np.ndarray, width: float, k: float, color: str) -> N
     labels = _Labels(k)
     labels.polygon(poly)
     for j, (p, d) in enumerate(zip(H, part.diameters)):
-        ax.add_patch(_circle(p, 0.5 * d, fc="white", ec=INK, lw=0.6, zorder=3))
+        fl = flats[j] if flats is not None and j < len(flats) else None
+        if fl is None:
+            ax.add_patch(_circle(p, 0.5 * d, fc="white", ec=INK, lw=0.6, zorder=3))
+        else:
+            from matplotlib.patches import Polygon
+            from ._kit_sheet import hole_segments
+            ax.add_patch(Polygon(_segments_xy(hole_segments(tuple(p), d, fl, depth)), closed=True, fc="white",
+                                 ec=INK, lw=0.6, zorder=3))
         cm = max(0.5 * d + 1.0, 1.5 * k)
         ax.plot([p[0] - cm, p[0] + cm], [p[1], p[1]], color=INK, lw=0.3, zorder=4)
         ax.plot([p[0], p[0]], [p[1] - cm, p[1] + cm], color=INK, lw=0.3, zorder=4)
@@ -636,7 +820,7 @@ def _draw_part(ax, part, H: np.ndarray, width: float, k: float, color: str) -> N
             edges.add((min(i, j), max(i, j)))
     collinear = len(hull) == 2
     inner_levels: list[tuple[float, float, int]] = []
-    for i in range(len(H)):
+    for i in range(len(H) if len(H) <= 6 else 1):
         for j in range(i + 1, len(H)):
             d = math.dist(H[i], H[j])
             if d <= 1e-9:
@@ -674,6 +858,20 @@ def _draw_part(ax, part, H: np.ndarray, width: float, k: float, color: str) -> N
                      bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="#aaaaaa", lw=0.3, alpha=0.9))
 
 
+def _segments_xy(segs) -> np.ndarray:
+    """A closed chain of ("arc", c, r, a0, a1) and ("line", p, q) as a polygon (N, 2)."""
+    pts = []
+    for seg in segs:
+        if seg[0] == "arc":
+            _, c, rr, a0, a1 = seg
+            t = np.linspace(a0, a1, max(2, int(math.ceil(abs(a1 - a0) / (math.pi / 48))) + 1))
+            pts.extend(zip(c[0] + rr * np.cos(t), c[1] + rr * np.sin(t)))
+        else:
+            pts.append(seg[1])
+            pts.append(seg[2])
+    return np.asarray(pts, dtype=np.float64)
+
+
 def _page_part(fig, kit, part) -> None:
     m = kit.material
     _text(fig, 10, 200, f"{part.name}", fontsize=15, weight="bold", va="baseline")
@@ -682,18 +880,30 @@ def _page_part(fig, kit, part) -> None:
         cut = f"cut {part.copies}: {plain} as drawn, {part.mirrored} mirrored"
     else:
         cut = f"cut {part.copies}" + (" (symmetric: its mirror image is the same part)" if part.symmetric else "")
-    _text(fig, 10, 194, f"{part.kind} · {cut} · part width {mm(kit.width)} mm · {m.name} {mm(m.thickness)} mm · "
-          f"stack layer {kit.layers.get(part.name, '?')} · all lengths in mm", fontsize=8, va="baseline")
-    # the hole-to-hole table
-    pairs = pair_distances(part)
+    layer = "chassis plate" if part.layer is None else f"stack layer {part.layer}"
+    _text(fig, 10, 194, f"{part.kind} · {cut} · part width {mm(part.width)} mm · {m.name} {mm(m.thickness)} mm · "
+          f"{layer} · all lengths in mm", fontsize=8, va="baseline")
+    # the hole-to-hole table (a plate with many holes: from its centre hole)
+    pairs = shown_pairs(part)
     _text(fig, 10, 188, "hole to hole, centre to centre:", fontsize=7.5, weight="bold", va="baseline")
-    holes = "  ·  ".join(f"{j} Ø{mm(d)}" for j, d in zip(part.joints, part.diameters))
+    holes = "  ·  ".join(hole_groups(part))
     _text(fig, 150, 188, f"holes: {holes}", fontsize=7.5, va="baseline")
-    per_col = 3
+    right = part.kind == "frame" or bool(part.flats)  # a block of its own at x = 150 mm
+    cols, col_w = (2, 68.0) if right else (4, 68.0)
+    per_col = max(3, math.ceil(len(pairs) / cols))
     for i, (a, b, d) in enumerate(pairs):
         col, row = divmod(i, per_col)
-        _text(fig, 10 + 55 * col, 184 - 3.6 * row, f"{a} – {b}: {mm(d)} mm", fontsize=7.5, va="baseline")
+        _text(fig, 10 + col_w * col, 184 - 3.6 * row, f"{a} – {b}: {mm(d)} mm", fontsize=7.5, va="baseline")
     ytop = 184 - 3.6 * min(per_col, max(1, len(pairs))) - 2.0
+    if part.flats:  # a crank arm: copy k is leg k's, its D-hole turned by the leg's phase
+        sh = kit.shaft
+        _text(fig, 150, 184, f"D-hole for the {mm(sh.diameter)} mm crankshaft's {mm(sh.flat)} mm flat; copy k is "
+              f"leg k's:", fontsize=7.5, weight="bold", va="baseline")
+        rows = [f"copy {c + 1}: leg {c + 1} at {degrees(kit.legs[c].phase_deg)}, flat normal at "
+                f"{degrees(f[0])} from the arm" for c, f in enumerate(part.flats)]
+        for i, line in enumerate(rows):
+            _text(fig, 150 + 70 * (i // 4), 180.4 - 3.6 * (i % 4), line, fontsize=6.5, va="baseline")
+        ytop = min(ytop, 180.4 - 3.6 * min(4, len(rows)) - 2.0)
     if part.kind == "frame":
         piv = [s for s in pivot_lines(kit) if ": x = " in s]
         _text(fig, 150, 184, "pivots from the crank centre:", fontsize=7.5, weight="bold", va="baseline")
@@ -706,7 +916,7 @@ def _page_part(fig, kit, part) -> None:
     if part.mirrored and not part.symmetric:
         views.append((True, f"mirrored ×{part.mirrored}"))
     shapes = [(_turned(part.holes, mir, not frame), cap) for mir, cap in views]
-    pad = 0.5 * kit.width
+    pad = 0.5 * part.width
     ext = [(H.min(axis=0) - pad, H.max(axis=0) + pad) for H, _ in shapes]
     sizes = [hi - lo for lo, hi in ext]
     box_x, box_y, box_w, box_h = 10.0, 14.0, 277.0, ytop - 14.0
@@ -729,7 +939,11 @@ def _page_part(fig, kit, part) -> None:
     for (H, cap), (lo, hi), cell in zip(shapes, ext, cells):
         ax = _axes(fig, *cell)
         _set_view(ax, 0.5 * (lo + hi), k, cell[2], cell[3])
-        _draw_part(ax, part, H, kit.width, k, color)
+        flats = None
+        if part.flats:  # a crank arm: copy 1's D-hole, turned as the part is
+            turn = _turn_angle(part.holes, H)
+            flats = [None if f is None else f + turn for f in part.flats[0]]
+        _draw_part(ax, part, H, part.width, k, color, flats, kit.shaft.flat if kit.shaft else 0.0)
         if cap:
             ax.text(0.02, 0.97, cap, transform=ax.transAxes, fontsize=8, weight="bold", va="top", color=INK)
     scale = "true size (1:1)" if k == 1.0 else f"drawn at {scale_text(k)} (the part is {k:g}× larger)"
@@ -739,6 +953,13 @@ def _page_part(fig, kit, part) -> None:
     for xx in (180, 230):
         fig.lines.append(_page_line(fig, xx, 6.8, xx, 9.2))
     _text(fig, 205, 9.5, f"50 mm on paper = {50 * k:g} mm of part", fontsize=6, ha="center", va="bottom")
+
+
+def _turn_angle(holes, H) -> float:
+    """The angle, degrees, the drawing turned the part's frame by (from its first two holes)."""
+    a = math.atan2(holes[1][1] - holes[0][1], holes[1][0] - holes[0][0])
+    b = math.atan2(H[1][1] - H[0][1], H[1][0] - H[0][0])
+    return math.degrees(b - a)
 
 
 def _page_line(fig, x0, y0, x1, y1):
@@ -765,6 +986,10 @@ def write_assembly_pdf(kit, path) -> Path:
         fig = Figure(figsize=size)
         _page_assembly(fig, kit)
         figs.append(fig)
+        if kit.shaft is not None and kit.chassis is not None:
+            fig = Figure(figsize=size)
+            _page_chassis(fig, kit)
+            figs.append(fig)
         for part in kit.parts:
             fig = Figure(figsize=size)
             _page_part(fig, kit, part)

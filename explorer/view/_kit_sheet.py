@@ -35,7 +35,12 @@ SHEET_COLOR = "#999999"
 
 
 def joint_label(joint: str) -> str:
-    """The engraved name of a hole's joint: the crank centre is :data:`SHAFT_LABEL`."""
+    """The engraved name of a hole's joint: the crank centre is :data:`SHAFT_LABEL`, a standoff "S1", a motor's
+    mounting hole nothing (its pattern says what it is)."""
+    if joint.startswith("standoff "):
+        return "S" + joint[len("standoff "):]
+    if joint.startswith("motor hole "):
+        return ""
     return "+".join(SHAFT_LABEL if j == CRANK_CENTRE else j for j in joint.split("+"))
 
 
@@ -73,22 +78,23 @@ def _box(holes, mirrored, angle, r):
     return min(xs) - r, min(ys) - r, max(xs) + r, max(ys) + r
 
 
-def nest(parts, width: float, sheet: tuple[float, float], mirrored_copies=frozenset()):
+def nest(parts, sheet: tuple[float, float], mirrored_legs=frozenset()):
     """Placements of every copy of ``parts`` (KitPart) on sheets of ``sheet`` (W, H) mm (see the module
     docstring); UserError naming a part that does not fit on one sheet. Copy k (1-based) of a part is the
-    one of leg k; it is mirrored where k is in ``mirrored_copies`` (the mirrored legs) and the part is not
-    symmetric."""
+    one of leg ``part.legs[k - 1]``; it is mirrored where that leg is in ``mirrored_legs`` and the part is
+    not symmetric."""
     from ._kit import Placement
 
     W, H = sheet
-    r = 0.5 * width
     room_w, room_h = W - 2 * MARGIN, H - 2 * MARGIN - STRIP
     items = []
     for part in parts:
         for k in range(part.copies):
-            items.append((part, k + 1, bool(part.mirrored) and (k + 1) in mirrored_copies))
+            leg = part.legs[k] if k < len(part.legs) else None
+            items.append((part, k + 1, bool(part.mirrored) and leg in mirrored_legs))
     laid = []
     for part, copy, mirrored in items:
+        r = 0.5 * part.width
         a = _base_angle(part.holes, mirrored)
         box = _box(part.holes, mirrored, a, r)
         w, h = box[2] - box[0], box[3] - box[1]
@@ -133,15 +139,47 @@ def _upright(dx, dy) -> float:
     return a
 
 
+def copy_label(pl) -> str:
+    """A placed copy's engraved name, also its DXF group's name: "2-6 #3", "leg #2 M" (a mirrored copy)."""
+    return f"{pl.part} #{pl.copy}" + (" M" if pl.mirrored else "")
+
+
+def hole_segments(centre, d: float, normal_deg=None, depth: float = 0.0) -> list[tuple]:
+    """A hole's outline on the sheet (mm, y up) as :func:`explorer.view._export.svg_path` takes it: a circle
+    (two half arcs), or a D-hole (``normal_deg``: the direction of the flat's outward normal, degrees; the
+    flat ``depth`` mm inside the circle): two arcs of at most 180° and the flat's chord."""
+    r = 0.5 * d
+    if normal_deg is None:
+        return [("arc", centre, r, 0.0, math.pi), ("arc", centre, r, math.pi, 2.0 * math.pi)]
+    n = math.radians(normal_deg)
+    a = math.acos(max(-1.0, min(1.0, (r - depth) / r)))
+    a0, a1 = n + a, n + 2.0 * math.pi - a
+    mid = n + math.pi
+    p1 = (centre[0] + r * math.cos(a1), centre[1] + r * math.sin(a1))
+    p0 = (centre[0] + r * math.cos(a0), centre[1] + r * math.sin(a0))
+    return [("arc", centre, r, a0, mid), ("arc", centre, r, mid, a1), ("line", p1, p0)]
+
+
+def placed_flat(part, i: int, pl):
+    """The D-flat normal of hole i of a placed copy, degrees in the sheet's frame (None: a round hole)."""
+    fl = part.flat(i, pl.copy)
+    if fl is None:
+        return None
+    return ((180.0 - fl) if pl.mirrored else fl) + pl.angle_deg
+
+
 def copy_labels(kit, pl) -> list[dict]:
     """The engraved texts of one placed copy, sheet mm: dicts of text, x, y (the text's centre), angle
     (degrees, counter-clockwise), size (height, mm), kind ("joint" or "part") and joint (the joint's
     name for a hole's label, else None)."""
     part = kit.part(pl.part)
     P = place(part.holes, pl)
-    w = kit.width
-    text = f"{part.name} #{pl.copy}" + (" M" if pl.mirrored else "")
+    w = part.width
+    text = copy_label(pl)
     hj = min(0.42 * w, 4.0)
+    if pl.mirrored:  # a mirrored copy's standoff holes take their mirror partners' rods
+        from dataclasses import replace
+        part = replace(part, joints=tuple(kit.mirror_joint(j) for j in part.joints))
     while True:  # the joint labels shrink (to 1.5 mm at least) until the part's label is as tall as them
         out = _labels(part, P, hj, text, w)
         if out[-1]["size"] >= 0.9 * hj or hj <= 1.5:
@@ -158,27 +196,44 @@ def _labels(part, P, hj, text, w):
         L = math.dist(P[far], p)
         ux, uy = (P[far][0] - p[0]) / L, (P[far][1] - p[1]) / L
         label = joint_label(j)
+        if not label:
+            used.append(0.5 * d + pad)
+            continue
         tl = CHAR_W * hj * len(label)
         off = 0.5 * d + pad + 0.5 * tl
         out.append({"text": label, "x": p[0] + ux * off, "y": p[1] + uy * off, "angle": _upright(ux, uy),
                     "size": hj, "kind": "joint", "joint": j})
         used.append(0.5 * d + 2 * pad + tl)
-    # the part's label: midway between the two holes with the most room between their labels
+    # the part's label: in the widest free stretch between two holes, clear of every other hole (and its
+    # label) near that line
     best = None
     for i in range(len(P)):
         for k in range(i):
-            room = math.dist(P[i], P[k]) - used[i] - used[k]
-            if best is None or room > best[0] + 1e-9:
-                best = (room, k, i)
-    room, k, i = best
+            L = math.dist(P[i], P[k])
+            ux, uy = (P[i][0] - P[k][0]) / L, (P[i][1] - P[k][1]) / L
+            blocks = []
+            for h in range(len(P)):
+                if h in (i, k):
+                    continue
+                vx, vy = P[h][0] - P[k][0], P[h][1] - P[k][1]
+                along, across = vx * ux + vy * uy, abs(vx * uy - vy * ux)
+                if across < 0.25 * w + 0.5 * part.diameters[h] + pad:
+                    blocks.append((along - used[h], along + used[h]))
+            free = [(used[k], L - used[i])]
+            for b0, b1 in blocks:
+                free = [piece for a0, a1 in free for piece in ((a0, min(a1, b0)), (max(a0, b1), a1)) if piece[1] > piece[0]]
+            for a0, a1 in free:
+                if best is None or a1 - a0 > best[0] + 1e-9:
+                    best = (a1 - a0, k, i, 0.5 * (a0 + a1), ux, uy)
+    if best is None:  # no free stretch: the first pair's midpoint
+        L = math.dist(P[1], P[0])
+        best = (0.0, 0, 1, 0.5 * L, (P[1][0] - P[0][0]) / L, (P[1][1] - P[0][1]) / L)
+    room, k, i, mid, ux, uy = best
     size = max(1.0, min(0.5 * w, room / (CHAR_W * len(text) + 0.5)))
-    mx, my = 0.5 * (P[i][0] + P[k][0]), 0.5 * (P[i][1] + P[k][1])
-    L = math.dist(P[i], P[k])
-    ux, uy = (P[i][0] - P[k][0]) / L, (P[i][1] - P[k][1]) / L
-    shift = 0.5 * (used[k] - used[i])  # centred in the room left between the two holes' labels
-    out.append({"text": text, "x": mx + ux * shift, "y": my + uy * shift, "angle": _upright(ux, uy), "size": size,
-                "kind": "part", "joint": None})
+    out.append({"text": text, "x": P[k][0] + ux * mid, "y": P[k][1] + uy * mid, "angle": _upright(ux, uy),
+                "size": size, "kind": "part", "joint": None})
     return out
+
 
 
 def _sheet_dx(kit, s: int) -> float:
@@ -208,7 +263,8 @@ def sheet_marks(kit, s: int) -> list[dict]:
 # -- SVG ----------------------------------------------------------------------------------------------------
 def placed_outline(kit, pl) -> list[tuple]:
     """The outline of a placed copy, sheet mm (as :meth:`Kit.outline`)."""
-    return _outline(_hull(place(kit.part(pl.part).holes, pl)), 0.5 * kit.width)
+    part = kit.part(pl.part)
+    return _outline(_hull(place(part.holes, pl)), 0.5 * part.width)
 
 
 def svg_text(kit) -> str:
@@ -231,7 +287,7 @@ def svg_text(kit) -> str:
     ET.SubElement(root, q + "title").text = f"{kit.mechanism.name}: build kit, parts for cutting"
     ET.SubElement(root, q + "desc").text = (
         f"explorer export --format kit: {n} sheet(s) of {W:g} x {H:g} mm side by side; 1 model unit = "
-        f"{kit.scale:.6g} mm; parts {kit.width:.3g} mm wide; red = cut, blue = engrave, grey = sheet edge (not cut)")
+        f"{kit.scale:.6g} mm; links {kit.width:.3g} mm wide; red = cut, blue = engrave, grey = sheet edge (not cut)")
     g_sheets = ET.SubElement(root, q + "g", {"id": "sheets", f"{{{ink}}}groupmode": "layer",
                                              f"{{{ink}}}label": "sheets (not cut)"})
     for s in range(n):
@@ -258,9 +314,17 @@ def svg_text(kit) -> str:
                 "data-sheet": str(pl.sheet + 1)}
         g = ET.SubElement(g_cut, q + "g", {"class": "part", "data-kind": part.kind, **data})
         ET.SubElement(g, q + "path", {"class": "outline", "d": svg_path(placed_outline(kit, pl), H, dx), **line})
-        for j, (x, y), d in zip(part.joints, place(part.holes, pl), part.diameters):
-            ET.SubElement(g, q + "circle", {"class": "hole", "data-joint": j, "cx": _f(x + dx), "cy": _f(H - y),
-                                            "r": _f(0.5 * d), **line})
+        for i, (j, (x, y), d) in enumerate(zip(part.joints, place(part.holes, pl), part.diameters)):
+            j = kit.mirror_joint(j) if pl.mirrored else j
+            fl = placed_flat(part, i, pl)
+            if fl is None:
+                ET.SubElement(g, q + "circle", {"class": "hole", "data-joint": j, "cx": _f(x + dx), "cy": _f(H - y),
+                                                "r": _f(0.5 * d), **line})
+            else:
+                ET.SubElement(g, q + "path", {"class": "hole d-hole", "data-joint": j, "data-cx": _f(x + dx),
+                                              "data-cy": _f(H - y), "data-d": _f(d),
+                                              "d": svg_path(hole_segments((x, y), d, fl, kit.shaft.flat), H, dx),
+                                              **line})
         ge = ET.SubElement(g_eng, q + "g", {"class": "labels", **data})
         for lab in copy_labels(kit, pl):
             text(ge, lab, dx, lab["kind"])
@@ -285,7 +349,8 @@ def dxf_document(kit):
     LWPOLYLINEs, arcs as bulges) and holes (CIRCLEs at the exact hole centres, diameter the pin's) on
     layer CUT (red); labels (TEXT, middle-centred), scale bars and titles on layer ENGRAVE (blue); the
     sheets' edges on layer SHEET (grey, not to be cut). Each copy's outline, holes and labels form a DXF
-    group whose description is the part's label ("2-6 #3", "leg #2 M")."""
+    group named after the copy (and so described): "2-6 #3", "leg #2 M". A D-hole (a crank arm's, for the
+    crankshaft's flat) is a closed LWPOLYLINE: two arcs (bulges) and the flat."""
     from .._extras import require
     ezdxf = require("ezdxf", "the kit's DXF (explorer export --format kit)")
     from ezdxf import units
@@ -323,9 +388,20 @@ def dxf_document(kit):
                 pts.append((c[0] + dx + rr * math.cos(a0), c[1] + rr * math.sin(a0), math.tan((a1 - a0) / 4.0)))
                 pts.append((c[0] + dx + rr * math.cos(a1), c[1] + rr * math.sin(a1), 0.0))
         ents = [msp.add_lwpolyline(pts, format="xyb", close=True, dxfattribs={"layer": "CUT"})]
-        ents += [msp.add_circle((x + dx, y), radius=0.5 * d, dxfattribs={"layer": "CUT"})
-                 for (x, y), d in zip(place(part.holes, pl), part.diameters)]
+        for h, ((x, y), d) in enumerate(zip(place(part.holes, pl), part.diameters)):
+            fl = placed_flat(part, h, pl)
+            if fl is None:
+                ents.append(msp.add_circle((x + dx, y), radius=0.5 * d, dxfattribs={"layer": "CUT"}))
+                continue
+            pts = []
+            for seg in hole_segments((x + dx, y), d, fl, kit.shaft.flat):
+                if seg[0] == "arc":
+                    _, c, rr, a0, a1 = seg
+                    pts.append((c[0] + rr * math.cos(a0), c[1] + rr * math.sin(a0), math.tan((a1 - a0) / 4.0)))
+                else:
+                    pts.append((seg[1][0], seg[1][1], 0.0))
+            ents.append(msp.add_lwpolyline(pts, format="xyb", close=True, dxfattribs={"layer": "CUT"}))
         ents += [text(lab, dx) for lab in copy_labels(kit, pl)]
-        label = f"{pl.part} #{pl.copy}" + (" M" if pl.mirrored else "")
-        doc.groups.new(f"PART{i}", description=label).extend(ents)
+        label = copy_label(pl)
+        doc.groups.new(label, description=label).extend(ents)
     return doc

@@ -40,7 +40,7 @@ FIGURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 _UNIT_TEXT = {"length": "model units", "length/rad": "model units/rad", "length/turn": "model units per crank turn",
               "1 (per W·crank)": "per weight × crank radius", "1": "ratio", "1 (length/length)": "ratio"}
 
-#: Font sizes (points) of every plot: readable at a glance on a screen and in the README at 100-150 dpi.
+#: Font sizes (points) of every plot: readable at a glance on a screen and in the docs at 100-150 dpi.
 TITLE_SIZE, LABEL_SIZE, TICK_SIZE, LEGEND_SIZE = 13, 12, 10.5, 10
 
 
@@ -50,7 +50,9 @@ def style_axes(ax, title: str | None = None, *, title_size: float = TITLE_SIZE) 
     ax.yaxis.label.set_size(LABEL_SIZE)
     ax.tick_params(labelsize=TICK_SIZE)
     if title is not None:
-        ax.set_title(title, fontsize=title_size)
+        # wrapped at the figure's edges: a title wider than the figure (a long --where filter, an axes
+        # off centre beside its legend) breaks into lines instead of running off the canvas
+        ax.set_title(title, fontsize=title_size, wrap=True)
 
 
 # -- figures and files ---------------------------------------------------------------------------------
@@ -379,7 +381,7 @@ def plot_velocity(source, variant: int | None = None, *, vertex: str | None = No
     title = f"Foot velocity dF/d{d} of {what}: analytic vs finite differences"
     if fail:
         title += f"\nnot ok: {fail}"
-    fig.suptitle(title, fontsize=TITLE_SIZE)
+    fig.suptitle(title, fontsize=TITLE_SIZE, wrap=True)
     return fig
 
 
@@ -587,5 +589,5 @@ def plot_forces(results, variant: int = 0, *, figsize=(8.0, 7.0), dpi: float = 1
     style_axes(ax2, "joint reactions of leg 0 (the force of each joint's most loaded member on its pin)",
                title_size=LABEL_SIZE)
     opt = ", ".join(f"{k} {op[k]:g}" for k in ("rpm", "load", "gravity", "unit") if k in op)
-    fig.suptitle(f"Forces of variant {v} of {results.filename.name} ({opt})", fontsize=TITLE_SIZE)
+    fig.suptitle(f"Forces of variant {v} of {results.filename.name} ({opt})", fontsize=TITLE_SIZE, wrap=True)
     return fig

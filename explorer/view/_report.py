@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ..gait import BY_NAME, CHECKS, DEFAULT_WEIGHTS, METRICS, SPEED, change_pct, operating_line, rank, results_si, verdict
+from ..gait import BY_NAME, CHECKS, DEFAULT_WEIGHTS, SCREEN_INPUTS, METRICS, SPEED, change_pct, operating_line, rank, results_si, verdict
 
 #: Above this many ok designs the linked views show a seeded uniform sample of them.
 DEFAULT_MAX_DESIGNS = 100_000
@@ -160,10 +160,10 @@ def reason_masks(df, screen) -> dict:
     ok = ok_mask(df)
     out = {}
     checks = {}
-    for name, cols, value, fld, failed, _ in CHECKS:
-        if all(c in df.columns for c in cols):
+    for c in CHECKS:
+        if all(col in df.columns for col in c.inputs):
             with np.errstate(invalid="ignore", divide="ignore"):
-                checks[name] = np.asarray(failed(value(df), getattr(screen, fld)), dtype=bool) & ok
+                checks[c.name] = np.asarray(c.fails(c.value(df), getattr(screen, c.field)), dtype=bool) & ok
     anyfail = np.zeros(len(df), dtype=bool)
     for m in checks.values():
         anyfail |= m
@@ -253,6 +253,52 @@ def _title_label(m: str) -> str:
     return f"{m} [{_unit_text(meta.unit)}], {better}"
 
 
+#: Least width (px) of one axis of the parallel coordinates: room for its end labels (the page scrolls sideways
+#: when the window is narrower than the axes need).
+PC_AXIS_WIDTH = 34
+#: An axis of the parallel coordinates spans the buildable designs when the screened-out ones reach
+#: further than this many times the buildable designs' span beyond it (a near-toggle design's forces).
+OFF_SCALE = 0.5
+
+
+def axis_scale(values, buildable):
+    """The range of one metric's axis, or None to let it span every value: {"range": [lo, hi] (the buildable
+    designs' range, 2 % of its span added at each end), "off": the designs beyond it, "far": the farthest
+    value} when some design lies more than :data:`OFF_SCALE` × that span beyond the buildable range."""
+    v = np.asarray(values, dtype=np.float64)
+    finite = np.isfinite(v)
+    b = v[finite & np.asarray(buildable, dtype=bool)]
+    if b.size == 0 or not finite.any():
+        return None
+    lo, hi = float(b.min()), float(b.max())
+    span = hi - lo
+    if not span > 0:  # one value among the buildable designs (a count such as self_crossings): no range
+        return None
+    allv = v[finite]
+    if allv.min() >= lo - OFF_SCALE * span and allv.max() <= hi + OFF_SCALE * span:
+        return None
+    # float32-exact ends: the page holds float32 values and pins the others at exactly these ends
+    lo, hi = float(np.float32(lo - 0.02 * span)), float(np.float32(hi + 0.02 * span))
+    off = allv[(allv < lo) | (allv > hi)]
+    far = float(off[np.argmax(np.abs(off - (lo + hi) / 2))])
+    return {"range": [lo, hi], "off": int(off.size), "far": far}
+
+
+def _range_format(values) -> str:
+    """A d3 format for an axis' ticks and end labels, short enough that neighbouring axes' end labels do
+    not run into each other: three significant digits, SI prefixes (k, M) from 10,000 up."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return ".3~g"
+    big, span = float(np.abs(v).max()), float(v.max() - v.min())
+    # enough digits that the ticks of a narrow range stay apart (11.68 … 11.75 kg: 5), at most 6
+    digits = 3 if span <= 0 or big <= 0 else min(6, max(3, math.ceil(math.log10(big / span)) + 2))
+    if big < 1e-2 and digits == 3:
+        return ".2~e"  # 1.2e-5, not 0.000012
+    return ".3~s" if big >= 1e4 and digits == 3 else f".{digits}~g"
+
+
 def _check_count(name, value, minimum) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise UserError(f"report: {name}: expected a whole number >= {minimum}, got {value!r}")
@@ -299,7 +345,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     ok = ok_mask(df)
     n_ok = int(ok.sum())
     dropped = [m for m in stored if not np.isfinite(df.loc[ok, m].to_numpy(dtype=np.float64)).any()]
-    mets = [m for m in stored if m not in dropped]
+    # the physics check covers a shortlist (NaN elsewhere): its own panel, not axes every line would leave
+    physics = [m for m in stored if m not in dropped and BY_NAME.get(m) is not None and BY_NAME[m].group == "physics"]
+    mets = [m for m in stored if m not in dropped and m not in physics]
     if si is not None and SPEED in si.units and "travel" in mets:  # the walking speed follows travel
         mets.insert(mets.index("travel") + 1, SPEED)
 
@@ -364,14 +412,25 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     for p in params:
         kind = mech.parameter_kind(p)
         add(p, p, "parameter", shown_rows[p].to_numpy(dtype=np.float64),
+            tickformat=_range_format(shown_rows[p].to_numpy(dtype=np.float64)),
             description=("crank radius" if p == "crank" else f"length of link {p}" if kind == "length"
                          else f"coordinate {p}"))
+    off_scale = []  # (metric, designs beyond the buildable range, the farthest value): the page says so
     for m in mets:
+        vals = shown_rows[m].to_numpy(dtype=np.float64)
+        # the screen's own inputs keep their whole span: it shows why designs were screened out
+        scale = None if m in SCREEN_INPUTS else axis_scale(vals, buildable)
+        extra = dict(tickformat=_range_format(vals if scale is None else np.asarray(scale["range"])))
+        if scale is not None:
+            extra["range"] = scale["range"]
         if m == SPEED:
-            add(m, f"{m} ↑", "metric", shown_rows[m].to_numpy(dtype=np.float64), unit="m/s", direction="max",
-                description=f"walking speed at {si.operating.rpm:g} rpm: travel per turn × rpm / 60")
+            add(m, f"{m} ↑", "metric", vals, unit="m/s", direction="max",
+                description=f"walking speed at {si.operating.rpm:g} rpm: travel per turn × rpm / 60", **extra)
         else:
-            add(m, _axis_label(m), "metric", shown_rows[m].to_numpy(dtype=np.float64))
+            add(m, _axis_label(m), "metric", vals, **extra)
+        if scale is not None:
+            columns[-1]["clip"] = scale["range"]
+            off_scale.append((m, scale["off"], scale["far"]))
     col_of = {c["key"]: c for c in columns}
 
     def axis_title(m) -> str:
@@ -386,7 +445,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     pc_order = np.random.default_rng(seed + 1).permutation(n)[:pc_lines].astype(np.int32)
     pc = go.Figure(go.Parcoords(
         dimensions=dims, labelangle=-40, labelside="top", labelfont=dict(size=12), tickfont=dict(size=10),
-        rangefont=dict(size=9),
+        rangefont=dict(size=8),
         line=dict(color=[], colorscale=[[0.0, "#08306b"], [0.35, "#2171b5"], [0.7, "#9ecae1"], [1.0, "#dde8f3"]],
                   showscale=True,
                   cmin=1, cmax=max(float(rank_col.max()) if n else 1.0, 2.0),
@@ -510,6 +569,13 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
                        f"(seed {int(seed)}, in rank order; rank = place among all {n_ok:,}). The counts by reason "
                        f"below are over all {N:,} variants. Use <code>--max-designs</code> to change the cap, or "
                        f"<code>explorer rank --where</code> to narrow the study.</p>")
+    off_note = ""
+    if off_scale:
+        parts = ", ".join(f"{html.escape(m)} ({k:,} designs, up to {far:.4g} {html.escape(col_of[m]['unit'] or '')})"
+                          .replace(" )", ")") for m, k, far in off_scale)
+        off_note = ("<p class='note' id='off-scale-note'>Axes span the buildable designs; screened-out designs "
+                    "far beyond them (near a toggle: forces that grow without bound) are drawn at the axis' end "
+                    f"and counted by a brush that reaches it. Off scale: {parts}.</p>")
     dropped_note = (f"<p class='note'>Not shown (no finite value on any ok design): {html.escape(', '.join(dropped))}."
                     f"</p>" if dropped else "")
     order_note = ("rank: the order of <code>explorer rank</code> (the default score of "
@@ -534,6 +600,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
                       f"most).")
     vs_section = _vs_section(df, dv, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys}, by_score,
                              None if si is None else {c: si.units[c] for c in si.converted}, yield_note)
+    if physics:  # the designs `explorer physics` checked, beside their kinematic figures
+        from ..physics._compare import report_panel
+        vs_section += report_panel(res, df)
     units_note = ""
     if si is not None:
         units_note = "<p class='note' id='units-note'>" + html.escape(
@@ -550,11 +619,11 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         heading=html.escape(f"{name} — {mech.name}"),
         meta=html.escape(f"{res.filename} · {N:,} variants × {res.steps} steps · {n_ok:,} ok · explorer {__version__} "
                          f"· {created}"),
-        n_designs=n, n_designs_text=f"{n:,}", n_ok=f"{n_ok:,}", N=f"{N:,}", sample_note=sample_note + dropped_note + units_note,
+        n_designs=n, n_designs_text=f"{n:,}", n_ok=f"{n_ok:,}", N=f"{N:,}", sample_note=sample_note + dropped_note + units_note + off_note,
         order_note=order_note, options=options, reason_table=tables, axes_rows=axes_rows, no_scatter=no_scatter,
         no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data=_script_safe(json.dumps(data)),
         figs=fig_scripts, results=html.escape(str(res.filename)), foot=html.escape(str(vname or "-")),
-        vs_section=vs_section, ref_label=html.escape(ref_label),
+        vs_section=vs_section, ref_label=html.escape(ref_label), pc_width=PC_AXIS_WIDTH * len(dims) + 100,
         points=npts)
     rep = Report(path=None, bytes=len(page.encode("utf-8")), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
                  n_paths=n_paths, parameters=params, metrics=mets, counts=counts)
@@ -703,6 +772,7 @@ h1 { font-size: 22px; margin: 14px 0 2px; } h2 { font-size: 16px; margin: 14px 0
 #summary button, .controls button { margin-left: 12px; }
 .note { color: #555; font-size: 13px; margin: 4px 0; } .warn { background: #fff4e0; padding: 6px 10px; border-radius: 4px; }
 .row { display: flex; flex-wrap: wrap; gap: 16px; }
+#parcoords-scroll { overflow-x: auto; }
 .panel { flex: 1 1 560px; min-width: 420px; }
 .controls { font-size: 14px; margin: 4px 0; } .controls select { font-size: 14px; margin-right: 10px; }
 table { border-collapse: collapse; font-size: 13px; } td, th { padding: 3px 8px; border-bottom: 1px solid #e4e4e4; text-align: left; }
@@ -736,7 +806,7 @@ keep. {order_note}. ↑ higher is better, ↓ lower is better.</p>
 <p class="note" id="lines-note">The parallel coordinates draw <select id="pc-lines"></select> of the
 {n_designs_text} designs (a seeded random sample when fewer; every brush and count is over all of them, and the
 scatter draws them all).<span id="software-note"></span></p>
-<div id="parcoords"></div>
+<div id="parcoords-scroll"><div id="parcoords" style="min-width: {pc_width}px"></div></div>
 <div class="row">
  <div class="panel">
   <h2>Two metrics, with the Pareto front of the selection</h2>
@@ -821,7 +891,19 @@ function drawn(a) {
   return out;
 }
 var PC = fig('parcoords'), SC = fig('scatter'), FP = fig('feet');
-D.columns.forEach(function (c) { PC.data[0].dimensions[c.dim].values = drawn(c.key === 'pick' ? pick : values[c.key]); });
+// the parallel coordinates' values: an axis that spans the buildable designs pins the others at its ends
+// (drawn and brushed there; the scatter and the tables keep every value as it is)
+var axisValues = {};
+D.columns.forEach(function (c) {
+  var a = values[c.key];
+  if (c.clip) {
+    a = Float32Array.from(a);
+    var lo = c.clip[0], hi = c.clip[1];
+    for (var i = 0; i < a.length; i++) if (a[i] < lo) a[i] = lo; else if (a[i] > hi) a[i] = hi;
+  }
+  axisValues[c.key] = a;
+});
+D.columns.forEach(function (c) { PC.data[0].dimensions[c.dim].values = drawn(c.key === 'pick' ? pick : axisValues[c.key]); });
 PC.data[0].line.color = drawn(values['rank']);
 var paths = D.paths ? new Uint16Array(bytes(D.paths)) : new Uint16Array(0), P = D.points;
 var xKey = D.x, yKey = D.y, reason = null;
@@ -850,7 +932,7 @@ function selectedMask() {  // every design inside every brushed range (over all 
   var dims = gPC.data[0].dimensions, act = [];
   D.columns.forEach(function (c) {
     var r = ranges(dims[c.dim].constraintrange);
-    if (r) act.push([c.key === 'pick' ? pick : values[c.key], r]);
+    if (r) act.push([c.key === 'pick' ? pick : axisValues[c.key], r]);
   });
   var mask = new Uint8Array(N), count = 0;
   for (var i = 0; i < N; i++) {
@@ -1002,7 +1084,7 @@ function setLines(L) {  // draw L lines in the parallel coordinates; brushes are
   chooseRows(L);
   var upd = {'line.color': [drawn(values['rank'])]};
   D.columns.forEach(function (c) {
-    upd['dimensions[' + c.dim + '].values'] = [drawn(c.key === 'pick' ? pick : values[c.key])];
+    upd['dimensions[' + c.dim + '].values'] = [drawn(c.key === 'pick' ? pick : axisValues[c.key])];
   });
   return Plotly.restyle(gPC, upd, [0]);
 }
