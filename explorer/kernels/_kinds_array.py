@@ -11,7 +11,7 @@ from explorer.kinds._common import MAX_MOVE, OK, SIGN, SUSPECT, frame_point, gap
 from explorer.kinds.attach import attach_vector
 from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, dyad_vector, place_dyad
 from explorer.kinds.eq_slide import slide_row
-from explorer.kinds.gears import gear_place
+from explorer.kinds.gears import gear_place, gear_vector
 from explorer.kinds.general import general_reactions, general_sign, general_solve
 from explorer.kinds.slide import slide_partial, slide_root, slide_sign, slide_step, slide_vector
 
@@ -354,6 +354,8 @@ def vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed):
         elif rec.kind == 3:  # SLIDE
             if slide_vector(rec, signs[k], X, Y, VX, VY, Q, M, P, V, h, closed):
                 return k
+        elif rec.kind == 4:  # GEARS
+            gear_vector(rec.vertex, rec.a, rec.ccx, rec.ccy, rec.gx, rec.gy, rec.gr, rec.gn, rec.gph, X, Y, VX, VY)
     return -1
 
 
