@@ -140,19 +140,16 @@ def foot_scalar(lengths, crank, steps):
 # -- what the machine code says, and the CPU's own ceiling -------------------------------------------
 def vector_width(fn=jansen_foot_vec) -> dict:
     """Counts of the packed and scalar double-precision divisions and square roots in ``fn``'s compiled
-    code (x86: ``vdivpd``/``vsqrtpd`` on xmm/ymm/zmm registers, ``vdivsd``/``vsqrtsd``), per signature."""
-    import warnings
-
+    code (x86: ``vdivpd``/``vsqrtpd`` on xmm/ymm/zmm registers, ``vdivsd``/``vsqrtsd``), per signature
+    ``fn`` has been called with. The scalar counts include the vector loop's remainder."""
     from numba import njit as _njit
+
+    # a fresh copy, compiled here: code loaded from Numba's on-disk cache keeps no assembly to read
+    copy = _njit(**{k: v for k, v in fn.targetoptions.items() if k not in ("cache", "nopython")})(fn.py_func)
+    for sig in fn.signatures:
+        copy.compile(sig)
+    asms = copy.inspect_asm()
     counts = {}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        asms = fn.inspect_asm()
-    if not any(asms.values()):  # loaded from Numba's cache, which keeps no assembly: compile a copy
-        copy = _njit(**{k: v for k, v in fn.targetoptions.items() if k != "cache"})(fn.py_func)
-        for sig in fn.signatures:
-            copy.compile(sig)
-        asms = copy.inspect_asm()
     for sig, asm in asms.items():
         c = {}
         for op in ("vdivpd", "vsqrtpd", "vdivsd", "vsqrtsd", "divsd", "sqrtsd"):

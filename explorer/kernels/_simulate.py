@@ -401,7 +401,13 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
 
     method "block" runs Newton block by block in plan order; "dense" runs Newton on the full
     system (the reference); "closed" (all-dyad plans, positions only) places each dyad by
-    circle–circle intersection on the starting branch: exact, but blind to branch changes.
+    circle–circle intersection on the starting branch: exact, but blind to branch changes;
+    "vector" is the vectorised closed-form first pass (``explorer.kernels._vector``: each block over
+    every sample at once on the starting branch, with its tangents, then the assembly margin, fold,
+    gap and move checks as passes over the step arrays; a design it flags goes through the block
+    Newton sweep, which reports every failure) for plans of dyads, body joints, sliders and geared
+    cranks, positions and velocities (an error otherwise); "auto" is "vector" where it applies
+    (:func:`vector_applies`, no accelerations, no forces) and "block" elsewhere.
     ``tolerance`` bounds the error of every solved position, relative to the design's longest link:
     Newton stops once it has applied a correction shorter than tolerance × the longest link, which
     (Newton converging quadratically) leaves an error of the order of that correction squared.
@@ -685,6 +691,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
     design itself cannot be assembled at the start, there is no configuration or branch to start
     from: every row fails as the nominal does (as :func:`simulate` reports it), with NaN paths.
     velocities : default yes, except with method "closed" (positions only).
+    method : as for :func:`simulate` ("block", "dense", "closed", "vector", "auto").
     kernel : "auto" (default: the per-topology generated code where it applies and the blocks solved
         are at most :data:`GENERATED_MAX_BLOCKS`, else the array form),
         "general" (always the array form of the sweep) or "generated" (the generated code; an error
