@@ -62,9 +62,12 @@ def test_sweep_rows_and_honest_errors(tiny_report):
     tight = [r for r in rep.rows if r["method"] in ("block", "dense") and r["tolerance"] == 1e-10]
     assert all(r["failed"] == 0 and r["foot_err_max"] < 1e-6 for r in tight)
     assert all(r["iterations"] > 0 for r in tight)
-    # auto: the vectorised closed-form pass solves these ±2 % designs with no Newton iteration, exactly
+    # auto: the vectorised closed-form pass solves these ±2 % designs with fewer Newton iterations (it flags
+    # some at 36 steps, where a 10° step fails its move limit or gap bound) and the same verdicts
     auto = [r for r in rep.rows if r["method"] == "auto"]
-    assert auto and all(r["failed"] == 0 and r["iterations"] == 0 and r["foot_err_max"] < 1e-11 for r in auto)
+    block = {(r["steps"], r["tolerance"]): r for r in rep.rows if r["method"] == "block"}
+    assert auto and all(r["failed"] == block[r["steps"], r["tolerance"]]["failed"] for r in auto)
+    assert all(r["iterations"] < block[r["steps"], r["tolerance"]]["iterations"] for r in auto)
     # the promise, per Newton row: every foot within tolerance x its design's longest link of the truth
     newton = [r for r in rep.rows if r["method"] in ("block", "dense", "auto")]
     for r in newton:
