@@ -75,6 +75,16 @@ def test_geared5bar_matches_the_closed_form(method):
                                    atol=1e-12)
 
 
+
+def test_geared5bar_by_the_vectorised_pass():
+    """method "vector": the geared tip and the five-bar's dyad over every sample at once, no Newton."""
+    mech = load_mechanism("geared5bar")
+    cyc = simulate(mech, steps=360, method="vector")
+    assert cyc.ok and cyc.iterations == 0
+    np.testing.assert_allclose(cyc.positions, five_bar(cyc.theta), rtol=0, atol=1e-10)
+    dref, _ = rates(five_bar, cyc.theta)
+    assert np.max(np.abs(cyc.velocities - dref)) <= 1e-7
+
 GEARED = """
 name = "g"
 foot = "P"

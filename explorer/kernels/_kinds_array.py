@@ -8,11 +8,12 @@ import numpy as np
 from numba import njit
 
 from explorer.kinds._common import MAX_MOVE, OK, SIGN, SUSPECT, frame_point, gap_suspect
-from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, place_dyad
+from explorer.kinds.attach import attach_vector
+from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, dyad_vector, place_dyad
 from explorer.kinds.eq_slide import slide_row
-from explorer.kinds.gears import gear_place
+from explorer.kinds.gears import gear_place, gear_vector
 from explorer.kinds.general import general_reactions, general_sign, general_solve
-from explorer.kinds.slide import slide_partial, slide_root, slide_sign, slide_step
+from explorer.kinds.slide import slide_partial, slide_root, slide_sign, slide_step, slide_vector
 
 #: the dense method's check: a dyad on the mirror root at a fold (not a branch change)
 FOLD = -1
@@ -331,6 +332,31 @@ def place_explicit(table, explicit, P1, V1, A1, want_acc):
             if want_acc:
                 A1[v, 0] = ax_
                 A1[v, 1] = ay_
+
+
+@njit(cache=True, nogil=True)
+def vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed):
+    """The vectorised first pass over one design's blocks (``explorer.kernels._vector``): each block of
+    the block table ``tab`` in order over every sample at once by its kind's closed form on the side
+    ``signs[k]``, with its tangents, from the rows of X, Y (positions) and VX, VY (tangents),
+    (n_vertices, S) each, into its own rows, then its checks between samples a step h apart
+    (``closed``: the last and the first too). Q, M (S,), P, V (n_vertices, 2): scratch. Returns the
+    first block that flags the design (leave it to Newton), or −1. Only for plans whose every kind has
+    a vector form (``_vector.applies``)."""
+    for k in range(tab.shape[0]):
+        rec = tab[k]
+        if rec.kind == 0:  # DYAD
+            if dyad_vector(rec.vertex, rec.a, rec.b, rec.da2, rec.db2, rec.hi2, rec.lo2, rec.lim2, rec.gap != 0, signs[k],
+                           X, Y, VX, VY, Q, M, h, closed):
+                return k
+        elif rec.kind == 1:  # ATTACH
+            attach_vector(rec.vertex, rec.a, rec.b, rec.u, rec.v, X, Y, VX, VY)
+        elif rec.kind == 3:  # SLIDE
+            if slide_vector(rec, signs[k], X, Y, VX, VY, Q, M, P, V, h, closed):
+                return k
+        elif rec.kind == 4:  # GEARS
+            gear_vector(rec.vertex, rec.a, rec.ccx, rec.ccy, rec.gx, rec.gy, rec.gr, rec.gn, rec.gph, X, Y, VX, VY)
+    return -1
 
 
 @njit(cache=True, nogil=True)

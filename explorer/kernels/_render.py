@@ -132,6 +132,20 @@ def place_explicit(table, explicit, P1, V1, A1, want_acc):
     ('''
 
 @njit(cache=True, nogil=True)
+def vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed):
+    """The vectorised first pass over one design's blocks (``explorer.kernels._vector``): each block of
+    the block table ``tab`` in order over every sample at once by its kind's closed form on the side
+    ``signs[k]``, with its tangents, from the rows of X, Y (positions) and VX, VY (tangents),
+    (n_vertices, S) each, into its own rows, then its checks between samples a step h apart
+    (``closed``: the last and the first too). Q, M (S,), P, V (n_vertices, 2): scratch. Returns the
+    first block that flags the design (leave it to Newton), or −1. Only for plans whose every kind has
+    a vector form (``_vector.applies``)."""
+    for k in range(tab.shape[0]):
+        rec = tab[k]
+''', 8, "vector", "closed", "    return -1\n"),
+    ('''
+
+@njit(cache=True, nogil=True)
 def singular_{which}(table, topo, uv, sd, P, loc, M, x, tol):
     """The forces effect's check at positions P: the first block whose Jacobian is singular (for a
     dyad or a slider, |det| ≤ tol × the sum of its terms' sizes), or −1."""

@@ -21,10 +21,11 @@ from ._forces import F_OK, collect, force_inputs, force_metrics, has_mass, no_fo
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
 from ._batch import fast_batch_jit, fast_forces_jit, generic_batch_jit, generic_forces_jit, setup
 from ._codegen import kernel_for, supported
-from ._inputs import BLOCK_DTYPE, Drive, Options, Outputs, topology
+from ._inputs import BLOCK_DTYPE, Designs, Drive, Options, Outputs, topology
 from ._kinds_array import block_table
 from ._rows import parallel_rows
 from ._step import BLOCK, DENSE
+from ._vector import FLAGGED, applies, vector_batch_jit
 from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
 
 #: Status code -> name; the same codes are stored in results files as ``/status``.
@@ -39,7 +40,7 @@ STATUS_NAMES = {
 #: reactions and the motor torque are unbounded.
 STATUS_SINGULAR = 5
 STATUS_NAMES[STATUS_SINGULAR] = "singular"
-METHODS = ("block", "dense", "closed")
+METHODS = ("block", "dense", "closed", "vector", "auto")
 #: Default tolerance: every solved position within 1e-11 × the design's longest link of the exact one
 #: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see docs/accuracy.md).
 DEFAULT_TOLERANCE = 1e-11
@@ -400,7 +401,13 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
 
     method "block" runs Newton block by block in plan order; "dense" runs Newton on the full
     system (the reference); "closed" (all-dyad plans, positions only) places each dyad by
-    circle–circle intersection on the starting branch: exact, but blind to branch changes.
+    circle–circle intersection on the starting branch: exact, but blind to branch changes;
+    "vector" is the vectorised closed-form first pass (``explorer.kernels._vector``: each block over
+    every sample at once on the starting branch, with its tangents, then the assembly margin, fold,
+    gap and move checks as passes over the step arrays; a design it flags goes through the block
+    Newton sweep, which reports every failure) for plans of dyads, body joints, sliders and geared
+    cranks, positions and velocities (an error otherwise); "auto" is "vector" where it applies
+    (:func:`vector_applies`, no accelerations, no forces) and "block" elsewhere.
     ``tolerance`` bounds the error of every solved position, relative to the design's longest link:
     Newton stops once it has applied a correction shorter than tolerance × the longest link, which
     (Newton converging quadratically) leaves an error of the order of that correction squared.
@@ -543,35 +550,71 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
     general = any(_coupled(k) for k in topo.kind)
     des = setup(plan, blocks, topo, kdrv, P0, sg, des._replace(
         table=np.zeros((N, nb), dtype=BLOCK_DTYPE), start=np.empty((N, nv, 2)), shortest=np.empty(N)))
+    if method in ("auto", "vector"):
+        fits = forces is None and not accelerations and not general and applies(topo.kind, sg)
+        if method == "vector" and not fits:
+            raise UserError("method 'vector': the vectorised first pass solves plans of dyads, rigid bodies and "
+                            "sliders (no coupled blocks), positions and velocities (no accelerations or forces); "
+                            "use method 'auto', which runs Newton where it does not apply")
+        method = "vector" if fits else "block"
     if method == "closed":
         if velocities or accelerations or general:
             raise UserError("method 'closed': the closed form gives positions only, and only for plans of dyads and "
                             "rigid bodies (no coupled blocks)")
         parallel_rows(closed_batch_jit, (topo, kdrv, sg), (des, outs))
+    elif method == "vector":
+        # the first pass for every design; the ones it flags through the Newton sweep, which reports failures
+        parallel_rows(vector_batch_jit, (topo, kdrv, bool(velocities), sg), (des, outs))
+        rows = np.flatnonzero(outs.status == FLAGGED)
+        if rows.size:
+            sub = Outputs(*(a[rows] for a in outs))
+            _newton(topo, kdrv, sg, Designs(*(a[rows] for a in des)), sub, "block", max_iterations, velocities,
+                    False, kernel, general, None)
+            for a, b in zip(outs, sub):
+                a[rows] = b
     else:
-        # with forces the sweep carries every vertex's rates (the forces read them)
-        opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations),
-                       bool(velocities) or forces is not None, bool(accelerations) or forces is not None)
-        if kernel == "generated" and (method == "dense" or general or not supported(topo, opts)):
-            raise UserError("kernel 'generated': per-topology code is generated only for the block method on plans "
-                            "whose kinds have a generated form (not coupled blocks or sliders); use kernel='auto' "
-                            "or 'general'")
-        if method == "dense" or general:
-            fn = generic_batch_jit if forces is None else generic_forces_jit
-        elif kernel != "general" and supported(topo, opts) and (kernel == "generated"
-                                                                or topo.kind.shape[0] <= GENERATED_MAX_BLOCKS):
-            # this plan's code, generated (the same results)
-            fn = kernel_for(topo, opts.want_vel, opts.want_acc, forces is not None)
-        else:
-            fn = fast_batch_jit if forces is None else fast_forces_jit
-        if forces is None:
-            parallel_rows(fn, (topo, kdrv, opts, sg), (des, outs))
-        else:
-            parallel_rows(fn, (topo, kdrv, opts, sg, forces[0]), (des, outs, forces[1]))
+        _newton(topo, kdrv, sg, des, outs, method, max_iterations, velocities, accelerations, kernel, general, forces)
     fbl = outs.fail_block
     if len(blocks):  # report the failing block by its index in the full plan
         fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
     return outs.pos, outs.vel, outs.acc, outs.status, outs.fail_t, outs.fail_end, fbl, outs.iters
+
+
+def _newton(topo, kdrv, sg, des, outs, method, max_iterations, velocities, accelerations, kernel, general, forces):
+    """The Newton sweep ("block" or "dense") for every row of ``des`` into ``outs``; the kernel chosen
+    as :func:`simulate_batch` documents (``kernel``), with the forces effect when ``forces`` is given."""
+    # with forces the sweep carries every vertex's rates (the forces read them)
+    opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations),
+                   bool(velocities) or forces is not None, bool(accelerations) or forces is not None)
+    if kernel == "generated" and (method == "dense" or general or not supported(topo, opts)):
+        raise UserError("kernel 'generated': per-topology code is generated only for the block method on plans "
+                        "whose kinds have a generated form (not coupled blocks or sliders); use kernel='auto' "
+                        "or 'general'")
+    if method == "dense" or general:
+        fn = generic_batch_jit if forces is None else generic_forces_jit
+    elif kernel != "general" and supported(topo, opts) and (kernel == "generated"
+                                                            or topo.kind.shape[0] <= GENERATED_MAX_BLOCKS):
+        # this plan's code, generated (the same results)
+        fn = kernel_for(topo, opts.want_vel, opts.want_acc, forces is not None)
+    else:
+        fn = fast_batch_jit if forces is None else fast_forces_jit
+    if forces is None:
+        parallel_rows(fn, (topo, kdrv, opts, sg), (des, outs))
+    else:
+        parallel_rows(fn, (topo, kdrv, opts, sg, forces[0]), (des, outs, forces[1]))
+
+
+def vector_applies(mech: Mechanism, vertices="all") -> bool:
+    """Whether method "auto" solves ``mech`` (the blocks that place ``vertices``: names, or "all") by
+    the vectorised closed-form first pass (without accelerations or forces): every block a dyad, a body
+    joint or a slider, and the nominal assembles off a fold. Otherwise "auto" runs the Newton sweep."""
+    P0, fail = assemble(mech)
+    if fail is not None:
+        return False
+    plan = plan_for(mech)
+    names = list(mech.vertices) if vertices == "all" else [str(v) for v in vertices]
+    blocks = plan.needed_blocks(np.array([mech.vertex_index(v) for v in names], dtype=np.int64))
+    return applies([plan.blocks[b].kind for b in blocks], _signs(mech, plan, P0)[blocks])
 
 
 def warm_dyad() -> None:
@@ -648,6 +691,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
     design itself cannot be assembled at the start, there is no configuration or branch to start
     from: every row fails as the nominal does (as :func:`simulate` reports it), with NaN paths.
     velocities : default yes, except with method "closed" (positions only).
+    method : as for :func:`simulate` ("block", "dense", "closed", "vector", "auto").
     kernel : "auto" (default: the per-topology generated code where it applies and the blocks solved
         are at most :data:`GENERATED_MAX_BLOCKS`, else the array form),
         "general" (always the array form of the sweep) or "generated" (the generated code; an error

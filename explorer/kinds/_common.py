@@ -81,6 +81,49 @@ def gap_suspect(q0, m0, q1, m1, h, hi2, lo2):
     return hi >= hi2 * (1.0 - GAP_MARGIN) or lo <= lo2 * (1.0 + GAP_MARGIN)
 
 
+@njit(cache=True, error_model="numpy")
+def vector_moves(xv, yv, uv, wv, h, closed, lim2):
+    """The vectorised first pass's move limit for one block (``explorer.kernels._vector``): True if
+    between two samples a step h apart (``closed``: the last and the first as well) its vertex, at
+    xv, yv with tangents uv, wv (S,), moves further than √lim2 from its linear prediction (the sweep's
+    largest move). A branch-free pass."""
+    S = xv.shape[0]
+    bad = 0
+    for k in range(S - 1):
+        mx = xv[k + 1] - xv[k] - h * uv[k]
+        my = yv[k + 1] - yv[k] - h * wv[k]
+        bad += mx * mx + my * my > lim2
+    if closed:
+        mx = xv[0] - xv[S - 1] - h * uv[S - 1]
+        my = yv[0] - yv[S - 1] - h * wv[S - 1]
+        bad += mx * mx + my * my > lim2
+    return bad > 0
+
+
+@njit(cache=True, error_model="numpy")
+def vector_gaps(Q, M, h, closed, hi2, lo2):
+    """The vectorised first pass's gap bound for one block: True if between two samples a step h apart
+    (``closed``: the last and the first as well) a squared distance Q (S,) of slope M (S,) per unit of
+    the parameter may leave [lo2, hi2]: the cheap Hermite bound of :func:`gap_suspect` as a branch-free
+    pass, and where it cannot rule a gap out, the interpolant's extremes."""
+    S = Q.shape[0]
+    hi = hi2 * (1.0 - GAP_MARGIN)
+    lo = lo2 * (1.0 + GAP_MARGIN)
+    c = (4.0 / 27.0) * abs(h)
+    near = 0
+    for k in range(S - 1):
+        ext = c * (abs(M[k]) + abs(M[k + 1]))
+        near += (max(Q[k], Q[k + 1]) + ext >= hi) | (min(Q[k], Q[k + 1]) - ext <= lo)
+    if closed:
+        near += gap_suspect(Q[S - 1], M[S - 1], Q[0], M[0], h, hi2, lo2)
+    if near:
+        for k in range(S - 1):
+            if gap_suspect(Q[k], M[k], Q[k + 1], M[k + 1], h, hi2, lo2):
+                return True
+        return closed and gap_suspect(Q[S - 1], M[S - 1], Q[0], M[0], h, hi2, lo2)
+    return False
+
+
 @njit(cache=True, forceinline=True)
 def frame_point(u, w, ax, ay, bx, by):
     """The point (u, w) of the frame of a → b: a + u (b − a) + w R(b − a), R a quarter turn

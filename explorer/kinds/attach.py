@@ -8,6 +8,7 @@ its two rows is the load on the joint, passed to the base pair by Aᵀ).
 """
 
 import numpy as np
+from numba import njit
 
 
 NAME = "ATTACH"
@@ -49,8 +50,35 @@ def branch(k, P, ctx) -> float:
     return 0.0
 
 
+@njit(cache=True, error_model="numpy")
+def attach_vector(j, p, q, u, w, X, Y, VX, VY):
+    """Joint j over every sample at once from its base pair's rows of X, Y (positions) and VX, VY
+    (tangents), (n_vertices, S) each: p + u (q − p) + w R(q − p), and the same map of the tangents."""
+    xp = X[p]
+    yp = Y[p]
+    xq = X[q]
+    yq = Y[q]
+    up = VX[p]
+    wp = VY[p]
+    uq = VX[q]
+    wq = VY[q]
+    xj = X[j]
+    yj = Y[j]
+    uj = VX[j]
+    wj = VY[j]
+    for k in range(xp.shape[0]):
+        gx = xq[k] - xp[k]
+        gy = yq[k] - yp[k]
+        xj[k] = xp[k] + u * gx - w * gy
+        yj[k] = yp[k] + u * gy + w * gx
+        hx = uq[k] - up[k]
+        hy = wq[k] - wp[k]
+        uj[k] = up[k] + u * hx - w * hy
+        wj[k] = wp[k] + u * hy + w * hx
+
+
 ARRAY = {
-    "imports": "",
+    "imports": "from explorer.kinds.attach import attach_vector",
     "fill": """\
 t = row[3]
 rec.vertex = att_vpq[t, 0]
@@ -76,6 +104,10 @@ if want_acc:
     A1[v, 0], A1[v, 1] = frame_point(u, w, A1[a, 0], A1[a, 1], A1[b, 0], A1[b, 1])
 """,
     "check": "",  # no branch, nothing to check
+    # the vectorised first pass: every sample at once by the rigid transform (nothing to flag)
+    "vector": """\
+attach_vector(rec.vertex, rec.a, rec.b, rec.u, rec.v, X, Y, VX, VY)
+""",
     "sign": "",   # no branch: 0
     "singular": "",  # never singular
     # the forces effect: its two rows' multipliers are the load on the joint; Aᵀλ goes to q, λ − Aᵀλ to p

@@ -26,7 +26,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ._common import GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIGN, SUSPECT, gap_suspect, other_end
+from ._common import (GAP_MARGIN, INFEASIBLE, MAX_MOVE, NOCONV, OK, ROUNDING, SIGN, SUSPECT, gap_suspect, other_end,
+                      vector_gaps, vector_moves)
 
 NAME = "DYAD"
 NUMBER = 0
@@ -265,6 +266,80 @@ def place_dyad(checks, gap, h, c2, ax, ay, bx, by, vax, vay, vbx, vby, ax0, ay0,
     return OK, it, px, py, vx, vy, ex, ey, fx, fy, inv
 
 
+#: The vectorised first pass (``explorer.kernels._vector``) leaves a design to Newton where a dyad's
+#: |sin| of the angle at its vertex falls below this at any sample: near a fold the branch is ambiguous
+#: (the motion may pass onto the mirror root) and the closed form loses digits (its error grows like
+#: rounding / sin). Twice the fold Newton itself tolerates (:data:`FOLD_SIN`).
+VECTOR_FOLD = 2.0 * FOLD_SIN
+
+
+@njit(cache=True, error_model="numpy")
+def dyad_vector(v, a, b, da2, db2, hi2, lo2, lim2, gap, sign, X, Y, VX, VY, Q, M, h, closed):
+    """A dyad over every sample at once: its vertex v by the closed form on the side ``sign`` of a → b
+    and its tangent from the 2x2 Jacobian, from its parents' rows of X, Y, VX, VY ((n_vertices, S):
+    positions and tangents, x and y apart), written into row v; then its checks as passes over the
+    step arrays. Returns True (flagged: leave the design to Newton) if at any sample the circles do not
+    meet or the angle at the vertex is within :data:`VECTOR_FOLD` of a fold, or between two samples
+    (a step h apart; ``closed``: the last and the first too) the vertex moves further than √lim2 from
+    its linear prediction (the move limit, ``_common.vector_moves``) or, when ``gap``, the parents'
+    squared distance may leave [lo2, hi2] (the gap bound, ``_common.vector_gaps``; Q, M (S,): scratch).
+    The loops have no branches (a negative square root gives NaN, which fails the fold test) so that
+    LLVM vectorises them."""
+    xa = X[a]
+    ya = Y[a]
+    xb = X[b]
+    yb = Y[b]
+    ua = VX[a]
+    wa = VY[a]
+    ub = VX[b]
+    wb = VY[b]
+    xv = X[v]
+    yv = Y[v]
+    uv = VX[v]
+    wv = VY[v]
+    S = xa.shape[0]
+    s = 1.0 if sign > 0.0 else -1.0
+    rs = VECTOR_FOLD * math.sqrt(da2 * db2)
+    bad = 0
+    for k in range(S):
+        gx = xb[k] - xa[k]
+        gy = yb[k] - ya[k]
+        d2 = gx * gx + gy * gy
+        # one square root and one division for the position and the tangent: with c = (da2 − db2 + d2)/2
+        # and K = da2 d2 − c² (4 K = the squared doubled area of the triangle), w = √K, z = 1/(d2 w):
+        # the offsets along and across a → b are x = c/d2 = c z w and y = ±w/d2 = ±K z, and the
+        # Jacobian's determinant cross(p − a, p − b) = y d2, so 1/det = ±z d2
+        c = 0.5 * (da2 - db2 + d2)
+        K = da2 * d2 - c * c
+        w = np.sqrt(K)
+        z = 1.0 / (d2 * w)
+        x = c * z * w
+        y = s * K * z
+        ex = x * gx - y * gy  # p − a
+        ey = x * gy + y * gx
+        fx = ex - gx  # p − b
+        fy = ey - gy
+        det = y * d2  # cross(p − a, p − b); NaN where the circles do not meet
+        idet = s * z * d2
+        r1 = ex * ua[k] + ey * wa[k]
+        r2 = fx * ub[k] + fy * wb[k]
+        xv[k] = xa[k] + ex
+        yv[k] = ya[k] + ey
+        uv[k] = (r1 * fy - ey * r2) * idet
+        wv[k] = (ex * r2 - fx * r1) * idet
+        bad += not (abs(det) >= rs)  # NaN (no assembly) fails too
+    if bad or vector_moves(xv, yv, uv, wv, h, closed, lim2):
+        return True
+    if not gap:
+        return False
+    for k in range(S):
+        gx = xb[k] - xa[k]
+        gy = yb[k] - ya[k]
+        Q[k] = gx * gx + gy * gy
+        M[k] = 2.0 * (gx * (ub[k] - ua[k]) + gy * (wb[k] - wa[k]))
+    return vector_gaps(Q, M, h, closed, hi2, lo2)
+
+
 @njit(cache=True, forceinline=True)
 def dyad_acc(ex, ey, fx, fy, inv, vx, vy, vax, vay, vbx, vby, aax, aay, abx, aby):
     """The vertex's second derivative from its parents' (aa, ab) and the rates: the 2x2 system of the
@@ -283,7 +358,7 @@ def dyad_acc(ex, ey, fx, fy, inv, vx, vy, vax, vay, vbx, vby, aax, aay, abx, aby
 #: j`` where it cannot), ``step`` (the sweep's step; ``return code, k, iters`` on trouble), ``check``
 #: (the dense method's per-block check), ``sign`` (its branch sign into out[k]).
 ARRAY = {
-    "imports": "from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, place_dyad",
+    "imports": "from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, dyad_vector, place_dyad",
     "fill": """\
 v = row[0]
 a = row[1]
@@ -360,6 +435,12 @@ if checks:
         return SUSPECT, k
 """,
     "sign": "out[k] = np.sign(dyad_sign(P, rec.vertex, rec.a, rec.b))\n",
+    # the vectorised first pass: every sample at once, then its checks (``return k``: flagged)
+    "vector": """\
+if dyad_vector(rec.vertex, rec.a, rec.b, rec.da2, rec.db2, rec.hi2, rec.lo2, rec.lim2, rec.gap != 0, signs[k],
+               X, Y, VX, VY, Q, M, h, closed):
+    return k
+""",
     # the forces effect: a Jacobian too near singular for its reactions (|det| relative to its terms)
     "singular": """\
 v = rec.vertex

@@ -115,8 +115,17 @@ def gear_place(tx, ty, ccx, ccy, gx, gy, gr, n, ph):
     return gx + gr * c, gy + gr * s, -n * gr * s, n * gr * c, -n * n * gr * c, -n * n * gr * s
 
 
+@njit(cache=True)
+def gear_vector(v, t, ccx, ccy, gx, gy, gr, n, ph, X, Y, VX, VY):
+    """The geared tip v over every sample at once from the driving crank's tip t's rows of X, Y
+    ((n_vertices, S)): positions into X, Y and rates per radian into VX, VY (the vectorised first pass;
+    exact, nothing to flag)."""
+    for k in range(X.shape[1]):
+        X[v, k], Y[v, k], VX[v, k], VY[v, k], _, _ = gear_place(X[t, k], Y[t, k], ccx, ccy, gx, gy, gr, n, ph)
+
+
 ARRAY = {
-    "imports": "from explorer.kinds.gears import gear_place",
+    "imports": "from explorer.kinds.gears import gear_place, gear_vector",
     "fill": """\
 o = row[4]
 rec.vertex = row[0]
@@ -148,6 +157,10 @@ if want_acc:
     "sign": "",
     "singular": "",
     "reactions": "",
+    # the vectorised first pass: every sample at once, exactly (nothing to flag)
+    "vector": """\
+gear_vector(rec.vertex, rec.a, rec.ccx, rec.ccy, rec.gx, rec.gy, rec.gr, rec.gn, rec.gph, X, Y, VX, VY)
+""",
 }
 
 SCALAR = {

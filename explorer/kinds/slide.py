@@ -16,7 +16,9 @@ import math
 import numpy as np
 from numba import njit
 
-from ._common import INFEASIBLE, NOCONV, OK, SIGN, SUSPECT, gap_suspect, other_end
+from ._common import (INFEASIBLE, NOCONV, OK, SIGN, SUSPECT, gap_suspect, other_end, vector_gaps,
+                      vector_moves)
+from .dyad import VECTOR_FOLD
 from .eq_slide import slide_eval
 
 NAME = "SLIDE"
@@ -234,6 +236,57 @@ def slide_step(rec, sign, P0, V0, Vp, P1, V1, A1, h, c2, want_acc, checks):
 
 
 @njit(cache=True)
+def _load(w, k, X, Y, VX, VY, P, V):
+    """Sample k of vertex w's rows of X, Y, VX, VY into P[w], V[w] (w < 0: none)."""
+    if w >= 0:
+        P[w, 0] = X[w, k]
+        P[w, 1] = Y[w, k]
+        V[w, 0] = VX[w, k]
+        V[w, 1] = VY[w, k]
+
+
+@njit(cache=True)
+def slide_vector(rec, sign, X, Y, VX, VY, Q, M, P, V, h, closed):
+    """A SLIDE block over every sample (the vectorised first pass, ``explorer.kernels._vector``): its
+    vertex by the closed form on the branch ``sign`` and its tangent, from its known vertices' rows of
+    X, Y, VX, VY ((n_vertices, S)), into its own row; P, V (n_vertices, 2): one sample's scratch; Q, M
+    (S,): scratch. Per sample (the line's geometry is not one formula per kind of slide, so this loop is
+    scalar). Returns True (flagged: leave the design to Newton) where the circle misses the line, the
+    angle between the distance row and the slide row is within ``dyad.VECTOR_FOLD`` of a fold, or
+    between samples the line may leave the circle's reach or the vertex moves too far
+    (``_common.vector_moves``, ``vector_gaps``)."""
+    v = rec.vertex
+    c = rec.a
+    S = X.shape[1]
+    for k in range(S):
+        _load(c, k, X, Y, VX, VY, P, V)
+        _load(rec.sa, k, X, Y, VX, VY, P, V)
+        _load(rec.sb, k, X, Y, VX, VY, P, V)
+        if rec.role != 0:
+            _load(rec.sp, k, X, Y, VX, VY, P, V)
+        code, x, y = slide_root(rec, sign, P, 0.0, 0.0)
+        if code != OK:
+            return True
+        P[v, 0] = x
+        P[v, 1] = y
+        _, jpx, jpy, jax, jay, jbx, jby = _slide_at(rec, P, x, y)
+        jx, jy = _role(rec.role, jpx, jpy, jax, jay, jbx, jby)
+        ex = x - P[c, 0]
+        ey = y - P[c, 1]
+        if not abs(ex * jy - ey * jx) >= VECTOR_FOLD * math.sqrt((ex * ex + ey * ey) * (jx * jx + jy * jy)):
+            return True
+        if not slide_rates(rec, P, V, V, False):
+            return True
+        X[v, k] = x
+        Y[v, k] = y
+        VX[v, k] = V[v, 0]
+        VY[v, k] = V[v, 1]
+        Q[k], M[k] = _slide_gap(rec, P, V)
+    return (vector_moves(X[v], Y[v], VX[v], VY[v], h, closed, rec.lim2)
+            or vector_gaps(Q, M, h, closed, rec.hi2, rec.lo2))
+
+
+@njit(cache=True)
 def slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby):
     """Slide equation s's partial derivative in vertex v (one of its p, a, b)."""
     if slide[s, 0] == v:
@@ -244,7 +297,7 @@ def slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby):
 
 
 ARRAY = {
-    "imports": ("from explorer.kinds.slide import slide_partial, slide_root, slide_sign, slide_step\n"
+    "imports": ("from explorer.kinds.slide import slide_partial, slide_root, slide_sign, slide_step, slide_vector\n"
                 "from explorer.kinds.eq_slide import slide_row"),
     "fill": """\
 v = row[0]
@@ -289,6 +342,11 @@ if sg == 0.0 or (sg > 0.0) != (signs[k] > 0.0):
     return SIGN, k
 """,
     "sign": "out[k] = np.sign(slide_sign(rec, P))\n",
+    # the vectorised first pass (per sample: the line's geometry depends on the slide's kind)
+    "vector": """\
+if slide_vector(rec, signs[k], X, Y, VX, VY, Q, M, P, V, h, closed):
+    return k
+""",
     "singular": """\
 v = rec.vertex
 c = rec.a
