@@ -337,8 +337,14 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     leg_feet(base, frac, sign, mirrored, pos[:, foot, :], fs.vel[:, foot, :], Y, VX, fs.VY)
     ground_contact(Y, fs.G, C)
     sum_vx = 0.0
+    sum_abs = 0.0
     for k in range(S):
         sum_vx += VX[C[k], k]
+        sum_abs += abs(VX[C[k], k])
+    # a walker whose contact feet come back to where they started (one leg: its foot's path is closed)
+    # travels nothing: what the sum holds then is rounding, which made the cost of transport 1e16
+    if abs(sum_vx) <= 1e-9 * sum_abs:
+        sum_vx = 0.0
     fr.travel[i] = abs(d * sum_vx)
     walk = 0.0
     if sum_vx < 0.0:
@@ -973,7 +979,8 @@ def force_metrics(forces: Forces, operating, vertices) -> dict:
     flywheel_inertia = ΔE / (C_s·ω²) with E_k = Σ_{m<k} (τ_m − mean τ)·Δ and ΔE = max E − min E (on
     the crank); flywheel_inertia_motor = flywheel_inertia / N² (N = gear_ratio: on the motor shaft);
     pin_force_max = max over joints of pin_force.<joint>; shaking_force_peak; machine_mass (kg, every
-    leg and the body); cost_of_transport = energy_per_turn / (machine_mass·g·travel·unit).
+    leg and the body); cost_of_transport = energy_per_turn / (machine_mass·g·travel·unit), inf for a
+    machine that does not travel (the contact feet's net stroke within 1e-9 of their total stroke).
     """
     tau = forces.torque
     S = tau.shape[1]
@@ -994,8 +1001,11 @@ def force_metrics(forces: Forces, operating, vertices) -> dict:
         out["shaking_force_peak"] = forces.shaking_peak.copy()
         out["machine_mass"] = np.where(np.isfinite(forces.travel), forces.machine_mass, np.nan)
         if operating.gravity > 0 and forces.massive:
-            out["cost_of_transport"] = out["energy_per_turn"] / (out["machine_mass"] * operating.gravity
-                                                                 * forces.travel * float(operating.unit))
+            # a machine that does not travel (its contact feet return to where they started) has no finite
+            # cost of transport: inf, which ranks last under "min"
+            cot = out["energy_per_turn"] / (out["machine_mass"] * operating.gravity
+                                            * forces.travel * float(operating.unit))
+            out["cost_of_transport"] = np.where(forces.travel == 0.0, np.inf, cot)
         for k, v in enumerate(vertices):
             out[f"pin_force.{v}"] = forces.pin_peak[:, k].copy()
     return out
