@@ -1,6 +1,6 @@
 """What the forces effect costs, as ratios against the positions-only solve measured in the same run.
 
-    python benchmarks/bench_forces.py [--variants 10000] [--steps 360] [--repeat 3]
+    python benchmarks/bench_forces.py [--variants 10000] [--steps 360] [--repeat 3] [--clock wall|cpu]
 
 The default study's designs (±2 % Jansen variants, every link and the crank) built as
 studies/mechanisms/jansen-plywood.toml states (plywood links, a steel crank, an 8 kg body on the
@@ -17,7 +17,7 @@ from pathlib import Path
 
 
 import explorer
-from _timing import best, variants
+from _timing import CLOCKS, best, variants
 
 
 def main(argv=None):
@@ -25,7 +25,10 @@ def main(argv=None):
     ap.add_argument("--variants", type=int, default=10_000)
     ap.add_argument("--steps", type=int, default=360)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--clock", choices=sorted(CLOCKS), default="wall",
+                    help="wall time, or this process's CPU time (on a machine shared with other work)")
     a = ap.parse_args(argv)
+    clock = CLOCKS[a.clock]
 
     mech = explorer.load_mechanism(Path(__file__).parents[1] / "studies" / "mechanisms" / "jansen-plywood.toml")
     n = a.variants
@@ -35,13 +38,14 @@ def main(argv=None):
     def batch(**kw):
         return lambda: explorer.simulate_batch(mech, lengths, crank, a.steps, **kw)
 
-    base = best(batch(velocities=False), a.repeat)
+    base = best(batch(velocities=False), a.repeat, clock=clock)
     rows = [("block Newton, foot positions (baseline)", base),
-            ("block Newton, foot + velocities", best(batch(velocities=True), a.repeat)),
-            ("positions + vel + acc + forces (body moving)", best(batch(velocities=True, forces=True), a.repeat)),
+            ("block Newton, foot + velocities", best(batch(velocities=True), a.repeat, clock=clock)),
+            ("positions + vel + acc + forces (body moving)", best(batch(velocities=True, forces=True), a.repeat, clock=clock)),
             ("positions + vel + acc + forces (frame held)",
-             best(batch(velocities=True, forces=True, operating={"body": "held"}), a.repeat))]
-    print(f"{n} ±2 % Jansen variants x {a.steps} steps, plywood build, {explorer.__version__}; best of {a.repeat}")
+             best(batch(velocities=True, forces=True, operating={"body": "held"}), a.repeat, clock=clock))]
+    print(f"{n} ±2 % Jansen variants x {a.steps} steps, plywood build, {explorer.__version__}; best of {a.repeat} "
+          f"({a.clock} time)")
     print(f"{'what':44s} {'M configs/s':>12s} {'vs positions':>13s}")
     for name, t in rows:
         print(f"{name:44s} {1e-6 * configs / t:12.2f} {t / base:13.2f}")

@@ -6,8 +6,9 @@
 Both solve the same ±2 % variants over one crank turn, foot positions only, on ONE thread each
 (pylinkage's ``Ensemble.simulate`` loops over members in Python around a numba kernel and does not
 run in parallel, so one thread is the fair per-core figure). Rows, as ratios measured in the same
-run: the true limit (the Jansen leg's closed form written for that one topology, ``_limit.py``),
-explorer's block Newton, and pylinkage 1.3. The foot paths are checked against each other first
+run: the limit (the Jansen leg's closed form written for that one topology and vectorised,
+``_limit.py``), explorer's method "auto" (the vectorised closed-form first pass, Newton for the designs
+it flags), explorer's block Newton, and pylinkage 1.3; wall and CPU seconds. The foot paths are checked against each other first
 (pylinkage's sample k is explorer's sample k + 1: it turns the crank before it solves).
 
 What each does per sample: pylinkage places every joint by circle–circle intersection, picking the
@@ -23,7 +24,7 @@ import numpy as np
 
 import explorer
 from _limit import foot_limit
-from _timing import best, variants
+from _timing import best_cpu, load, variants
 
 
 def jansen_pylinkage(lengths, crank, steps):
@@ -82,14 +83,20 @@ def main(argv=None):
     print(f"foot paths agree to {diff:.1e} on the {int(both.sum())} variants both solve "
           f"(explorer ok {int((ours.status == 0).sum())}, pylinkage finite {int(np.isfinite(theirs).all(axis=(1, 2)).sum())})")
 
-    t_limit = best(lambda: foot_limit(lengths, crank, S), a.repeat)
-    t_ours = best(lambda: explorer.simulate_batch(mech, lengths, crank, S, vertices=["7"], velocities=False), a.repeat)
-    t_theirs = best(lambda: ens.simulate(iterations=S, store=False), a.repeat)
+    t_limit = best_cpu(lambda: foot_limit(lengths, crank, S), a.repeat)
+    t_auto = best_cpu(lambda: explorer.simulate_batch(mech, lengths, crank, S, vertices=["7"], velocities=False,
+                                                      method="auto"), a.repeat)
+    t_ours = best_cpu(lambda: explorer.simulate_batch(mech, lengths, crank, S, vertices=["7"], velocities=False),
+                      a.repeat)
+    t_theirs = best_cpu(lambda: ens.simulate(iterations=S, store=False), a.repeat)
     configs = n * S
-    print(f"{'one thread, foot positions':40s} {'M configs/s':>12s} {'vs true limit':>14s} {'explorer is':>12s}")
-    for name, t in (("true limit (Jansen closed form)", t_limit), ("explorer block Newton", t_ours),
-                    (f"pylinkage {pylinkage.__version__} Ensemble.simulate", t_theirs)):
-        print(f"{name:40s} {configs / t / 1e6:12.2f} {t / t_limit:14.2f} {t / t_ours:11.2f}x")
+    print(f"{'one thread, foot positions':40s} {'M configs/s':>12s} {'vs limit':>9s} {'CPU-s':>7s} {'CPU vs limit':>12s} "
+          f"{'pylinkage/it':>12s}")
+    for name, (t, c) in (("limit (Jansen closed form, vectorised)", t_limit), ("explorer auto (vector pass + Newton)", t_auto),
+                         ("explorer block Newton", t_ours), (f"pylinkage {pylinkage.__version__} Ensemble.simulate", t_theirs)):
+        print(f"{name:40s} {configs / t / 1e6:12.2f} {t / t_limit[0]:9.2f} {c:7.3f} {c / t_limit[1]:12.2f} "
+              f"{t_theirs[1] / c:11.2f}x")
+    print(load())
     return 0
 
 

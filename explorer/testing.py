@@ -135,6 +135,9 @@ _HOMES = {
     "kernels_sweep_template": (".kernels._sweep_template", None),
     "kernels_sweep_array": (".kernels._sweep_array", None),
     "study_yield": (".study._yield", None),
+    "kernels_render": (".kernels._render", None),
+    "BLOCK_DTYPE": (".kernels._inputs", "BLOCK_DTYPE"),
+    "kernels_batch_array": (".kernels._batch_array", None),
 }
 
 __all__ = list(_HOMES)

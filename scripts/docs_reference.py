@@ -190,6 +190,7 @@ MECHANISM = {
         "links": "Rigid links, one `[[links]]` table each.",
         "bodies": "Rigid bodies of three or more joints, one `[[bodies]]` table each.",
         "sliders": "Prismatic joints, one `[[sliders]]` table each.",
+        "gears": "Grounded cranks geared to the driving crank, one `[[gears]]` table each.",
         "walker": "The leg's default walker scene (a study's `[walker]` overrides it key by key).",
         "mass": "Masses for the forces effect.",
         "operating": "The default operating point (a study's `[operating]` overrides it key by key).",
@@ -225,6 +226,14 @@ MECHANISM = {
         "direction": "… and its direction (only the direction counts).",
         "line": "A slot instead: `[a, b]`, two vertices one link or body holds at a fixed distance.",
         "offset": "A slot's offset, model units to the left of a → b (default 0).",
+    },
+    "gears": {
+        "name": "Required. Letters, digits, `_ + -`: it names parameters `gear` (the radius), `gear.x`, `gear.y`.",
+        "center": "Required. The geared crank's ground pivot `[x, y]`, model units.",
+        "radius": "Required. Its radius, model units.",
+        "tip": "Required. Its tip: a new vertex, placed exactly from the crank's angle.",
+        "ratio": "Required. A nonzero integer from −64 to 64: its turns per turn of the crank (negative: the other way).",
+        "phase": "Degrees added to ratio × θ (default 0).",
     },
     "driver": {
         "vertex": "A path driver: the vertex driven along the path.",
@@ -317,7 +326,8 @@ def mechanism_page() -> str:
              "`scripts/docs_reference.py` each time the site is built. Every mistake in a file is one line "
              "naming the file, the key and the value (exit 2). A guided tour is in "
              "[Mechanisms are data](../mechanisms.md); `[fixed]` and `[guess]` take vertex names as keys.", ""]
-    names = {"": "Top level", "links": "[[links]]", "bodies": "[[bodies]]", "sliders": "[[sliders]]"}
+    names = {"": "Top level", "links": "[[links]]", "bodies": "[[bodies]]", "sliders": "[[sliders]]",
+             "gears": "[[gears]]"}
     for table, keys in accepted.items():
         lines += _table(names.get(table, f"[{table}]"), keys, MECHANISM.get(table, {}), facts)
         if table in ("fixed", "guess"):

@@ -238,7 +238,7 @@ def test_batch_of_arms_fails_at_the_analytic_times():
         mech.with_lengths(crank=2.0)
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("steps", [3, 4, 101])
 def test_unreachable_hole_between_samples_is_found(steps, method):
     """The line y = 0.9 crosses the inner workspace circle (radius 1) for |x| < √0.19: with 3 or 4

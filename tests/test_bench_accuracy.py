@@ -48,9 +48,9 @@ def test_sweep_rows_and_honest_errors(tiny_report):
     rep = tiny_report
     assert rep.meta["variants_drawn"] == 24 and 0 < rep.meta["variants_assembled"] <= 24
     kinds = {r["method"] for r in rep.rows}
-    assert {"block", "dense", "closed", *(_seeds.SOLVERS)} <= kinds
-    # 2 steps x (closed + 2 tolerances x 2 Newton methods) + 4 seed solvers x 2 tolerances at 36 steps
-    assert len(rep.rows) == 2 * (1 + 2 * 2) + 4 * 2
+    assert {"block", "auto", "dense", "closed", *(_seeds.SOLVERS)} <= kinds
+    # 2 steps x (closed + 2 tolerances x 3 tolerance-bound methods) + 4 seed solvers x 2 tolerances at 36 steps
+    assert len(rep.rows) == 2 * (1 + 2 * 3) + 4 * 2
     for r in rep.rows:
         assert set(COLUMNS) <= set(r)
         assert r["time_s"] > 0 and r["us_per_config"] > 0
@@ -62,15 +62,21 @@ def test_sweep_rows_and_honest_errors(tiny_report):
     tight = [r for r in rep.rows if r["method"] in ("block", "dense") and r["tolerance"] == 1e-10]
     assert all(r["failed"] == 0 and r["foot_err_max"] < 1e-6 for r in tight)
     assert all(r["iterations"] > 0 for r in tight)
+    # auto: the vectorised closed-form pass solves these ±2 % designs with fewer Newton iterations (it flags
+    # some at 36 steps, where a 10° step fails its move limit or gap bound) and the same verdicts
+    auto = [r for r in rep.rows if r["method"] == "auto"]
+    block = {(r["steps"], r["tolerance"]): r for r in rep.rows if r["method"] == "block"}
+    assert auto and all(r["failed"] == block[r["steps"], r["tolerance"]]["failed"] for r in auto)
+    assert all(r["iterations"] < block[r["steps"], r["tolerance"]]["iterations"] for r in auto)
     # the promise, per Newton row: every foot within tolerance x its design's longest link of the truth
-    newton = [r for r in rep.rows if r["method"] in ("block", "dense")]
+    newton = [r for r in rep.rows if r["method"] in ("block", "dense", "auto")]
     for r in newton:
         # the bound of the longest design in the row (the dense rows run on a subset)
         assert 0.9 * r["tolerance"] * rep.meta["longest_link_max"] < r["foot_err_bound"]
         assert r["foot_err_bound"] <= r["tolerance"] * rep.meta["longest_link_max"]
         assert 0.0 <= r["promise_used"] <= 1.0, r
         assert r["foot_err_max"] <= r["foot_err_bound"]
-    assert all(math.isnan(r["promise_used"]) for r in rep.rows if r["method"] not in ("block", "dense"))
+    assert all(math.isnan(r["promise_used"]) for r in rep.rows if r["method"] not in ("block", "dense", "auto"))
     dense = [r for r in rep.rows if r["method"] == "dense"]
     assert all(r["variants"] == 6 and "first 6 variants" in r["note"] for r in dense)
     ge = [r for r in rep.rows if r["method"] == "seed001-full-GE" and r["tolerance"] == 1e-10]

@@ -111,3 +111,49 @@ def test_metrics_of_no_ok_row_are_nan_without_running_a_kernel():
     out = compute_metrics(p, p, np.array([1, 3], dtype=np.int8), None, mechanism=m,
                           lengths=np.repeat(m.lengths[None], 2, 0), crank=np.full(2, 15.0))
     assert out and all(np.isnan(v).all() for v in out.values())
+
+
+_COMPILES = '''
+import sys
+import numpy as np
+from numba.core import event
+import explorer
+from explorer.kernels import _codegen
+
+compiled = []
+class Count(event.Listener):
+    def on_start(self, ev):
+        compiled.append(str(ev.data.get("dispatcher")))
+    def on_end(self, ev):
+        pass
+with event.install_listener("numba:compile", Count()):
+    m = explorer.load_mechanism("fourbar")
+    L = np.repeat(m.lengths[None], 3, 0)
+    b = explorer.simulate_batch(m, L, None, 36, kernel="generated")
+assert (b.status == 0).all()
+mod = [n for n in sys.modules if n.startswith("explorer_gen_")]
+print(len(compiled), sys.modules[mod[0]].__file__)
+'''
+
+
+@pytest.mark.slow
+def test_a_copied_cache_serves_the_generated_kernels_without_compiling(tmp_path):
+    """A cache built once in one folder, copied elsewhere (new paths, new file times) serves a later
+    run there: no kernel compiles, the per-topology generated module included, although it is
+    imported from the copy's own path (Numba's own locators key a cache on the file's absolute path)."""
+    import shutil
+
+    first, copy = tmp_path / "built", tmp_path / "elsewhere" / "copied"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(first)}
+    out = subprocess.run([sys.executable, "-c", _COMPILES], capture_output=True, text=True, env=env, timeout=600)
+    assert out.returncode == 0, out.stderr
+    n_first, gen_first = out.stdout.split()
+    assert int(n_first) > 0 and gen_first.startswith(str(first))  # it compiled, the generated kernel too
+    shutil.copytree(first, copy, copy_function=shutil.copy)  # not copy2: the files' times are new
+    shutil.rmtree(first)
+    env["NUMBA_CACHE_DIR"] = str(copy)
+    out = subprocess.run([sys.executable, "-c", _COMPILES], capture_output=True, text=True, env=env, timeout=600)
+    assert out.returncode == 0, out.stderr
+    n_copy, gen_copy = out.stdout.split()
+    assert gen_copy.startswith(str(copy))
+    assert int(n_copy) == 0, f"{n_copy} kernels compiled again from a copied cache"

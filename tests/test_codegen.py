@@ -20,12 +20,13 @@ import pytest
 
 import explorer
 from explorer.testing import kernels_codegen as _codegen, kernels_simulate as _simulate
-from explorer.testing import place_dyad
+from explorer.kinds.dyad import place_dyad
 from explorer.testing import STATUS_NOCONV
 
 #: each leg with a spread at which some of its designs turn and some fail
 LEGS = {"jansen": 0.25, "klann": 0.12, "hoeken": 0.4, "strider": 0.12, "fourbar": 0.4, "arm": 0.25,
-        "watt6": 0.25, "stephenson6": 0.5}
+        "watt6": 0.25, "stephenson6": 0.5,
+        "geared5bar": 0.6}
 #: at least this many of the 400 designs compared in each regime (about half of what the data hold), so
 #: that the bit-for-bit test cannot pass having checked nothing. "swept back": crank cycles that failed
 #: and were swept backward from θ = 0 (Hoeken's failures all fail at the start; the arm has no crank).
@@ -38,6 +39,7 @@ MINIMUM = {
     "arm": {"ok": 100, "failed": 100},
     "watt6": {"ok": 100, "failed": 100, "swept back": 100},        # 204, 196, 196 measured
     "stephenson6": {"ok": 130, "failed": 60, "swept back": 40},    # 274, 126, 78 measured
+    "geared5bar": {"ok": 150, "failed": 25, "swept back": 20},
 }
 for _least in MINIMUM.values():
     _least.update({"ok, more iterations than the least": 20, "solved samples": 100 * 180})
@@ -67,10 +69,21 @@ def test_every_built_in_leg_is_checked():
 @pytest.mark.parametrize("velocities", [True, False])
 @pytest.mark.parametrize("name", LEGS)
 def test_generated_kernel_equals_the_general_sweep_bit_for_bit(name, velocities):
+    _generated_equals_general(name, velocities, False)
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann"])
+def test_generated_kernel_with_accelerations_equals_the_general_sweep_bit_for_bit(name):
+    """The second derivatives, written per block in the generated code (each kind's scalar "acc"), are
+    the table-driven kernel's bit for bit: the forces effect reads them from either."""
+    _generated_equals_general(name, True, True)
+
+
+def _generated_equals_general(name, velocities, accelerations):
     mech = explorer.load_mechanism(name)
     n = 400
     L, crank = _batch(mech, LEGS[name], n, seed=7)
-    kw = dict(vertices="all", velocities=velocities)
+    kw = dict(vertices="all", velocities=velocities, accelerations=accelerations)
     if name == "jansen":  # the fixed pivot moves too (a constant of the generated code, per design)
         rng = np.random.default_rng(8)
         kw["geometry"] = {"2.x": -38.0 + rng.uniform(-1, 1, n), "2.y": -7.8 + rng.uniform(-1, 1, n)}
@@ -94,6 +107,8 @@ def test_generated_kernel_equals_the_general_sweep_bit_for_bit(name, velocities)
         np.testing.assert_array_equal(gen.paths[v], ref.paths[v])
         if velocities:
             np.testing.assert_array_equal(gen.velocities[v], ref.velocities[v])
+        if accelerations:
+            np.testing.assert_array_equal(gen.accelerations[v], ref.accelerations[v])
     assert bool(gen.velocities) == bool(ref.velocities) == velocities
 
 
@@ -170,7 +185,7 @@ def test_kernel_choice():
     with pytest.raises(explorer.UserError, match="kernel"):
         explorer.simulate_batch(mech, one, None, 36, kernel="fast")
     with pytest.raises(explorer.UserError, match="generated"):
-        explorer.simulate_batch(mech, one, None, 36, accelerations=True, kernel="generated")
+        explorer.simulate_batch(mech, one, None, 36, method="dense", kernel="generated")
 
 
 def test_generated_kernel_is_used_for_dyad_and_body_plans_only(triad):
@@ -183,10 +198,11 @@ def test_generated_kernel_is_used_for_dyad_and_body_plans_only(triad):
     assert len(_codegen._BY_TOPOLOGY) == 1
     explorer.simulate_batch(mech, L, crank, 36, velocities=True)   # storing velocities: its own kernel
     assert len(_codegen._BY_TOPOLOGY) == 2
-    explorer.simulate_batch(mech, L, crank, 36, accelerations=True)  # accelerations: the general kernel
+    explorer.simulate_batch(mech, L, crank, 36, accelerations=True)  # accelerations: their own kernel
+    assert len(_codegen._BY_TOPOLOGY) == 3
     explorer.simulate_batch(mech, L, crank, 36, method="dense")
     explorer.simulate(triad, 36)  # a coupled (GENERAL) block: the general kernel
-    assert len(_codegen._BY_TOPOLOGY) == 2
+    assert len(_codegen._BY_TOPOLOGY) == 3
     folder = _codegen._folder()
     assert len(list(folder.glob("explorer_gen_*.py"))) >= 2
 
@@ -213,9 +229,9 @@ def test_generated_source_names_every_block():
     captured = {}
     real = _codegen.kernel_for
 
-    def spy(topo, want_vel):
-        captured["src"] = _codegen.source(topo, want_vel)
-        return real(topo, want_vel)
+    def spy(topo, *args):
+        captured["src"] = _codegen.source(topo, *args)
+        return real(topo, *args)
 
     from explorer.testing import kernels_simulate as sim
     old = sim.kernel_for

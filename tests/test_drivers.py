@@ -44,7 +44,7 @@ ARCS = {
 }
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("timing", ["linear", "quintic"])
 @pytest.mark.parametrize("arc", sorted(ARCS))
 def test_arc_path_matches_analytic_arc(arc, timing, method):

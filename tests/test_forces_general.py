@@ -79,6 +79,23 @@ def test_triad_massless_has_no_torque_and_balanced_pins():
     assert c.force_metrics["pin_force_max"] == 0.0
 
 
+def test_a_machine_that_does_not_travel_has_no_finite_cost_of_transport():
+    """One leg: its foot carries the load all turn and its path is closed, so the body's travel per turn
+    is the integral of a periodic foot's dx/dθ over a period, exactly 0. What a sum of samples holds
+    then is rounding, which divided the energy into a cost of transport of 1e16: it must read inf (the
+    worst under "min"), with the energy itself finite and positive (the triad with masses does work)."""
+    mech = _triad_with_masses()
+    c = explorer.simulate(mech, 360, forces=True, walker=Walker(legs=1),
+                          operating={"unit": 0.05, "rpm": 30, "gravity": 9.81, "body": "held"})
+    assert c.ok, c.failure
+    foot = c.path(mech.foot)
+    # the premise, by brute force: the foot's sampled x returns to where it started (a closed path)
+    assert abs(foot[-1, 0] + (foot[1, 0] - foot[0, 0]) - foot[0, 0]) < 1e-2 * np.ptp(foot[:, 0])
+    e = c.force_metrics["energy_per_turn"]
+    assert np.isfinite(e) and e > 0
+    assert c.force_metrics["cost_of_transport"] == np.inf
+
+
 @pytest.mark.parametrize("name", ["jansen", "klann"])
 def test_forces_path_velocities_and_accelerations_match_finite_differences(name):
     """With forces on, a batch's velocities and accelerations come from the forces' own block solves:

@@ -68,7 +68,7 @@ VARIANTS = [
 ]
 
 
-@pytest.mark.parametrize("method", ["block", "dense", "closed"])
+@pytest.mark.parametrize("method", ["block", "dense", "closed", "auto"])
 @pytest.mark.parametrize("sigma,point_side", [(-1, +1), (+1, +1), (+1, -1)])
 @pytest.mark.parametrize("variant", range(len(VARIANTS)))
 def test_builtin_and_variants_match_freudenstein(sigma, point_side, variant, method):
@@ -104,7 +104,7 @@ FOURBARS = {
 }
 
 
-@pytest.mark.parametrize("method", ["block", "dense", "closed"])
+@pytest.mark.parametrize("method", ["block", "dense", "closed", "auto"])
 @pytest.mark.parametrize("sigma", [-1, +1])
 @pytest.mark.parametrize("name", sorted(FOURBARS))
 def test_other_fourbars_match_freudenstein(name, sigma, method):
@@ -154,7 +154,7 @@ def reachable_range(crank, coupler, rocker, ground):
     return lims[0], lims[-1]
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("sigma", [-1, +1])
 @pytest.mark.parametrize("name", sorted(NON_GRASHOF))
 def test_non_grashof_reports_assembly_and_reachable_range(name, sigma, method):

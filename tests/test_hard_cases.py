@@ -276,7 +276,7 @@ def test_lower_loop_is_near_its_grashof_limit():
     assert (ground - r) - abs(l16 - l26) == pytest.approx(1.19, abs=0.005)
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("steps", [360, 36])
 def test_crank_plus_7_percent_is_near_toggle_but_solves(method, steps):
     """+7 % crank: 0.086 units from failing, still a clean cycle equal to the closed form."""
@@ -296,7 +296,7 @@ NEAR_TOGGLE_BREAKS = {
 }
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("steps", [360, 36])
 @pytest.mark.parametrize("case", sorted(NEAR_TOGGLE_BREAKS))
 def test_near_toggle_design_fails_assembly_at_the_true_onset(case, steps, method):
@@ -319,7 +319,7 @@ def test_near_toggle_design_fails_assembly_at_the_true_onset(case, steps, method
     assert abs(b.fail_theta[1] - onset[0]) <= step_tolerance(steps)
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("steps", [360, 36])
 @pytest.mark.parametrize("case", sorted(NEAR_TOGGLE_BREAKS))
 def test_failure_range_of_a_near_toggle_design(case, steps, method):
@@ -348,7 +348,7 @@ def population():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 def test_population_verdicts_match_the_truth(population, method):
     """±2 % variants at 90 steps: ok exactly when the closed form assembles all round; otherwise
     "assembly" over the true range of angles, naming the vertex that fails at its start."""
@@ -408,7 +408,7 @@ def test_gap_between_samples_exists_and_the_closed_form_samples_miss_it(gap_vari
     assert np.all(np.floor(onset / (TWO_PI / 360)) == np.floor(end / (TWO_PI / 360)))
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 def test_gap_between_samples_is_never_a_clean_cycle(gap_variants, method):
     L, r, onset, end = gap_variants
     for i in range(len(r)):
@@ -426,14 +426,14 @@ def test_gap_between_samples_is_never_a_clean_cycle(gap_variants, method):
     assert np.all((onset - TWO_PI / 360 <= b.fail_theta) & (b.fail_theta <= end + 1e-9))
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 def test_failure_range_of_a_gap_between_samples(gap_variants, method):
     L, r, onset, end = gap_variants
     b = simulate_batch(MECH, L, r, 360, method=method, velocities=False)
     np.testing.assert_array_less(np.abs(b.fail_theta_end - end), step_tolerance(360))
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 def test_failure_range_inside_one_step_minimal(method):
     """Regression: link 1-6 +1.8 % cannot assemble on ~[190.25°, 192.96°]; at 36 steps that range lies
     between the samples 190° and 200°; theta_end used to come back as 360° although the samples
@@ -447,7 +447,7 @@ def test_failure_range_inside_one_step_minimal(method):
 
 # -- coarse steps ----------------------------------------------------------------------------------------
 @pytest.mark.slow
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("steps", [4, 12, 24])
 def test_coarse_steps_never_jump_branch_silently(population, method, steps):
     """Designs that are fine at 360 steps, run at 12 or 24: ok with positions equal to the closed form
@@ -469,7 +469,7 @@ def test_coarse_steps_never_jump_branch_silently(population, method, steps):
     check_cycle(c, MECH.lengths, MECH.crank.radius, 1e-10)
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("tol", [1e-6, 1e-9, 1e-12])
 def test_reported_positions_keep_the_tolerance_promise(method, tol):
     """Every solved position within tolerance × the longest link of the closed form, at the loosest
@@ -501,7 +501,7 @@ SINGULAR = {
 }
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 @pytest.mark.parametrize("steps", [24])  # dense crawls through an always-singular dyad (15-25 s at 360)
 @pytest.mark.parametrize("case", sorted(SINGULAR))
 def test_collinear_links_give_an_honest_answer(case, steps, method):
@@ -556,7 +556,7 @@ def _bad_rows():
     return L, r
 
 
-@pytest.mark.parametrize("method", ["block", "dense", "closed"])
+@pytest.mark.parametrize("method", ["block", "dense", "closed", "auto"])
 def test_zero_negative_and_nonfinite_lengths_are_invalid_rows(method):
     L, r = _bad_rows()
     vel = method != "closed"
@@ -636,7 +636,7 @@ def wild():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("method", ["block", "dense", "closed"])
+@pytest.mark.parametrize("method", ["block", "dense", "closed", "auto"])
 def test_enormous_perturbations_stay_honest(wild, method):
     """±50 % on every link and the crank: most designs cannot be built. No exception; every status a
     documented code; every ok row finite, on the nominal branch, equal to the closed form, with every
@@ -684,7 +684,7 @@ perturbation = st.lists(st.floats(-0.03, 0.03, allow_nan=False), min_size=11, ma
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(p=perturbation, steps=st.sampled_from([12, 24, 90, 360]), method=st.sampled_from(["block", "dense"]),
+@given(p=perturbation, steps=st.sampled_from([12, 24, 90, 360]), method=st.sampled_from(["block", "dense", "auto"]),
        tol=st.sampled_from([1e-6, 1e-8, 1e-10, 1e-11, 1e-12]))
 def test_property_small_perturbations_hold_lengths_and_branches(p, steps, method, tol):
     """Random small perturbations of the nominal leg: at every solved sample every vertex is within the

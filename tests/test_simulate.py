@@ -100,7 +100,7 @@ def test_nominal_velocities_match_seed_eq30(jansen, jansen_cycle, thetas360):
         np.testing.assert_allclose(jansen_cycle.velocities[k], ref, rtol=0, atol=1e-9)
 
 
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 def test_nominal_accelerations_match_finite_differences(jansen, method, thetas360):
     c = simulate(jansen, 360, tolerance=1e-12, method=method, accelerations=True)
     assert c.ok
@@ -120,7 +120,7 @@ def test_block_and_dense_agree(jansen, jansen_cycle):
 
 
 @pytest.mark.parametrize("steps", [3, 7, 25])
-@pytest.mark.parametrize("method", ["block", "dense"])
+@pytest.mark.parametrize("method", ["block", "dense", "auto"])
 def test_coarse_steps_stay_on_branch(jansen, method, steps):
     """Steps of up to 120° must be refined internally, not jump branches."""
     th = 2 * np.pi * np.arange(steps) / steps

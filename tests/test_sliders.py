@@ -44,7 +44,7 @@ def test_slidercrank_plan_is_one_slide_block():
     assert plan.slide.tolist() == [[mech.vertex_index("B"), -1, -1]]
 
 
-@pytest.mark.parametrize("method", ["block", "dense", "closed"])
+@pytest.mark.parametrize("method", ["block", "dense", "closed", "auto"])
 def test_slidercrank_matches_closed_form(method):
     mech = load_mechanism("slidercrank")
     cyc = simulate(mech, steps=360, method=method, accelerations=method != "closed")

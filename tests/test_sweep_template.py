@@ -29,6 +29,28 @@ def test_committed_array_form_is_the_template_rendered():
         "explorer/kernels/_sweep_array.py differs from the sweep template rendered in the array dialect: "
         "edit _sweep_template.sweep or _sweep.ARRAY, then run "
         "python -c \"from explorer.kernels import _sweep; _sweep.write_array_module()\"")
+    assert _sweep._BATCH_MODULE.read_text(encoding="utf-8") == _sweep.batch_module_source(), (
+        "explorer/kernels/_batch_array.py differs from the batch template rendered in the array dialect: run "
+        "python -c \"from explorer.kernels import _sweep; _sweep.write_array_module()\"")
+
+
+def test_one_batch_loop():
+    """Every sweep kernel's per-design loop is the batch template's: the table-driven ones are its array
+    form (with and without forces), a generated one its scalar form with the sweep inline."""
+    from explorer.testing import kernels_batch as _batch, kernels_batch_array as _batch_array
+
+    for jitted, fn in ((_batch.fast_batch_jit, _batch_array.batch_plain), (_batch.generic_batch_jit, _batch_array.batch_plain),
+                       (_batch.fast_forces_jit, _batch_array.batch_forces),
+                       (_batch.generic_forces_jit, _batch_array.batch_forces)):
+        assert jitted.py_func.__code__ is fn.__code__
+    holes = {m.group("name") for ln in _sweep_template._template_of(_sweep_template.batch)[0]
+             if (m := _sweep_template._HOLE.match(ln))}
+    assert holes == set(_sweep_template.BATCH_HOLES)
+    for forces in (False, True):
+        assert set(_sweep.batch_array_dialect(forces)) == holes
+    src = _codegen.source(_hoeken_topology(), True, True, True)
+    assert "def kernel(topo, drv, opts, signs, fmodel, designs, outs, frows):" in src and "design_forces(i" in src
+    assert "run_sweep" not in src and "place_dyad(" in src
 
 
 def test_array_form_is_what_the_kernels_run():
@@ -51,9 +73,9 @@ def _hoeken_topology(want_vel=True):
     captured = {}
     real = _simulate.kernel_for
 
-    def spy(topo, want_vel):
+    def spy(topo, *args):
         captured["topo"] = topo
-        return real(topo, want_vel)
+        return real(topo, *args)
 
     _simulate.kernel_for = spy
     try:
@@ -78,7 +100,7 @@ def test_scalar_form_is_valid_python_without_holes(want_vel):
     tree = ast.parse(src)
     names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
     assert "hole" not in names and "step" not in names
-    assert ("out_vel" in src.split("out_vel = outs.vel[i]", 1)[1]) == want_vel
+    assert ("out_vel[" in src.split("out_vel = outs.vel[i]", 1)[1]) == want_vel
     # the loop of whole steps is kept in the scalar form, dropped in the array form
     assert "iters_before" in src
     assert "iters_before" not in _sweep.array_module_source()
@@ -118,10 +140,11 @@ def test_the_hole_marker_answers_introspection_as_an_ordinary_object():
 
 
 def test_kernel_cache_key_covers_the_plan():
-    """The block kinds (``plan``) are constants frozen into the kernels' machine code (and into the
-    generated sources): a change there must key a fresh cache folder."""
+    """The block kinds (``kinds``) are code and constants frozen into the kernels' machine code (and into
+    the generated sources): a change there must key a fresh cache folder."""
     from explorer.testing import kernel_sources
 
     names = {name for name, _ in kernel_sources()}
-    for module in ("plan/_kinds.py", "kernels/_sweep_template.py", "kernels/_sweep_array.py", "kernels/_fast.py"):
+    for module in ("plan/_kinds.py", "kinds/__init__.py", "kinds/dyad.py", "kernels/_sweep_template.py",
+                   "kernels/_sweep_array.py", "kernels/_kinds_array.py"):
         assert module in names

@@ -6,7 +6,8 @@ Per cell (one method, one number of crank steps S, one Newton tolerance) over th
   form gives positions only), best of ``repeat`` runs after the kernels were warmed up; ``us_per_config``
   is that divided by variants x S;
 * ``iterations`` — mean Newton iterations per configuration (block: summed over the 5 dyad solves of
-  a configuration; dense: one per full 14 x 14 solve; seed rows: see :mod:`._seeds`);
+  a configuration; dense: one per full 14 x 14 solve; auto: the vectorised closed-form first pass
+  takes none, only the designs it leaves to Newton count; seed rows: see :mod:`._seeds`);
 * ``foot_err_max`` / ``foot_err_median`` — the largest foot-position error against the exact closed
   form at the same S angles, over all variants solved ok (max) and the median of the per-variant
   maxima;
@@ -215,7 +216,7 @@ def _row(method, steps, tol, n, status, iters, time_s, P, foot, closed, metrics,
 
 
 def accuracy_sweep(mech: Mechanism | str = "jansen", *, variants: int = 1000, spread: float = 0.02, seed: int = 1,
-                   tolerances=DEFAULT_TOLERANCES, steps=DEFAULT_STEPS, methods=("block", "dense", "closed"),
+                   tolerances=DEFAULT_TOLERANCES, steps=DEFAULT_STEPS, methods=("block", "auto", "dense", "closed"),
                    dense_variants: int = 100, seed_solvers=tuple(_seeds.SOLVERS), seed_variants: int = 50,
                    seed_steps=(360,), reference_steps: int = REFERENCE_STEPS, repeat: int = 3,
                    time_budget: float = 0.5, max_iterations: int = 50, seed_max_iterations: int = 500,
@@ -235,8 +236,8 @@ def accuracy_sweep(mech: Mechanism | str = "jansen", *, variants: int = 1000, sp
     if not 0.0 <= spread < 1.0:
         raise UserError(f"spread: expected a fraction in [0, 1), got {spread}")
     for m in methods:
-        if m not in ("block", "dense", "closed"):
-            raise UserError(f"methods: expected block, dense or closed, got {m!r}")
+        if m not in ("block", "auto", "dense", "closed"):
+            raise UserError(f"methods: expected block, auto, dense or closed, got {m!r}")
     if seed_solvers and _seeds.jansen_layout(mech) is None:
         say("seed rows skipped: the seed formulations are written for the Jansen leg only")
         seed_solvers = ()

@@ -34,7 +34,8 @@ def register(sub) -> None:
     a = verbs.add_parser(
         "accuracy", help="accuracy vs time: Newton tolerance x crank steps x method (+ the link-angle formulations)",
         description="Over the variants that assemble (default: 1,000 Jansen variants at ±2 %), sweep Newton "
-                    "tolerance, crank steps per cycle and method (block Newton, dense Newton, exact closed form), "
+                    "tolerance, crank steps per cycle and method (block Newton, auto: the vectorised closed-form pass with Newton "
+                    "where it flags a design, dense Newton, exact closed form), "
                     "plus the link-angle formulations explorer grew from as extra rows (8 link angles solved as one "
                     "8x8 Newton system and as four 2x2 systems in order; Gauss-Seidel instead of Gaussian "
                     "elimination in the Newton step). Per cell: wall time (best of a few runs, kernels warmed), mean Newton "
@@ -53,8 +54,8 @@ def register(sub) -> None:
                         "longest link (default: 1e-6,1e-8,1e-10,1e-11,1e-12)")
     a.add_argument("--steps", type=_ints, default=None, metavar="S1,S2,...",
                    help="crank steps per cycle (default: 36,90,360,1440)")
-    a.add_argument("--methods", default="block,dense,closed", metavar="M1,M2",
-                   help="kernel methods to sweep (default: block,dense,closed)")
+    a.add_argument("--methods", default="block,auto,dense,closed", metavar="M1,M2",
+                   help="kernel methods to sweep (default: block,auto,dense,closed)")
     a.add_argument("--dense-variants", type=int, default=100, metavar="N",
                    help="dense Newton runs on the first N variants only (it is ~10x slower; default: 100)")
     a.add_argument("--seed-rows", default="all", metavar="NAMES",

@@ -87,7 +87,12 @@ def _meaning(d: dict, p: str, lookups: tuple | None = None) -> str:
         return "crank radius"
     if p in ("crank.x", "crank.y"):
         return f"crank centre {p[-1]}"
+    gears = {g["name"]: g for g in d.get("gears", ())}
+    if p in gears:
+        return f"radius of geared crank {p} (tip {gears[p]['tip']})"
     head, axis = p.rsplit(".", 1)
+    if head in gears:
+        return f"geared crank {head}'s centre {axis}"
     if head in sliders:
         sl = sliders[head]
         if axis == "offset":
@@ -138,6 +143,9 @@ def text(d: dict) -> str:
     if crank:
         out.append(f"crank: centre {_xy(drv['center'])}, radius {_g(drv['radius'])}, tip {drv['tip']} "
                    f"(θ counter-clockwise from +x; the centre is a ground pivot too)")
+        for g in d.get("gears", ()):
+            out.append(f"geared crank {g['name']}: centre {_xy(g['center'])}, radius {_g(g['radius'])}, tip {g['tip']}, "
+                       f"angle {g['ratio']:+d} × θ + {_g(g['phase'])}° (geared to the crank)")
     else:
         what = {"line": lambda: f"a straight line from {_xy(drv['points'][0])} to {_xy(drv['points'][1])}",
                 "arc": lambda: f"an arc about {_xy(drv['center'])}, radius {_g(drv['radius'])}, from "

@@ -223,6 +223,9 @@ def drag(mech: Mechanism, angle: float, joint: str, to, near=None, steps: int = 
         raise UserError(f"drag: expected a finite position, got {to!r}")
     C, angle, why = configuration(mech, angle, near, steps)
     nv = len(mech.vertices)
+    if mech.gears:  # a geared crank's tip moves with the crank's angle: no drag keeps the other joints still
+        return Drag(None, angle, np.full((nv, 2), np.nan) if C is None else C,
+                    refused="the editor does not drag geared mechanisms ([[gears]]) yet; edit the mechanism file")
     if C is None:
         return Drag(None, angle, np.full((nv, 2), np.nan),
                     refused=f"cannot drag here: {why}; move the crank to an angle where the leg is drawn")

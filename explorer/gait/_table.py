@@ -146,7 +146,8 @@ TABLE: tuple[Metric, ...] = (
     _m("machine_mass", "kg", "min", "forces",
        "the whole machine: every leg (links, bodies, crank) and the body ([operating] load)", "forces"),
     _m("cost_of_transport", "1", "min", "forces",
-       "energy per turn / (machine_mass·g·travel in metres), the whole machine's (legs and body)", "forces"),
+       "energy per turn / (machine_mass·g·travel in metres), the whole machine's (legs and body); "
+       "inf for a machine that does not travel", "forces"),
     # -- the physics check of a shortlist (MuJoCo, `explorer physics`; SI units; NaN: not checked) ----------
     _m("physics_travel", "m/turn", "max", "physics",
        "how far the body moves per crank turn, along the kinematic walking direction, in the MuJoCo walker",

@@ -2,12 +2,12 @@
 
 Numba checks only the source file that defines a cached function, not the files of the functions it
 calls or inlines or the globals it freezes in as constants, so after an upgrade that changes
-``_fast.py`` alone (the dyad's arithmetic) the cached sweep in ``_sweep_array.py`` would still run the old
-step, and one that renumbers the block kinds in ``plan/_kinds.py`` would leave every cached kernel
-comparing against the old numbers. Instead of deleting cache files, every explorer kernel is
+``kinds/dyad.py`` alone (the dyad's arithmetic) the cached sweep in ``_sweep_array.py`` would still run
+the old step, and one that renumbers the block kinds would leave every cached kernel comparing against
+the old numbers. Instead of deleting cache files, every explorer kernel is
 cached in a folder named after a hash of the code of every module that defines or feeds a kernel
-(:data:`KERNEL_PACKAGES`: ``explorer/kernels``, ``explorer/plan``, ``explorer/gait``,
-``explorer/bench``): changed code, a new folder, a fresh
+(:data:`KERNEL_PACKAGES`: ``explorer/kernels``, ``explorer/kinds``, ``explorer/plan``,
+``explorer/gait``, ``explorer/bench``): changed code, a new folder, a fresh
 compile; a changed docstring or comment leaves the hash alone (it is taken over the syntax tree,
 docstrings removed), so it costs at most the recompile of the functions in that one file (Numba's own
 check). The folder is ``$NUMBA_CACHE_DIR/explorer-<hash>`` when that variable is set, else the user's
@@ -17,6 +17,12 @@ package otherwise: files pip did not install would outlive ``pip uninstall`` and
 ``explorer`` folder without ``__init__.py`` that shadows the next install. Beside the current folder,
 the three most recently used folders of other hashes are kept (other installs may share the user's
 cache) and older ones removed, best effort.
+
+The modules generated per topology (``explorer.kernels._codegen``, written to ``generated/`` of the
+keyed folder) are cached under that same ``generated/`` whatever absolute path they were imported
+from: Numba's own locators would key them on the file's path, so a cache built once (by
+``explorer warm``, or a first run) and copied to another folder, user or machine would recompile them.
+With Numba's content-hash source stamps, a copied folder serves every kernel as it is.
 
 This plugs a locator class into Numba's caching (``numba.core.caching.CacheImpl``); if those
 internals are missing (another Numba), the cache falls back to Numba's default locations, guarded by
@@ -32,9 +38,11 @@ import shutil
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parents[1]      # explorer/
+#: the module names of the code generated per topology (``_codegen``): explorer_gen_<hash of its source>
+GENERATED_PREFIX = "explorer_gen_"
 #: Subpackages whose modules define kernels, code the kernels inline, or constants frozen into their
-#: machine code (``plan``: the block kinds).
-KERNEL_PACKAGES = ("kernels", "plan", "gait", "bench")
+#: machine code (``kinds``: the block kinds' numerics and numbers).
+KERNEL_PACKAGES = ("kernels", "kinds", "plan", "gait", "bench")
 
 
 def _strip_docstrings(tree: ast.AST) -> ast.AST:
@@ -130,10 +138,9 @@ def _install() -> bool:
     class ExplorerLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
         """explorer's kernels: the cache folder keyed by the kernels' code (see the module docstring)."""
 
-        def __init__(self, py_func, py_file, base: Path):
+        def __init__(self, py_func, py_file, base: Path, rel: Path):
             self._py_file = py_file
             self._lineno = py_func.__code__.co_firstlineno
-            rel = Path(py_file).resolve().parent.relative_to(_PACKAGE)
             self._cache_path = str(base / rel)
 
         def get_cache_path(self):
@@ -141,12 +148,18 @@ def _install() -> bool:
 
         @classmethod
         def from_function(cls, py_func, py_file):
-            try:
-                Path(py_file).resolve().relative_to(_PACKAGE)
-            except (ValueError, OSError):
-                return None  # not one of explorer's modules: Numba's own locators decide
+            if str(getattr(py_func, "__module__", "")).startswith(GENERATED_PREFIX):
+                # a module generated per topology (``_codegen``): cached under generated/ of the keyed
+                # folder whatever path it was imported from, so a copied cache serves it (Numba's own
+                # locators key on the file's absolute path; the source stamp is its content's hash)
+                rel = Path("generated")
+            else:
+                try:
+                    rel = Path(py_file).resolve().parent.relative_to(_PACKAGE)
+                except (ValueError, OSError):
+                    return None  # not one of explorer's modules: Numba's own locators decide
             for base in cache_bases():
-                self = cls(py_func, py_file, base)
+                self = cls(py_func, py_file, base, rel)
                 try:
                     self.ensure_cache_path()
                 except OSError:

@@ -11,8 +11,9 @@ and, for a crank, the other end of the unreachable range is found from 2π going
 import numpy as np
 from numba import njit
 
-from ._batch import design_setup, place_closed, valid_lengths
-from ._drive import CRANK, drive
+from ._batch import valid_lengths
+from ._kinds_array import place_closed
+from ._drive import drive
 from ._sweep import REFINE_LEVELS, STATUS_ASSEMBLY, STATUS_INVALID, STATUS_OK
 
 
@@ -94,11 +95,10 @@ def closed_cycle(blocks, tip, kind, prm, tab, params, t_end, closed, cx, cy, sca
 
 
 @njit(cache=True, nogil=True)
-def closed_batch_jit(topo, drv, P_init, signs, designs, outs):
+def closed_batch_jit(topo, drv, signs, designs, outs):
     """:func:`closed_cycle` for every design (row) of ``designs``, serially, into ``outs`` (positions
     and failures only); the ``_inputs`` named tuples, per-row ones last, for
     :func:`~._rows.parallel_rows`."""
-    crank = drv.kind == CRANK
     for i in range(designs.scale.shape[0]):
         L = designs.dist[i]
         scale = designs.scale[i]
@@ -107,8 +107,10 @@ def closed_batch_jit(topo, drv, P_init, signs, designs, outs):
             _nan_rows(out_pos, 0, out_pos.shape[0])
             st, tf, te, bl = STATUS_INVALID, 0.0, np.nan, -1
         else:
-            P, cx, cy, blocks = design_setup(topo, designs, i, P_init, crank, drv.table[0], signs)
-            st, tf, te, bl = closed_cycle(blocks, topo.tip, drv.kind, drv.prm, drv.table, drv.params, drv.t_end,
+            P = designs.start[i].copy()
+            cx = designs.center[i, 0]
+            cy = designs.center[i, 1]
+            st, tf, te, bl = closed_cycle(designs.table[i], topo.tip, drv.kind, drv.prm, drv.table, drv.params, drv.t_end,
                                           drv.closed, cx, cy, scale, signs, topo.out_idx, out_pos, P)
         outs.status[i] = st
         outs.fail_t[i] = tf

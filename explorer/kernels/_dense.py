@@ -10,12 +10,16 @@ which makes this the simple, slow reference the block method is checked against.
 import numpy as np
 from numba import njit
 
-from ._blocks import MAX_MOVE, NOCONV, OK, ROUNDING, lu_solve, slide_curvature, slide_row
+from ..kinds import eq_attach, eq_distance, eq_slide
+from ..kinds._common import MAX_MOVE, NOCONV, OK, ROUNDING, lu_solve
+from ..kinds.eq_slide import slide_curvature, slide_row
 
 
 @njit(cache=True)
-def _assemble(P, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, with_residual):
-    """Fill M (2nv, 2nv) with the full Jacobian at P; if ``with_residual``, rhs = −F(P) and return the worst scaled residual.
+def _assemble(P, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, with_residual, ident):
+    """Fill M (2nv, 2nv) with the full Jacobian at P (each row's gradient from its equation type, every
+    vertex an unknown: ``ident`` maps vertex v to column pair v); if ``with_residual``, rhs = −F(P) and
+    return the worst scaled residual.
 
     Rows: the distance equations, then two rows (x, y) per attach equation, one per slide equation,
     then two per known vertex."""
@@ -28,41 +32,21 @@ def _assemble(P, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M,
             M[i, j] = 0.0
     worst = 0.0
     for e in range(link_a.shape[0]):
-        u = link_a[e]
-        w = link_b[e]
-        gx = P[w, 0] - P[u, 0]
-        gy = P[w, 1] - P[u, 1]
-        M[e, 2 * u] = -2.0 * gx
-        M[e, 2 * u + 1] = -2.0 * gy
-        M[e, 2 * w] = 2.0 * gx
-        M[e, 2 * w + 1] = 2.0 * gy
+        eq_distance.jacobian(P, e, link_a, link_b, ident, M, e)
         if with_residual:
-            d2 = L[e] * L[e]
-            res = gx * gx + gy * gy - d2
+            res, d2 = eq_distance.residual(P, e, link_a, link_b, L)
             rhs[e] = -res
             worst = max(worst, abs(res) / d2)
     for t in range(att_vpq.shape[0]):
-        j = att_vpq[t, 0]
         p = att_vpq[t, 1]
         q = att_vpq[t, 2]
-        cu = uv[t, 0]
-        cv = uv[t, 1]
         gx = P[q, 0] - P[p, 0]
         gy = P[q, 1] - P[p, 1]
         for ax in range(2):
             r = link_a.shape[0] + 2 * t + ax
-            oth = 1 - ax
-            sv = 1.0 if ax == 0 else -1.0
-            M[r, 2 * j + ax] += 1.0
-            M[r, 2 * p + ax] += cu - 1.0
-            M[r, 2 * p + oth] -= sv * cv
-            M[r, 2 * q + ax] -= cu
-            M[r, 2 * q + oth] += sv * cv
+            eq_attach.jacobian(t, ax, att_vpq, uv, ident, M, r)
             if with_residual:
-                if ax == 0:
-                    res = P[j, 0] - (P[p, 0] + cu * gx - cv * gy)
-                else:
-                    res = P[j, 1] - (P[p, 1] + cu * gy + cv * gx)
+                res = eq_attach.residual(P, t, ax, att_vpq, uv)
                 rhs[r] = -res
                 worst = max(worst, abs(res) / np.sqrt(gx * gx + gy * gy))
     ref = np.inf
@@ -70,15 +54,9 @@ def _assemble(P, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M,
         ref = min(ref, L[e])
     for k in range(slide.shape[0]):
         r = n0 + k
-        res, jpx, jpy, jax, jay, jbx, jby = slide_row(P, k, slide, sd)
-        M[r, 2 * slide[k, 0]] += jpx
-        M[r, 2 * slide[k, 0] + 1] += jpy
-        if slide[k, 1] >= 0:
-            M[r, 2 * slide[k, 1]] += jax
-            M[r, 2 * slide[k, 1] + 1] += jay
-            M[r, 2 * slide[k, 2]] += jbx
-            M[r, 2 * slide[k, 2] + 1] += jby
+        eq_slide.jacobian(P, k, slide, sd, ident, M, r)
         if with_residual:
+            res = slide_row(P, k, slide, sd)[0]
             rhs[r] = -res
             worst = max(worst, abs(res) / ref)
     for k in range(known.shape[0]):
@@ -95,7 +73,7 @@ def _assemble(P, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M,
 
 @njit(cache=True)
 def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, known_vel,
-                known_acc, h, hp, tol, maxit, want_acc, M, rhs):
+                known_acc, h, hp, tol, maxit, want_acc, M, rhs, ident):
     """Predict from P0/V0/Vp, then full-system Newton; on success fill P1, V1 (and A1).
 
     ``known`` (n_known,) lists the crank tip then the fixed vertices, with their target positions,
@@ -117,7 +95,7 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, slide, s
         P1[known[k], 1] = known_pos[k, 1]
     it = 0
     while True:
-        if _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, True) <= ROUNDING:
+        if _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, True, ident) <= ROUNDING:
             break
         if it >= maxit or lu_solve(M, rhs, n) == 0.0:
             return NOCONV, it
@@ -133,7 +111,7 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, slide, s
             break
     # seed 000 eq. 29–30: M dV/dθ = B, B = the known vertices' rates, zero for the link and attach rows
     nl = link_a.shape[0] + 2 * att_vpq.shape[0] + slide.shape[0]
-    _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, False)
+    _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, False, ident)
     for e in range(nl):
         rhs[e] = 0.0
     for k in range(known.shape[0]):
@@ -145,7 +123,7 @@ def solve_dense(P0, V0, Vp, P1, V1, A1, link_a, link_b, L, att_vpq, uv, slide, s
         V1[v, 0] = rhs[2 * v]
         V1[v, 1] = rhs[2 * v + 1]
     if want_acc:
-        _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, False)
+        _assemble(P1, link_a, link_b, L, att_vpq, uv, slide, sd, known, known_pos, M, rhs, False, ident)
         for e in range(nl):
             rhs[e] = 0.0  # attach rows are linear: no curvature term
         for k in range(slide.shape[0]):

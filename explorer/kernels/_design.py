@@ -13,9 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UserError
+from ..kinds import EQUATIONS
 from ..mechanism import Mechanism
 from ..plan import Plan
-from ._inputs import Designs
+from ._inputs import BLOCK_DTYPE, Designs
 
 
 def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray, geometry: dict | None,
@@ -58,6 +59,8 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
     else:
         center = np.zeros((N, 2))
     slide = slide_numbers(mech, plan, lengths, points, col, N)
+    extra = [eq.numbers(mech, plan, col, N) for eq in EQUATIONS if getattr(eq, "NUMBERS", 0)]
+    extra = np.concatenate(extra, axis=1) if extra else np.zeros((N, 0))
     # an attached joint's error is at most (|1 − u| + |u| + 2|v|) times its base pair's: tighten
     # Newton's stopping distance by that much so that every joint keeps the promise
     amp = np.ones(N)
@@ -68,11 +71,15 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
     tol = tolerance * size / amp
     ok = (np.all(np.isfinite(uv), axis=(1, 2)) & np.all(np.isfinite(fixed), axis=(1, 2))
           & np.all(np.isfinite(center), axis=1) & np.isfinite(tol) & (tol > 0)
-          & np.all(np.isfinite(slide), axis=(1, 2)) & np.all(slide[..., 5] > 0, axis=1))
+          & np.all(np.isfinite(slide), axis=(1, 2)) & np.all(slide[..., 5] > 0, axis=1)
+          & np.all(np.isfinite(extra), axis=1))
     dist[~ok] = np.nan
+    # the block tables, starts and closing scales are the kernels' setup's (``_batch.setup``)
     return Designs(np.ascontiguousarray(dist), np.ascontiguousarray(uv), np.ascontiguousarray(fixed),
                    np.ascontiguousarray(center), np.ascontiguousarray(scale, dtype=np.float64), tol,
-                   np.ascontiguousarray(slide))
+                   np.ascontiguousarray(slide), np.ascontiguousarray(extra), np.zeros((N, 0), dtype=BLOCK_DTYPE),
+                   np.zeros((N, 0, 2)),
+                   np.full(N, np.inf))
 
 
 def slide_numbers(mech: Mechanism, plan: Plan, lengths: np.ndarray, points: list, col, N: int) -> np.ndarray:
@@ -105,12 +112,15 @@ def slide_numbers(mech: Mechanism, plan: Plan, lengths: np.ndarray, points: list
 
 
 def _columns(mech: Mechanism, geometry: dict | None, N: int):
-    """``col(name)``: the (N,) values of coordinate parameter ``name`` (from ``geometry``, else the nominal)."""
+    """``col(name)``: the (N,) values of design parameter ``name`` other than a link's length or the crank
+    radius (a coordinate, or a geared crank's radius) from ``geometry``, else the nominal."""
     nominal = mech.parameters()
     geometry = dict(geometry or {})
     for name in geometry:
-        if mech.parameter_kind(name) != "coordinate":
-            raise UserError(f"geometry: {name!r} is a length; pass it with the lengths (or the crank radii)")
+        mech.parameter_kind(name)  # an unknown name is an error
+        if name == "crank" or name in mech.link_names:
+            raise UserError(f"geometry: {name!r} is a link length or the crank radius; pass it with the lengths "
+                            f"(or the crank radii)")
 
     def col(name):
         if name in geometry:

@@ -74,56 +74,48 @@ from __future__ import annotations
 
 import math
 import types
+from collections import namedtuple
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from ..mechanism import BODY_MODELS
-from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, ROW_SLIDE, SLIDE, Plan
-from ._blocks import _general_jacobian, _general_rates, general_sign, lu_solve, slide_curvature, slide_row
+from ..kinds import eq_attach, eq_distance, eq_slide
+from ..mechanism import BODY_MODELS, crank_masses, link_masses
+from ..plan import Plan
 from ._design import pair_coordinates
+from ._kinds_array import reactions_any, reactions_closed, singular_any, singular_closed
 from ._legs import ground_contact, leg_feet, leg_samples
 
-# The general-block solver the kinematics / reactions call (``_kin_general`` / ``_rea_general``); the
-# copies jitted by :func:`_specialise` bind it, or bind a stub for plans without general blocks, so that
-# the common dyad-and-body plans compile without it (measured: the reachable call made the whole
-# dyad loop 2-4x slower).
-general = None
-# The kinematics and reactions the forces kernel calls; bound in the specialised copies.
-kinematics = None
+# The kinds' forces code the per-design function calls (``_kinds_array``: each block's singularity
+# check and reactions, rendered from the kinds); bound in the specialised copies (:func:`_specialise`),
+# so that plans without coupled blocks compile without the general block's solver.
+singular = None
 reactions = None
 
 #: force-effect status codes written to ``code`` (0 ok); the caller turns them into statuses
 F_OK, F_SINGULAR, F_NONFINITE = 0, 1, 2
+#: a dyad's or a slider's Jacobian with |det| at most this times the sum of its terms' sizes is singular
+SINGULAR_TOL = 1e-13
+#: A joint's stored reaction is its most heavily loaded member's force on it; members whose forces agree
+#: in size to within 1e-9 (the two members of a two-member pin, whose forces are equal and opposite) are
+#: a tie, which the first member (in incidence order) wins: rounding does not pick the sign.
+PIN_TIE = 1.0 - 1e-9
 
 
 @dataclass(frozen=True)
 class ForceTables:
-    """The plan as the forces kernel reads it (computed once per topology).
+    """The members as the forces effect reads them (computed once per topology): one *incidence* per
+    member and pin.
 
-    blk_kind (nb,) DYAD / ATTACH / GENERAL; blk_v (nb,) a dyad's vertex; blk_e (nb, 2) a dyad's two
-    distance rows (an attach block's attach row in column 0); blk_vp (nb+1,) / blk_verts: a general
-    block's vertices; blk_rp (nb+1,) / gen_rows (n_rows, 2): its rows as the kernels write them
-    (``_inputs.Topology.gen_rows``: ROW_DIST / ROW_ATTACH_X / ROW_ATTACH_Y, equation).
-    dist_a, dist_b (n_dist,), att (n_att, 3) (joint, p, q) vertex indices.
-    Incidences (one per member and pin): inc_vertex (K,); dinc (n_dist, 2) the incidence of each
-    distance row's a and b ends; ainc (n_att, 3) of each attach row's j, p, q; body_pq (n_bodies, 2)
-    base-pair vertices and body_inc (n_bodies, 2) their incidences; link_inc is dinc[:n_links];
-    tip_inc the crank's incidence at the tip; fixed (n_fixed,) and fixed_inc; foot, foot_inc (the
-    ground's incidence at the foot).
+    inc_vertex (K,) each incidence's vertex; dinc (n_dist, 2) the incidences of each distance
+    equation's a and b ends; ainc (n_att, 3) of each attach equation's j, p, q; body_pq (n_bodies, 2)
+    base-pair vertices and body_inc (n_bodies, 2) their incidences; tip_inc the crank's incidence at
+    the tip; fixed (n_fixed,) and fixed_inc; foot, foot_inc (the ground's incidence at the foot);
+    sinc (n_slide, 3) the incidences of each slide equation's guide (the frame, or the slot's member)
+    at p, a, b; inc_member (K,) member names, for people: link / body name, "crank", "frame", "ground".
     """
 
-    blk_kind: np.ndarray
-    blk_v: np.ndarray
-    blk_e: np.ndarray
-    blk_vp: np.ndarray
-    blk_verts: np.ndarray
-    blk_rp: np.ndarray
-    gen_rows: np.ndarray
-    dist_a: np.ndarray
-    dist_b: np.ndarray
-    att: np.ndarray
     inc_vertex: np.ndarray
     dinc: np.ndarray
     ainc: np.ndarray
@@ -135,9 +127,8 @@ class ForceTables:
     fixed_inc: np.ndarray
     foot: int
     foot_inc: int
-    inc_member: tuple  # (K,) member names, for people: link / body name, "crank", "frame", "ground"
-    slide: np.ndarray = None  # (n_slide, 3) each slide equation's p, a, b (``Plan.slide``)
-    sinc: np.ndarray = None  # (n_slide, 3) the incidences of its guide (the frame, or the slot's member) at p, a, b
+    inc_member: tuple
+    sinc: np.ndarray
 
 
 def force_tables(mech, plan: Plan) -> ForceTables:
@@ -178,463 +169,141 @@ def force_tables(mech, plan: Plan) -> ForceTables:
         member = next((lk.name for lk in mech.links if frozenset((lk.a, lk.b)) == pair), None) \
             or next(b.name for b in mech.bodies if pair <= set(b.joints))
         sinc[k] = [incidence(member, v) for v in pab]
-    nblk = plan.n_blocks
-    blk_kind = np.array([b.kind for b in plan.blocks], dtype=np.int64)
-    blk_v = np.array([b.vertices[0] for b in plan.blocks], dtype=np.int64)
-    blk_e = np.full((nblk, 2), -1, dtype=np.int64)
-    vp, verts, rp, rows = [0], [], [0], []
-    for k, b in enumerate(plan.blocks):
-        if b.kind == DYAD:
-            blk_e[k] = b.links
-        elif b.kind == ATTACH:
-            blk_e[k, 0] = b.attaches[0][0]
-        elif b.kind == SLIDE:
-            blk_e[k] = b.links[0], b.slides[0]
-        else:
-            verts += list(b.vertices)
-            for e in b.links:
-                rows.append((ROW_DIST, e))
-            for t, axis in b.attaches:
-                rows.append((ROW_ATTACH_X if axis == 0 else ROW_ATTACH_Y, t))
-            for t in b.slides:
-                rows.append((ROW_SLIDE, t))
-        vp.append(len(verts))
-        rp.append(len(rows))
-    i64 = lambda x: np.asarray(x, dtype=np.int64)  # noqa: E731
-    return ForceTables(blk_kind, blk_v, blk_e, i64(vp), i64(verts), i64(rp), i64(rows).reshape(-1, 2),
-                       i64(plan.link_a), i64(plan.link_b), i64(plan.attach).reshape(-1, 3), i64([v for _, v in inc]),
-                       dinc, ainc, body_pq, body_inc, int(plan.tip), tip_inc, fixed, fixed_inc, foot, foot_inc,
-                       tuple(m for m, _ in inc), i64(plan.slide).reshape(-1, 3), sinc)
+    return ForceTables(np.array([v for _, v in inc], dtype=np.int64), dinc, ainc, body_pq, body_inc, int(plan.tip),
+                       tip_inc, fixed, fixed_inc, foot, foot_inc, tuple(m for m, _ in inc), sinc)
 
 
-# -- small dense solves -------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def _row_grad(kind, rid, axis, v, P, dist_a, dist_b, att, uv, out):
-    """out[:] = ∂c/∂q_v (2,) of constraint row (kind, rid, axis) with respect to vertex v's position."""
-    out[0] = 0.0
-    out[1] = 0.0
-    if kind == 0:
-        a = dist_a[rid]
-        b = dist_b[rid]
-        if v == b:
-            out[0] = P[b, 0] - P[a, 0]
-            out[1] = P[b, 1] - P[a, 1]
-        elif v == a:
-            out[0] = P[a, 0] - P[b, 0]
-            out[1] = P[a, 1] - P[b, 1]
-    else:
-        u = uv[rid, 0]
-        w = uv[rid, 1]
-        j = att[rid, 0]
-        p = att[rid, 1]
-        q = att[rid, 2]
-        # c = j − (I − A) p − A q, A = [[u, −w], [w, u]]
-        if v == j:
-            out[axis] = 1.0
-        if v == p:
-            if axis == 0:
-                out[0] -= 1.0 - u
-                out[1] -= w
-            else:
-                out[0] -= -w
-                out[1] -= 1.0 - u
-        if v == q:
-            if axis == 0:
-                out[0] -= u
-                out[1] -= -w
-            else:
-                out[0] -= w
-                out[1] -= u
+ForceModel = namedtuple("ForceModel", [
+    # shared by every variant of a call (the forces effect's named inputs)
+    "inc_vertex", "dinc", "ainc", "body_pq", "body_inc", "tip_inc", "fixed", "fixed_inc", "foot", "foot_inc",
+    "sinc",       # the incidences (:class:`ForceTables`)
+    "body_mass",  # (nb,) kg
+    "sel",        # (n_sel,) the joints whose reactions are stored (leg 0's)
+    "base", "frac", "sign", "mirrored",  # the walker's legs (``_legs.leg_samples``)
+    "drag",       # the drag, a fraction of the load's weight
+    "unit",       # m per model unit
+    "omega",      # rad/s
+    "gravity",    # m/s²
+    "weight",     # N, the load's weight
+    "moving",     # bool, the moving-body model (else the frame held)
+    "load_mass",  # kg, the walker's body
+    "out_idx",    # (n_out,) the vertices whose rows a caller stores
+])
+
+ForceRows = namedtuple("ForceRows", [
+    # per variant (N rows): inputs
+    "link_mass",  # (N, n_links) kg
+    "body_cuv",   # (N, nb, 2) each body's centroid in its base pair's coordinates
+    "body_J",     # (N, nb) kg, each body's base-pair inertia (see the module)
+    "crank_mass", # (N,) kg
+    # outputs
+    "torque",     # (N, S) N·m, the walker's motor torque
+    "fsel",       # (N, S, n_sel, 2) N, leg 0's reaction at each joint of ``sel``
+    "finc",       # (N, S or 0, K, 2) N, leg 0's force of every member on every pin (when asked for)
+    "pin_peak",   # (N, n_vertices) N
+    "shake",      # (N,) N
+    "travel",     # (N,) model units per turn
+    "code", "sample", "block",  # (N,) F_OK / F_SINGULAR / F_NONFINITE, where
+    "body_acc",   # (N, S, 2) m/s²
+    "ground",     # (N, S, 2) N
+    "contact",    # (N, S) the contact leg
+])
+
+ForceScratch = namedtuple("ForceScratch", [
+    "pos", "vel", "acc",  # (S, n_vertices, 2) the design's every vertex, stored by the sweep
+    "Pu",                 # (n_vertices, 2) one sample's positions
+    "R",                  # (nr, n_vertices, 2) the loads, one per right-hand side
+    "Fu",                 # (nr, K, 2) the incidence forces
+    "Fi", "tau", "frame",  # (S, nr, K, 2), (S, nr), (S, nr, 2) the base leg's, per sample and right-hand side
+    "act",                # (nr,) bool, the right-hand sides solved at a sample
+    "lam_d", "lam_a", "lam_s",  # (nr, n_dist), (nr, n_att, 2), (nr, n_slide) the multipliers
+    "loc", "M", "x",      # a coupled block's scratch
+    "Y", "VX", "VY",      # (L, S) every leg's foot
+    "G", "C",             # (S,) the ground, the contact leg
+    "fm",                 # (K,)
+    "vis_free", "vis_plain", "vis_mirr",  # (S,) bool
+])
 
 
 @njit(cache=True, nogil=True)
-def _kin_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, V, A, loc, M, x, g, slide, sd):
-    """Velocities and accelerations of general block k's vertices (see :func:`_kinematics`), by the
-    kernels' own general-block rates (``_blocks._general_rates``); False if its Jacobian is singular."""
-    verts = blk_verts[blk_vp[k]:blk_vp[k + 1]]
-    rows = gen_rows[blk_rp[k]:blk_rp[k + 1]]
-    if general_sign(P, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M, x) == 0.0:
-        return False
-    for j in range(verts.shape[0]):
-        loc[verts[j]] = j
-    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M, x, False)
-    _general_rates(P, V, A, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M, x, True)
-    for j in range(verts.shape[0]):
-        loc[verts[j]] = -1
-    return True
-
-
-def _kinematics(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv,
-                tip, cx, cy, P, V, A, loc, M, x, g, tol, slide, sd):
-    """Velocities V and accelerations A (nv, 2), per radian and per radian², of every vertex at one
-    sample from its positions P, block by block in plan order; fixed vertices still, the tip on its
-    circle about (cx, cy). Returns the first block whose Jacobian is singular, or −1."""
-    for v in range(V.shape[0]):  # loops, not slices: a slice is a view, a reference count to update
-        V[v, 0] = 0.0
-        V[v, 1] = 0.0
-        A[v, 0] = 0.0
-        A[v, 1] = 0.0
-    V[tip, 0] = -(P[tip, 1] - cy)
-    V[tip, 1] = P[tip, 0] - cx
-    A[tip, 0] = -(P[tip, 0] - cx)
-    A[tip, 1] = -(P[tip, 1] - cy)
-    for k in range(tb_kind.shape[0]):
-        kind = tb_kind[k]
-        if kind == 0:  # DYAD: c_i · (V_v − V_a_i) = 0, c_i · (A_v − A_a_i) + |V_v − V_a_i|² = 0
-            # (the dyad's frame is written out here and in _reactions: a shared helper returning it
-            # measured 25-50 % slower for the whole forces kernel)
-            v = blk_v[k]
-            e1 = blk_e[k, 0]
-            e2 = blk_e[k, 1]
-            a1 = dist_a[e1] if dist_b[e1] == v else dist_b[e1]
-            a2 = dist_a[e2] if dist_b[e2] == v else dist_b[e2]
-            c1x = P[v, 0] - P[a1, 0]
-            c1y = P[v, 1] - P[a1, 1]
-            c2x = P[v, 0] - P[a2, 0]
-            c2y = P[v, 1] - P[a2, 1]
-            det = c1x * c2y - c1y * c2x
-            if not (abs(det) > tol * (abs(c1x * c2y) + abs(c1y * c2x))):
-                return k
-            r1 = c1x * V[a1, 0] + c1y * V[a1, 1]
-            r2 = c2x * V[a2, 0] + c2y * V[a2, 1]
-            V[v, 0] = (r1 * c2y - r2 * c1y) / det
-            V[v, 1] = (c1x * r2 - c2x * r1) / det
-            d1x = V[v, 0] - V[a1, 0]
-            d1y = V[v, 1] - V[a1, 1]
-            d2x = V[v, 0] - V[a2, 0]
-            d2y = V[v, 1] - V[a2, 1]
-            r1 = c1x * A[a1, 0] + c1y * A[a1, 1] - (d1x * d1x + d1y * d1y)
-            r2 = c2x * A[a2, 0] + c2y * A[a2, 1] - (d2x * d2x + d2y * d2y)
-            A[v, 0] = (r1 * c2y - r2 * c1y) / det
-            A[v, 1] = (c1x * r2 - c2x * r1) / det
-        elif kind == 1:  # ATTACH: j = p + A (q − p), linear
-            t = blk_e[k, 0]
-            j = att[t, 0]
-            p = att[t, 1]
-            q = att[t, 2]
-            u = uv[t, 0]
-            w = uv[t, 1]
-            gx = V[q, 0] - V[p, 0]
-            gy = V[q, 1] - V[p, 1]
-            V[j, 0] = V[p, 0] + u * gx - w * gy
-            V[j, 1] = V[p, 1] + u * gy + w * gx
-            gx = A[q, 0] - A[p, 0]
-            gy = A[q, 1] - A[p, 1]
-            A[j, 0] = A[p, 0] + u * gx - w * gy
-            A[j, 1] = A[p, 1] + u * gy + w * gx
-        elif kind == 3:  # SLIDE: (v − c)·(V_v − V_c) = 0 and the slide row J·V = 0 (see _fast.slide_rates)
-            v = blk_v[k]
-            e = blk_e[k, 0]
-            s = blk_e[k, 1]
-            c = dist_a[e] if dist_b[e] == v else dist_b[e]
-            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, slide, sd)
-            jx, jy = _slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby)
-            ex = P[v, 0] - P[c, 0]
-            ey = P[v, 1] - P[c, 1]
-            det = ex * jy - ey * jx
-            if not (abs(det) > tol * (abs(ex * jy) + abs(ey * jx))):
-                return k
-            r1 = ex * V[c, 0] + ey * V[c, 1]
-            r2 = -_slide_others(slide, s, v, V, jpx, jpy, jax, jay, jbx, jby)
-            V[v, 0] = (r1 * jy - ey * r2) / det
-            V[v, 1] = (ex * r2 - jx * r1) / det
-            wx = V[v, 0] - V[c, 0]
-            wy = V[v, 1] - V[c, 1]
-            r1 = ex * A[c, 0] + ey * A[c, 1] - (wx * wx + wy * wy)
-            r2 = -_slide_others(slide, s, v, A, jpx, jpy, jax, jay, jbx, jby) - slide_curvature(V, s, slide, sd)
-            A[v, 0] = (r1 * jy - ey * r2) / det
-            A[v, 1] = (ex * r2 - jx * r1) / det
-        else:  # GENERAL: J_bb x_b = −J_bk x_k (− the quadratic terms of the distance rows, for A)
-            if not general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, V,
-                                A, loc, M, x, g, slide, sd):
-                return k
-    return -1
-
-
-@njit(cache=True, nogil=True)
-def _slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby):
-    """The slide row s's partial derivative in vertex v (one of its p, a, b)."""
-    if slide[s, 0] == v:
-        return jpx, jpy
-    if slide[s, 1] == v:
-        return jax, jay
-    return jbx, jby
-
-
-@njit(cache=True, nogil=True)
-def _slide_others(slide, s, v, X, jpx, jpy, jax, jay, jbx, jby):
-    """Σ ∂r/∂w · X[w] over slide row s's vertices w other than v."""
-    out = 0.0
-    if slide[s, 0] != v:
-        out += jpx * X[slide[s, 0], 0] + jpy * X[slide[s, 0], 1]
-    if slide[s, 1] >= 0:
-        if slide[s, 1] != v:
-            out += jax * X[slide[s, 1], 0] + jay * X[slide[s, 1], 1]
-        if slide[s, 2] != v:
-            out += jbx * X[slide[s, 2], 0] + jby * X[slide[s, 2], 1]
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _rea_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, R, loc, M, x, g, lam_d, lam_a,
-                 slide, sd, lam_s):
-    """The multipliers of general block k (see :func:`_reactions`): its Jacobian (the kernels' own,
-    ``_blocks._general_jacobian``) transposed; False if it is singular."""
-    verts = blk_verts[blk_vp[k]:blk_vp[k + 1]]
-    rows = gen_rows[blk_rp[k]:blk_rp[k + 1]]
-    nb = verts.shape[0]
-    n = 2 * nb
-    for j in range(nb):
-        loc[verts[j]] = j
-    _general_jacobian(P, verts, rows, dist_a, dist_b, att, uv, slide, sd, loc, M)
-    for r in range(n):  # transpose in place
-        for c in range(r + 1, n):
-            t = M[r, c]
-            M[r, c] = M[c, r]
-            M[c, r] = t
-    for j in range(nb):
-        x[2 * j] = R[verts[j], 0]
-        x[2 * j + 1] = R[verts[j], 1]
-        R[verts[j], 0] = 0.0
-        R[verts[j], 1] = 0.0
-    if lu_solve(M, x, n) == 0.0:
-        for j in range(nb):
-            loc[verts[j]] = -1
-        return False
-    for r in range(n):  # store the multipliers; push what the rows put on vertices outside the block
-        if rows[r, 0] == ROW_SLIDE:
-            s = rows[r, 1]
-            lam_s[s] = x[r]
-            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, slide, sd)
-            for vv, gx, gy in ((slide[s, 0], jpx, jpy), (slide[s, 1], jax, jay), (slide[s, 2], jbx, jby)):
-                if vv >= 0 and loc[vv] < 0:
-                    R[vv, 0] -= gx * x[r]
-                    R[vv, 1] -= gy * x[r]
-            continue
-        kind_r = 0 if rows[r, 0] == ROW_DIST else 1
-        rid = rows[r, 1]
-        ax = 0 if rows[r, 0] != ROW_ATTACH_Y else 1
-        lam = 2.0 * x[r] if kind_r == 0 else x[r]  # the kernels' distance row is |p_b − p_a|² − d², ours half that
-        if kind_r == 0:
-            lam_d[rid] = lam
-        else:
-            lam_a[rid, ax] = lam
-        for end in range(3):
-            if kind_r == 0 and end == 2:
-                break
-            vv = (dist_a[rid] if end == 0 else dist_b[rid]) if kind_r == 0 else att[rid, end]
-            if loc[vv] < 0:
-                _row_grad(kind_r, rid, ax, vv, P, dist_a, dist_b, att, uv, g)
-                R[vv, 0] -= g[0] * lam
-                R[vv, 1] -= g[1] * lam
-    for j in range(nb):
-        loc[verts[j]] = -1
-    return True
-
-
-def _reactions(tb_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att,
-               uv, dinc, ainc, P, R, F, loc, M, x, g, lam_d, lam_a, slide, sd, sinc, lam_s):
-    """Solve Φ_qᵀ λ = R block by block in reverse plan order. R (nv, 2) comes holding M q̈ − Q (with the
-    members' own parts already written, negated, into the incidence forces F (K, 2)); it leaves holding
-    what the plan's constraints do not carry: the crank's force on the tip and the frame's on each fixed
-    vertex. Adds every row's (∂c/∂q_v)ᵀ λ to its member's incidence at v. Returns the first singular
-    block or −1."""
-    nblk = tb_kind.shape[0]
-    for k in range(nblk - 1, -1, -1):
-        kind = tb_kind[k]
-        if kind == 0:
-            v = blk_v[k]
-            e1 = blk_e[k, 0]
-            e2 = blk_e[k, 1]
-            a1 = dist_a[e1] if dist_b[e1] == v else dist_b[e1]
-            a2 = dist_a[e2] if dist_b[e2] == v else dist_b[e2]
-            c1x = P[v, 0] - P[a1, 0]
-            c1y = P[v, 1] - P[a1, 1]
-            c2x = P[v, 0] - P[a2, 0]
-            c2y = P[v, 1] - P[a2, 1]
-            det = c1x * c2y - c1y * c2x
-            if det == 0.0:
-                return k
-            rx = R[v, 0]
-            ry = R[v, 1]
-            l1 = (rx * c2y - ry * c2x) / det
-            l2 = (c1x * ry - c1y * rx) / det
-            lam_d[e1] = l1
-            lam_d[e2] = l2
-            R[v, 0] = 0.0
-            R[v, 1] = 0.0
-            R[a1, 0] += c1x * l1
-            R[a1, 1] += c1y * l1
-            R[a2, 0] += c2x * l2
-            R[a2, 1] += c2y * l2
-        elif kind == 1:
-            t = blk_e[k, 0]
-            j = att[t, 0]
-            p = att[t, 1]
-            q = att[t, 2]
-            u = uv[t, 0]
-            w = uv[t, 1]
-            lx = R[j, 0]
-            ly = R[j, 1]
-            lam_a[t, 0] = lx
-            lam_a[t, 1] = ly
-            R[j, 0] = 0.0
-            R[j, 1] = 0.0
-            # Aᵀ λ with A = [[u, −w], [w, u]]
-            atx = u * lx + w * ly
-            aty = -w * lx + u * ly
-            R[p, 0] += lx - atx
-            R[p, 1] += ly - aty
-            R[q, 0] += atx
-            R[q, 1] += aty
-        elif kind == 3:  # SLIDE: λ_d (v − c) + λ_s J = R_v
-            v = blk_v[k]
-            e = blk_e[k, 0]
-            s = blk_e[k, 1]
-            c = dist_a[e] if dist_b[e] == v else dist_b[e]
-            _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, slide, sd)
-            jx, jy = _slide_partial(slide, s, v, jpx, jpy, jax, jay, jbx, jby)
-            ex = P[v, 0] - P[c, 0]
-            ey = P[v, 1] - P[c, 1]
-            det = ex * jy - ey * jx
-            if det == 0.0:
-                return k
-            rx = R[v, 0]
-            ry = R[v, 1]
-            l1 = (rx * jy - ry * jx) / det
-            l2 = (ex * ry - ey * rx) / det
-            lam_d[e] = l1
-            lam_s[s] = l2
-            R[v, 0] = 0.0
-            R[v, 1] = 0.0
-            R[c, 0] += ex * l1
-            R[c, 1] += ey * l1
-            for vv, gx, gy in ((slide[s, 0], jpx, jpy), (slide[s, 1], jax, jay), (slide[s, 2], jbx, jby)):
-                if vv >= 0 and vv != v:
-                    R[vv, 0] -= gx * l2
-                    R[vv, 1] -= gy * l2
-        else:
-            if not general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, R,
-                           loc, M, x, g, lam_d, lam_a, slide, sd, lam_s):
-                return k
-    # every row's pull on its member's pins: (∂c/∂q_v)ᵀ λ
-    for e in range(dist_a.shape[0]):
-        a = dist_a[e]
-        b = dist_b[e]
-        dx = (P[b, 0] - P[a, 0]) * lam_d[e]
-        dy = (P[b, 1] - P[a, 1]) * lam_d[e]
-        F[dinc[e, 1], 0] += dx
-        F[dinc[e, 1], 1] += dy
-        F[dinc[e, 0], 0] -= dx
-        F[dinc[e, 0], 1] -= dy
-    for t in range(att.shape[0]):
-        u = uv[t, 0]
-        w = uv[t, 1]
-        lx = lam_a[t, 0]
-        ly = lam_a[t, 1]
-        atx = u * lx + w * ly
-        aty = -w * lx + u * ly
-        F[ainc[t, 0], 0] += lx
-        F[ainc[t, 0], 1] += ly
-        F[ainc[t, 1], 0] -= lx - atx
-        F[ainc[t, 1], 1] -= ly - aty
-        F[ainc[t, 2], 0] -= atx
-        F[ainc[t, 2], 1] -= aty
-    for s in range(slide.shape[0]):  # a slider's guide pushes normal to its line, no friction
-        _, jpx, jpy, jax, jay, jbx, jby = slide_row(P, s, slide, sd)
-        ls = lam_s[s]
-        F[sinc[s, 0], 0] += jpx * ls
-        F[sinc[s, 0], 1] += jpy * ls
-        if slide[s, 1] >= 0:
-            F[sinc[s, 1], 0] += jax * ls
-            F[sinc[s, 1], 1] += jay * ls
-            F[sinc[s, 2], 0] += jbx * ls
-            F[sinc[s, 2], 1] += jby * ls
-    return -1
+def force_scratch(S, nv, fm, topo):
+    """A kernel's :class:`ForceScratch` for S samples of a mechanism of nv vertices (``fm``: the
+    :class:`ForceModel`; ``topo``: the lowered plan, for the equations' counts and the largest coupled
+    block). The per-sample sums start at zero: without a load only the first right-hand side is ever
+    written, and the others are read with weight 0 (0 × uninitialised memory could be NaN)."""
+    K = fm.inc_vertex.shape[0]
+    nr = 5 if fm.moving else 3
+    m = 2
+    for g in range(topo.gen_vptr.shape[0] - 1):
+        m = max(m, 2 * (topo.gen_vptr[g + 1] - topo.gen_vptr[g]))
+    L = fm.base.shape[0]
+    return ForceScratch(np.empty((S, nv, 2)), np.empty((S, nv, 2)), np.empty((S, nv, 2)), np.empty((nv, 2)),
+                        np.zeros((nr, nv, 2)), np.zeros((nr, K, 2)), np.zeros((S, nr, K, 2)), np.zeros((S, nr)),
+                        np.zeros((S, nr, 2)), np.zeros(nr, dtype=np.bool_), np.zeros((nr, topo.dist_a.shape[0])),
+                        np.zeros((nr, topo.att_vpq.shape[0], 2)), np.zeros((nr, topo.slide.shape[0])),
+                        np.full(nv, -1, dtype=np.int64), np.empty((m, m)), np.empty(m), np.empty((L, S)),
+                        np.empty((L, S)), np.empty((L, S)), np.empty(S), np.empty(S, dtype=np.int64), np.empty(K),
+                        np.empty(S, dtype=np.bool_), np.empty(S, dtype=np.bool_), np.empty(S, dtype=np.bool_))
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _body_load(R, Fu, p, q, ip, iq, dpx, dpy, dqx, dqy):
-    """A body's generalised load (dpx, dpy) on its base vertex p and (dqx, dqy) on q: into R, and, negated,
-    into the body's incidence forces Fu at p (ip) and q (iq)."""
-    R[p, 0] += dpx
-    R[p, 1] += dpy
-    R[q, 0] += dqx
-    R[q, 1] += dqy
-    Fu[ip, 0] -= dpx
-    Fu[ip, 1] -= dpy
-    Fu[iq, 0] -= dqx
-    Fu[iq, 1] -= dqy
+def _body_load(R, Fu, r, p, q, ip, iq, dpx, dpy, dqx, dqy):
+    """A body's generalised load (dpx, dpy) on its base vertex p and (dqx, dqy) on q: into R[r], and,
+    negated, into the body's incidence forces Fu[r] at p (ip) and q (iq)."""
+    R[r, p, 0] += dpx
+    R[r, p, 1] += dpy
+    R[r, q, 0] += dqx
+    R[r, q, 1] += dqy
+    Fu[r, ip, 0] -= dpx
+    Fu[r, ip, 1] -= dpy
+    Fu[r, iq, 0] -= dqx
+    Fu[r, iq, 1] -= dqy
 
 
-def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b,
-                   att, inc_vertex, dinc, ainc, body_pq, body_inc, body_mass, tip, tip_inc, fixed, fixed_inc, foot,
-                   foot_inc, sel, base, frac, sign, mirrored, drag, unit, omega, gravity, weight, out_idx, slide, sinc,
-                   moving, load_mass,
-                   P, status, uv, sdes, center, link_mass, body_cuv, body_J, crank_mass,
-                   torque, fsel, finc, vout, aout, pin_peak, shake_peak, travel, code, code_sample, code_block,
-                   body_acc, ground, contact):
-    """Per variant i (rows last): positions P[i] (S, nv, 2), model units, of an ok variant (status 0)
-    → torque[i] (S,) N·m, fsel[i] (S, n_sel, 2) N (leg 0's reaction at each joint in ``sel``),
-    pin_peak[i] (nv,) N, shake_peak[i] N, travel[i] model units per turn, code[i] (F_OK, F_SINGULAR,
-    F_NONFINITE) with code_sample / code_block where it failed; finc[i] (S, K, 2) leg 0's force of every
-    member on every pin (incidence), when asked for (finc of shape (N, 0, K, 2) otherwise); vout[i],
-    aout[i] (S, n_out, 2) the velocities (per radian) and accelerations (per radian²) of the vertices
-    ``out_idx``, when asked for (second axis 0 otherwise). Shared: the :class:`ForceTables`
-    arrays, body_mass (nb,) kg, sel (n_sel,), the walker's legs (base, frac, sign, mirrored), drag,
-    unit (m per model unit), omega (rad/s), gravity (m/s²), weight (N on the contact foot: the load's weight),
-    moving (the moving-body model, else the held frame), load_mass (kg, the walker's body); body_acc[i],
-    ground[i] (S, 2) the body's acceleration (m/s², 0 when held) and the ground's force on the contact foot
-    (N, the walker's frame), contact[i] (S,) the contact leg. Per row:
-    uv (n_att, 2), sdes (n_slide, 6) the slide equations' lines (``Designs.slide``), center (2,), link_mass (n_links,) kg, body_cuv (nb, 2) centroids in base-pair
-    coordinates, body_J (nb,) kg (the base-pair inertia, see the module), crank_mass kg."""
-    N = P.shape[0]
-    S = P.shape[1]
-    nv = P.shape[2]
-    K = inc_vertex.shape[0]
-    L = base.shape[0]
-    nl = link_mass.shape[1]
-    nb = body_pq.shape[0]
-    m = 2
-    for k in range(blk_kind.shape[0]):
-        if blk_kind[k] == 2:
-            m = max(m, 2 * (blk_vp[k + 1] - blk_vp[k]))
-    V = np.empty((S, nv, 2))
-    A = np.empty((S, nv, 2))
-    R = np.empty((nv, 2))
-    # per-sample scratch: the block functions work on these rather than on views of the big arrays
-    # (every view is a reference-count update, atomic and shared between threads: measured 2x slower
-    # on two threads than on one)
-    Pu = np.empty((nv, 2))
-    Vu = np.empty((nv, 2))
-    Au = np.empty((nv, 2))
-    Fu = np.empty((K, 2))
-    uvi = np.empty((att.shape[0], 2))
-    sdi = np.empty((slide.shape[0], 6))
-    lam_s = np.zeros(slide.shape[0])
-    # zeros: without a load only the first right-hand side is ever written, and the others are read
-    # with weight 0 (0 × uninitialised memory could be NaN). Held: inertia and weight, the load as a
-    # plain leg carries it, as a mirrored one does; moving: inertia and weight, a unit acceleration of
-    # the body along x, along y, a unit force of the ground on the foot along x, along y
-    nr = 5 if moving else 3
-    Fi = np.zeros((S, nr, K, 2))
-    tau = np.zeros((S, nr))
-    frame = np.zeros((S, nr, 2))
-    loc = np.full(nv, -1, dtype=np.int64)
-    M = np.empty((m, m))
-    x = np.empty(m)
-    g = np.empty(2)
-    lam_d = np.empty(dist_a.shape[0])
-    lam_a = np.empty((att.shape[0], 2))
-    Y = np.empty((L, S))
-    VX = np.empty((L, S))
-    VY = np.empty((L, S))
-    G = np.empty(S)
-    C = np.empty(S, dtype=np.int64)
-    fm = np.empty(K)
-    vis_free = np.empty(S, dtype=np.bool_)
-    vis_plain = np.empty(S, dtype=np.bool_)
-    vis_mirr = np.empty(S, dtype=np.bool_)
+def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
+    """The forces effect of design i (an ok sweep, every vertex's samples in fs.pos, fs.vel, fs.acc:
+    (S, n_vertices, 2), per radian and per radian²): the walker's motor torque, every pin's peak
+    reaction, the shaking force, travel, and leg 0's reactions at the selected joints (and every
+    member's when ``fr.finc`` has samples), into row i of ``fr`` (:class:`ForceRows`); table: its
+    block table; topo: the lowered plan; uv, sd: its attach and slide numbers; (cx, cy): its crank
+    centre; fm: :class:`ForceModel`; fs: :class:`ForceScratch`. Its code is F_SINGULAR (with the
+    sample and block) where a block's Jacobian is singular at a sample, F_NONFINITE where forces
+    overflow."""
+    pos = fs.pos
+    A = fs.acc
+    S = pos.shape[0]
+    nv = pos.shape[1]
+    K = fm.inc_vertex.shape[0]
+    nl = fr.link_mass.shape[1]
+    nb = fm.body_pq.shape[0]
+    L = fm.base.shape[0]
+    dist_a = topo.dist_a
+    dist_b = topo.dist_b
+    tip = topo.tip
+    foot = fm.foot
+    moving = fm.moving
+    weight = fm.weight
+    gravity = fm.gravity
+    unit = fm.unit
+    omega = fm.omega
+    base = fm.base
+    frac = fm.frac
+    sign = fm.sign
+    mirrored = fm.mirrored
+    Pu = fs.Pu
+    R = fs.R
+    Fu = fs.Fu
+    Fi = fs.Fi
+    tau = fs.tau
+    frame = fs.frame
+    act = fs.act
+    vis_free = fs.vis_free
+    vis_plain = fs.vis_plain
+    vis_mirr = fs.vis_mirr
+    nr = R.shape[0]
+    fr.code[i] = F_OK
+    fr.sample[i] = -1
+    fr.block[i] = -1
     grid = True
     for j in range(L):
         if frac[j] != 0.0:
@@ -642,363 +311,370 @@ def _forces_kernel(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, 
     d = 2.0 * math.pi / S
     s2 = unit * omega * omega  # per radian² of crank, model units → m/s²
     nrhs = 5 if moving else 3 if weight > 0.0 else 1
-    for i in range(N):
-        code[i] = F_OK
-        code_sample[i] = -1
-        code_block[i] = -1
-        if status[i] != 0:
-            continue
-        Pi = P[i]
-        for t in range(att.shape[0]):
-            uvi[t, 0] = uv[i, t, 0]
-            uvi[t, 1] = uv[i, t, 1]
-        for t in range(slide.shape[0]):
-            for c6 in range(6):
-                sdi[t, c6] = sdes[i, t, c6]
-        cx = center[i, 0]
-        cy = center[i, 1]
-        mc = crank_mass[i]
-        weightless = mc == 0.0  # no member has mass: a body acceleration loads nothing (moving)
-        for e in range(nl):
-            if link_mass[i, e] != 0.0:
-                weightless = False
-        for bi in range(nb):
-            if body_mass[bi] != 0.0:
-                weightless = False
-        failed = False
-        # -- velocities and accelerations, block by block -------------------------------------------
-        for u in range(S):
-            for v in range(nv):
-                Pu[v, 0] = Pi[u, v, 0]
-                Pu[v, 1] = Pi[u, v, 1]
-            blk = kinematics(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a,
-                             dist_b, att, uvi, tip, cx, cy, Pu, Vu, Au, loc, M, x, g, 1e-13, slide, sdi)
-            for v in range(nv):
-                V[u, v, 0] = Vu[v, 0]
-                V[u, v, 1] = Vu[v, 1]
-                A[u, v, 0] = Au[v, 0]
-                A[u, v, 1] = Au[v, 1]
-            if vout.shape[1] > 0:
-                for o in range(out_idx.shape[0]):
-                    vout[i, u, o, 0] = Vu[out_idx[o], 0]
-                    vout[i, u, o, 1] = Vu[out_idx[o], 1]
-            if aout.shape[1] > 0:
-                for o in range(out_idx.shape[0]):
-                    aout[i, u, o, 0] = Au[out_idx[o], 0]
-                    aout[i, u, o, 1] = Au[out_idx[o], 1]
-            if blk >= 0:
-                code[i] = F_SINGULAR
-                code_sample[i] = u
-                code_block[i] = blk
-                failed = True
-                break
-        if failed:
-            continue
-        # -- which leg carries the load at each sample (the walker scene's contact convention) -----
-        leg_feet(base, frac, sign, mirrored, Pi[:, foot, :], V[:, foot, :], Y, VX, VY)
-        ground_contact(Y, G, C)
-        sum_vx = 0.0
-        for k in range(S):
-            sum_vx += VX[C[k], k]
-        travel[i] = abs(d * sum_vx)
-        walk = 0.0
-        if sum_vx < 0.0:
-            walk = 1.0
-        elif sum_vx > 0.0:
-            walk = -1.0
-        Fx = walk * drag * weight
-        Fy = weight
-        # which samples of the base leg some leg reads while it carries the load (only those need the
-        # unit-force right-hand sides), and in which states every sample is read: free, loaded plain,
-        # loaded mirrored
-        for u in range(S):
-            vis_free[u] = False
-            vis_plain[u] = False
-            vis_mirr[u] = False
-        for k in range(S):
-            for j in range(L):
-                u0 = (sign[j] * k + base[j]) % S
-                loaded = C[k] == j and nrhs >= 3
-                for uu in range(2):
-                    if uu == 1 and frac[j] == 0.0:
-                        break
-                    ux = (u0 + uu) % S
-                    if not loaded:
-                        vis_free[ux] = True
-                    elif mirrored[j]:
-                        vis_mirr[ux] = True
-                    else:
-                        vis_plain[ux] = True
-        # -- the base leg at every sample: inertia and weight, then unit forces on the foot ---------
-        for u in range(S):
-            tx = Pi[u, tip, 0] - cx
-            ty = Pi[u, tip, 1] - cy
-            for v in range(nv):
-                Pu[v, 0] = Pi[u, v, 0]
-                Pu[v, 1] = Pi[u, v, 1]
-            for rhs in range(nrhs):
-                if not moving and rhs == 2 and vis_plain[u] and vis_mirr[u] and Fx == 0.0:  # the same load either way
-                    tau[u, 2] = tau[u, 1]
-                    frame[u, 2, 0] = frame[u, 1, 0]
-                    frame[u, 2, 1] = frame[u, 1, 1]
-                    for kk in range(K):
-                        Fi[u, 2, kk, 0] = Fi[u, 1, kk, 0]
-                        Fi[u, 2, kk, 1] = Fi[u, 1, kk, 1]
-                    continue
-                if (not moving and ((rhs == 1 and not vis_plain[u]) or (rhs == 2 and not vis_mirr[u]))) or \
-                        (rhs >= 3 and not (vis_plain[u] or vis_mirr[u])) or \
-                        (moving and rhs <= 2 and rhs >= 1 and weightless):  # only what some leg reads: zeros
-                    tau[u, rhs] = 0.0
-                    frame[u, rhs, 0] = 0.0
-                    frame[u, rhs, 1] = 0.0
-                    for kk in range(K):
-                        Fi[u, rhs, kk, 0] = 0.0
-                        Fi[u, rhs, kk, 1] = 0.0
-                    continue
-                for v in range(nv):
-                    R[v, 0] = 0.0
-                    R[v, 1] = 0.0
-                for kk in range(K):
-                    Fu[kk, 0] = 0.0
-                    Fu[kk, 1] = 0.0
-                if rhs == 0:
-                    for e in range(nl):
-                        me = link_mass[i, e]
-                        if me > 0.0:
-                            a = dist_a[e]
-                            b = dist_b[e]
-                            for ax in range(2):
-                                aa = A[u, a, ax] * s2
-                                ab = A[u, b, ax] * s2
-                                da = me / 6.0 * (2.0 * aa + ab)
-                                db = me / 6.0 * (aa + 2.0 * ab)
-                                if ax == 1:
-                                    da += 0.5 * me * gravity
-                                    db += 0.5 * me * gravity
-                                R[a, ax] += da
-                                R[b, ax] += db
-                                Fu[dinc[e, 0], ax] -= da
-                                Fu[dinc[e, 1], ax] -= db
-                    for bi in range(nb):
-                        mb = body_mass[bi]
-                        Jb = body_J[i, bi]
-                        if mb > 0.0 or Jb > 0.0:
-                            p = body_pq[bi, 0]
-                            q = body_pq[bi, 1]
-                            ub = body_cuv[i, bi, 0]
-                            wb = body_cuv[i, bi, 1]
-                            apx = A[u, p, 0] * s2
-                            apy = A[u, p, 1] * s2
-                            agx = A[u, q, 0] * s2 - apx
-                            agy = A[u, q, 1] * s2 - apy
-                            aGx = apx + ub * agx - wb * agy
-                            aGy = apy + ub * agy + wb * agx
-                            fqx = mb * (ub * apx + wb * apy) + Jb * agx
-                            fqy = mb * (-wb * apx + ub * apy) + Jb * agy
-                            fpx = mb * aGx - fqx
-                            fpy = mb * aGy - fqy
-                            dqx = fqx + mb * gravity * wb
-                            dqy = fqy + mb * gravity * ub
-                            dpx = fpx - mb * gravity * wb
-                            dpy = fpy + mb * gravity * (1.0 - ub)
-                            _body_load(R, Fu, p, q, body_inc[bi, 0], body_inc[bi, 1], dpx, dpy, dqx, dqy)
-                elif moving and rhs <= 2:  # a unit acceleration of the body along x (1) or y (2): in its
-                    # frame every member's mass × it (the d'Alembert force of the frame's acceleration)
-                    ax = rhs - 1
-                    for e in range(nl):
-                        me = link_mass[i, e]
-                        if me > 0.0:
-                            R[dist_a[e], ax] += 0.5 * me
-                            R[dist_b[e], ax] += 0.5 * me
-                            Fu[dinc[e, 0], ax] -= 0.5 * me
-                            Fu[dinc[e, 1], ax] -= 0.5 * me
-                    for bi in range(nb):
-                        mb = body_mass[bi]
-                        if mb > 0.0:  # a uniform acceleration a of the base pair: m·Āᵀa on q, m·a minus that on p
-                            p = body_pq[bi, 0]
-                            q = body_pq[bi, 1]
-                            ub = body_cuv[i, bi, 0]
-                            wb = body_cuv[i, bi, 1]
-                            fqx = mb * (ub if ax == 0 else wb)
-                            fqy = mb * (-wb if ax == 0 else ub)
-                            fpx = (mb if ax == 0 else 0.0) - fqx
-                            fpy = (mb if ax == 1 else 0.0) - fqy
-                            _body_load(R, Fu, p, q, body_inc[bi, 0], body_inc[bi, 1], fpx, fpy, fqx, fqy)
-                elif moving:  # a unit force of the ground on the foot along x (3) or y (4)
-                    R[foot, rhs - 3] -= 1.0
-                    Fu[foot_inc, rhs - 3] += 1.0
-                else:  # the load on the foot from the ground, as a plain leg (1) or a mirrored one (2) carries it
-                    ex = Fx if rhs == 1 else -Fx
-                    R[foot, 0] -= ex
-                    R[foot, 1] -= Fy
-                    Fu[foot_inc, 0] += ex
-                    Fu[foot_inc, 1] += Fy
-                blk = reactions(blk_kind, blk_v, blk_e, blk_vp, blk_verts, blk_rp, gen_rows, dist_a,
-                                dist_b, att, uvi, dinc, ainc, Pu, R, Fu, loc, M, x, g, lam_d, lam_a, slide, sdi,
-                                sinc, lam_s)
-                if blk >= 0:
-                    code[i] = F_SINGULAR
-                    code_sample[i] = u
-                    code_block[i] = blk
-                    failed = True
-                    break
-                Fu[tip_inc, 0] += R[tip, 0]
-                Fu[tip_inc, 1] += R[tip, 1]
-                bx = R[tip, 0]
-                by = R[tip, 1]
-                t = (tx * R[tip, 1] - ty * R[tip, 0]) * unit
-                if rhs == 0:
-                    t += mc * gravity * tx * unit * 0.5
-                    bx += -mc * omega * omega * unit * tx * 0.5
-                    by += -mc * omega * omega * unit * ty * 0.5 + mc * gravity
-                elif moving and rhs == 1:  # the crank's share of a unit body acceleration along x, then y
-                    t -= mc * ty * unit * 0.5
-                    bx += mc
-                elif moving and rhs == 2:
-                    t += mc * tx * unit * 0.5
-                    by += mc
-                tau[u, rhs] = t
-                frame[u, rhs, 0] = -bx
-                frame[u, rhs, 1] = -by
-                for f in range(fixed.shape[0]):
-                    Fu[fixed_inc[f], 0] += R[fixed[f], 0]
-                    Fu[fixed_inc[f], 1] += R[fixed[f], 1]
-                    frame[u, rhs, 0] -= R[fixed[f], 0]
-                    frame[u, rhs, 1] -= R[fixed[f], 1]
-                for kk in range(K):
-                    Fi[u, rhs, kk, 0] = Fu[kk, 0]
-                    Fi[u, rhs, kk, 1] = Fu[kk, 1]
-            if failed:
-                break
-        if failed:
-            continue
-        for k in range(S):
-            contact[i, k] = C[k]
-        if moving:  # the body moves with the contact foot: every leg at every angle, its ground force
-            first_bad = _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, s2,
-                                     load_mass, gravity, walk * drag * weight, torque, fsel, finc, pin_peak,
-                                     shake_peak, body_acc, ground, fm)
-            if first_bad >= 0:
-                code[i] = F_NONFINITE
-                code_sample[i] = first_bad
-            continue
-        for k in range(S):  # held: the frame still, the load on the contact foot
-            body_acc[i, k, 0] = 0.0
-            body_acc[i, k, 1] = 0.0
-            ground[i, k, 0] = Fx
-            ground[i, k, 1] = Fy
-        # -- every leg at every crank angle --------------------------------------------------------
+    mc = fr.crank_mass[i]
+    weightless = mc == 0.0  # no member has mass: a body acceleration loads nothing (moving)
+    for e in range(nl):
+        if fr.link_mass[i, e] != 0.0:
+            weightless = False
+    for bi in range(nb):
+        if fm.body_mass[bi] != 0.0:
+            weightless = False
+    # -- a Jacobian singular at a sample: its reactions are unbounded -------------------------------------
+    for u in range(S):
         for v in range(nv):
-            pin_peak[i, v] = 0.0
-        first_bad = -1
-        if grid:  # each leg reads whole samples: every pin's peak over the states each sample is read in
-            for u in range(S):
-                for st_ in range(3):
-                    # the weights of right-hand sides 1 (loaded, plain) and 2 (loaded, mirrored)
-                    if st_ == 0:
-                        if not vis_free[u]:
-                            continue
-                        lx = 0.0
-                        ly = 0.0
-                    elif st_ == 1:
-                        if not vis_plain[u]:
-                            continue
-                        lx = 1.0
-                        ly = 0.0
-                    else:
-                        if not vis_mirr[u]:
-                            continue
-                        lx = 0.0
-                        ly = 1.0
-                    poison = 0.0  # 0, or NaN once a force is not finite (inf·0 and NaN·0 are NaN)
-                    for kk in range(K):
-                        fx = Fi[u, 0, kk, 0]
-                        fy = Fi[u, 0, kk, 1]
-                        if st_ > 0:
-                            fx += lx * Fi[u, 1, kk, 0] + ly * Fi[u, 2, kk, 0]
-                            fy += lx * Fi[u, 1, kk, 1] + ly * Fi[u, 2, kk, 1]
-                        mag2 = fx * fx + fy * fy  # squared: one square root per joint at the end
-                        poison += mag2 * 0.0
-                        v = inc_vertex[kk]
-                        if mag2 > pin_peak[i, v]:
-                            pin_peak[i, v] = mag2
-                    if poison != 0.0 and first_bad < 0:
-                        first_bad = u
-            for v in range(nv):
-                pin_peak[i, v] = math.sqrt(pin_peak[i, v])
-        shake = 0.0
-        for k in range(S):
-            ttot = 0.0
-            frx = 0.0
-            fry = 0.0
-            for j in range(L):
-                f = frac[j]
-                u0 = (sign[j] * k + base[j]) % S
-                u1 = (u0 + 1) % S
-                w0 = 1.0 - f
-                lx = 0.0
-                ly = 0.0
-                if C[k] == j and nrhs == 3:  # this leg carries the load: right-hand side 2 if mirrored, else 1
-                    if mirrored[j]:
-                        ly = 1.0
-                    else:
-                        lx = 1.0
-                tj = w0 * (tau[u0, 0] + lx * tau[u0, 1] + ly * tau[u0, 2])
-                fjx = w0 * (frame[u0, 0, 0] + lx * frame[u0, 1, 0] + ly * frame[u0, 2, 0])
-                fjy = w0 * (frame[u0, 0, 1] + lx * frame[u0, 1, 1] + ly * frame[u0, 2, 1])
-                if f != 0.0:
-                    tj += f * (tau[u1, 0] + lx * tau[u1, 1] + ly * tau[u1, 2])
-                    fjx += f * (frame[u1, 0, 0] + lx * frame[u1, 1, 0] + ly * frame[u1, 2, 0])
-                    fjy += f * (frame[u1, 0, 1] + lx * frame[u1, 1, 1] + ly * frame[u1, 2, 1])
-                if mirrored[j]:
-                    ttot -= tj
-                    frx -= fjx
+            Pu[v, 0] = pos[u, v, 0]
+            Pu[v, 1] = pos[u, v, 1]
+        blk = singular(table, topo, uv, sd, Pu, fs.loc, fs.M, fs.x, SINGULAR_TOL)
+        if blk >= 0:
+            fr.code[i] = F_SINGULAR
+            fr.sample[i] = u
+            fr.block[i] = blk
+            return
+    # -- which leg carries the load at each sample (the walker scene's contact convention) -----
+    Y = fs.Y
+    VX = fs.VX
+    C = fs.C
+    leg_feet(base, frac, sign, mirrored, pos[:, foot, :], fs.vel[:, foot, :], Y, VX, fs.VY)
+    ground_contact(Y, fs.G, C)
+    sum_vx = 0.0
+    sum_abs = 0.0
+    for k in range(S):
+        sum_vx += VX[C[k], k]
+        sum_abs += abs(VX[C[k], k])
+    # a walker whose contact feet come back to where they started (one leg: its foot's path is closed)
+    # travels nothing: what the sum holds then is rounding, which made the cost of transport 1e16
+    if abs(sum_vx) <= 1e-9 * sum_abs:
+        sum_vx = 0.0
+    fr.travel[i] = abs(d * sum_vx)
+    walk = 0.0
+    if sum_vx < 0.0:
+        walk = 1.0
+    elif sum_vx > 0.0:
+        walk = -1.0
+    Fx = walk * fm.drag * weight
+    Fy = weight
+    # which samples of the base leg some leg reads while it carries the load (only those need the
+    # unit-force right-hand sides), and in which states every sample is read: free, loaded plain,
+    # loaded mirrored
+    for u in range(S):
+        vis_free[u] = False
+        vis_plain[u] = False
+        vis_mirr[u] = False
+    for k in range(S):
+        for j in range(L):
+            u0 = (sign[j] * k + base[j]) % S
+            loaded = C[k] == j and nrhs >= 3
+            for uu in range(2):
+                if uu == 1 and frac[j] == 0.0:
+                    break
+                ux = (u0 + uu) % S
+                if not loaded:
+                    vis_free[ux] = True
+                elif mirrored[j]:
+                    vis_mirr[ux] = True
                 else:
-                    ttot += tj
-                    frx += fjx
-                fry += fjy
-                if grid and not (j == 0 and (sel.shape[0] > 0 or finc.shape[1] > 0)):
-                    continue
+                    vis_plain[ux] = True
+    # -- the base leg at every sample: every right-hand side at once (each block's inverse taken once) --
+    # held: inertia and weight, the load as a plain leg carries it, as a mirrored one does; moving:
+    # inertia and weight, a unit acceleration of the body along x, along y, a unit force of the ground
+    # on the foot along x, along y
+    for u in range(S):
+        tx = pos[u, tip, 0] - cx
+        ty = pos[u, tip, 1] - cy
+        for v in range(nv):
+            Pu[v, 0] = pos[u, v, 0]
+            Pu[v, 1] = pos[u, v, 1]
+        copy21 = False
+        for rhs in range(nr):
+            act[rhs] = False
+        for rhs in range(nrhs):
+            if not moving and rhs == 2 and vis_plain[u] and vis_mirr[u] and Fx == 0.0:  # the same load either way
+                copy21 = True
+            elif (not moving and ((rhs == 1 and not vis_plain[u]) or (rhs == 2 and not vis_mirr[u]))) or \
+                    (rhs >= 3 and not (vis_plain[u] or vis_mirr[u])) or \
+                    (moving and rhs <= 2 and rhs >= 1 and weightless):  # only what some leg reads: zeros
+                tau[u, rhs] = 0.0
+                frame[u, rhs, 0] = 0.0
+                frame[u, rhs, 1] = 0.0
                 for kk in range(K):
-                    fx = w0 * (Fi[u0, 0, kk, 0] + lx * Fi[u0, 1, kk, 0] + ly * Fi[u0, 2, kk, 0])
-                    fy = w0 * (Fi[u0, 0, kk, 1] + lx * Fi[u0, 1, kk, 1] + ly * Fi[u0, 2, kk, 1])
-                    if f != 0.0:
-                        fx += f * (Fi[u1, 0, kk, 0] + lx * Fi[u1, 1, kk, 0] + ly * Fi[u1, 2, kk, 0])
-                        fy += f * (Fi[u1, 0, kk, 1] + lx * Fi[u1, 1, kk, 1] + ly * Fi[u1, 2, kk, 1])
-                    mag = math.sqrt(fx * fx + fy * fy)
-                    fm[kk] = mag
+                    Fi[u, rhs, kk, 0] = 0.0
+                    Fi[u, rhs, kk, 1] = 0.0
+            else:
+                act[rhs] = True
+        for rhs in range(nr):
+            if not act[rhs]:
+                continue
+            for v in range(nv):
+                R[rhs, v, 0] = 0.0
+                R[rhs, v, 1] = 0.0
+            for kk in range(K):
+                Fu[rhs, kk, 0] = 0.0
+                Fu[rhs, kk, 1] = 0.0
+            if rhs == 0:
+                for e in range(nl):
+                    me = fr.link_mass[i, e]
+                    if me > 0.0:
+                        a = dist_a[e]
+                        b = dist_b[e]
+                        for ax in range(2):
+                            aa = A[u, a, ax] * s2
+                            ab = A[u, b, ax] * s2
+                            da = me / 6.0 * (2.0 * aa + ab)
+                            db = me / 6.0 * (aa + 2.0 * ab)
+                            if ax == 1:
+                                da += 0.5 * me * gravity
+                                db += 0.5 * me * gravity
+                            R[0, a, ax] += da
+                            R[0, b, ax] += db
+                            Fu[0, fm.dinc[e, 0], ax] -= da
+                            Fu[0, fm.dinc[e, 1], ax] -= db
+                for bi in range(nb):
+                    mb = fm.body_mass[bi]
+                    Jb = fr.body_J[i, bi]
+                    if mb > 0.0 or Jb > 0.0:
+                        p = fm.body_pq[bi, 0]
+                        q = fm.body_pq[bi, 1]
+                        ub = fr.body_cuv[i, bi, 0]
+                        wb = fr.body_cuv[i, bi, 1]
+                        apx = A[u, p, 0] * s2
+                        apy = A[u, p, 1] * s2
+                        agx = A[u, q, 0] * s2 - apx
+                        agy = A[u, q, 1] * s2 - apy
+                        aGx = apx + ub * agx - wb * agy
+                        aGy = apy + ub * agy + wb * agx
+                        fqx = mb * (ub * apx + wb * apy) + Jb * agx
+                        fqy = mb * (-wb * apx + ub * apy) + Jb * agy
+                        fpx = mb * aGx - fqx
+                        fpy = mb * aGy - fqy
+                        dqx = fqx + mb * gravity * wb
+                        dqy = fqy + mb * gravity * ub
+                        dpx = fpx - mb * gravity * wb
+                        dpy = fpy + mb * gravity * (1.0 - ub)
+                        _body_load(R, Fu, 0, p, q, fm.body_inc[bi, 0], fm.body_inc[bi, 1], dpx, dpy, dqx, dqy)
+            elif moving and rhs <= 2:  # a unit acceleration of the body along x (1) or y (2): in its
+                # frame every member's mass × it (the d'Alembert force of the frame's acceleration)
+                ax = rhs - 1
+                for e in range(nl):
+                    me = fr.link_mass[i, e]
+                    if me > 0.0:
+                        R[rhs, dist_a[e], ax] += 0.5 * me
+                        R[rhs, dist_b[e], ax] += 0.5 * me
+                        Fu[rhs, fm.dinc[e, 0], ax] -= 0.5 * me
+                        Fu[rhs, fm.dinc[e, 1], ax] -= 0.5 * me
+                for bi in range(nb):
+                    mb = fm.body_mass[bi]
+                    if mb > 0.0:  # a uniform acceleration a of the base pair: m·Āᵀa on q, m·a minus that on p
+                        p = fm.body_pq[bi, 0]
+                        q = fm.body_pq[bi, 1]
+                        ub = fr.body_cuv[i, bi, 0]
+                        wb = fr.body_cuv[i, bi, 1]
+                        fqx = mb * (ub if ax == 0 else wb)
+                        fqy = mb * (-wb if ax == 0 else ub)
+                        fpx = (mb if ax == 0 else 0.0) - fqx
+                        fpy = (mb if ax == 1 else 0.0) - fqy
+                        _body_load(R, Fu, rhs, p, q, fm.body_inc[bi, 0], fm.body_inc[bi, 1], fpx, fpy, fqx, fqy)
+            elif moving:  # a unit force of the ground on the foot along x (3) or y (4)
+                R[rhs, foot, rhs - 3] -= 1.0
+                Fu[rhs, fm.foot_inc, rhs - 3] += 1.0
+            else:  # the load on the foot from the ground, as a plain leg (1) or a mirrored one (2) carries it
+                ex = Fx if rhs == 1 else -Fx
+                R[rhs, foot, 0] -= ex
+                R[rhs, foot, 1] -= Fy
+                Fu[rhs, fm.foot_inc, 0] += ex
+                Fu[rhs, fm.foot_inc, 1] += Fy
+        blk = reactions(table, topo, uv, sd, Pu, R, act, fs.lam_d, fs.lam_a, fs.lam_s, fs.loc, fs.M, fs.x)
+        if blk >= 0:
+            fr.code[i] = F_SINGULAR
+            fr.sample[i] = u
+            fr.block[i] = blk
+            return
+        for rhs in range(nr):
+            if not act[rhs]:
+                continue
+            # every row's pull on its member's pins, (∂c/∂q_v)ᵀ λ, by its equation type
+            for e in range(dist_a.shape[0]):
+                eq_distance.pull(Pu, e, dist_a, dist_b, fs.lam_d[rhs, e], Fu, rhs, fm.dinc[e, 0], fm.dinc[e, 1])
+            for t in range(topo.att_vpq.shape[0]):
+                eq_attach.pull(t, uv, fs.lam_a[rhs, t, 0], fs.lam_a[rhs, t, 1], Fu, rhs, fm.ainc[t, 0],
+                               fm.ainc[t, 1], fm.ainc[t, 2])
+            for s in range(topo.slide.shape[0]):  # a slider's guide pushes normal to its line, no friction
+                eq_slide.pull(Pu, s, topo.slide, sd, fs.lam_s[rhs, s], Fu, rhs, fm.sinc)
+            Fu[rhs, fm.tip_inc, 0] += R[rhs, tip, 0]
+            Fu[rhs, fm.tip_inc, 1] += R[rhs, tip, 1]
+            bx = R[rhs, tip, 0]
+            by = R[rhs, tip, 1]
+            t_ = (tx * R[rhs, tip, 1] - ty * R[rhs, tip, 0]) * unit
+            if rhs == 0:
+                t_ += mc * gravity * tx * unit * 0.5
+                bx += -mc * omega * omega * unit * tx * 0.5
+                by += -mc * omega * omega * unit * ty * 0.5 + mc * gravity
+            elif moving and rhs == 1:  # the crank's share of a unit body acceleration along x, then y
+                t_ -= mc * ty * unit * 0.5
+                bx += mc
+            elif moving and rhs == 2:
+                t_ += mc * tx * unit * 0.5
+                by += mc
+            tau[u, rhs] = t_
+            frame[u, rhs, 0] = -bx
+            frame[u, rhs, 1] = -by
+            for f in range(fm.fixed.shape[0]):
+                Fu[rhs, fm.fixed_inc[f], 0] += R[rhs, fm.fixed[f], 0]
+                Fu[rhs, fm.fixed_inc[f], 1] += R[rhs, fm.fixed[f], 1]
+                frame[u, rhs, 0] -= R[rhs, fm.fixed[f], 0]
+                frame[u, rhs, 1] -= R[rhs, fm.fixed[f], 1]
+            for kk in range(K):
+                Fi[u, rhs, kk, 0] = Fu[rhs, kk, 0]
+                Fi[u, rhs, kk, 1] = Fu[rhs, kk, 1]
+        if copy21:
+            tau[u, 2] = tau[u, 1]
+            frame[u, 2, 0] = frame[u, 1, 0]
+            frame[u, 2, 1] = frame[u, 1, 1]
+            for kk in range(K):
+                Fi[u, 2, kk, 0] = Fi[u, 1, kk, 0]
+                Fi[u, 2, kk, 1] = Fi[u, 1, kk, 1]
+    for k in range(S):
+        fr.contact[i, k] = C[k]
+    if moving:  # the body moves with the contact foot: every leg at every angle, its ground force
+        first_bad = _moving_legs(i, A, C, foot, base, frac, sign, mirrored, fm.inc_vertex, fm.sel, Fi, tau, frame, s2,
+                                 fm.load_mass, gravity, walk * fm.drag * weight, fr.torque, fr.fsel, fr.finc,
+                                 fr.pin_peak, fr.shake, fr.body_acc, fr.ground, fs.fm)
+    else:  # held: the frame still, the load on the contact foot
+        first_bad = _held_legs(i, C, base, frac, sign, mirrored, fm.inc_vertex, fm.sel, Fi, tau, frame, nrhs, Fx, Fy,
+                               grid, vis_free, vis_plain, vis_mirr, fr.torque, fr.fsel, fr.finc, fr.pin_peak, fr.shake,
+                               fr.body_acc, fr.ground, fs.fm)
+    if first_bad >= 0:  # forces that overflowed: a near-singular sample
+        fr.code[i] = F_NONFINITE
+        fr.sample[i] = first_bad
+
+
+@njit(cache=True, nogil=True)
+def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, nrhs, Fx, Fy, grid, vis_free,
+               vis_plain, vis_mirr, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm):
+    """The held walker of variant i (the frame still), read off the base leg's right-hand sides
+    (inertia and weight; the load as a plain leg and as a mirrored leg carries it: Fi (S, 3, K, 2),
+    tau (S, 3), frame (S, 3, 2)) at the samples each leg reads (contact legs C (S,); ``vis_*``: the
+    states each sample is read in; ``grid``: every leg reads whole samples). Writes torque[i],
+    pin_peak[i], shake_peak[i], fsel[i] / finc[i] (leg 0), body_acc[i] (zero) and ground[i] (the
+    load's weight and drag, (Fx, Fy)); returns the first sample with a non-finite force or −1."""
+    S = C.shape[0]
+    L = base.shape[0]
+    K = inc_vertex.shape[0]
+    nv = pin_peak.shape[1]
+    for k in range(S):  # held: the frame still, the load on the contact foot
+        body_acc[i, k, 0] = 0.0
+        body_acc[i, k, 1] = 0.0
+        ground[i, k, 0] = Fx
+        ground[i, k, 1] = Fy
+    # -- every leg at every crank angle --------------------------------------------------------
+    for v in range(nv):
+        pin_peak[i, v] = 0.0
+    first_bad = -1
+    if grid:  # each leg reads whole samples: every pin's peak over the states each sample is read in
+        for u in range(S):
+            for st_ in range(3):
+                # the weights of right-hand sides 1 (loaded, plain) and 2 (loaded, mirrored)
+                if st_ == 0:
+                    if not vis_free[u]:
+                        continue
+                    lx = 0.0
+                    ly = 0.0
+                elif st_ == 1:
+                    if not vis_plain[u]:
+                        continue
+                    lx = 1.0
+                    ly = 0.0
+                else:
+                    if not vis_mirr[u]:
+                        continue
+                    lx = 0.0
+                    ly = 1.0
+                poison = 0.0  # 0, or NaN once a force is not finite (inf·0 and NaN·0 are NaN)
+                for kk in range(K):
+                    fx = Fi[u, 0, kk, 0]
+                    fy = Fi[u, 0, kk, 1]
+                    if st_ > 0:
+                        fx += lx * Fi[u, 1, kk, 0] + ly * Fi[u, 2, kk, 0]
+                        fy += lx * Fi[u, 1, kk, 1] + ly * Fi[u, 2, kk, 1]
+                    mag2 = fx * fx + fy * fy  # squared: one square root per joint at the end
+                    poison += mag2 * 0.0
                     v = inc_vertex[kk]
-                    if not math.isfinite(mag) and first_bad < 0:
-                        first_bad = k
-                    if not grid and not (mag <= pin_peak[i, v]):
-                        pin_peak[i, v] = mag
-                    if j == 0 and finc.shape[1] > 0:
-                        finc[i, k, kk, 0] = -fx if mirrored[0] else fx
-                        finc[i, k, kk, 1] = fy
-                    if j == 0:
-                        for s_ in range(sel.shape[0]):
-                            if sel[s_] == v:
-                                # the member that loads this pin most, at this sample
-                                best = True
-                                for k2 in range(kk):
-                                    if inc_vertex[k2] == v and fm[k2] >= mag:
-                                        best = False
-                                if best:
-                                    fsel[i, k, s_, 0] = -fx if mirrored[0] else fx
-                                    fsel[i, k, s_, 1] = fy
-            torque[i, k] = ttot
-            sh = math.sqrt(frx * frx + fry * fry)
-            if not (sh <= shake):
-                shake = sh
-        shake_peak[i] = shake
-        for k in range(S):
-            if not math.isfinite(torque[i, k]) and first_bad < 0:
-                first_bad = k
-        if first_bad < 0 and not math.isfinite(shake):
-            first_bad = 0
-        if first_bad >= 0:  # forces that overflowed: a near-singular sample
-            code[i] = F_NONFINITE
-            code_sample[i] = first_bad
+                    if mag2 > pin_peak[i, v]:
+                        pin_peak[i, v] = mag2
+                if poison != 0.0 and first_bad < 0:
+                    first_bad = u
+        for v in range(nv):
+            pin_peak[i, v] = math.sqrt(pin_peak[i, v])
+    shake = 0.0
+    for k in range(S):
+        ttot = 0.0
+        frx = 0.0
+        fry = 0.0
+        for j in range(L):
+            f = frac[j]
+            u0 = (sign[j] * k + base[j]) % S
+            u1 = (u0 + 1) % S
+            w0 = 1.0 - f
+            lx = 0.0
+            ly = 0.0
+            if C[k] == j and nrhs == 3:  # this leg carries the load: right-hand side 2 if mirrored, else 1
+                if mirrored[j]:
+                    ly = 1.0
+                else:
+                    lx = 1.0
+            tj = w0 * (tau[u0, 0] + lx * tau[u0, 1] + ly * tau[u0, 2])
+            fjx = w0 * (frame[u0, 0, 0] + lx * frame[u0, 1, 0] + ly * frame[u0, 2, 0])
+            fjy = w0 * (frame[u0, 0, 1] + lx * frame[u0, 1, 1] + ly * frame[u0, 2, 1])
+            if f != 0.0:
+                tj += f * (tau[u1, 0] + lx * tau[u1, 1] + ly * tau[u1, 2])
+                fjx += f * (frame[u1, 0, 0] + lx * frame[u1, 1, 0] + ly * frame[u1, 2, 0])
+                fjy += f * (frame[u1, 0, 1] + lx * frame[u1, 1, 1] + ly * frame[u1, 2, 1])
+            if mirrored[j]:
+                ttot -= tj
+                frx -= fjx
+            else:
+                ttot += tj
+                frx += fjx
+            fry += fjy
+            if grid and not (j == 0 and (sel.shape[0] > 0 or finc.shape[1] > 0)):
+                continue
+            for kk in range(K):
+                fx = w0 * (Fi[u0, 0, kk, 0] + lx * Fi[u0, 1, kk, 0] + ly * Fi[u0, 2, kk, 0])
+                fy = w0 * (Fi[u0, 0, kk, 1] + lx * Fi[u0, 1, kk, 1] + ly * Fi[u0, 2, kk, 1])
+                if f != 0.0:
+                    fx += f * (Fi[u1, 0, kk, 0] + lx * Fi[u1, 1, kk, 0] + ly * Fi[u1, 2, kk, 0])
+                    fy += f * (Fi[u1, 0, kk, 1] + lx * Fi[u1, 1, kk, 1] + ly * Fi[u1, 2, kk, 1])
+                mag = math.sqrt(fx * fx + fy * fy)
+                fm[kk] = mag
+                v = inc_vertex[kk]
+                if not math.isfinite(mag) and first_bad < 0:
+                    first_bad = k
+                if not grid and not (mag <= pin_peak[i, v]):
+                    pin_peak[i, v] = mag
+                if j == 0 and finc.shape[1] > 0:
+                    finc[i, k, kk, 0] = -fx if mirrored[0] else fx
+                    finc[i, k, kk, 1] = fy
+                if j == 0:
+                    for s_ in range(sel.shape[0]):
+                        if sel[s_] == v:
+                            # the member that loads this pin most, at this sample
+                            best = True
+                            for k2 in range(kk):
+                                if inc_vertex[k2] == v and fm[k2] >= PIN_TIE * mag:
+                                    best = False
+                            if best:
+                                fsel[i, k, s_, 0] = -fx if mirrored[0] else fx
+                                fsel[i, k, s_, 1] = fy
+        torque[i, k] = ttot
+        sh = math.sqrt(frx * frx + fry * fry)
+        if not (sh <= shake):
+            shake = sh
+    shake_peak[i] = shake
+    for k in range(S):
+        if not math.isfinite(torque[i, k]) and first_bad < 0:
+            first_bad = k
+    if first_bad < 0 and not math.isfinite(shake):
+        first_bad = 0
+    return first_bad
 
 
 @njit(cache=True, nogil=True)
@@ -1112,7 +788,7 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
                         if sel[s_] == v:  # the member that loads this pin most, at this sample
                             best = True
                             for k2 in range(kk):
-                                if inc_vertex[k2] == v and fm[k2] >= mag:
+                                if inc_vertex[k2] == v and fm[k2] >= PIN_TIE * mag:
                                     best = False
                             if best:
                                 fsel[i, k, s_, 0] = mir * fx
@@ -1131,32 +807,23 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
     return first_bad
 
 
-@njit(cache=True, nogil=True)
-def _no_general(k, blk_vp, blk_verts, blk_rp, gen_rows, dist_a, dist_b, att, uv, P, X, loc, M, x, g,
-                *rest):
-    return False
-
-
-def _specialise(fn, name: str, inline: str = "never", **bind):
+def _specialise(fn, name: str, **bind):
     """A jitted copy of ``fn`` (its own name, so it caches) with globals rebound."""
     env = dict(fn.__globals__, **bind)
     copy = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
     copy.__qualname__ = f"{fn.__name__}_{name}"
     copy.__doc__ = fn.__doc__
-    return njit(cache=True, nogil=True, inline=inline)(copy)
+    return njit(cache=True, nogil=True)(copy)
 
 
-_kin_fast = _specialise(_kinematics, "fast", general=_no_general)
-_kin_any = _specialise(_kinematics, "any", general=_kin_general)
-_rea_fast = _specialise(_reactions, "fast", general=_no_general)
-_rea_any = _specialise(_reactions, "any", general=_rea_general)
-#: the kernel for plans of dyads and body joints only, and the one for plans with general blocks
-forces_fast = _specialise(_forces_kernel, "fast", kinematics=_kin_fast, reactions=_rea_fast)
-forces_any = _specialise(_forces_kernel, "any", kinematics=_kin_any, reactions=_rea_any)
+#: the forces effect of one design, for plans without coupled blocks and for any plan
+design_forces_fast = _specialise(_design_forces, "fast", singular=singular_closed, reactions=reactions_closed)
+design_forces_any = _specialise(_design_forces, "any", singular=singular_any, reactions=reactions_any)
 
 
 # -- the wrapper ------------------------------------------------------------------------------------
 _TABLES: dict = {}
+
 
 @dataclass(frozen=True)
 class Forces:
@@ -1172,7 +839,7 @@ class Forces:
         the Jacobian was singular (−1 otherwise).
     members : {(member, joint): (N, S, 2)} leg 0's force of each member (a link or body by name,
         "crank", "frame", "ground") on each of its pins, N; empty unless asked for.
-    velocities, accelerations : (N, S, n_out, 2) of the vertices asked for (see :func:`solve_forces`).
+    velocities, accelerations : None (the sweep's, which the forces read, are the Batch's).
     body : the walker's force model, "moving" or "held" (``[operating] body``).
     body_acceleration : (N, S, 2) the walker body's acceleration, m/s² (zero when held).
     ground_force : (N, S, 2) the ground's force on the contact foot, N, in the walker's frame (moving:
@@ -1201,36 +868,25 @@ class Forces:
     massive: bool = False
 
 
-def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengths: np.ndarray, scale: np.ndarray,
-                 body_pts: list, operating, walker, joints=(), members: bool = False, out_idx=None,
-                 velocities: bool = False, accelerations: bool = False) -> Forces:
-    """The forces effect of N variants from their positions P (N, S, n_vertices, 2), model units.
+def force_inputs(mech, plan: Plan, lengths: np.ndarray, scale: np.ndarray, body_pts: list, operating, walker,
+                 S: int, joints=(), members: bool = False, out_idx=None) -> tuple:
+    """The forces effect's named inputs for N variants over S crank samples: (:class:`ForceModel`,
+    :class:`ForceRows` with its outputs allocated, :class:`ForceTables`).
 
-    status (N,) (only 0 = ok rows are computed); des: the variants' ``_inputs.Designs`` (uv, centre);
     lengths (N, n_links) and scale (N,) crank radii, model units; body_pts: each body's joints in its
     frame (N, n_joints, 2) (``_design.body_points``); operating: :class:`~explorer.mechanism.Operating`
     with ``unit`` and ``rpm``; walker: :class:`~explorer.mechanism.Walker` (one leg: ``Walker(legs=1)``);
     joints: names of the joints whose reactions are returned; members: also every member's force on
-    every pin (``Forces.members``); velocities, accelerations: also those of the vertices ``out_idx``
-    (per radian and per radian², ``Forces.velocities`` / ``accelerations`` (N, S, n_out, 2)), from
-    the same block-by-block linear solves the forces use.
-    """
-    from ._rows import parallel_rows
-
+    every pin (``Forces.members``); out_idx: the vertices whose rows the caller stores."""
     key = (id(plan), mech.foot, mech.vertices)
     tb = _TABLES.get(key)
     if tb is None or tb[0] is not plan:
         tb = _TABLES[key] = (plan, force_tables(mech, plan))
     tb = tb[1]
-    N, S, nv = P.shape[0], P.shape[1], P.shape[2]
+    N, nv = lengths.shape[0], len(mech.vertices)
     unit = float(operating.unit)
-    nl = len(mech.links)
-    density = mech.link_density or 0.0
-    link_mass = np.empty((N, nl))
-    for e, lk in enumerate(mech.links):
-        link_mass[:, e] = lk.mass if lk.mass is not None else density * lengths[:, e] * unit
-    cm = mech.crank.mass
-    crank_mass = np.full(N, cm) if cm is not None else density * np.asarray(scale, dtype=np.float64) * unit
+    link_mass = link_masses(mech, lengths, unit)
+    crank_mass = crank_masses(mech, scale, unit)
     nb = len(mech.bodies)
     body_mass = np.array([b.mass for b in mech.bodies], dtype=np.float64)
     body_cuv = np.zeros((N, nb, 2))
@@ -1254,51 +910,43 @@ def solve_forces(mech, plan: Plan, P: np.ndarray, status: np.ndarray, des, lengt
     body = operating.body or "moving"
     if body not in BODY_MODELS:
         raise ValueError(f"operating.body: expected one of {BODY_MODELS}, got {body!r}")
-    moving = body == "moving"
-    torque = np.zeros((N, S))
-    body_acc = np.zeros((N, S, 2))
-    ground = np.zeros((N, S, 2))
-    contact = np.full((N, S), -1, dtype=np.int64)
-    fsel = np.zeros((N, S, len(sel), 2))
-    finc = np.zeros((N, S if members else 0, len(tb.inc_vertex), 2))
     out_idx = np.zeros(0, dtype=np.int64) if out_idx is None else np.asarray(out_idx, dtype=np.int64)
-    vout = np.full((N, S if velocities else 0, len(out_idx), 2), np.nan)
-    aout = np.full((N, S if accelerations else 0, len(out_idx), 2), np.nan)
-    pin_peak = np.zeros((N, nv))
-    shake = np.zeros(N)
-    travel = np.zeros(N)
-    code = np.zeros(N, dtype=np.int64)
-    csample = np.full(N, -1, dtype=np.int64)
-    cblock = np.full(N, -1, dtype=np.int64)
-    shared = (tb.blk_kind, tb.blk_v, tb.blk_e, tb.blk_vp, tb.blk_verts, tb.blk_rp, tb.gen_rows,
-              tb.dist_a, tb.dist_b, tb.att, tb.inc_vertex, tb.dinc, tb.ainc, tb.body_pq, tb.body_inc, body_mass,
-              tb.tip, tb.tip_inc, tb.fixed, tb.fixed_inc, tb.foot, tb.foot_inc, sel, base, frac, sign, mirrored,
-              float(walker.drag), unit, float(operating.omega), float(operating.gravity), weight, out_idx, tb.slide,
-              tb.sinc, moving, float(operating.load))
-    rows = (np.ascontiguousarray(P), np.ascontiguousarray(status), des.uv, des.slide, des.center, link_mass, body_cuv,
-            body_J,
-            crank_mass, torque, fsel, finc, vout, aout, pin_peak, shake, travel, code, csample, cblock, body_acc,
-            ground, contact)
-    kernel = forces_any if np.any(tb.blk_kind == GENERAL) else forces_fast
-    parallel_rows(kernel, shared, rows)
-    bad = (code != F_OK) | (status != 0)
+    model = ForceModel(tb.inc_vertex, tb.dinc, tb.ainc, tb.body_pq, tb.body_inc, tb.tip_inc, tb.fixed, tb.fixed_inc,
+                       tb.foot, tb.foot_inc, tb.sinc, body_mass, sel, base, frac, sign, mirrored, float(walker.drag),
+                       unit, float(operating.omega), float(operating.gravity), weight, body == "moving",
+                       float(operating.load), out_idx)
+    K = len(tb.inc_vertex)
+    rows = ForceRows(link_mass, body_cuv, body_J, crank_mass, np.zeros((N, S)), np.zeros((N, S, len(sel), 2)),
+                     np.zeros((N, S if members else 0, K, 2)), np.zeros((N, nv)), np.zeros(N), np.zeros(N),
+                     np.zeros(N, dtype=np.int64), np.full(N, -1, dtype=np.int64), np.full(N, -1, dtype=np.int64),
+                     np.zeros((N, S, 2)), np.zeros((N, S, 2)), np.full((N, S), -1, dtype=np.int64))
+    return model, rows, tb
+
+
+def collect(mech, operating, walker, model, rows, tb, status, joints=(), members: bool = False) -> Forces:
+    """The :class:`Forces` of N variants from the kernels' outputs (``rows``), NaN where a variant's
+    sweep or its forces failed (``status`` (N,) the sweep's, 0 = ok)."""
+    bad = (rows.code != F_OK) | (status != 0)
+    torque, body_acc, ground, contact = rows.torque, rows.body_acc, rows.ground, rows.contact
     torque[bad] = np.nan
     body_acc[bad] = np.nan
     ground[bad] = np.nan
     contact[bad] = -1
-    fsel[bad] = np.nan
-    pin_peak[bad] = np.nan
-    shake[bad] = np.nan
-    travel[bad] = np.nan
+    rows.fsel[bad] = np.nan
+    rows.pin_peak[bad] = np.nan
+    rows.shake[bad] = np.nan
+    rows.travel[bad] = np.nan
     member_forces = {}
     if members:
-        finc[bad] = np.nan
-        member_forces = {(m, mech.vertices[v]): finc[:, :, k] for k, (m, v) in enumerate(zip(tb.inc_member,
-                                                                                               tb.inc_vertex))}
+        rows.finc[bad] = np.nan
+        member_forces = {(m, mech.vertices[v]): rows.finc[:, :, k] for k, (m, v) in enumerate(zip(tb.inc_member,
+                                                                                                    tb.inc_vertex))}
     # the whole machine: every leg with its crank, and the body
-    machine = walker.legs * (link_mass.sum(axis=1) + body_mass.sum() + crank_mass) + float(operating.load)
-    return Forces(torque, {j: fsel[:, :, k] for k, j in enumerate(joints)}, pin_peak, shake, travel, code, csample,
-                  cblock, member_forces, vout, aout, body, body_acc, ground, contact, machine, has_mass(mech, operating))
+    machine = walker.legs * (rows.link_mass.sum(axis=1) + model.body_mass.sum() + rows.crank_mass) \
+        + float(operating.load)
+    return Forces(torque, {j: rows.fsel[:, :, k] for k, j in enumerate(joints)}, rows.pin_peak, rows.shake,
+                  rows.travel, rows.code, rows.sample, rows.block, member_forces, None, None,
+                  "moving" if model.moving else "held", body_acc, ground, contact, machine, has_mass(mech, operating))
 
 
 def has_mass(mech, operating) -> bool:
@@ -1331,7 +979,8 @@ def force_metrics(forces: Forces, operating, vertices) -> dict:
     flywheel_inertia = ΔE / (C_s·ω²) with E_k = Σ_{m<k} (τ_m − mean τ)·Δ and ΔE = max E − min E (on
     the crank); flywheel_inertia_motor = flywheel_inertia / N² (N = gear_ratio: on the motor shaft);
     pin_force_max = max over joints of pin_force.<joint>; shaking_force_peak; machine_mass (kg, every
-    leg and the body); cost_of_transport = energy_per_turn / (machine_mass·g·travel·unit).
+    leg and the body); cost_of_transport = energy_per_turn / (machine_mass·g·travel·unit), inf for a
+    machine that does not travel (the contact feet's net stroke within 1e-9 of their total stroke).
     """
     tau = forces.torque
     S = tau.shape[1]
@@ -1352,8 +1001,11 @@ def force_metrics(forces: Forces, operating, vertices) -> dict:
         out["shaking_force_peak"] = forces.shaking_peak.copy()
         out["machine_mass"] = np.where(np.isfinite(forces.travel), forces.machine_mass, np.nan)
         if operating.gravity > 0 and forces.massive:
-            out["cost_of_transport"] = out["energy_per_turn"] / (out["machine_mass"] * operating.gravity
-                                                                 * forces.travel * float(operating.unit))
+            # a machine that does not travel (its contact feet return to where they started) has no finite
+            # cost of transport: inf, which ranks last under "min"
+            cot = out["energy_per_turn"] / (out["machine_mass"] * operating.gravity
+                                            * forces.travel * float(operating.unit))
+            out["cost_of_transport"] = np.where(forces.travel == 0.0, np.inf, cot)
         for k, v in enumerate(vertices):
             out[f"pin_force.{v}"] = forces.pin_peak[:, k].copy()
     return out

@@ -9,7 +9,8 @@ outputs are, as named tuples of arrays (Numba compiles attribute access on them 
 * :class:`Outputs` — the per-variant results (N rows), written in place.
 
 The per-variant *block table* (:data:`BLOCK_DTYPE`) is a record array with one row per block, in
-plan order: a block's kind and the numbers its kernel reads, by name (``_step.block_table``).
+plan order: a block's kind and the numbers its kind reads, by name (each kind fills its own row:
+``_kinds_array.block_table``).
 """
 
 from __future__ import annotations
@@ -18,15 +19,13 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..plan import ATTACH, DYAD, GENERAL, ROW_ATTACH_X, ROW_ATTACH_Y, ROW_DIST, ROW_SLIDE, SLIDE, Plan
+from ..kinds import KINDS
+from ..plan import Plan
 
 Topology = namedtuple("Topology", [
-    "kind",       # (nb,) int64, each block's kind (plan._kinds), in solve order
-    "dyad",       # (nb, 5) int64, a DYAD block's vertex, parents a and b, and distance equations to a and b
-    "join",       # (nb,) int64, a DYAD: the distance equation joining its parents (their distance is then
-                  # constant), −2 if they are the crank tip and a fixed vertex, −1 otherwise
-    "attach",     # (nb,) int64, an ATTACH block's attach equation (index into att_vpq), else −1
-    "gen",        # (nb,) int64, a GENERAL block's index into gen_vptr / gen_rptr, else −1
+    "kind",       # (nb,) int64, each block's kind (``explorer.kinds``), in solve order
+    "blk",        # (nb, BLK_COLUMNS) int64, each block's row of the lowered plan: its kind's COLUMNS
+                  # (a dyad's vertex, parents, equations and join; a body joint's base pair; ...), −1 after
     "gen_vptr",   # (n_general + 1,) int64, CSR pointers into gen_verts
     "gen_verts",  # int64, the vertices of each GENERAL block
     "gen_rptr",   # (n_general + 1,) int64, CSR pointers into gen_rows
@@ -38,10 +37,10 @@ Topology = namedtuple("Topology", [
     "fixed",      # (n_fixed,) int64, the fixed vertices
     "moving",     # int64, vertices whose state the sweep carries from step to step
     "out_idx",    # (n_out,) int64, the vertices written to the outputs, in output order
-    "slid",       # (nb, 4) int64, a SLIDE block's vertex, the known vertex it keeps its distance to, that
-                  # distance equation and its slide equation (index into ``slide``), else −1
     "slide",      # (n_slide, 3) int64, slider vertex p and line vertices a, b of each slide equation
                   # (a = b = −1: a ground line)
+    "explicit",   # (n_explicit,) int64, the blocks whose kind places its vertex from the driver alone
+                  # (``EXPLICIT``: a geared crank's tip); the dense method takes their vertices as known
 ])
 
 Drive = namedtuple("Drive", [
@@ -70,6 +69,12 @@ Designs = namedtuple("Designs", [
     "tol",        # (N,) float64, Newton's stopping distance, model units
     "slide",      # (N, n_slide, 6) float64, each slide equation's line: a ground line's point (x, y) and
                   # unit direction (nx, ny), then the offset and the slot's length |b − a| (1 for a ground line)
+    "extra",      # (N, n_extra) float64, the per-design numbers of the equation types beyond these
+                  # (``explorer.kinds.extra_columns``: a geared crank's centre, radius, phase)
+    "table",      # (N, nb) BLOCK_DTYPE, each design's block table (``_batch.setup``)
+    "start",      # (N, n_vertices, 2) float64, each design's start: assembled at the first sample on the
+                  # nominal's branch by the closed form where it can be (``_batch.setup``)
+    "shortest",   # (N,) float64, the scale of the sweep's closing check (``_batch.setup``)
 ])
 
 Outputs = namedtuple("Outputs", [
@@ -83,69 +88,38 @@ Outputs = namedtuple("Outputs", [
     "iters",      # (N,) int64, Newton iterations
 ])
 
-#: One row per block of the per-variant block table (``_step.block_table``): its kind and, for the
-#: closed-form kinds, the numbers its kernel reads. DYAD: vertex, parents a, b, squared lengths to
-#: them, the squared limits of their distance (hi2 = (da+db)², lo2 = (da−db)²), the squared largest
-#: move per step, and whether the between-sample gap check is needed. ATTACH: vertex (the joint),
-#: a, b (the base pair), u, v. GENERAL: ``slot`` indexes ``Topology.gen_vptr``. SLIDE: vertex, a (= b)
-#: the known vertex at distance √da2, hi2 = da2 and lo2 = −da2 (the limits of the squared distance
-#: from a to the vertex's line), lim2, then its slide equation: slider vertex sp, line vertices sa, sb
-#: (−1: ground), which of them the block places (role 0, 1, 2), and the line's numbers (``Designs.slide``:
-#: lx, ly, nx, ny, off, sl).
-BLOCK_DTYPE = np.dtype([
-    ("kind", np.int64), ("vertex", np.int64), ("a", np.int64), ("b", np.int64), ("slot", np.int64),
-    ("da2", np.float64), ("db2", np.float64), ("hi2", np.float64), ("lo2", np.float64), ("lim2", np.float64),
-    ("gap", np.int64), ("u", np.float64), ("v", np.float64),
-    ("sp", np.int64), ("sa", np.int64), ("sb", np.int64), ("role", np.int64),
-    ("lx", np.float64), ("ly", np.float64), ("nx", np.float64), ("ny", np.float64), ("off", np.float64),
-    ("sl", np.float64),
-], align=True)
+def _block_dtype() -> np.dtype:
+    """The union of every kind's FIELDS (``explorer.kinds``), after the kind and the GENERAL slot."""
+    fields = {"kind": "i8"}
+    for k in KINDS:
+        for name, dt in k.FIELDS:
+            if fields.setdefault(name, dt) != dt:
+                raise TypeError(f"block table field {name!r}: {k.NAME} wants {dt}, another kind {fields[name]}")
+    return np.dtype([(n, np.dtype(dt)) for n, dt in fields.items()], align=True)
 
 
-def _other(plan: Plan, e: int, v: int) -> int:
-    return int(plan.link_b[e] if plan.link_a[e] == v else plan.link_a[e])
+#: One row per block of the per-variant block table (``_batch.setup``): its kind and the numbers its
+#: kind reads, by name: the union of the kinds' ``FIELDS`` (``explorer.kinds``).
+BLOCK_DTYPE = _block_dtype()
+#: Columns of ``Topology.blk``: the widest kind's.
+BLK_COLUMNS = max(len(k.COLUMNS) for k in KINDS)
 
 
 def topology(plan: Plan, blocks, moving, out_idx, crank: bool) -> Topology:
-    """The :class:`Topology` of ``plan`` restricted to ``blocks`` (indices in solve order)."""
+    """The :class:`Topology` of ``plan`` restricted to ``blocks`` (indices in solve order): each block
+    lowered by its kind (``lower``), the coupled blocks' rows in CSR tables."""
     nb = len(blocks)
     kind = np.array([plan.blocks[k].kind for k in blocks], dtype=np.int64)
-    dyad = np.full((nb, 5), -1, dtype=np.int64)
-    join = np.full(nb, -1, dtype=np.int64)
-    attach = np.full(nb, -1, dtype=np.int64)
-    gen = np.full(nb, -1, dtype=np.int64)
-    slid = np.full((nb, 4), -1, dtype=np.int64)
-    gv, gr, vptr, rptr = [], [], [0], [0]
-    fixed = set(plan.fixed.tolist())
-    pairs = {frozenset((int(a), int(b))): e for e, (a, b) in enumerate(zip(plan.link_a, plan.link_b))}
+    blk = np.full((nb, BLK_COLUMNS), -1, dtype=np.int64)
+    shared: dict = {}
     for i, k in enumerate(blocks):
-        blk = plan.blocks[k]
-        if blk.kind == DYAD:
-            v = blk.vertices[0]
-            la, lb = blk.links
-            pa, pb = _other(plan, la, v), _other(plan, lb, v)
-            dyad[i] = (v, pa, pb, la, lb)
-            if frozenset((pa, pb)) in pairs:
-                join[i] = pairs[frozenset((pa, pb))]
-            elif crank and plan.tip in (pa, pb) and ({pa, pb} - {plan.tip}) <= fixed:
-                join[i] = -2
-        elif blk.kind == ATTACH:
-            attach[i] = blk.attaches[0][0]
-        elif blk.kind == SLIDE:
-            v = blk.vertices[0]
-            slid[i] = (v, _other(plan, blk.links[0], v), blk.links[0], blk.slides[0])
-        else:
-            gen[i] = len(vptr) - 1
-            gv.extend(blk.vertices)
-            gr.extend((ROW_DIST, e) for e in blk.links)
-            gr.extend((ROW_ATTACH_X if ax == 0 else ROW_ATTACH_Y, t) for t, ax in blk.attaches)
-            gr.extend((ROW_SLIDE, t) for t in blk.slides)
-            vptr.append(len(gv))
-            rptr.append(len(gr))
-    assert all(int(kd) in (DYAD, ATTACH, GENERAL, SLIDE) for kd in kind)
-    return Topology(kind, dyad, join, attach, gen, np.array(vptr, dtype=np.int64), np.array(gv, dtype=np.int64),
+        b = plan.blocks[k]
+        row = KINDS[b.kind].lower(plan, b, crank, shared)
+        blk[i, :len(row)] = row
+    vptr, gv, rptr, gr = shared.get("gen", ([0], [], [0], []))  # the coupled blocks' CSR tables (kinds.general)
+    explicit = [i for i, k in enumerate(blocks) if getattr(KINDS[plan.blocks[k].kind], "EXPLICIT", False)]
+    return Topology(kind, blk, np.array(vptr, dtype=np.int64), np.array(gv, dtype=np.int64),
                     np.array(rptr, dtype=np.int64), np.array(gr, dtype=np.int64).reshape(-1, 2),
                     plan.link_a, plan.link_b, plan.attach, int(plan.tip), plan.fixed,
-                    np.asarray(moving, dtype=np.int64), np.asarray(out_idx, dtype=np.int64), slid,
-                    np.ascontiguousarray(plan.slide, dtype=np.int64).reshape(-1, 3))
-
+                    np.asarray(moving, dtype=np.int64), np.asarray(out_idx, dtype=np.int64),
+                    np.ascontiguousarray(plan.slide, dtype=np.int64).reshape(-1, 3), np.array(explicit, dtype=np.int64))

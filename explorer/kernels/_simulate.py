@@ -12,19 +12,20 @@ import numpy as np
 from .._files import format_size
 from ..errors import UserError, where
 from ..mechanism import Mechanism, Operating, Walker, operating_from_dict, walker_body
-from ..plan import ATTACH, DYAD, GENERAL, SLIDE, Plan, make_plan
-from ._blocks import solve_general
+from ..kinds import EQUATIONS, KINDS
+from ..plan import Plan, make_plan
 from ._closed import closed_batch_jit
 from ._design import body_points
 from ._design import designs as _designs
-from ._forces import F_OK, force_metrics, has_mass, no_forces, solve_forces
+from ._forces import F_OK, collect, force_inputs, force_metrics, has_mass, no_forces
 from ._drive import ARC, CRANK, LINE, LINEAR, QUINTIC, SPLINE, drive_table
-from ._batch import fast_batch_jit, generic_batch_jit
-from ._fast import slide_root, slide_sign
+from ._batch import fast_batch_jit, fast_forces_jit, generic_batch_jit, generic_forces_jit, setup
 from ._codegen import kernel_for, supported
-from ._inputs import Drive, Options, Outputs, topology
+from ._inputs import BLOCK_DTYPE, Designs, Drive, Options, Outputs, topology
+from ._kinds_array import block_table
 from ._rows import parallel_rows
 from ._step import BLOCK, DENSE
+from ._vector import FLAGGED, applies, vector_batch_jit
 from ._sweep import STATUS_ASSEMBLY, STATUS_BRANCH, STATUS_INVALID, STATUS_NOCONV, STATUS_OK
 
 #: Status code -> name; the same codes are stored in results files as ``/status``.
@@ -39,7 +40,7 @@ STATUS_NAMES = {
 #: reactions and the motor torque are unbounded.
 STATUS_SINGULAR = 5
 STATUS_NAMES[STATUS_SINGULAR] = "singular"
-METHODS = ("block", "dense", "closed")
+METHODS = ("block", "dense", "closed", "vector", "auto")
 #: Default tolerance: every solved position within 1e-11 × the design's longest link of the exact one
 #: (6.6e-10 for Jansen's leg). It costs no measurable time over 1e-6 (see docs/accuracy.md).
 DEFAULT_TOLERANCE = 1e-11
@@ -56,9 +57,9 @@ _KIND_TEXT = {
     "invalid": "has a non-finite or non-positive length",
     "singular": "is at or too near a toggle for its forces (a singular Jacobian: the joint reactions are unbounded)",
 }
-#: Variants solved at once when forces are asked for (every vertex's positions are needed; this
-#: bounds the memory they take: 1,024 × 360 steps × 7 vertices is 41 MB), fewer for a large
-#: mechanism, so that their positions stay within FORCE_MEMORY.
+#: Variants solved at once when forces are asked for (the forces read every vertex's positions, per
+#: design, from scratch; this bounds a chunk's designs and outputs as an earlier release bounded the
+#: positions it kept: 1,024 × 360 steps × 7 vertices), fewer for a large mechanism (FORCE_MEMORY).
 FORCE_CHUNK = 1024
 FORCE_MEMORY = 64 << 20
 
@@ -238,9 +239,9 @@ class Batch:
 
 # -- cached per topology and per driver and step count --------------------------------------------
 def _topology(mech: Mechanism) -> tuple:
-    return (mech.vertices, tuple((l.a, l.b) for l in mech.links), mech.driven, tuple(mech.fixed),
-            tuple(b.joints for b in mech.bodies), tuple((s.vertex, s.line) for s in mech.sliders),
-            mech.path.slider if mech.path is not None else None)
+    """What a mechanism's plan depends on: its vertices, driven and fixed ones, and each equation type's
+    structure (``key`` of ``explorer.kinds.EQUATIONS``)."""
+    return (mech.vertices, mech.driven, tuple(mech.fixed), *(eq.key(mech) for eq in EQUATIONS))
 
 
 _PLANS: dict = {}
@@ -305,7 +306,7 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
     """Positions (n_vertices, 2) of ``mech`` at its first sample on the branch its guess selects.
 
     A dyad takes the circle–circle intersection on the same side of its parents as the guess; a
-    pin–slider (SLIDE) block the line–circle intersection on the guess's side (``_fast.slide_sign``);
+    pin–slider (SLIDE) block the line–circle intersection on the guess's side (``explorer.kinds.slide``);
     a body joint follows its base pair rigidly; a general block runs damped Newton from the guess.
     Returns (positions, None) or (partial, Failure).
     """
@@ -317,79 +318,44 @@ def assemble(mech: Mechanism) -> tuple[np.ndarray, Failure | None]:
         P[mech.vertex_index(v)] = xy
     drv = _drive_for(mech.crank or mech.path, 3)
     P[plan.tip] = np.array(drv.center) + _scale(mech) * drv.table[0, :2]
-    des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
-    L, uv = des.dist[0], des.uv[0]
-    topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
-    n = 2 * _largest_general(plan)  # scratch of the largest coupled block, not of the whole mechanism
-    loc, M, rhs = np.full(len(mech.vertices), -1, dtype=np.int64), np.empty((n, n)), np.empty(n)
-    Z = np.zeros_like(P)
+    ctx = _nominal_context(mech, plan, P)
     for k, blk in enumerate(plan.blocks):
-        if blk.kind == DYAD:
-            v = blk.vertices[0]
-            (a, la), (b, lb) = [(_other(plan, e, v), e) for e in blk.links]
-            p = _circle_intersection(P[a], P[b], L[la], L[lb], P[v])
-            if p is None:
-                return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, math.nan, k)
-            P[v] = p
-        elif blk.kind == SLIDE:
-            tab = _slide_table(topo, des, P, k)
-            v = blk.vertices[0]
-            code, x, y = slide_root(tab[k], float(np.sign(slide_sign(tab[k], P))), P, P[v, 0], P[v, 1])
-            if code != 0:
-                return P, _failure(mech, plan, STATUS_ASSEMBLY, 0.0, math.nan, k)
-            P[v] = x, y
-        elif blk.kind == ATTACH:
-            j, p, q = plan.attach[blk.attaches[0][0]]
-            (u, w), g = uv[blk.attaches[0][0]], P[q] - P[p]
-            P[j] = P[p] + u * g + w * np.array([-g[1], g[0]])
-        else:
-            P1 = P.copy()
-            g = topo.gen[k]
-            rows = topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]]
-            code, _ = solve_general(P, Z, Z, P1, Z.copy(), Z.copy(), np.array(blk.vertices), rows, plan.link_a,
-                                    plan.link_b, plan.attach, L, uv, topo.slide, des.slide[0], 0.0, 0.0,
-                                    1e-12 * mech.size, 200, 0.0, False, False, loc, M, rhs)
-            if code != 0:
-                return P, _failure(mech, plan, STATUS_NOCONV, 0.0, math.nan, k)
-            P = P1
+        kind = KINDS[blk.kind]
+        if not kind.assemble(k, P, ctx):
+            status = STATUS_NOCONV if getattr(kind, "FAILS_AS", "assembly") == "no-convergence" else STATUS_ASSEMBLY
+            return P, _failure(mech, plan, status, 0.0, math.nan, k)
     return P, None
 
 
-def _slide_table(topo, des, P, k=None):
-    """The nominal design's block table (``_step.block_table``), for its SLIDE rows."""
-    from ._step import block_table
+def _nominal_context(mech: Mechanism, plan: Plan, P: np.ndarray):
+    """What the kinds' ``assemble`` and ``branch`` read (Python, once per topology): the plan, the nominal
+    design (``des``), the lowered plan of every block (``topo``), the nominal's block table at positions
+    P (``table``), a coupled block's Newton tolerance and scratch of the largest coupled block."""
+    from types import SimpleNamespace
 
-    return block_table(topo.kind, topo.dyad, topo.join, topo.attach, topo.gen, topo.att_vpq, topo.tip, des.dist[0],
-                       des.uv[0], P, des.center[0, 0], des.center[0, 1], des.scale[0], False, topo.slid, topo.slide,
-                       des.slide[0])
+    des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
+    topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
+    table = np.zeros(plan.n_blocks, dtype=BLOCK_DTYPE)
+    block_table(table, topo.kind, topo.blk, topo.tip, des.dist[0], des.uv[0], des.slide[0], des.extra[0], topo.att_vpq,
+                topo.slide, P, des.center[0, 0], des.center[0, 1], des.scale[0], False)
+    n = 2 * _largest_general(plan)  # scratch of the largest coupled block, not of the whole mechanism
+    return SimpleNamespace(plan=plan, des=des, topo=topo, table=table, tol=1e-12 * mech.size,
+                           loc=np.full(len(mech.vertices), -1, dtype=np.int64), M=np.empty((n, n)), rhs=np.empty(n))
 
 
 def _largest_general(plan: Plan) -> int:
     """Vertices of the plan's largest coupled (GENERAL) block, 0 if it has none."""
-    return max((len(b.vertices) for b in plan.blocks if b.kind == GENERAL), default=0)
+    return max((len(b.vertices) for b in plan.blocks if _coupled(b.kind)), default=0)
+
+
+def _coupled(kind: int) -> bool:
+    """Whether blocks of this kind need the generic context (coupled blocks: ``kinds.general``)."""
+    return getattr(KINDS[int(kind)], "CONTEXT", False)
 
 
 def _nominal_design(mech: Mechanism, plan: Plan, tolerance: float):
     """The nominal design as the kernels read it (``_inputs.Designs`` of one row)."""
     return _designs(mech, plan, mech.lengths[None, :], np.array([_scale(mech)]), None, tolerance)
-
-
-def _other(plan: Plan, link: int, v: int) -> int:
-    return int(plan.link_b[link] if plan.link_a[link] == v else plan.link_a[link])
-
-
-def _circle_intersection(a, b, da, db, guess):
-    """The point at distances da from a and db from b on the side of line a→b where ``guess`` lies."""
-    g = b - a
-    d = math.hypot(g[0], g[1])
-    if d == 0.0 or d > da + db or d < abs(da - db):
-        return None
-    x = (da * da - db * db + d * d) / (2.0 * d)
-    y = math.sqrt(max(da * da - x * x, 0.0))
-    u = g / d
-    perp = np.array([-u[1], u[0]])
-    side = g[0] * (guess[1] - a[1]) - g[1] * (guess[0] - a[0])
-    return a + x * u + (y if side >= 0.0 else -y) * perp
 
 
 def _failure(mech: Mechanism, plan: Plan, status: int, theta: float, theta_end: float, block: int) -> Failure:
@@ -435,7 +401,13 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
 
     method "block" runs Newton block by block in plan order; "dense" runs Newton on the full
     system (the reference); "closed" (all-dyad plans, positions only) places each dyad by
-    circle–circle intersection on the starting branch: exact, but blind to branch changes.
+    circle–circle intersection on the starting branch: exact, but blind to branch changes;
+    "vector" is the vectorised closed-form first pass (``explorer.kernels._vector``: each block over
+    every sample at once on the starting branch, with its tangents, then the assembly margin, fold,
+    gap and move checks as passes over the step arrays; a design it flags goes through the block
+    Newton sweep, which reports every failure) for plans of dyads, body joints, sliders and geared
+    cranks, positions and velocities (an error otherwise); "auto" is "vector" where it applies
+    (:func:`vector_applies`, no accelerations, no forces) and "block" elsewhere.
     ``tolerance`` bounds the error of every solved position, relative to the design's longest link:
     Newton stops once it has applied a correction shorter than tolerance × the longest link, which
     (Newton converging quadratically) leaves an error of the order of that correction squared.
@@ -469,13 +441,18 @@ def simulate(mech: Mechanism, steps: int = 360, *, tolerance: float = DEFAULT_TO
                      nan.copy() if accelerations else None, False, fail, 0)
     signs = _signs(mech, plan, P0)
     des = _nominal_design(mech, plan, tolerance)
+    fin = None
+    if forces:  # computed in the same kernel call as the sweep
+        model, frows, tb = force_inputs(mech, plan, mech.lengths[None, :], np.array([_scale(mech)]),
+                                        body_points(mech, None, 1), operating, walker, steps, mech.vertices,
+                                        members=True, out_idx=np.arange(nv))
+        fin = (model, frows)
     pos, vel, acc, status, fth, fend, fbl, its = _run(
         mech, plan, des, steps, np.arange(nv), velocities, accelerations, method, max_iterations, P0, signs,
-        np.arange(plan.n_blocks))
+        np.arange(plan.n_blocks), forces=fin)
     extra = {}
     if forces:
-        fo = solve_forces(mech, plan, pos, status, des, mech.lengths[None, :], np.array([_scale(mech)]),
-                          body_points(mech, None, 1), operating, walker, mech.vertices, members=True)
+        fo = collect(mech, operating, walker, model, frows, tb, status, mech.vertices, members=True)
         _force_status(fo, status, fth, fbl, drv.params)
         met = force_metrics(fo, operating, mech.vertices)
         extra = dict(torque=fo.torque[0], joint_forces={j: f[0] for j, f in fo.joint_forces.items()},
@@ -495,6 +472,12 @@ def force_setup(mech: Mechanism, operating, walker) -> tuple[Operating, Walker]:
     if mech.crank is None:
         raise UserError(f"{where(mech.source, 'driver')}: forces are computed for crank-driven mechanisms (the motor "
                         f"torque is the crank's); this one is driven by a path")
+    for b in plan_for(mech).blocks:  # a kind whose forces are not written yet says so (``FORCES``)
+        kind = KINDS[b.kind]
+        if not getattr(kind, "FORCES", True):
+            raise UserError(f"{where(mech.source, 'operating')}: forces are not computed for a mechanism with "
+                            f"{kind.FORCES_REFUSED} yet (the {kind.NAME} block placing "
+                            f"{', '.join(mech.vertices[v] for v in b.vertices)})")
     if isinstance(operating, Operating):
         op = operating
     else:
@@ -530,36 +513,9 @@ def branch_signs(mech: Mechanism, positions) -> np.ndarray:
 def _signs(mech: Mechanism, plan: Plan, P: np.ndarray) -> np.ndarray:
     """Branch sign (+1.0 / −1.0; 0.0 if singular or for an ATTACH block, which has none) of every block
     at positions P (n_vertices, 2)."""
-    # a dyad's orientation (``_blocks.dyad_sign``); a coupled block's determinant sign
-    # (``_blocks.general_sign``, compiled only for plans that have one) with scratch of the largest
-    # coupled block's size (``_step.block_signs`` takes scratch of the whole mechanism's, (2 n)²)
-    out = np.zeros(plan.n_blocks)
-    general = [k for k, blk in enumerate(plan.blocks) if blk.kind == GENERAL]
-    if any(blk.kind == SLIDE for blk in plan.blocks):
-        des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
-        tab = _slide_table(topology(plan, range(plan.n_blocks), [], [], mech.crank is not None), des, P)
-        for k, blk in enumerate(plan.blocks):
-            if blk.kind == SLIDE:
-                out[k] = np.sign(slide_sign(tab[k], P))
-    for k, blk in enumerate(plan.blocks):
-        if blk.kind == DYAD:
-            v = blk.vertices[0]
-            a, b = (_other(plan, e, v) for e in blk.links)
-            g, w = P[b] - P[a], P[v] - P[a]
-            out[k] = np.sign(g[0] * w[1] - g[1] * w[0])
-    if general:
-        from ._blocks import general_sign
-
-        des = _nominal_design(mech, plan, DEFAULT_TOLERANCE)
-        topo = topology(plan, range(plan.n_blocks), [], [], mech.crank is not None)
-        n = 2 * _largest_general(plan)
-        loc, M, rhs = np.full(len(mech.vertices), -1, dtype=np.int64), np.empty((n, n)), np.empty(n)
-        for k in general:
-            g = topo.gen[k]
-            out[k] = general_sign(P, topo.gen_verts[topo.gen_vptr[g]:topo.gen_vptr[g + 1]],
-                                  topo.gen_rows[topo.gen_rptr[g]:topo.gen_rptr[g + 1]], topo.dist_a, topo.dist_b,
-                                  topo.att_vpq, des.uv[0], topo.slide, des.slide[0], loc, M, rhs)
-    return out
+    # each kind's own sign (a dyad's orientation, a coupled block's determinant sign, ...)
+    ctx = _nominal_context(mech, plan, P)
+    return np.array([KINDS[blk.kind].branch(k, P, ctx) for k, blk in enumerate(plan.blocks)], dtype=np.float64)
 
 
 KERNELS = ("auto", "general", "generated")
@@ -573,53 +529,101 @@ GENERATED_MAX_BLOCKS = 12
 
 
 def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max_iterations, P0, signs, blocks,
-         kernel="auto"):
+         kernel="auto", forces=None):
     """Allocate the outputs and call the kernel for ``method`` on the plan restricted to ``blocks``;
-    ``des``: the variants' ``_inputs.Designs``; ``kernel``: see :func:`simulate_batch`."""
+    ``des``: the variants' ``_inputs.Designs``; ``kernel``: see :func:`simulate_batch`. ``forces``:
+    None, or the forces effect's (``_forces.ForceModel``, ``ForceRows``), computed in the same kernel
+    call (every vertex solved with its rates into per-design scratch; the rows of ``out_idx`` stored)."""
     drv = _drive_for(mech.crank or mech.path, steps)
     N = des.scale.shape[0]
     k = len(out_idx)
     outs = Outputs(np.empty((N, steps, k, 2)), np.empty((N, steps if velocities else 0, k, 2)),
                    np.empty((N, steps if accelerations else 0, k, 2)), np.empty(N, dtype=np.int8), np.empty(N),
                    np.full(N, np.nan), np.full(N, -1, dtype=np.int64), np.zeros(N, dtype=np.int64))
+    nv, nb = len(mech.vertices), len(blocks)
     solved = sorted({plan.tip, *(v for b in blocks for v in plan.blocks[b].vertices)})
-    moving = np.arange(len(mech.vertices)) if method == "dense" else np.array(solved, dtype=np.int64)
-    topo = topology(plan, blocks, moving, out_idx, mech.crank is not None)
+    moving = np.arange(nv) if method == "dense" else np.array(solved, dtype=np.int64)
+    # with forces the sweep stores every vertex (the forces' scratch), and the kernel copies out_idx's rows
+    topo = topology(plan, blocks, moving, np.arange(nv) if forces is not None else out_idx, mech.crank is not None)
     kdrv = Drive(drv.kind, drv.prm, drv.table, drv.params, drv.t_end, drv.closed)
     sg = np.ascontiguousarray(signs[blocks])
-    general = bool(np.any(topo.kind == GENERAL))
+    general = any(_coupled(k) for k in topo.kind)
+    des = setup(plan, blocks, topo, kdrv, P0, sg, des._replace(
+        table=np.zeros((N, nb), dtype=BLOCK_DTYPE), start=np.empty((N, nv, 2)), shortest=np.empty(N)))
+    if method in ("auto", "vector"):
+        fits = forces is None and not accelerations and not general and applies(topo.kind, sg)
+        if method == "vector" and not fits:
+            raise UserError("method 'vector': the vectorised first pass solves plans of dyads, rigid bodies and "
+                            "sliders (no coupled blocks), positions and velocities (no accelerations or forces); "
+                            "use method 'auto', which runs Newton where it does not apply")
+        method = "vector" if fits else "block"
     if method == "closed":
         if velocities or accelerations or general:
             raise UserError("method 'closed': the closed form gives positions only, and only for plans of dyads and "
                             "rigid bodies (no coupled blocks)")
-        parallel_rows(closed_batch_jit, (topo, kdrv, P0, sg), (des, outs))
+        parallel_rows(closed_batch_jit, (topo, kdrv, sg), (des, outs))
+    elif method == "vector":
+        # the first pass for every design; the ones it flags through the Newton sweep, which reports failures
+        parallel_rows(vector_batch_jit, (topo, kdrv, bool(velocities), sg), (des, outs))
+        rows = np.flatnonzero(outs.status == FLAGGED)
+        if rows.size:
+            sub = Outputs(*(a[rows] for a in outs))
+            _newton(topo, kdrv, sg, Designs(*(a[rows] for a in des)), sub, "block", max_iterations, velocities,
+                    False, kernel, general, None)
+            for a, b in zip(outs, sub):
+                a[rows] = b
     else:
-        opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations), bool(velocities),
-                       bool(accelerations))
-        if kernel == "generated" and (method == "dense" or general or not supported(topo, opts)):
-            raise UserError("kernel 'generated': per-topology code is generated only for the block method on plans "
-                            "of dyads and rigid bodies, without accelerations; use kernel='auto' or 'general'")
-        if method == "dense" or general:
-            fn = generic_batch_jit
-        elif kernel != "general" and supported(topo, opts) and (kernel == "generated"
-                                                                or topo.kind.shape[0] <= GENERATED_MAX_BLOCKS):
-            fn = kernel_for(topo, bool(velocities))  # this plan's code, generated (same results)
-        else:
-            fn = fast_batch_jit
-        parallel_rows(fn, (topo, kdrv, opts, P0, sg), (des, outs))
+        _newton(topo, kdrv, sg, des, outs, method, max_iterations, velocities, accelerations, kernel, general, forces)
     fbl = outs.fail_block
     if len(blocks):  # report the failing block by its index in the full plan
         fbl = np.where(fbl >= 0, blocks[np.maximum(fbl, 0)], -1)
     return outs.pos, outs.vel, outs.acc, outs.status, outs.fail_t, outs.fail_end, fbl, outs.iters
 
 
+def _newton(topo, kdrv, sg, des, outs, method, max_iterations, velocities, accelerations, kernel, general, forces):
+    """The Newton sweep ("block" or "dense") for every row of ``des`` into ``outs``; the kernel chosen
+    as :func:`simulate_batch` documents (``kernel``), with the forces effect when ``forces`` is given."""
+    # with forces the sweep carries every vertex's rates (the forces read them)
+    opts = Options(DENSE if method == "dense" else BLOCK, int(max_iterations),
+                   bool(velocities) or forces is not None, bool(accelerations) or forces is not None)
+    if kernel == "generated" and (method == "dense" or general or not supported(topo, opts)):
+        raise UserError("kernel 'generated': per-topology code is generated only for the block method on plans "
+                        "whose kinds have a generated form (not coupled blocks or sliders); use kernel='auto' "
+                        "or 'general'")
+    if method == "dense" or general:
+        fn = generic_batch_jit if forces is None else generic_forces_jit
+    elif kernel != "general" and supported(topo, opts) and (kernel == "generated"
+                                                            or topo.kind.shape[0] <= GENERATED_MAX_BLOCKS):
+        # this plan's code, generated (the same results)
+        fn = kernel_for(topo, opts.want_vel, opts.want_acc, forces is not None)
+    else:
+        fn = fast_batch_jit if forces is None else fast_forces_jit
+    if forces is None:
+        parallel_rows(fn, (topo, kdrv, opts, sg), (des, outs))
+    else:
+        parallel_rows(fn, (topo, kdrv, opts, sg, forces[0]), (des, outs, forces[1]))
+
+
+def vector_applies(mech: Mechanism, vertices="all") -> bool:
+    """Whether method "auto" solves ``mech`` (the blocks that place ``vertices``: names, or "all") by
+    the vectorised closed-form first pass (without accelerations or forces): every block a dyad, a body
+    joint or a slider, and the nominal assembles off a fold. Otherwise "auto" runs the Newton sweep."""
+    P0, fail = assemble(mech)
+    if fail is not None:
+        return False
+    plan = plan_for(mech)
+    names = list(mech.vertices) if vertices == "all" else [str(v) for v in vertices]
+    blocks = plan.needed_blocks(np.array([mech.vertex_index(v) for v in names], dtype=np.int64))
+    return applies([plan.blocks[b].kind for b in blocks], _signs(mech, plan, P0)[blocks])
+
+
 def warm_dyad() -> None:
-    """Compile the dyad's arithmetic (``_fast.place_dyad``, with ``_blocks.gap_suspect``) into the
+    """Compile the dyad's arithmetic (``explorer.kinds.dyad.place_dyad``, with ``gap_suspect``) into the
     on-disk kernel cache, for a warm-up process (``explorer.gait._warm``): it is called here once, on
     numbers it settles at once, with the argument types every solver kernel (generated or general)
     calls it with, so a cold ``explorer run``, whose own compile of the solver reaches it seconds
     later, loads it from the cache instead of compiling it (1.7-2 CPU-s)."""
-    from ._fast import place_dyad
+    from ..kinds.dyad import place_dyad
 
     place_dyad(True, True, *([0.0] * 31), 1)
 
@@ -643,7 +647,7 @@ def _by_name(mech: Mechanism, lengths, crank, geometry):
                         f"columns given: {', '.join(columns)})")
     if crank is None and "crank" in columns and mech.crank is not None:
         crank = columns["crank"]
-    coords = [n for n, kind in ((n, mech.parameter_kind(n)) for n in mech.parameters()) if kind == "coordinate"]
+    coords = [n for n in mech.parameters() if n != "crank" and n not in mech.link_names]  # coordinates, gear radii
     geometry = dict(geometry or {})
     for n in coords:
         if n in columns and n not in geometry:
@@ -672,7 +676,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
         no parameter are ignored.
     crank : (N,) crank radii (None: the nominal radius for every variant; must be None for a
         path-driven mechanism).
-    geometry : {coordinate parameter name: (N,) values}, model units: the crank centre, ground
+    geometry : {coordinate parameter name: (N,) values}, model units: geared cranks' radii, the crank centre, ground
         pivots and body joints of each variant (those not given keep their nominal values).
     vertices : names whose paths are returned (default: the foot; "all" for every vertex). Blocks
         that neither place a requested vertex nor feed one are not solved (block and closed
@@ -687,6 +691,7 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
     design itself cannot be assembled at the start, there is no configuration or branch to start
     from: every row fails as the nominal does (as :func:`simulate` reports it), with NaN paths.
     velocities : default yes, except with method "closed" (positions only).
+    method : as for :func:`simulate` ("block", "dense", "closed", "vector", "auto").
     kernel : "auto" (default: the per-topology generated code where it applies and the blocks solved
         are at most :data:`GENERATED_MAX_BLOCKS`, else the array form),
         "general" (always the array form of the sweep) or "generated" (the generated code; an error
@@ -770,12 +775,12 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
 
 def _batch_forces(mech, plan, lengths, scale, geometry, tolerance, steps, out_idx, velocities, accelerations, method,
                   max_iterations, P0, kernel, operating, walker, force_joints):
-    """simulate_batch with forces: FORCE_CHUNK variants at a time, every vertex solved, then the forces
-    effect; returns the outputs for ``out_idx`` and (torque, {joint: forces}) and the force metrics."""
-    N, nv = lengths.shape[0], len(mech.vertices)
+    """simulate_batch with forces: FORCE_CHUNK variants at a time, every vertex solved and the forces
+    effect computed in one kernel call per chunk; returns the outputs for ``out_idx`` and (torque,
+    {joint: forces}) and the force metrics."""
+    N = lengths.shape[0]
     signs = _signs(mech, plan, P0)
     blocks = np.arange(plan.n_blocks)
-    allv = np.arange(nv)
     k = len(out_idx)
     pos = np.empty((N, steps, k, 2))
     vel = np.empty((N, steps if velocities else 0, k, 2))
@@ -787,24 +792,18 @@ def _batch_forces(mech, plan, lengths, scale, geometry, tolerance, steps, out_id
     met: dict = {}
     params = _drive_for(mech.crank, steps).params
     geometry = dict(geometry or {})
-    rows = force_chunk(steps, nv)
+    rows = force_chunk(steps, len(mech.vertices))
     for lo in range(0, N, rows):
         hi = min(N, lo + rows)
         g = {n: np.asarray(c, dtype=np.float64).reshape(-1)[lo:hi] for n, c in geometry.items()}
         des = _designs(mech, plan, lengths[lo:hi], scale[lo:hi], g, tolerance)
-        # positions only from the sweep: the forces' own block-by-block solves give the velocities
-        # and accelerations (the same linear systems), so the sweep need not carry them for every vertex
-        p, _, _, st, th, te, bl, it = _run(mech, plan, des, steps, allv, False, False, method, max_iterations, P0,
-                                           signs, blocks, kernel)
-        fo = solve_forces(mech, plan, p, st, des, lengths[lo:hi], scale[lo:hi], body_points(mech, g, hi - lo),
-                          operating, walker, force_joints, out_idx=out_idx, velocities=velocities,
-                          accelerations=accelerations)
+        model, frows, tb = force_inputs(mech, plan, lengths[lo:hi], scale[lo:hi], body_points(mech, g, hi - lo),
+                                        operating, walker, steps, force_joints, out_idx=out_idx)
+        p, v, a, st, th, te, bl, it = _run(mech, plan, des, steps, out_idx, velocities, accelerations, method,
+                                           max_iterations, P0, signs, blocks, kernel, forces=(model, frows))
+        fo = collect(mech, operating, walker, model, frows, tb, st, force_joints)
         _force_status(fo, st, th, bl, params)
-        pos[lo:hi] = p[:, :, out_idx]
-        if velocities:
-            vel[lo:hi] = fo.velocities
-        if accelerations:
-            acc[lo:hi] = fo.accelerations
+        pos[lo:hi], vel[lo:hi], acc[lo:hi] = p, v, a
         status[lo:hi], fth[lo:hi], fend[lo:hi], fbl[lo:hi], its[lo:hi] = st, th, te, bl, it
         torque[lo:hi] = fo.torque
         for j in force_joints:

@@ -5,7 +5,7 @@ the dialect (:data:`ARRAY`) that fills the template's holes with state in (n_ver
 a call of a global ``step``, and the rendering, committed as ``_sweep_array.py`` (rewrite it with
 ``python -c "from explorer.kernels import _sweep; _sweep.write_array_module()"`` after editing the
 template or the dialect; tests/test_sweep_template.py fails while they differ). :func:`_specialise`
-binds ``step`` to the fast DYAD / ATTACH step or to the generic block / dense step and jits each copy
+binds ``step`` to the fast step (plans without coupled blocks) or to the generic block / dense step and jits each copy
 under its own name, so each compiles (and caches) only the step it calls, and calls it directly.
 (Passing the step as an argument instead disables caching; dispatching through ``@overload``
 measured 2x slower.) The kernels generated per topology (``_codegen``) render the same template in
@@ -28,7 +28,7 @@ from pathlib import Path
 
 from numba import njit
 
-from ._fast import fast_step
+from ._kinds_array import fast_step
 from ._step import generic_step
 from ._sweep_array import sweep
 from ._sweep_template import (MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS, STATUS_ASSEMBLY, STATUS_BRANCH,
@@ -137,7 +137,7 @@ jits copies of :func:`sweep` with the global ``step`` bound to a step function.
 
 import numpy as np
 
-from ._blocks import SUSPECT
+from explorer.kinds._common import SUSPECT
 from ._drive import drive
 from ._sweep_template import MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS, STATUS_BRANCH, STATUS_OK, status_of
 
@@ -154,9 +154,70 @@ def array_module_source() -> str:
 
 
 def write_array_module() -> Path:
-    """Rewrite ``_sweep_array.py`` from the template (after editing it or the array dialect)."""
+    """Rewrite ``_sweep_array.py`` and ``_batch_array.py`` from the templates (after editing them or the
+    array dialects)."""
     _ARRAY_MODULE.write_text(array_module_source(), encoding="utf-8")
+    _BATCH_MODULE.write_text(batch_module_source(), encoding="utf-8")
     return _ARRAY_MODULE
+
+
+#: The batch template's array form (``_sweep_template.batch``): the sweep called through the global
+#: ``run_sweep`` on the context ``make_context`` gives (both bound by ``_batch``), the generic
+#: context's known vertices and, with forces, the forces' scratch made once per call.
+def batch_array_dialect(forces: bool) -> dict:
+    state = ["nf_ = topo.fixed.shape[0]",
+             "known = np.empty(nf_ + 1 + topo.explicit.shape[0], dtype=np.int64)",
+             "known[0] = topo.tip",
+             "for f_ in range(nf_):",
+             "    known[f_ + 1] = topo.fixed[f_]",
+             "for f_ in range(topo.explicit.shape[0]):  # an explicit block's vertex: its first column",
+             "    known[nf_ + 1 + f_] = topo.blk[topo.explicit[f_], 0]"]
+    if forces:
+        state.append("fs = force_scratch(drv.table.shape[0], designs.start.shape[1], fmodel, topo)")
+    return {
+        "batch_state": lambda args: state,
+        "sweep": lambda args: [
+            "status, fail_t, fail_end, fail_block, iters = run_sweep(",
+            "    make_context(opts, topo, designs, i, known), topo, drv, opts, designs.start[i], signs, cx, cy, scale,",
+            "    shortest, tol, out_pos, out_vel, out_acc)"],
+    }
+
+
+_BATCH_MODULE = Path(__file__).with_name("_batch_array.py")
+_BATCH_HEADER = '''"""The batch loop's array form: rendered from ``_sweep_template.batch`` by ``_sweep.batch_module_source``; do not edit.
+
+Edit the template (``_sweep_template.batch``) or the dialect (``_sweep.batch_array_dialect``), then
+rewrite this file: ``python -c "from explorer.kernels import _sweep; _sweep.write_array_module()"``
+(tests/test_sweep_template.py fails while it differs from a fresh rendering). ``_batch`` jits copies
+of :func:`batch_plain` and :func:`batch_forces` with the globals ``run_sweep``, ``make_context`` and
+``design_forces`` bound.
+"""
+
+import numpy as np
+
+from ._forces import force_scratch
+from ._sweep_template import STATUS_INVALID, STATUS_OK, valid_lengths
+
+# Bound in each jitted copy (``_batch``): the sweep, the step's context of design i, the forces effect.
+run_sweep = None
+make_context = None
+design_forces = None
+'''
+
+
+def batch_module_source() -> str:
+    """The text of ``_batch_array.py``: the batch template rendered in the array dialect, without and
+    with forces."""
+    out = _BATCH_HEADER
+    for forces in (False, True):
+        src = render(batch_array_dialect(forces), {"plain": not forces, "forces": forces}, template="batch")
+        if forces:
+            src = src.replace("def batch(", "def batch_forces(", 1)
+        else:
+            src = src.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
+                              "def batch_plain(topo, drv, opts, signs, designs, outs):", 1)
+        out += "\n\n" + src
+    return out
 
 
 def _specialise(step_fn, name: str):
@@ -170,7 +231,7 @@ def _specialise(step_fn, name: str):
     return njit(cache=True)(copy)
 
 
-#: :func:`sweep` with the fast DYAD / ATTACH step; its context is the design's block table (``_step.block_table``).
+#: :func:`sweep` with the fast step (no coupled blocks); its context is the design's block table (``_batch.setup``).
 fast_sweep = _specialise(fast_step, "fast")
 #: :func:`sweep` with the generic block / dense step; its context comes from ``_step.generic_context``.
 generic_sweep = _specialise(generic_step, "generic")

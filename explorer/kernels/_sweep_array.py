@@ -8,7 +8,7 @@ jits copies of :func:`sweep` with the global ``step`` bound to a step function.
 
 import numpy as np
 
-from ._blocks import SUSPECT
+from explorer.kinds._common import SUSPECT
 from ._drive import drive
 from ._sweep_template import MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS, STATUS_BRANCH, STATUS_OK, status_of
 
@@ -23,7 +23,7 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     ``_inputs`` Topology, Drive and Options. The driver's S samples are t_k = k·t_end/S (closed: a
     crank, t_end = 2π) or k·t_end/(S−1) (open: a path from 0 to t_end). P_init (n_vertices, 2):
     start of the first Newton solve (the design assembled on the nominal's branch where the closed form
-    can, ``_batch.design_setup``). signs (n_blocks,): the
+    can, ``_batch.setup``). signs (n_blocks,): the
     branch each block keeps. (cx, cy), scale: the design's crank centre and radius. shortest: its
     shortest dyad length; tol: Newton's stopping distance (model units).
     out_pos[k, j] = position of vertex topo.out_idx[j] at sample k, likewise out_vel (d/dparameter)

@@ -26,7 +26,7 @@ The holes:
   the driver's unit values ``X`` (a row of the driver table, or ``d``): centre + scale · X;
 * ``code, blk, iters = hole.step(h, hp, checks, iters)``: every block placed at the trial driver
   position, a step of h after one of hp; checks: run the gap and move checks (the step is not at the
-  smallest size). code: ``_blocks``' OK (0), INFEASIBLE, SIGN, NOCONV or SUSPECT; blk: the failing
+  smallest size). code: ``explorer.kinds._common``' OK (0), INFEASIBLE, SIGN, NOCONV or SUSPECT; blk: the failing
   block or −1; the Newton iterations are added to iters;
 * ``hole.accept()``: the trial state made current, the previous tangent kept (the predictor's curvature);
 * ``hole.keep_first()``: after sample 0, its configuration kept (the closing check, the backward
@@ -56,7 +56,7 @@ import textwrap
 import numpy as np
 from numba import njit
 
-from ._blocks import INFEASIBLE, SIGN, SUSPECT
+from ..kinds._common import INFEASIBLE, SIGN, SUSPECT
 from ._drive import drive
 
 # Per-variant status codes (public: they are stored in results files).
@@ -79,6 +79,22 @@ MAX_FORCED = 2 ** (REFINE_LEVELS - 3)
 MAX_FORCED_SPAN = 1e-3
 
 
+# Lengths outside this range are "invalid": their squares (the residuals are in squared lengths)
+# would underflow to 0 or overflow to inf (NaN compares false, so NaN is invalid as well).
+MIN_LENGTH = 1e-150
+MAX_LENGTH = 1e150
+
+
+@njit(cache=True)
+def valid_lengths(L, scale):
+    """True if every link length and the driver scale (crank radius) lie in [MIN_LENGTH, MAX_LENGTH]:
+    finite, positive, and with squares that neither underflow nor overflow in double precision."""
+    ok = MIN_LENGTH <= scale <= MAX_LENGTH
+    for e in range(L.shape[0]):
+        ok = ok and MIN_LENGTH <= L[e] <= MAX_LENGTH
+    return ok
+
+
 @njit(cache=True)
 def status_of(code):
     """Map a step's trouble code to the per-variant status it ends a sweep with."""
@@ -99,6 +115,10 @@ class _Hole:
 
 
 hole = _Hole()
+# What the batch template's forces section reads and its renderings bind: the forces' scratch (made by
+# the ``batch_state`` hole) and the forces effect of one design (``_forces.design_forces_*``).
+fs = None
+design_forces = None
 
 
 def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out_pos, out_vel, out_acc):
@@ -108,7 +128,7 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     ``_inputs`` Topology, Drive and Options. The driver's S samples are t_k = k·t_end/S (closed: a
     crank, t_end = 2π) or k·t_end/(S−1) (open: a path from 0 to t_end). P_init (n_vertices, 2):
     start of the first Newton solve (the design assembled on the nominal's branch where the closed form
-    can, ``_batch.design_setup``). signs (n_blocks,): the
+    can, ``_batch.setup``). signs (n_blocks,): the
     branch each block keeps. (cx, cy), scale: the design's crank centre and radius. shortest: its
     shortest dyad length; tol: Newton's stopping distance (model units).
     out_pos[k, j] = position of vertex topo.out_idx[j] at sample k, likewise out_vel (d/dparameter)
@@ -259,6 +279,96 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     return hole.result(status, fail_t, fail_end, fail_block, iters)
 
 
+def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):
+    """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
+    with forces, the forces effect of each design into ``frows``): the one per-design loop of every
+    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+
+    topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
+    ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
+    forces effect's shared inputs and per-row inputs and outputs (``_forces.ForceModel`` and
+    ``ForceRows``; without forces the kernel takes neither). The per-row arguments come last
+    (``designs``, ``outs``, ``frows``), for ``_rows.parallel_rows``. A design with a length outside the valid range is
+    "invalid", its rows NaN. With forces (section ``forces``) the sweep stores every vertex's
+    position, tangent and second derivative in per-design scratch, the forces effect reads them
+    there when the design is ok, and the requested rows (``fmodel.out_idx``) are copied out: a forces
+    study holds no position array it does not store.
+    """
+    hole.batch_state()
+    for i in range(designs.scale.shape[0]):
+        L = designs.dist[i]
+        scale = designs.scale[i]
+        if not valid_lengths(L, scale):
+            # NaN rows, as loops (a slice assignment compiles for about a second more)
+            for r_ in range(outs.pos.shape[1]):
+                for j_ in range(outs.pos.shape[2]):
+                    outs.pos[i, r_, j_, 0] = np.nan
+                    outs.pos[i, r_, j_, 1] = np.nan
+            for r_ in range(outs.vel.shape[1]):
+                for j_ in range(outs.vel.shape[2]):
+                    outs.vel[i, r_, j_, 0] = np.nan
+                    outs.vel[i, r_, j_, 1] = np.nan
+            for r_ in range(outs.acc.shape[1]):
+                for j_ in range(outs.acc.shape[2]):
+                    outs.acc[i, r_, j_, 0] = np.nan
+                    outs.acc[i, r_, j_, 1] = np.nan
+            outs.status[i] = STATUS_INVALID
+            outs.fail_t[i] = 0.0
+            outs.fail_end[i] = np.nan
+            outs.fail_block[i] = -1
+            outs.iters[i] = 0
+            continue
+        cx = designs.center[i, 0]
+        cy = designs.center[i, 1]
+        shortest = designs.shortest[i]
+        tol = designs.tol[i]
+        if hole.plain():
+            out_pos = outs.pos[i]
+            out_vel = outs.vel[i]
+            out_acc = outs.acc[i]
+        if hole.forces():
+            out_pos = fs.pos
+            out_vel = fs.vel
+            out_acc = fs.acc
+        status, fail_t, fail_end, fail_block, iters = hole.sweep(i, shortest, tol, out_pos, out_vel, out_acc)
+        if hole.forces():
+            if status == STATUS_OK:
+                design_forces(i, designs.table[i], topo, designs.uv[i], designs.slide[i], cx, cy, fmodel, frows, fs)
+            # the requested rows of the scratch, as the plain sweep stores them
+            oi = fmodel.out_idx
+            for r_ in range(outs.pos.shape[1]):
+                for j_ in range(oi.shape[0]):
+                    v_ = oi[j_]
+                    outs.pos[i, r_, j_, 0] = fs.pos[r_, v_, 0]
+                    outs.pos[i, r_, j_, 1] = fs.pos[r_, v_, 1]
+            for r_ in range(outs.vel.shape[1]):
+                for j_ in range(oi.shape[0]):
+                    v_ = oi[j_]
+                    outs.vel[i, r_, j_, 0] = fs.vel[r_, v_, 0]
+                    outs.vel[i, r_, j_, 1] = fs.vel[r_, v_, 1]
+            for r_ in range(outs.acc.shape[1]):
+                for j_ in range(oi.shape[0]):
+                    v_ = oi[j_]
+                    outs.acc[i, r_, j_, 0] = fs.acc[r_, v_, 0]
+                    outs.acc[i, r_, j_, 1] = fs.acc[r_, v_, 1]
+        outs.status[i] = status
+        outs.fail_t[i] = fail_t
+        outs.fail_end[i] = fail_end
+        outs.fail_block[i] = fail_block
+        outs.iters[i] = iters
+
+
+#: The batch template's holes and sections (see :func:`batch`): ``batch_state`` (the kernel's
+#: scratch, before the loop over designs), ``sweep`` (design i's sweep: a call, or the sweep inline,
+#: leaving its five results in the names it binds); sections ``plain`` (the sweep writes the outputs)
+#: and ``forces`` (it writes per-design scratch; the forces effect and the copy follow).
+BATCH_HOLES = {
+    "batch_state": ("", ""),
+    "sweep": ("status, fail_t, fail_end, fail_block, iters", "i, shortest, tol, out_pos, out_vel, out_acc"),
+}
+BATCH_SECTIONS = ("plain", "forces")
+
+
 #: Each hole: (what its statement binds or "return", its arguments), None where they may vary.
 HOLES = {
     "state": ("d", "P_init"),
@@ -279,13 +389,18 @@ _HOLE = re.compile(r"^(?P<ind> *)(?:(?P<ret>return )|(?P<lhs>[\w, ]+?) = )?hole\
 _SECTION = re.compile(r"^(?P<ind> *)if hole\.(?P<name>\w+)\(\):$")
 
 
-@functools.lru_cache(maxsize=1)
-def _template() -> tuple[list[str], int]:
-    """The template's source lines (def line and docstring included) and the index of its first
+@functools.lru_cache(maxsize=None)
+def _template_of(fn) -> tuple[list[str], int]:
+    """A template's source lines (def line and docstring included) and the index of its first
     statement after the docstring."""
-    lines, _ = inspect.getsourcelines(sweep)
-    fn = ast.parse(textwrap.dedent("".join(lines))).body[0]
-    return [ln.rstrip("\n") for ln in lines], fn.body[1].lineno - 1
+    lines, _ = inspect.getsourcelines(fn)
+    tree = ast.parse(textwrap.dedent("".join(lines))).body[0]
+    return [ln.rstrip("\n") for ln in lines], tree.body[1].lineno - 1
+
+
+def _template() -> tuple[list[str], int]:
+    """The sweep template's lines (:func:`_template_of`)."""
+    return _template_of(sweep)
 
 
 def indexed(x: str, i: int) -> str:
@@ -294,12 +409,17 @@ def indexed(x: str, i: int) -> str:
     return f"{m.group(1)}[{m.group(2)}, {i}]" if m else f"{x}[{i}]"
 
 
-def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int = 0) -> str:
+def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int = 0, template: str = "sweep") -> str:
     """The template with every hole filled: ``holes[name](args)`` gives a hole's lines (a list of
     str, indented relative to the hole; ``args`` the argument text), ``sections[name]`` whether a
     section's body is kept. ``body_only``: the function's statements without its def line and
-    docstring (for inlining into a kernel). Every line moves right by ``indent`` spaces."""
-    lines, first = _template()
+    docstring (for inlining into a kernel). Every line moves right by ``indent`` spaces. ``template``:
+    "sweep" (:func:`sweep`, :data:`HOLES`, :data:`SECTIONS`) or "batch" (:func:`batch`,
+    :data:`BATCH_HOLES`, :data:`BATCH_SECTIONS`)."""
+    if template == "sweep":
+        (lines, first), table, known = _template(), HOLES, SECTIONS
+    else:
+        (lines, first), table, known = _template_of(batch), BATCH_HOLES, BATCH_SECTIONS
     out: list[str] = []
     drop_below = None  # inside a dropped section: lines indented deeper than this
     dedent = []  # kept sections' indentation levels: their bodies move left by 4
@@ -319,8 +439,8 @@ def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int 
         m = _SECTION.match(line)
         if m:
             name = m.group("name")
-            if name not in SECTIONS:
-                raise ValueError(f"sweep template: unknown section {name!r}")
+            if name not in known:
+                raise ValueError(f"{template} template: unknown section {name!r}")
             if sections[name]:
                 dedent.append(ind)
             else:
@@ -331,12 +451,12 @@ def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int 
         if m:
             name = m.group("name")
             lhs = "return" if m.group("ret") else (m.group("lhs") or "")
-            if name not in HOLES or HOLES[name][0] != lhs or HOLES[name][1] not in (None, m.group("args")):
-                raise ValueError(f"sweep template: hole {line.strip()!r} does not match HOLES[{name!r}]")
+            if name not in table or table[name][0] != lhs or table[name][1] not in (None, m.group("args")):
+                raise ValueError(f"{template} template: hole {line.strip()!r} does not match HOLES[{name!r}]")
             pad = " " * (ind + shift)
             out += [pad + ln if ln.strip() else "" for ln in holes[name](m.group("args"))]
             continue
         if "hole." in line:
-            raise ValueError(f"sweep template: a hole must be a statement of its own: {line.strip()!r}")
+            raise ValueError(f"{template} template: a hole must be a statement of its own: {line.strip()!r}")
         out.append(" " * (ind + shift) + line.lstrip(" ") if line.strip() else "")
     return "\n".join(out) + "\n"

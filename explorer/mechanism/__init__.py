@@ -2,9 +2,10 @@
 
 from ._load import MECHANISM_KEYS, OPERATING_KEYS, WALKER_KEYS, builtin_mechanisms, load_mechanism, mechanism_from_dict, operating_from_dict, parse_toml, walker_body, walker_from_dict
 from ._toml import dumps_toml, mechanism_toml
-from ._model import BODY_MODELS, LENGTH_RANGE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker
+from ._mass import crank_masses, effective_mass, link_masses
+from ._model import BODY_MODELS, LENGTH_RANGE, Body, Crank, Gear, Link, Mechanism, Operating, PathDriver, Slider, Walker
 
-__all__ = ["dumps_toml", "mechanism_toml", "BODY_MODELS", "LENGTH_RANGE", "MECHANISM_KEYS", "OPERATING_KEYS", "WALKER_KEYS", "Body", "Crank", "Link", "Mechanism", "Operating", "PathDriver", "Slider", "Walker", "builtin_mechanisms", "load_mechanism",
+__all__ = ["crank_masses", "effective_mass", "link_masses", "dumps_toml", "mechanism_toml", "BODY_MODELS", "LENGTH_RANGE", "MECHANISM_KEYS", "OPERATING_KEYS", "WALKER_KEYS", "Body", "Crank", "Gear", "Link", "Mechanism", "Operating", "PathDriver", "Slider", "Walker", "builtin_mechanisms", "load_mechanism",
            "mechanism_from_dict", "operating_from_dict", "parse_toml", "walker_body", "walker_from_dict"]
 
 from ._model import EULER_SEQUENCES, INTERPOLATIONS, Orientation, valid_sequence  # noqa: E402

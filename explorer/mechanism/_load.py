@@ -11,11 +11,11 @@ from pathlib import Path
 
 from ..errors import UserError, where
 from ._build import BUILD_KEYS
-from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Link, Mechanism, Operating, PathDriver, Slider, Walker,
-                     _check_length, _short, actuator_path, bounded_number)
+from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Gear, Link, Mechanism, Operating, PathDriver, Slider,
+                     Walker, _check_length, _short, actuator_path, bounded_number)
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
-             "operating", "sliders", "build"}
+             "operating", "sliders", "build", "gears"}
 #: Keys of an [operating] table (in a study, or a mechanism file's default), see :class:`Operating`.
 OPERATING_KEYS = ("unit", "rpm", "gravity", "load", "speed_fluctuation", "body", "gear_ratio")
 #: Keys of a [walker] table (in a mechanism file: the leg's default walker; in a study: overrides).
@@ -32,6 +32,7 @@ _CRANK_KEYS = {"center", "radius", "tip", "mass"}
 _LINK_KEYS = {"a", "b", "length", "name", "mass"}
 _BODY_KEYS = {"name", "joints", "mass", "centroid", "inertia"}
 _SLIDER_KEYS = {"name", "vertex", "point", "direction", "line", "offset"}
+_GEAR_KEYS = {"name", "center", "radius", "tip", "ratio", "phase"}
 #: A linear actuator's [driver] keys (``slider`` instead of ``vertex`` and ``path``).
 _ACTUATOR_KEYS = {"slider", "stroke", "duration", "timing"}
 _MASS_KEYS = {"link_density"}
@@ -39,7 +40,8 @@ _MASS_KEYS = {"link_density"}
 #: vertex names): what the docs' mechanism-file reference is generated from.
 MECHANISM_KEYS = {"": _TOP_KEYS, "crank": _CRANK_KEYS, "fixed": set(), "guess": set(), "links": _LINK_KEYS,
                   "bodies": _BODY_KEYS, "sliders": _SLIDER_KEYS, "driver": _DRIVER_KEYS, "walker": set(WALKER_KEYS),
-                  "mass": _MASS_KEYS, "operating": set(OPERATING_KEYS), "build": set(BUILD_KEYS)}
+                  "mass": _MASS_KEYS, "operating": set(OPERATING_KEYS), "build": set(BUILD_KEYS),
+                  "gears": _GEAR_KEYS}
 #: Largest mass (kg) or inertia (kg·m²) accepted: beyond it the forces overflow long before any build.
 _MAX_MASS = 1e12
 
@@ -205,6 +207,9 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         if v in fixed or v == tip:
             raise UserError(f"{where(source, 'guess.' + v)}: vertex {v!r} is fixed or driven and takes no guess")
 
+    gears = _gears(source, data.get("gears", []), crank, fixed, guess)
+    guess.update({g.tip: g.tip_at(0.0) for g in gears})  # a geared crank's tip: its exact place at θ = 0
+
     raw_links = data["links"]
     if raw_links == [] and data.get("bodies"):
         raw_links = None  # a mechanism of bodies only
@@ -259,7 +264,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
     if foot in fixed:
         raise UserError(f"{where(source, 'foot')}: vertex {foot!r} is fixed; the foot must be a moving vertex")
     _check_degrees_of_freedom(source, tip, "crank.tip" if crank is not None else "driver.vertex", fixed, guess, links,
-                              bodies, [s for s in sliders if path is None or s.name != path.slider])
+                              bodies, [s for s in sliders if path is None or s.name != path.slider], gears)
     walker = None
     if "walker" in data:
         if crank is None:
@@ -276,7 +281,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> Mechanism:
         raise UserError(f"{where(source, 'operating.load')}: a load is carried by a walker's contact foot; this "
                         f"mechanism is driven by a path, got {_short(operating.load)}")
     mech = Mechanism(name, description, tuple(vertices), tuple(links), crank, fixed, guess, foot, source, path,
-                     walker, bodies, link_density, operating, sliders)
+                     walker, bodies, link_density, operating, sliders, gears)
     if "build" in data:  # the design's build: its link masses and size (explorer.mechanism._build)
         from ._build import apply_build, build_from_dict
         mech = apply_build(mech, build_from_dict(data["build"], source), source, explicit_density=link_density)
@@ -453,7 +458,9 @@ def _check_parameter_names(mech: Mechanism) -> None:
             key = next((f"links[{i}].name" for i, l in enumerate(mech.links) if l.name == name),
                        next((f"fixed.{v}" for v in mech.fixed if name in (f"{v}.x", f"{v}.y")),
                             next((f"sliders[{i}].name" for i, sl in enumerate(mech.sliders)
-                                  if name.startswith(sl.name + ".")), "bodies")))
+                                  if name.startswith(sl.name + ".")),
+                                 next((f"gears[{i}].name" for i, g in enumerate(mech.gears)
+                                       if name == g.name or name.startswith(g.name + ".")), "bodies"))))
             raise UserError(f"{where(mech.source, key)}: two design parameters would be called {name!r} (a link, the "
                             f"crank's or a ground pivot's coordinates, a body joint's, a slider's); rename the link or vertex")
         seen.add(name)
@@ -500,6 +507,41 @@ def walker_from_dict(table, source: str, key: str = "walker", base: Walker | Non
     if isinstance(contact, bool) or not isinstance(contact, (int, float)) or not (0 < contact <= 10):
         fail("contact", "a contact tolerance as a fraction of the crank radius, a number in (0, 10]", contact)
     return Walker(legs, phases, mirrored, float(drag), float(contact))
+
+
+def _gears(source: str, raw, crank, fixed: dict, guess: dict) -> tuple[Gear, ...]:
+    """The ``[[gears]]`` tables: a grounded crank (``center``, ``radius``) whose tip ``tip`` (a new
+    vertex) turns ``ratio`` × the driving crank's angle + ``phase`` (degrees); ``ratio`` a nonzero
+    integer, so the mechanism repeats every crank turn."""
+    if not isinstance(raw, list):
+        raise UserError(f"{where(source, 'gears')}: expected [[gears]] tables, got {raw!r}")
+    if raw and crank is None:
+        raise UserError(f"{where(source, 'gears')}: a geared crank turns with the driving crank; this mechanism is "
+                        f"driven by a path")
+    out, names, tips = [], set(), set()
+    for i, gt in enumerate(raw):
+        key = f"gears[{i}]"
+        gname = _named_table(source, key, gt, _GEAR_KEYS, ("name", "center", "radius", "tip", "ratio"), names,
+                             "geared crank", "{}.x", "another geared crank")
+        tip = _string(source, f"{key}.tip", gt["tip"])
+        if not NAME_RE.fullmatch(tip):
+            raise UserError(f"{where(source, f'{key}.tip')}: vertex name {tip!r} must be 1 to 64 letters, digits or "
+                            f"_ . + - (it names datasets in results files)")
+        if tip == crank.tip or tip in fixed or tip in tips:
+            raise UserError(f"{where(source, f'{key}.tip')}: vertex {tip!r} is already the driving crank's tip, fixed, "
+                            f"or another geared crank's tip")
+        ratio = gt["ratio"]
+        if isinstance(ratio, bool) or not isinstance(ratio, int) or ratio == 0 or abs(ratio) > 64:
+            raise UserError(f"{where(source, f'{key}.ratio')}: expected a nonzero integer from −64 to 64 (turns per "
+                            f"turn of the driving crank; negative: the other way), got {_short(ratio)}")
+        phase = gt.get("phase", 0.0)
+        if isinstance(phase, bool) or not isinstance(phase, (int, float)) or not math.isfinite(phase) \
+                or abs(phase) > 1e6:
+            raise UserError(f"{where(source, f'{key}.phase')}: expected an angle in degrees, got {_short(phase)}")
+        tips.add(tip)
+        out.append(Gear(gname, _point(source, f"{key}.center", gt["center"]),
+                        _check_length(source, f"{key}.radius", gt["radius"]), tip, int(ratio), float(phase)))
+    return tuple(out)
 
 
 def _crank(source: str, value) -> Crank:
@@ -622,7 +664,7 @@ def _actuator(source: str, t: dict) -> PathDriver:
                       timing=timing, slider=_string(source, "driver.slider", t["slider"]), stroke=stroke)
 
 
-def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=(), sliders=()) -> None:
+def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=(), sliders=(), gears=()) -> None:
     """Count check: 2 unknowns per guessed vertex, one equation per link that moves something and
     2n − 3 per body of n joints (a rigid shape of n points has 2n coordinates less 3 for its place).
 
@@ -641,7 +683,7 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=
             raise UserError(f"{where(source, f'bodies[{i}].joints')}: body {b.name!r} holds two driven or fixed "
                             f"vertices; it would lock the crank or duplicate the ground")
     touched = {v for l in links for v in (l.a, l.b)} | {j for b in bodies for j in b.joints} \
-        | {s.vertex for s in sliders}
+        | {s.vertex for s in sliders} | {g.tip for g in gears}
     if tip not in touched:
         raise UserError(f"{where(source, tip_key)}: vertex {tip!r} is on no link; the driver would move nothing")
     for v in guess:
@@ -650,7 +692,8 @@ def _check_degrees_of_freedom(source, tip, tip_key, fixed, guess, links, bodies=
     for v in fixed:
         if v not in touched:
             raise UserError(f"{where(source, 'fixed.' + v)}: vertex {v!r} is on no link")
-    n_eq, n_unknown = len(links) + sum(2 * len(b.joints) - 3 for b in bodies) + len(sliders), 2 * len(guess)
+    n_eq = len(links) + sum(2 * len(b.joints) - 3 for b in bodies) + len(sliders) + 2 * len(gears)
+    n_unknown = 2 * len(guess)
     if n_eq != n_unknown:
         dof = n_unknown - n_eq + 1
         what = "link, body and slider equations" if bodies or sliders else "link equations"

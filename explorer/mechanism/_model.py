@@ -93,6 +93,29 @@ class Slider:
 
 
 @dataclass(frozen=True)
+class Gear:
+    """A second grounded crank geared to the driving crank (``[[gears]]``: a geared five-bar's).
+
+    Its tip ``tip`` turns about ``center`` at ``radius`` (model units) through the angle
+    ``ratio`` × θ + ``phase`` (θ the driving crank's angle; ``ratio`` a nonzero integer, the turns it
+    makes per crank turn, negative the other way; ``phase`` in degrees). Design parameters: ``NAME``
+    (its radius, a length) and ``NAME.x``, ``NAME.y`` (its centre).
+    """
+
+    name: str
+    center: tuple[float, float]
+    radius: float
+    tip: str
+    ratio: int
+    phase: float = 0.0
+
+    def tip_at(self, theta: float) -> tuple[float, float]:
+        """Its tip at crank angle ``theta`` (radians)."""
+        psi = self.ratio * theta + math.radians(self.phase)
+        return (self.center[0] + self.radius * math.cos(psi), self.center[1] + self.radius * math.sin(psi))
+
+
+@dataclass(frozen=True)
 class Crank:
     """The driver: vertex ``tip`` moves on a circle of ``radius`` about ``center``.
 
@@ -301,6 +324,9 @@ class Mechanism:
         The file's ``[operating]`` table: the default operating point for the forces effect.
     sliders : tuple[Slider, ...]
         Prismatic joints (file order): a vertex on a ground line or in a slot of a moving member.
+    gears : tuple[Gear, ...]
+        Grounded cranks geared to the driving crank (file order); each tip is a vertex (in ``guess``,
+        at its exact place at θ = 0).
     build : Build or None
         The file's ``[build]`` table (:mod:`explorer.mechanism._build`): the sheet, part width, pin and
         shaft materials and size the design is built with (the link masses come from it).
@@ -311,8 +337,8 @@ class Mechanism:
     name (``"2-6"``); for a crank, its radius ``"crank"`` and centre ``"crank.x"``, ``"crank.y"``;
     each ground pivot's coordinates ``"2.x"``, ``"2.y"``; each body joint's coordinates in its
     body's frame ``"coupler.P.x"``, ``"coupler.P.y"``; each ground slider's line ``"piston.x"``,
-    ``"piston.y"``, ``"piston.dx"``, ``"piston.dy"`` (its point and direction) and each slot's
-    ``"block.offset"``.
+    ``"piston.y"``, ``"piston.dx"``, ``"piston.dy"`` (its point and direction), each slot's
+    ``"block.offset"`` and each geared crank's radius ``"gear"`` and centre ``"gear.x"``, ``"gear.y"``.
     """
 
     name: str
@@ -330,6 +356,7 @@ class Mechanism:
     link_density: float | None = None
     operating: Operating | None = None
     sliders: tuple[Slider, ...] = ()
+    gears: tuple[Gear, ...] = ()
     build: object = None  # a Build (explorer.mechanism._build), or None
     _index: Mapping[str, int] = field(init=False, repr=False, compare=False)
     #: the parameter table (names → nominal, names → kind, link names), built once per mechanism on first
@@ -350,7 +377,8 @@ class Mechanism:
             items = self._parameter_items()
             names = tuple(l.name for l in self.links)
             links = set(names)
-            kinds = {n: "length" if n == "crank" or n in links else "coordinate" for n, _ in items}
+            gears = {g.name for g in self.gears}
+            kinds = {n: "length" if n == "crank" or n in links or n in gears else "coordinate" for n, _ in items}
             index = {}
             for i, n in enumerate(names):
                 index.setdefault(n, i)  # the first of a repeated name, as a scan finds it
@@ -423,6 +451,8 @@ class Mechanism:
                     out += [(f"{s.name}.dx", float(s.direction[0])), (f"{s.name}.dy", float(s.direction[1]))]
             else:
                 out.append((f"{s.name}.offset", float(s.offset)))
+        for g in self.gears:
+            out += [(g.name, float(g.radius)), (f"{g.name}.x", float(g.center[0])), (f"{g.name}.y", float(g.center[1]))]
         return out
 
     def parameter_kind(self, name: str) -> str:
@@ -466,6 +496,12 @@ class Mechanism:
             changes["sliders"] = tuple(sl)
             if self.path is not None and self.path.slider is not None:
                 changes["path"] = actuator_path(self.path, next(s for s in sl if s.name == self.path.slider))
+        if self.gears and any(k.split(".", 1)[0] in {g.name for g in self.gears} for k in values):
+            gears = tuple(replace(g, radius=values.get(g.name, g.radius),
+                                  center=(values.get(f"{g.name}.x", g.center[0]), values.get(f"{g.name}.y", g.center[1])))
+                          for g in self.gears)
+            changes["gears"] = gears
+            changes["guess"] = {**self.guess, **{g.tip: g.tip_at(0.0) for g in gears}}
         if self.bodies and any(k.count(".") == 2 for k in values):
             changes["bodies"] = tuple(
                 replace(b, points=tuple((values.get(f"{b.name}.{j}.x", x), values.get(f"{b.name}.{j}.y", y))

@@ -119,6 +119,9 @@ def mechanism_toml(mech: Mechanism, header: str = "") -> str:
             lines += [f"point = {_point(sl.point)}", f"direction = {_point(sl.direction)}"]
         else:
             lines += [f"line = [{_str(sl.line[0])}, {_str(sl.line[1])}]", f"offset = {_num(sl.offset)}"]
+    for g in mech.gears:
+        lines += ["", "[[gears]]", f"name = {_str(g.name)}", f"center = {_point(g.center)}", f"radius = {_num(g.radius)}",
+                  f"tip = {_str(g.tip)}", f"ratio = {int(g.ratio)}", f"phase = {_num(g.phase)}   # degrees"]
     from ._build import derived_link_density
     if mech.link_density is not None and not derived_link_density(mech):
         lines += ["", "[mass]", f"link_density = {_num(mech.link_density)}   # kg per metre of link"]

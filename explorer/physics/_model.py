@@ -18,8 +18,8 @@ The machine, as the walker scene describes it, built from rigid members:
   with friction μ on a ground plane; the only contacts in the model are feet on the ground (the legs
   share one plane and pass through each other, as the kinematic scene's legs do).
 
-Masses follow the forces effect (:mod:`explorer.kernels._forces`): a link's ``mass`` or
-``link_density`` × length (a uniform bar), each body's ``mass``, ``centroid`` and ``inertia``, each
+Masses follow the one mass rule (:mod:`explorer.mechanism._mass`, the forces effect's too): a link's
+``mass`` or ``link_density`` × length (a uniform bar), each body's ``mass``, ``centroid`` and ``inertia``, each
 crank arm's ``mass`` or density × radius (a uniform bar from the centre to the tip). A member with no
 mass gets :data:`MIN_MASS_FRACTION` of the body's mass (MuJoCo needs a positive mass on every moving
 member); the model says how many (``info["massless"]``).
@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import UserError
+from ..mechanism import effective_mass
 
 #: A member without mass data gets this fraction of the body's mass: MuJoCo needs positive masses, and legs
 #: much lighter than that make the stiff loop constraints ill-conditioned (a massless Klann leg under an 8 kg
@@ -218,7 +219,6 @@ def build_model(mech, P: np.ndarray, V: np.ndarray, walker, operating, settings:
     def world(p):  # model units in the body's frame → world metres at the start
         return np.array([(p[0] - c[0]) * unit, (p[1] - c[1]) * unit + z0])
 
-    density = mech.link_density or 0.0
     floor = MIN_MASS_FRACTION * body_mass
     members: list[Member] = []
     massless = 0
@@ -244,7 +244,7 @@ def build_model(mech, P: np.ndarray, V: np.ndarray, walker, operating, settings:
     w, h = np.ptp(xs[:, 0]), np.ptp(xs[:, 1])
     body_inertia = settings.body_inertia if settings.body_inertia is not None else body_mass * (w * w + h * h) / 12.0
     members.append(Member("body", (), frame_pts, body_mass, world(c), max(body_inertia, 1e-9 * body_mass)))
-    cm = crank.mass if crank.mass is not None else density * crank.radius * unit
+    cm = effective_mass(mech, crank.mass, crank.radius, unit)  # the one mass rule (explorer.mechanism)
     tips = {(j, crank.tip): world(pos[j][mech.vertex_index(crank.tip)]) for j in range(L)}
     arm_parts = [(cm, *_bar(world(c), tips[(j, crank.tip)], cm)) for j in range(L)]
     crankshaft = add("crankshaft", (), tips, arm_parts)
@@ -258,7 +258,7 @@ def build_model(mech, P: np.ndarray, V: np.ndarray, walker, operating, settings:
         incident.setdefault((j, crank.tip), []).append(crankshaft)
         for lk in mech.links:
             a, b = world(pos[j][mech.vertex_index(lk.a)]), world(pos[j][mech.vertex_index(lk.b)])
-            m = lk.mass if lk.mass is not None else density * lk.length * unit
+            m = effective_mass(mech, lk.mass, lk.length, unit)
             k = add(f"leg{j}_link_{lk.name}", (lk.a, lk.b), {(j, lk.a): a, (j, lk.b): b}, [(m, *_bar(a, b, m))])
             incident.setdefault((j, lk.a), []).append(k)
             incident.setdefault((j, lk.b), []).append(k)

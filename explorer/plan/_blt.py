@@ -13,6 +13,7 @@ Assur class III triad or a slot inside a loop, is one coupled *general* block.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,8 +21,8 @@ import numpy as np
 from itertools import combinations, product
 
 from ..errors import UserError, where
+from ..kinds import EQUATIONS, GENERAL, classify
 from ..mechanism import Mechanism
-from ._kinds import ATTACH, DYAD, GENERAL, SLIDE
 
 #: Most unknown coordinates matched by the plain augmenting-path search (beyond: with a look-ahead,
 #: see ``_matching``). Up to here the plain search costs at most ~0.2 s (a chain of 256 dyads), and
@@ -43,11 +44,14 @@ class Block:
     links : indices of its distance equations (``Plan.link_a``/``link_b``: the mechanism's links,
         then each body's base pair).
     attaches : its attach rows, as (attach equation, axis 0 = x / 1 = y) pairs.
-    kind : DYAD, ATTACH, GENERAL or SLIDE (see ``_kinds``).
+    kind : its kind's number (``explorer.kinds``: DYAD, ATTACH, GENERAL, SLIDE, ...).
     depends : indices of earlier blocks it reads positions from.
     slides : its slide equations (indices into ``Plan.slide``).
+    rows : every row, as (equation type, equation, row of the equation), in the plan's row order
+        (equation types by their ORDER, then equation and row): the distance rows are ``links``, the
+        attach rows ``attaches``, the slide rows ``slides``; other equation types appear here only.
 
-    ``len(links) + len(attaches) + len(slides) == 2 * len(vertices)``.
+    ``len(rows) == 2 * len(vertices)``.
     """
 
     vertices: tuple[int, ...]
@@ -56,6 +60,7 @@ class Block:
     depends: tuple[int, ...]
     attaches: tuple[tuple[int, int], ...] = ()
     slides: tuple[int, ...] = ()
+    rows: tuple[tuple[str, int, int], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -86,6 +91,8 @@ class Plan:
     fixed: np.ndarray
     slide: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
     slide_slider: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    tables: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
 
     @property
     def n_blocks(self) -> int:
@@ -153,35 +160,20 @@ def make_plan(mech: Mechanism) -> Plan:
 
 def _plan_with_bases(mech, index, tip, grounded, bases) -> Plan:
     free = [i for i in range(len(mech.vertices)) if i not in grounded]
-    ends = [(index[l.a], index[l.b]) for l in mech.links]
-    attach, attach_body, attach_joint = [], [], []
-    for bi, (body, (p, q)) in enumerate(zip(mech.bodies, bases)):
-        ends.append((index[body.joints[p]], index[body.joints[q]]))
-        for ji, j in enumerate(body.joints):
-            if ji not in (p, q):
-                attach.append((index[j], index[body.joints[p]], index[body.joints[q]]))
-                attach_body.append(bi)
-                attach_joint.append(ji)
-    link_a = np.array([a for a, _ in ends], dtype=np.int64)
-    link_b = np.array([b for _, b in ends], dtype=np.int64)
-    actuated = mech.path.slider if mech.path is not None else None
-    slide, slide_slider = [], []
-    for si, sl in enumerate(mech.sliders):
-        if sl.name != actuated:
-            a, b = (-1, -1) if sl.ground else (index[sl.line[0]], index[sl.line[1]])
-            slide.append((index[sl.vertex], a, b))
-            slide_slider.append(si)
+    tables, fields = {}, {}
+    for eq in EQUATIONS:  # each equation type's equations and the plan fields they fill
+        verts, f = eq.gather(mech, index, bases)
+        tables[eq.NAME] = [tuple(int(v) for v in vs) for vs in verts]
+        fields.update(f)
 
-    # Unknown coordinates are (vertex, axis). Scalar equations: the distance equations, then two rows
-    # per attach equation; each contains every free coordinate of the vertices it names.
+    # Unknown coordinates are (vertex, axis). Scalar equations: each equation type's rows in turn (the
+    # distance equations, then two rows per attach equation, ...); each contains every free coordinate
+    # of the vertices it names.
     coords = [(v, ax) for v in free for ax in (0, 1)]
     cidx = {c: i for i, c in enumerate(coords)}
-    eqs = [("d", e) for e in range(len(ends))] + [("a", (t, ax)) for t in range(len(attach)) for ax in (0, 1)]
-    eqs += [("s", k) for k in range(len(slide))]
-    eq_vars = []
-    for typ, e in eqs:
-        verts = ends[e] if typ == "d" else attach[e[0]] if typ == "a" else [v for v in slide[e] if v >= 0]
-        eq_vars.append([cidx[(int(v), ax)] for v in verts if int(v) not in grounded for ax in (0, 1)])
+    eqs = [(eq.NAME, e, ax) for eq in EQUATIONS for e in range(len(tables[eq.NAME])) for ax in range(eq.ROWS)]
+    eq_vars = [[cidx[(v, ax)] for v in tables[typ][e] if v >= 0 and v not in grounded for ax in (0, 1)]
+               for typ, e, _ in eqs]
 
     match_of_coord = _matching(eq_vars, len(coords), lookahead=len(coords) > PLAIN_MATCHING_MAX)
     unmatched = [coords[c] for c in range(len(coords)) if match_of_coord[c] < 0]
@@ -202,33 +194,21 @@ def _plan_with_bases(mech, index, tip, grounded, bases) -> Plan:
             comp_of[c] = k
     blocks = []
     order = {v: i for i, v in enumerate(free)}
+    type_order = {eq.NAME: i for i, eq in enumerate(EQUATIONS)}
     for k, comp in enumerate(comps):
         verts = tuple(sorted({coords[c][0] for c in comp}, key=order.__getitem__))
-        rows = [eqs[match_of_coord[c]] for c in comp]
-        links = tuple(sorted(e for typ, e in rows if typ == "d"))
-        attaches = tuple(sorted(e for typ, e in rows if typ == "a"))
-        slides = tuple(sorted(e for typ, e in rows if typ == "s"))
+        rows = tuple(sorted((eqs[match_of_coord[c]] for c in comp), key=lambda r: (type_order[r[0]], r[1], r[2])))
+        links = tuple(e for typ, e, _ in rows if typ == "distance")
+        attaches = tuple((e, ax) for typ, e, ax in rows if typ == "attach")
+        slides = tuple(e for typ, e, _ in rows if typ == "slide")
         depends = tuple(sorted({comp_of[d] for c in comp for d in deps[c]} - {k}))
-        blocks.append(Block(verts, links, _classify(verts, links, attaches, attach, slides), depends, attaches,
-                            slides))
+        blocks.append(Block(verts, links, classify(verts, rows, tables), depends, attaches, slides, rows))
     fixed = np.array(sorted(grounded - {tip}), dtype=np.int64)
-    att = np.array(attach, dtype=np.int64).reshape(-1, 3)
-    return Plan(len(mech.vertices), tuple(blocks), len(mech.links), link_a, link_b,
-                np.array(bases, dtype=np.int64).reshape(-1, 2), att, np.array(attach_body, dtype=np.int64),
-                np.array(attach_joint, dtype=np.int64), tip, fixed, np.array(slide, dtype=np.int64).reshape(-1, 3),
-                np.array(slide_slider, dtype=np.int64))
-
-
-def _classify(verts, links, attaches, attach, slides=()) -> int:
-    """The kind of a block (see ``_kinds``): one vertex by two distances, one vertex by a distance
-    and a slide equation, one body joint by its attach equation, or a coupled block."""
-    if len(verts) == 1 and len(links) == 2:
-        return DYAD
-    if len(verts) == 1 and len(links) == 1 and len(slides) == 1:
-        return SLIDE
-    if len(verts) == 1 and len(attaches) == 2 and attaches[0][0] == attaches[1][0] and attach[attaches[0][0]][0] == verts[0]:
-        return ATTACH
-    return GENERAL
+    core = {f.name for f in dataclasses.fields(Plan)}
+    extra = {k: v for k, v in fields.items() if k not in core}
+    return Plan(len(mech.vertices), tuple(blocks), tip=tip, fixed=fixed,
+                tables={k: np.array(v, dtype=np.int64).reshape(len(v), len(v[0]) if v else 0) for k, v in tables.items()}, extra=extra,
+                **{k: v for k, v in fields.items() if k in core})
 
 
 def _matching(eq_vars: list[list[int]], n_vars: int, lookahead: bool = True) -> list[int]:

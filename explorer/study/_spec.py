@@ -11,7 +11,7 @@ A study file::
     seed = 1                      # integer ≥ 0
     steps = 360                   # crank samples per cycle (≥ 3)
     tolerance = 1e-11             # every solved position within tolerance x the longest link (1e-12 … 1e-6)
-    method = "block"              # or "dense"
+    method = "block"              # or "dense", or "auto" (the vectorised closed-form pass, Newton where needed)
 
     [perturb]
     method = "uniform"            # uniform | normal | lhs | sobol | saltelli | oat | grid
@@ -89,7 +89,7 @@ PERTURB_METHODS = ("uniform", "normal", "lhs", "sobol", "saltelli", "oat", "grid
 #: Methods whose variants are a sample of the design space (global sensitivity indices apply):
 #: every method but the one-at-a-time and full-factorial designs.
 SAMPLED_METHODS = ("uniform", "normal", "lhs", "sobol", "saltelli")
-SOLVE_METHODS = ("block", "dense")
+SOLVE_METHODS = ("block", "dense", "auto")
 #: Largest number of variants a study may ask for (all methods).
 MAX_VARIANTS = 1_000_000_000
 

@@ -55,35 +55,18 @@ def _wrist(mech) -> dict:
 def _plan(mech) -> tuple[list[dict], dict]:
     """The plan's blocks (steps numbered from 1) and, for each vertex it places, its step."""
     from ..kernels import plan_for
+    from ..kinds import EQUATION_BY_NAME
 
     plan = plan_for(mech)
     names = mech.vertices
-    n_links = plan.n_links
     steps, placed_by = [], {}
     for i, b in enumerate(plan.blocks):
         kind = _kind_name(b.kind)
         placed = [names[v] for v in b.vertices]
         equations, used = [], set()
-        for e in b.links:
-            e = int(e)
-            used.update((int(plan.link_a[e]), int(plan.link_b[e])))
-            if e < n_links:
-                lk = mech.links[e]
-                equations.append(f"link {lk.name}" + (f" ({lk.a}-{lk.b})" if lk.name != f"{lk.a}-{lk.b}" else ""))
-            else:
-                body = mech.bodies[e - n_links]
-                p, q = (int(k) for k in plan.body_base[e - n_links])
-                equations.append(f"body {body.name}: distance {body.joints[p]}-{body.joints[q]}")
-        for a in dict.fromkeys(int(a) for a, _axis in b.attaches):
-            j, p, q = (int(k) for k in plan.attach[a])
-            used.update((j, p, q))
-            body = mech.bodies[int(plan.attach_body[a])]
-            equations.append(f"body {body.name}: {names[j]} rigidly from {names[p]}, {names[q]}")
-        for k in b.slides:
-            sl = mech.sliders[int(plan.slide_slider[k])]
-            used.update(int(v) for v in plan.slide[k] if v >= 0)
-            equations.append(f"slider {sl.name}: {sl.vertex} on " + (f"the line through {_pt(sl.point)}" if sl.ground
-                                                                      else f"the slot {sl.line[0]}-{sl.line[1]}"))
+        for typ, e in dict.fromkeys((typ, int(e)) for typ, e, _ax in b.rows):  # each equation once, in words
+            used.update(int(v) for v in plan.tables[typ][e] if v >= 0)
+            equations.append(EQUATION_BY_NAME[typ].describe(mech, plan, e))
         known = [names[v] for v in sorted(used - set(b.vertices))]
         steps.append({"step": i + 1, "kind": kind, "places": placed, "from": known, "equations": equations,
                       "after": [int(d) + 1 for d in b.depends]})
@@ -129,22 +112,18 @@ def describe(mech) -> dict:
         j["placed_by_step"] = placed_by.get(v)
         joints.append(j)
 
-    def effective(given, length):
-        if given is not None:
-            return float(given)
-        if density is not None and unit is not None:
-            return float(density) * float(length) * float(unit)
-        return None if density is not None else 0.0
+    from ..mechanism import effective_mass
 
     links = [{"name": lk.name, "a": lk.a, "b": lk.b, "length": float(lk.length),
-              "mass": None if lk.mass is None else float(lk.mass), "effective_mass": effective(lk.mass, lk.length)}
+              "mass": None if lk.mass is None else float(lk.mass),
+              "effective_mass": effective_mass(mech, lk.mass, lk.length, unit)}
              for lk in mech.links]
     bodies = [{"name": b.name, "joints": {j: _pt(p) for j, p in zip(b.joints, b.points)}, "span": b.span,
                "mass": float(b.mass), "centroid": None if b.centroid is None else _pt(b.centroid),
                "inertia": None if b.inertia is None else float(b.inertia)} for b in mech.bodies]
     driver = _driver(mech)
     if mech.crank is not None:
-        driver["effective_mass"] = effective(mech.crank.mass, mech.crank.radius)
+        driver["effective_mass"] = effective_mass(mech, mech.crank.mass, mech.crank.radius, unit)
 
     params = mech.parameters()
     walker = None
@@ -169,6 +148,8 @@ def describe(mech) -> dict:
                      "direction": _pt(sl.direction) if sl.ground else None,
                      "line": list(sl.line) if not sl.ground else None, "offset": float(sl.offset)}
                     for sl in mech.sliders],
+        "gears": [{"name": g.name, "center": _pt(g.center), "radius": float(g.radius), "tip": g.tip,
+                   "ratio": int(g.ratio), "phase": float(g.phase)} for g in mech.gears],
         "parameters": params,
         "parameter_kinds": dict(mech.parameter_kinds()),
         "walker": walker,
