@@ -46,7 +46,6 @@ _HOMES = {
     "kernel_cache_path": (".kernels._cache", "kernel_cache_path"),
     "kernel_sources": (".kernels._cache", "kernel_sources"),
     "source_key": (".kernels._cache", "source_key"),
-    "place_dyad": (".kernels._fast", "place_dyad"),
     "topology": (".kernels._inputs", "topology"),
     "STATUS_NOCONV": (".kernels._sweep", "STATUS_NOCONV"),
     "HOLES": (".kernels._sweep_template", "HOLES"),
