@@ -6,7 +6,7 @@ module             extra           needed by
 ``plotly``         ``report``      ``explorer report`` (:func:`~explorer.view.write_report`)
 ``pymoo``          ``optimize``    ``explorer optimize`` (:func:`~explorer.study.run_optimize`)
 ``SALib``          ``sensitivity`` ``explorer sensitivity``, ``perturb.method = "saltelli"``
-``ezdxf``          ``cad``         ``explorer export --format dxf``
+``ezdxf``          ``cad``         ``explorer export --as dxf``
 ``imageio_ffmpeg`` ``movie``       ``explorer animate`` to .mp4 (a .gif needs nothing more)
 ``dask``           ``dask``        ``--workers``, ``client=`` (see :mod:`explorer.study._dask`)
 ``flask``          ``edit``        ``explorer edit`` (:mod:`explorer.edit`)

@@ -15,7 +15,7 @@ from .errors import UserError
 
 def output_path(path, force: bool, option: str = "-o", *, formats=None, protect=()) -> Path:
     """The one output policy of the verbs that write a file (plot, animate, export, report, sensitivity
-    --plot): ``path`` as a Path, checked before any work is done.
+    -o): ``path`` as a Path, checked before any work is done.
 
     * ``formats`` (extensions such as ``{".png": ...}``): its extension must be one of them;
     * never one of ``protect`` (the inputs a verb reads: the results file), even with ``force``, nor a

@@ -9,7 +9,7 @@
 * ``docs/pareto.png`` — ``explorer plot RESULTS --scatter travel,bob``: the Pareto front,
 * ``docs/report.png`` — ``explorer report RESULTS``, brushed to travel ≥ 138 model units per turn, as
   headless Chromium shows it (selenium; Debian: ``apt-get install chromium chromium-driver``),
-* ``docs/accuracy.png`` — ``docs/accuracy.csv`` (written by ``explorer bench accuracy -o docs``, 52 s)
+* ``docs/accuracy.png`` — ``docs/accuracy.csv`` (written by ``explorer bench accuracy -o docs --force``, 52 s)
   drawn again by the same code (``explorer.bench.plot``), without re-running the benchmark.
 
 RESULTS is a study written to a temporary folder: 2,000 variants of Jansen's leg, every link and the
@@ -137,7 +137,7 @@ def accuracy(out: Path) -> Path | None:
     from explorer.bench import plot, read_csv
     csv_path = ROOT / "docs" / "accuracy.csv"
     if not csv_path.is_file():
-        print("accuracy.png: skipped: no docs/accuracy.csv (explorer bench accuracy -o docs writes both)",
+        print("accuracy.png: skipped: no docs/accuracy.csv (explorer bench accuracy -o docs --force writes both)",
               file=sys.stderr)
         return None
     target = plot(read_csv(csv_path, ACCURACY_META), out / "accuracy.png")

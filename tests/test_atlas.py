@@ -19,10 +19,10 @@ import pytest
 from clihelp import cli
 from explorer import open_results
 from explorer.errors import UserError
-from explorer.gait._curves import (N_CURVE, angles_at_arc, arc_fractions, descriptors, normalise, ordered_match,
-                                   reverse_descriptor)
-from explorer.study._atlas import build_atlas, move_parameters, open_atlas
-from explorer.study._synth import synthesize
+from explorer.testing import (N_CURVE, angles_at_arc, arc_fractions, descriptors, normalise, ordered_match,
+                              reverse_descriptor)
+from explorer.testing import build_atlas, move_parameters, open_atlas
+from explorer.testing import synthesize
 
 DESIGNS = 4000
 

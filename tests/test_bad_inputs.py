@@ -97,6 +97,6 @@ def test_a_very_long_output_name_is_one_line(tmp_path, monkeypatch, capsys):
 
 def test_every_cli_verb_imports():
     """A verb whose module fails to import shows as "(unavailable)" in --help: here it fails loudly."""
-    from explorer.cli import _verb_modules
+    from explorer.testing import verb_modules as _verb_modules
     broken = {verb: mod for verb, mod in _verb_modules() if isinstance(mod, Exception)}
     assert not broken, broken

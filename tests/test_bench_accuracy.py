@@ -11,8 +11,8 @@ import pytest
 import explorer
 from explorer import UserError, simulate, simulate_batch
 from explorer.bench import accuracy_sweep, closed_form_reference, format_table, plot, write_csv
-from explorer.bench import _seeds
-from explorer.bench._accuracy import COLUMNS, draw_variants
+from explorer.testing import bench_seeds as _seeds
+from explorer.testing import COLUMNS, draw_variants
 from explorer.cli import main
 
 MECH = explorer.load_mechanism("jansen")

@@ -13,10 +13,11 @@ import pytest
 
 import explorer
 from explorer.errors import UserError
-from explorer.kernels import _codegen, _simulate, plan_for
+from explorer.kernels import plan_for
+from explorer.testing import kernels_codegen as _codegen, kernels_simulate as _simulate
 from explorer.mechanism import mechanism_from_dict
 from explorer.plan import DYAD, make_plan
-from explorer.plan import _blt
+from explorer.testing import plan_blt as _blt
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 sys.path.insert(0, str(BENCH))

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from explorer.kernels._cache import KEY, kernel_cache_path, source_key
+from explorer.testing import KEY, kernel_cache_path, source_key
 
 CODE = '''"""A kernel module."""
 from numba import njit
@@ -34,9 +34,9 @@ def test_the_key_follows_code_not_docstrings_or_comments():
 
 
 def test_every_kernel_module_caches_in_the_keyed_folder():
-    from explorer.bench import _seeds
-    from explorer.gait import _metrics, _walker
-    from explorer.kernels import _batch
+    from explorer.testing import bench_seeds as _seeds
+    from explorer.testing import gait_metrics as _metrics, gait_walker as _walker
+    from explorer.testing import kernels_batch as _batch
     for fn in (_walker._walker_kernel, _metrics._crossings_kernel, _batch.fast_batch_jit,
                next(getattr(_seeds, n) for n in dir(_seeds) if hasattr(getattr(_seeds, n), "_cache"))):
         path = kernel_cache_path(fn)

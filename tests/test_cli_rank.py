@@ -153,7 +153,7 @@ def test_show_ok_variant(results, capsys):
         links = res.link_names
     ok = df["status_code"].to_numpy() == 0
     v = int(np.flatnonzero(ok)[1])  # an ok variant other than the nominal
-    out = ok_cli(capsys, "show", results, v)
+    out = ok_cli(capsys, "show", results, "--variant", v)
     lines = out.splitlines()
     assert lines[0].startswith(f"{results}: variant {v} of 40;") and lines[1] == "status: ok"
     row = df.iloc[v]
@@ -191,9 +191,9 @@ def test_show_ok_variant(results, capsys):
         assert f"walker score {s['score']:.3f}, rank {int(s['rank'])} of {len(scored)} buildable variants" in out
     # the best stride is rank 1
     best = int(df.loc[ranked].sort_values(["stride", "variant"], ascending=[False, True])["variant"].iloc[0])
-    assert "rank 1 of" in next(ln for ln in ok_cli(capsys, "show", results, best).splitlines()
+    assert "rank 1 of" in next(ln for ln in ok_cli(capsys, "show", results, "--variant", best).splitlines()
                                if ln.startswith("stride "))
-    assert "(the nominal design)" in ok_cli(capsys, "show", results, 0).splitlines()[0]
+    assert "(the nominal design)" in ok_cli(capsys, "show", results, "--variant", 0).splitlines()[0]
 
 
 def test_show_failed_variant(results, capsys):
@@ -201,7 +201,7 @@ def test_show_failed_variant(results, capsys):
         df = res.frame()
     v = int(np.flatnonzero(df["status_code"].to_numpy() != 0)[0])
     row = df.iloc[v]
-    out = ok_cli(capsys, "show", results, v)
+    out = ok_cli(capsys, "show", results, "--variant", v)
     th = row["fail_theta"]
     assert out.splitlines()[1] == (f"status: failed ({row['status']}) at θ = {th:.4f} rad ({math.degrees(th):.2f}°), "
                                    f"vertex {row['fail_vertex']}")
@@ -244,7 +244,7 @@ def test_metrics_band_recomputes_without_touching_paths(fresh, capsys):
         api = res.rank(by="duty", top=3)
     got = pd.read_csv(io.StringIO(ok_cli(capsys, "rank", fresh, "--by", "duty", "--top", "3", "--format", "csv")))
     assert list(got["variant"]) == list(api["variant"])
-    assert "(band 0.04)" in ok_cli(capsys, "show", fresh, 0)
+    assert "(band 0.04)" in ok_cli(capsys, "show", fresh, "--variant", 0)
     # a subset with another band: the other stance metrics follow, the rest are kept
     out = ok_cli(capsys, "metrics", fresh, "--band", "0.02", "--metrics", "flatness")
     assert "computed 1 metric (flatness)" in out and "also recomputed stride, duty," in out
@@ -260,7 +260,7 @@ def test_metrics_then_rank_on_a_file_run_without_metrics(tmp_path, capsys):
     code, out, err = cli(capsys, "rank", bare)
     assert code == 2 and out == "" and err.count("\n") == 1
     assert f"explorer metrics {bare}" in err and "[scene] metrics = true" in err
-    assert "no gait metrics stored" in ok_cli(capsys, "show", bare, 1)
+    assert "no gait metrics stored" in ok_cli(capsys, "show", bare, "--variant", 1)
     ok_cli(capsys, "metrics", bare)
     _, t = parse_table(ok_cli(capsys, "rank", bare, "--top", "3"))
     assert len(t) == 3
@@ -294,10 +294,10 @@ ERRORS = [
     (["rank", "{r}", "--columns", "nope"], "--columns: unknown column 'nope'"),
     (["rank", "{missing}"], "no such results file"),
     (["rank", "{junk}"], "cannot open as an HDF5 results file"),
-    (["show", "{r}", "40"], "variant 40 out of range (0 to 39"),
-    (["show", "{r}", "-1"], "variant -1 out of range"),
-    (["show", "{r}", "two"], "variant: expected a whole number from 0 to 39, got 'two'"),
-    (["show", "{missing}", "0"], "no such results file"),
+    (["show", "{r}", "--variant", "40"], "variant 40 out of range (0 to 39"),
+    (["show", "{r}", "--variant", "-1"], "--variant: expected a whole number >= 0 (a variant"),
+    (["show", "{r}", "--variant", "two"], "--variant: expected a whole number >= 0 (a variant; 0 = the nominal), got 'two'"),
+    (["show", "{missing}", "--variant", "0"], "no such results file"),
     (["metrics", "{inc}", "--band", "0.02"], "incomplete results file (an interrupted run); finish it first with"),
     (["metrics", "{r}", "--band", "1.5"], "--band: expected a number in [0, 1]"),
     (["metrics", "{r}", "--band", "wide"], "--band: expected a number in [0, 1]"),
@@ -324,7 +324,7 @@ def test_real_process(results):
     r = subprocess.run([sys.executable, "-m", "explorer.cli", "rank", str(results), "--by", "flatness", "--top", "2"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and r.stderr == "" and "ranked by flatness (lower is better)" in r.stdout
-    r = subprocess.run([sys.executable, "-m", "explorer.cli", "show", str(results), "99"],
+    r = subprocess.run([sys.executable, "-m", "explorer.cli", "show", str(results), "--variant", "99"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and r.stdout == "" and r.stderr.count("\n") == 1 and "out of range" in r.stderr
 
@@ -346,7 +346,7 @@ def test_show_verdict_quotes_the_numbers_it_judges(results, capsys):
         df = res.frame()
     ok = np.flatnonzero(df["status_code"].to_numpy() == 0)
     v, ref = int(ok[1]), int(ok[2])
-    out = ok_cli(capsys, "show", results, v, "--vs", ref)
+    out = ok_cli(capsys, "show", results, "--variant", v, "--vs", ref)
     line = next(ln for ln in out.splitlines() if ln.startswith("verdict against the variant"))
     good, bad = line.split("; worse in ")
     for m in DEFAULT_WEIGHTS:

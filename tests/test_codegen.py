@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 import explorer
-from explorer.kernels import _codegen, _simulate
+from explorer.testing import kernels_codegen as _codegen, kernels_simulate as _simulate
 from explorer.kinds.dyad import place_dyad
-from explorer.kernels._sweep import STATUS_NOCONV
+from explorer.testing import STATUS_NOCONV
 
 #: each leg with a spread at which some of its designs turn and some fail
 LEGS = {"jansen": 0.25, "klann": 0.12, "hoeken": 0.4, "strider": 0.12, "fourbar": 0.4, "arm": 0.25,
@@ -233,7 +233,7 @@ def test_generated_source_names_every_block():
         captured["src"] = _codegen.source(topo, *args)
         return real(topo, *args)
 
-    import explorer.kernels._simulate as sim
+    from explorer.testing import kernels_simulate as sim
     old = sim.kernel_for
     sim.kernel_for = spy
     try:

@@ -19,8 +19,7 @@ import pytest
 
 from explorer import UserError, open_results, run_study
 from explorer.cli import main
-from explorer.store._shards import (MAX_SHARDS, ShardPlan, completed_shards, plan_shards, shard_name,
-                                    shards_folder)
+from explorer.testing import MAX_SHARDS, ShardPlan, completed_shards, plan_shards, shard_name, shards_folder
 from explorer.study import load_study
 
 HAVE_DASK = importlib.util.find_spec("distributed") is not None
@@ -87,7 +86,7 @@ def client():
 # Functions run inside the workers (by client.run): they replace write_shard in the worker's copy of
 # explorer.study._dask to inject a fault into one shard task, then put it back.
 def _arm(mode: str, shard: int, marker: str) -> None:
-    import explorer.study._dask as d
+    from explorer.testing import study_dask as d
     real = getattr(d, "_real_write_shard", d.write_shard)
     d._real_write_shard = real
 
@@ -106,7 +105,7 @@ def _arm(mode: str, shard: int, marker: str) -> None:
 
 
 def _disarm() -> None:
-    import explorer.study._dask as d
+    from explorer.testing import study_dask as d
     if hasattr(d, "_real_write_shard"):
         d.write_shard = d._real_write_shard
 

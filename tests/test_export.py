@@ -105,7 +105,7 @@ def test_toml_reads_back_to_the_same_design(studies, name, tmp_path, capsys):
     assert len(variants) >= 2, "the study must have ok variants to export"
     for v in variants[:2]:
         out = tmp_path / f"{name}-{v}.toml"
-        code, msg, err = cli(capsys, "export", path, v, "--format", "toml", "-o", out)
+        code, msg, err = cli(capsys, "export", path, "--variant", v, "--as", "toml", "-o", out)
         assert code == 0, err
         assert f"wrote {out}" in msg
         data = tomllib.loads(out.read_text())
@@ -133,7 +133,7 @@ def test_toml_reads_back_to_the_same_design(studies, name, tmp_path, capsys):
 
 def test_toml_walker_guess_and_nominal(studies, tmp_path, capsys):
     # a study that changed the walker: the exported leg carries the walker the metrics describe
-    assert cli(capsys, "export", studies["jansen"], 1, "-o", tmp_path / "j.toml")[0] == 0
+    assert cli(capsys, "export", studies["jansen"], "--variant", 1, "-o", tmp_path / "j.toml")[0] == 0
     j = explorer.load_mechanism(tmp_path / "j.toml")
     assert j.walker.legs == 6 and j.walker.phases == tuple(math.radians(60.0 * k) for k in range(6))
     # the guess is the variant's solved configuration at θ = 0 where the file stores the vertex (7, 4)
@@ -141,7 +141,7 @@ def test_toml_walker_guess_and_nominal(studies, tmp_path, capsys):
         for vertex in ("7", "4"):
             assert j.guess[vertex] == tuple(r.path(1, vertex)[0])
     # variant 0 of a study that kept the mechanism's walker reads back as the nominal itself
-    assert cli(capsys, "export", studies["klann"], "0", "-o", tmp_path / "k.toml")[0] == 0
+    assert cli(capsys, "export", studies["klann"], "--variant", "0", "-o", tmp_path / "k.toml")[0] == 0
     k, nominal = explorer.load_mechanism(tmp_path / "k.toml"), explorer.load_mechanism("klann")
     assert k.name == "klann" and k.walker == nominal.walker
     for field in ("vertices", "links", "crank", "fixed", "foot", "path", "bodies"):
@@ -268,7 +268,7 @@ def test_svg_parts_holes_and_outlines(studies, name, scale, v, tmp_path, capsys)
 
     v = ok_variants(studies[name])[0] if v is None else v
     out = tmp_path / f"{name}.svg"
-    code, msg, err = cli(capsys, "export", studies[name], v, "-o", out, "--scale", scale)
+    code, msg, err = cli(capsys, "export", studies[name], "--variant", v, "-o", out, "--scale", scale)
     assert code == 0, err
     want, nominal = expected_parameters(studies[name], v)
     parts = reference_parts(nominal.with_parameters(want))
@@ -341,7 +341,7 @@ def test_dxf_audits_clean_and_holds_the_parts(studies, name, opts, tmp_path, cap
 
     v = ok_variants(studies[name])[-1]
     out = tmp_path / f"{name}.dxf"
-    code, _, err = cli(capsys, "export", studies[name], v, "--format", "dxf", "-o", out, *opts)
+    code, _, err = cli(capsys, "export", studies[name], "--variant", v, "--as", "dxf", "-o", out, *opts)
     assert code == 0, err
     o = dict(zip(opts[::2], opts[1::2]))
     scale = float(o.get("--scale", 1.0))
@@ -399,7 +399,7 @@ def test_dxf_audits_clean_and_holds_the_parts(studies, name, opts, tmp_path, cap
 # -- csv ---------------------------------------------------------------------------------------------------
 def test_csv_columns_and_values(studies, tmp_path, capsys):
     out = tmp_path / "j.csv"
-    code, msg, err = cli(capsys, "export", studies["jansen"], 2, "-o", out)
+    code, msg, err = cli(capsys, "export", studies["jansen"], "--variant", 2, "-o", out)
     assert code == 0, err
     df = pd.read_csv(out)
     assert list(df.columns) == ["theta", "7.x", "7.y", "7.vx", "7.vy", "7.ax", "7.ay",
@@ -412,7 +412,7 @@ def test_csv_columns_and_values(studies, tmp_path, capsys):
             assert np.array_equal(df[[f"{vtx}.ax", f"{vtx}.ay"]].to_numpy(), r.acceleration(2, vtx))
     # a path driver's samples are times, in seconds
     v = ok_variants(studies["arm"])[0]
-    assert cli(capsys, "export", studies["arm"], v, "--format", "csv", "-o", tmp_path / "arm.csv")[0] == 0
+    assert cli(capsys, "export", studies["arm"], "--variant", v, "--as", "csv", "-o", tmp_path / "arm.csv")[0] == 0
     arm = pd.read_csv(tmp_path / "arm.csv")
     assert list(arm.columns[:5]) == ["t", "T.x", "T.y", "T.vx", "T.vy"]
     with explorer.open_results(studies["arm"]) as r:
@@ -430,49 +430,48 @@ def test_a_failed_variant_exports_its_design_but_no_path(studies, tmp_path, caps
     assert failed, "the arm study must have a failed variant"
     v = int(failed[0])
     status = str(df.loc[v, "status"])
-    code, _, err = cli(capsys, "export", studies["arm"], v, "-o", tmp_path / "f.csv")
+    code, _, err = cli(capsys, "export", studies["arm"], "--variant", v, "-o", tmp_path / "f.csv")
     one_line_error(code, err, f"variant {v} failed ({status}", "no full path", "toml, svg or dxf")
     assert not (tmp_path / "f.csv").exists()
-    code, msg, err = cli(capsys, "export", studies["arm"], v, "-o", tmp_path / "f.toml")
+    code, msg, err = cli(capsys, "export", studies["arm"], "--variant", v, "-o", tmp_path / "f.toml")
     assert code == 0 and "did not solve over its whole cycle" in msg, err
     mech = explorer.load_mechanism(tmp_path / "f.toml")
     assert mech.parameters() == expected_parameters(studies["arm"], v)[0]
     cyc = explorer.simulate(mech, STEPS)
     assert not cyc.ok and cyc.failure.kind == status  # it fails as the study found
     for fmt in ("svg", "dxf"):
-        assert cli(capsys, "export", studies["arm"], v, "-o", tmp_path / f"f.{fmt}")[0] == 0
+        assert cli(capsys, "export", studies["arm"], "--variant", v, "-o", tmp_path / f"f.{fmt}")[0] == 0
 
 
 def test_errors_are_one_line(studies, tmp_path, capsys):
     res = studies["hoeken"]
-    one_line_error(*cli(capsys, "export", tmp_path / "none.h5", 1, "-o", tmp_path / "a.svg")[::2], "no such results file")
-    one_line_error(*cli(capsys, "export", res, 6, "-o", tmp_path / "a.svg")[::2], "variant 6 out of range")
-    one_line_error(*cli(capsys, "export", res, "x", "-o", tmp_path / "a.svg")[::2], "expected a whole number")
+    one_line_error(*cli(capsys, "export", tmp_path / "none.h5", "--variant", 1, "-o", tmp_path / "a.svg")[::2], "no such results file")
+    one_line_error(*cli(capsys, "export", res, "--variant", 6, "-o", tmp_path / "a.svg")[::2], "variant 6 out of range")
+    one_line_error(*cli(capsys, "export", res, "--variant", "x", "-o", tmp_path / "a.svg")[::2], "expected a whole number")
     # a missing folder is created (the verbs' one output policy, issue 26)
-    assert cli(capsys, "export", res, 1, "-o", tmp_path / "no" / "a.svg")[0] == 0
+    assert cli(capsys, "export", res, "--variant", 1, "-o", tmp_path / "no" / "a.svg")[0] == 0
     assert (tmp_path / "no" / "a.svg").is_file()
     (tmp_path / "file").write_text("")
-    one_line_error(*cli(capsys, "export", res, 1, "-o", tmp_path / "file" / "a.svg")[::2], "is not a folder")
-    one_line_error(*cli(capsys, "export", res, 1, "--format", "svg", "-o", tmp_path)[::2], "it is a folder")
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "-o", tmp_path / "file" / "a.svg")[::2], "is not a folder")
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "--as", "svg", "-o", tmp_path)[::2], "it is a folder")
     # never overwrite without --force; never the results file, even with it
     target = tmp_path / "keep.toml"
     target.write_text("mine")
-    one_line_error(*cli(capsys, "export", res, 1, "-o", target)[::2], "file exists", "--force")
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "-o", target)[::2], "file exists", "--force")
     assert target.read_text() == "mine"
-    assert cli(capsys, "export", res, 1, "-o", target, "--force")[0] == 0
+    assert cli(capsys, "export", res, "--variant", 1, "-o", target, "--force")[0] == 0
     assert explorer.load_mechanism(target).parameters() == expected_parameters(res, 1)[0]
-    one_line_error(*cli(capsys, "export", res, 1, "--format", "csv", "-o", res, "--force")[::2], "results file")
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "--as", "csv", "-o", res, "--force")[::2], "results file")
     assert explorer.open_results(res).n_variants == 6
     # what to write, and options that do not go with it
-    one_line_error(*cli(capsys, "export", res, 1, "-o", tmp_path / "a")[::2], "--format")
-    one_line_error(*cli(capsys, "export", res, 1, "--format", "dxf", "-o", tmp_path / "a.svg")[::2], "--format dxf")
-    one_line_error(*cli(capsys, "export", res, 1, "-o", tmp_path / "a.csv", "--scale", "2")[::2], "--scale")
-    one_line_error(*cli(capsys, "export", res, 1, "-o", tmp_path / "a.svg", "--width", "1", "--hole", "1")[::2],
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "-o", tmp_path / "a")[::2], "--as")
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "--as", "dxf", "-o", tmp_path / "a.svg")[::2], "--as dxf")
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "-o", tmp_path / "a.csv", "--scale", "2")[::2], "--scale")
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "-o", tmp_path / "a.svg", "--width", "1", "--hole", "1")[::2],
                    "does not fit")
-    one_line_error(*cli(capsys, "export", res, 1, "-o", tmp_path / "a.svg", "--hole", "2", "--width", "3")[::2],
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "-o", tmp_path / "a.svg", "--hole", "2", "--width", "3")[::2],
                    "would overlap")
-    one_line_error(*cli(capsys, "export", res, 1, "-o", tmp_path / "a.dxf", "--scale", "0")[::2], "scale")
-    one_line_error(*cli(capsys, "export", res, 1, "--variant", "2", "-o", tmp_path / "a.dxf")[::2], "two different")
+    one_line_error(*cli(capsys, "export", res, "--variant", 1, "-o", tmp_path / "a.dxf", "--scale", "0")[::2], "scale")
     assert not any(p.suffix in (".svg", ".dxf", ".csv") for p in tmp_path.iterdir())
 
 

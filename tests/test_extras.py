@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from explorer._extras import EXTRAS, MissingExtra, require
+from explorer.testing import EXTRAS, MissingExtra, require
 from explorer.cli import main
 from explorer.errors import UserError
 
@@ -63,7 +63,7 @@ def test_gif_needs_no_movie_extra(monkeypatch, tmp_path):
 
 def test_dxf_without_cad_extra(monkeypatch, tmp_path):
     from explorer.mechanism import load_mechanism
-    from explorer.view._export import export_dxf, export_svg
+    from explorer.testing import export_dxf, export_svg
     missing(monkeypatch, "ezdxf")
     mech = load_mechanism("jansen")
     with pytest.raises(MissingExtra, match=r"needs ezdxf: pip install 'explorer\[cad\]'"):

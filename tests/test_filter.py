@@ -13,7 +13,7 @@ import pytest
 
 from explorer.errors import UserError
 from explorer.gait import rank
-from explorer.gait._filter import evaluate_filter
+from explorer.testing import evaluate_filter
 
 
 @pytest.fixture(scope="module")

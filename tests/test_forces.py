@@ -20,7 +20,7 @@ import pytest
 import explorer.mechanism as mechanism_pkg
 from explorer import STATUS_NAMES, UserError, load_mechanism, simulate, simulate_batch
 from explorer.gait import WALKER_METRICS
-from explorer.gait._walker import walker_metrics
+from explorer.testing import walker_metrics
 from explorer.mechanism import Walker, builtin_mechanisms, mechanism_from_dict, parse_toml
 
 BUILTIN = Path(mechanism_pkg.__file__).resolve().parent / "builtin"
@@ -497,7 +497,7 @@ def test_forces_read_the_sweeps_own_rates(monkeypatch):
     """The forces effect runs in the sweep's kernel and reads its rates: with forces on, the positions,
     velocities and accelerations are the plain sweep's bit for bit; and the code generated per topology
     gives every force output of the table-driven kernel bit for bit."""
-    from explorer.kernels import _simulate
+    from explorer.testing import kernels_simulate as _simulate
 
     mech = load_mechanism(Path(__file__).parents[1] / "studies" / "mechanisms" / "jansen-plywood.toml")
     rng = np.random.default_rng(38)

@@ -80,7 +80,7 @@ def test_the_file_holds_torque_reactions_and_si_metrics(forces_file):
 
 
 def test_show_prints_si_figures(forces_file, capsys):
-    assert main(["show", str(forces_file), "0"]) == 0
+    assert main(["show", str(forces_file), "--variant", "0"]) == 0
     out = capsys.readouterr().out
     for text in ("motor_torque_peak", "N·m", "flywheel_inertia", "kg·m²", "pin_force.2", "rpm = 40"):
         assert text in out, text
@@ -89,7 +89,7 @@ def test_show_prints_si_figures(forces_file, capsys):
 def test_show_says_the_force_model_the_machine_and_the_flywheel(forces_file, capsys):
     with h5py.File(forces_file) as f:
         assert f.attrs["body"] == "moving"
-    assert main(["show", str(forces_file), "0"]) == 0
+    assert main(["show", str(forces_file), "--variant", "0"]) == 0
     out = capsys.readouterr().out
     assert 'force model: body = "moving"' in out
     assert "machine mass" in out and "flywheel_inertia_motor" in out
@@ -110,7 +110,7 @@ def test_a_file_made_before_the_moving_body_reads_as_held(forces_file, tmp_path,
     import json
 
     from explorer.store import open_results
-    from explorer.store._integrity import stamp
+    from explorer.testing import stamp
     old = tmp_path / "old.h5"
     old.write_bytes(forces_file.read_bytes())
     with h5py.File(old, "r+") as f:
@@ -121,7 +121,7 @@ def test_a_file_made_before_the_moving_body_reads_as_held(forces_file, tmp_path,
         stamp(f)
     with open_results(old) as res:
         assert res.body == "held" and res.operating.body == "held"
-    assert main(["show", str(old), "0"]) == 0
+    assert main(["show", str(old), "--variant", "0"]) == 0
     assert 'force model: body = "held"' in capsys.readouterr().out
 
 

@@ -110,8 +110,8 @@ def outputs(path, capsys, tmp, verbs=True) -> dict:
     if not verbs:
         return got
     toml = tmp / "export.toml"
-    for name, argv in (("rank", ["rank", path]), ("show", ["show", path, "3"]),
-                       ("export", ["export", path, "3", "--format", "toml", "-o", toml, "--force"])):
+    for name, argv in (("rank", ["rank", path]), ("show", ["show", path, "--variant", "3"]),
+                       ("export", ["export", path, "--variant", "3", "--as", "toml", "-o", toml, "--force"])):
         toml.unlink(missing_ok=True)
         code = main([str(a) for a in argv])
         out, err = capsys.readouterr()
@@ -283,7 +283,7 @@ def test_legacy_file_with_damaged_counts_is_one_line(files, tmp_path, capsys):
             del f.attrs["integrity"]
             del f["chunks/digest"]
             edit(f)
-        for argv in (["rank", p], ["show", p, "3"], ["export", p, "3", "--format", "toml", "-o", tmp_path / "x.toml",
+        for argv in (["rank", p], ["show", p, "--variant", "3"], ["export", p, "--variant", "3", "--as", "toml", "-o", tmp_path / "x.toml",
                                                      "--force"]):
             code = main([str(a) for a in argv])
             err = capsys.readouterr().err

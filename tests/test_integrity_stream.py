@@ -13,7 +13,7 @@ import pytest
 
 import explorer
 from explorer.errors import UserError
-from explorer.store import _integrity
+from explorer.testing import store_integrity as _integrity
 
 STUDY = {"study": {"name": "stream", "mechanism": "jansen", "variants": 150, "steps": 36, "seed": 3},
          "perturb": {"spread": 0.02}, "scene": {"metrics": True, "store": "metrics"}}
@@ -75,7 +75,7 @@ def _stitched(folder):
     """STUDY cut into shards of 64 variants (chunks of 16), written and stitched without a cluster."""
     from explorer.store import ShardPlan, plan_shards, shards_folder, stitch, write_shard
     from explorer.study import load_study
-    from explorer.study._chunk import chunk_solver
+    from explorer.testing import chunk_solver
     study = load_study(STUDY)
     out = folder / "stitched.h5"
     plan = plan_shards(study, workers=2, shard_size=64, chunk_size=16)

@@ -17,8 +17,8 @@ import numpy as np
 
 import explorer
 from explorer import kinds
-from explorer.kernels import _render
-from explorer.kernels._inputs import BLOCK_DTYPE
+from explorer.testing import kernels_render as _render
+from explorer.testing import BLOCK_DTYPE
 
 KERNELS = Path(explorer.__file__).parent / "kernels"
 

@@ -20,7 +20,7 @@ import explorer
 from explorer.cli import main
 from explorer.errors import UserError
 from explorer.mechanism import load_mechanism
-from explorer.view._kit import Material, build_kit, kit_data, pin_diameter, shaft_diameter, write_kit
+from explorer.testing import Material, build_kit, kit_data, pin_diameter, shaft_diameter, write_kit
 
 SVG = "{http://www.w3.org/2000/svg}"
 BUILTIN_LEGS = ("jansen", "klann", "strider", "hoeken", "fourbar")
@@ -368,7 +368,7 @@ def test_the_svg_labels_and_holes(tmp_path_factory):
     """Every joint label once per hole of every copy; a part's label clear of its holes (the Hoeken coupler's
     B-C-P holes are in a line: its label stays off C)."""
     mech, kit, folder = kit_of("hoeken", tmp_path_factory)
-    from explorer.view._kit_sheet import CHAR_W, copy_labels
+    from explorer.testing import CHAR_W, copy_labels
     root = ET.parse(folder / "parts.svg").getroot()
     cut = root.find(f"{SVG}g[@id='cut']")
     assert len(cut.findall(f"{SVG}g[@class='part']")) == len(kit.placements)
@@ -492,7 +492,7 @@ def test_a_kit_at_another_width_recomputes_the_forces(tmp_path, capsys):
     out = {}
     for w in (None, "48"):
         folder = tmp_path / f"k{w}"
-        args = ["export", str(mech_path), "--format", "kit", "-o", str(folder), "--sheet", "1220x610"]
+        args = ["export", str(mech_path), "--as", "kit", "-o", str(folder), "--sheet", "1220x610"]
         assert main(args + (["--width", w] if w else [])) == 0
         data = json.loads((folder / "kit.json").read_text())
         out[w] = data
@@ -536,7 +536,7 @@ def test_plates_for_rigid_triangles(tmp_path):
 # -- refusals and bad input ---------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ("whitworth", "slidercrank"))
 def test_sliders_are_refused(name, tmp_path, capsys):
-    assert main(["export", name, "--format", "kit", "-o", str(tmp_path / "k")]) == 2
+    assert main(["export", name, "--as", "kit", "-o", str(tmp_path / "k")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "slot or a guide" in err and not (tmp_path / "k").exists()
 
@@ -544,7 +544,7 @@ def test_sliders_are_refused(name, tmp_path, capsys):
 def test_the_path_driven_arm_is_refused(tmp_path, capsys):
     with pytest.raises(UserError, match="arm.*crank"):
         build_kit(load_mechanism("arm"))
-    assert main(["export", "arm", "--format", "kit", "-o", str(tmp_path / "k")]) == 2
+    assert main(["export", "arm", "--as", "kit", "-o", str(tmp_path / "k")]) == 2
     assert "crank" in capsys.readouterr().err and not (tmp_path / "k").exists()
 
 
@@ -567,7 +567,7 @@ BAD = [(["--sheet", "600"], "--sheet", "600"), (["--sheet", "0x400"], "--sheet",
 def test_bad_kit_options(opts, option, value, tmp_path, capsys):
     """Every kit option out of range: one line naming the option and the value, exit 2, nothing written."""
     out = tmp_path / "k"
-    assert main(["export", "jansen", "--format", "kit", "-o", str(out), *opts]) == 2
+    assert main(["export", "jansen", "--as", "kit", "-o", str(out), *opts]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and option in err and value in err, err
     assert not out.exists() and list(tmp_path.iterdir()) == []
@@ -576,7 +576,7 @@ def test_bad_kit_options(opts, option, value, tmp_path, capsys):
 @pytest.mark.parametrize("opts, part", [(["--sheet", "100x80"], "'"), (["--crank-mm", "2"], "'crank'")])
 def test_a_part_that_cannot_be_made_is_a_one_line_error(tmp_path, capsys, opts, part):
     out = tmp_path / "kit"
-    assert main(["export", "jansen", "--format", "kit", "-o", str(out), *opts]) == 2
+    assert main(["export", "jansen", "--as", "kit", "-o", str(out), *opts]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and f"part {part}" in err
     assert not out.exists() and list(tmp_path.iterdir()) == []
@@ -584,7 +584,7 @@ def test_a_part_that_cannot_be_made_is_a_one_line_error(tmp_path, capsys, opts, 
 
 def test_kit_options_go_with_the_kit(tmp_path, capsys):
     for opt in (["--sheet", "600x400"], ["--motor-shaft", "6"], ["--plates"]):
-        assert main(["export", "x.h5", "0", "--format", "svg", "-o", str(tmp_path / "a.svg"), *opt]) == 2
+        assert main(["export", "x.h5", "--variant", "0", "--as", "svg", "-o", str(tmp_path / "a.svg"), *opt]) == 2
         assert opt[0] in capsys.readouterr().err
 
 
@@ -613,14 +613,14 @@ def test_bom_and_readme(tmp_path_factory):
 @pytest.mark.slow
 def test_cli_kit_from_a_mechanism_and_the_output_policy(tmp_path, capsys):
     out = tmp_path / "new" / "kit"
-    assert main(["export", "hoeken", "--format", "kit", "-o", str(out), "--crank-mm", "20", "--sheet", "400x300"]) == 0
+    assert main(["export", "hoeken", "--as", "kit", "-o", str(out), "--crank-mm", "20", "--sheet", "400x300"]) == 0
     assert (out / "kit.json").is_file() and "1 model unit = 20 mm" in capsys.readouterr().out
     readme = (out / "README.txt").read_text()
     assert "--crank-mm 20" in readme and "yield" in readme
     before = (out / "bom.csv").read_text()
-    assert main(["export", "hoeken", "--format", "kit", "-o", str(out), "--crank-mm", "25"]) == 2
+    assert main(["export", "hoeken", "--as", "kit", "-o", str(out), "--crank-mm", "25"]) == 2
     assert "file exists" in capsys.readouterr().err and (out / "bom.csv").read_text() == before
-    assert main(["export", "hoeken", "--format", "kit", "-o", str(out), "--crank-mm", "25", "--force"]) == 0
+    assert main(["export", "hoeken", "--as", "kit", "-o", str(out), "--crank-mm", "25", "--force"]) == 0
     assert (out / "bom.csv").read_text() != before
 
 
@@ -639,7 +639,7 @@ def test_cli_kit_from_a_results_variant_with_forces(tmp_path, capsys):
     (tmp_path / "study.toml").write_text(text)
     assert main(["run", str(tmp_path / "study.toml")]) == 0
     capsys.readouterr()
-    assert main(["export", str(tmp_path / "f.h5"), "1", "--format", "kit", "-o", str(tmp_path / "kit"),
+    assert main(["export", str(tmp_path / "f.h5"), "--variant", "1", "--as", "kit", "-o", str(tmp_path / "kit"),
                  "--sheet", "1300x700"]) == 0
     assert "the study's own forces" in capsys.readouterr().out
     with explorer.open_results(tmp_path / "f.h5") as res:
@@ -665,7 +665,7 @@ def test_cli_kit_from_a_results_variant_with_forces(tmp_path, capsys):
 def test_no_stack_is_refused_naming_the_part_the_pin_and_the_angle(tmp_path, capsys):
     """At a 60 mm running clearance nothing fits between the webs: refused in one line, nothing written."""
     out = tmp_path / "k"
-    assert main(["export", "jansen", "--format", "kit", "-o", str(out), "--clearance", "60", "--sheet",
+    assert main(["export", "jansen", "--as", "kit", "-o", str(out), "--clearance", "60", "--sheet",
                  "2000x2000"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "part '" in err and "crankshaft" in err and "θ = " in err, err

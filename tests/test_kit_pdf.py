@@ -91,7 +91,7 @@ _CACHE: dict = {}
 def written(request, tmp_path_factory):
     """(kit, pdf path, page texts) of build_kit's kit of one built-in leg (at its default walker), written
     once per test session."""
-    from explorer.view._kit_pdf import write_assembly_pdf
+    from explorer.testing import write_assembly_pdf
     name = request.param
     if name not in _CACHE:
         kit = build_kit(design(name), source=f"builtin:{name} (test)", tolerance_note="±0.5 % on every length (test)")
@@ -178,7 +178,7 @@ def test_part_pages_name_holes_and_distances(written):
 def test_the_chassis_page(written):
     """Page 2: the legs' order along the shaft with their phases and webs, the shaft's sizing, the standoffs,
     the motor plate and the worst clearance."""
-    from explorer.view._kit import clearance_line
+    from explorer.testing import clearance_line
     kit, _, texts = written
     page = flat(texts[1])
     assert "crankshaft and chassis" in page
@@ -201,7 +201,7 @@ def test_a_part_too_big_for_the_page_is_drawn_at_a_stated_reduction(tmp_path):
     """At a 90 mm crank the Jansen leg's longest link (5-7, 65.7 × 6 = 394.2 mm) cannot be drawn true size
     on A4 landscape (297 mm): its page states a reduction 1:k with 394.2 / k under the page width; the
     crank (90 mm) stays true size."""
-    from explorer.view._kit_pdf import write_assembly_pdf
+    from explorer.testing import write_assembly_pdf
     kit = build_kit(load_mechanism("jansen"), crank_mm=90.0)
     texts = pages_text(write_assembly_pdf(kit, tmp_path / "assembly.pdf"))
     names = [p.name for p in kit.parts]

@@ -135,7 +135,7 @@ def test_verbs_say_they_resolve(tmp_path, capfd):
     v = int(df.loc[(df["status"] == "ok") & (df["variant"] > 0), "variant"].iloc[0])
     F.close(), L.close()
     for r, tag in ((F, "f"), (L, "l")):
-        assert main(["export", str(r.filename), "--variant", str(v), "--format", "csv",
+        assert main(["export", str(r.filename), "--variant", str(v), "--as", "csv",
                      "-o", str(tmp_path / f"{tag}.csv")]) == 0
     err = capfd.readouterr().err
     assert err.count("stores metrics only") == 1 and f"re-solved variant {v} " in err

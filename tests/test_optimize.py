@@ -217,7 +217,7 @@ def test_run_refuses_an_optimize_study_and_optimize_a_sampled_one(tmp_path):
 def test_rank_show_and_plot_front_work_on_an_optimisation(tmp_path):
     out = tmp_path / "o.h5"
     run_optimize(write(tmp_path), output=out, progress=False)
-    for args in (("rank", out, "--pareto", "travel,bob", "--top", "0"), ("show", out, "0"),
+    for args in (("rank", out, "--pareto", "travel,bob", "--top", "0"), ("show", out, "--variant", "0"),
                  ("plot", out, "--front", "-o", tmp_path / "front.png")):
         r = subprocess.run(explorer_cmd(*args), capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, (args, r.stderr)

@@ -185,7 +185,7 @@ def test_optimize_prints_the_best_design_against_the_nominal(run, capsys, tmp_pa
     # the command it names runs and shows that variant against the nominal
     cmd = next(ln for ln in block.splitlines() if "explorer show" in ln).split("shown in full by: ")[1]
     args = shlex.split(cmd)
-    assert args[:2] == ["explorer", "show"] and args[3:] == [str(v), "--vs", "0", "--units", "si"]
+    assert args[:2] == ["explorer", "show"] and args[3:] == ["--variant", str(v), "--vs", "0", "--units", "si"]
     shown = ok_cli(capsys, *args[1:])
     assert f"variant {v} of {len(df)}" in shown
 
@@ -211,7 +211,7 @@ def test_best_design_when_the_nominal_lies_outside_the_bounds(tmp_path, capsys):
     assert float(val) == pytest.approx(df.loc[v, "1-3"], abs=5e-5) and float(nom) == 50.0
     assert _number(pct) == pytest.approx(100 * (df.loc[v, "1-3"] - 50.0) / 50.0, abs=5e-4)
     assert "outside the [optimize] bounds" in block and "link 2-6" not in block  # only the searched ones
-    assert block.rstrip().endswith(f"explorer show {tmp_path / 'o.h5'} {v}")
+    assert block.rstrip().endswith(f"explorer show {tmp_path / 'o.h5'} --variant {v}")
 
 
 # -- the walking-leg synthesis example ------------------------------------------------------------------
@@ -306,7 +306,8 @@ def test_front_polish_dominates_its_starts_and_resumes_exactly(tmp_path, monkeyp
     # stopped during the polish (the search committed), --resume polishes again to the same rows
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
-    monkeypatch.setattr("explorer.study._front_polish.polish_front", interrupted)
+    from explorer.testing import study_front_polish
+    monkeypatch.setattr(study_front_polish, "polish_front", interrupted)
     with pytest.raises(KeyboardInterrupt, match="3 of 4 generations committed"):
         run_optimize(study, output=tmp_path / "b.h5", progress=False)
     monkeypatch.undo()

@@ -350,7 +350,7 @@ def test_recomputed_metrics_keep_each_variants_pivots(pivots_run, tmp_path):
 def test_show_prints_every_parameter_against_the_nominal(pivots_run):
     out, df, tmp = pivots_run
     v = int(np.flatnonzero((df["status"] == "ok").to_numpy())[1])
-    r = subprocess.run([sys.executable, "-m", "explorer.cli", "show", str(out), str(v)], cwd=tmp,
+    r = subprocess.run([sys.executable, "-m", "explorer.cli", "show", str(out), "--variant", str(v)], cwd=tmp,
                        capture_output=True, text=True, timeout=300, env=_env())
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
@@ -416,8 +416,8 @@ def test_sizes_of_the_mechanism_match_the_reference():
 
 def test_sharded_study_file_carries_the_geometry(pivots_run, tmp_path):
     """Shards (what a Dask run writes) stitched into one file read as the single-process file."""
-    from explorer.store._shards import plan_shards, shards_folder, stitch, write_shard
-    from explorer.study._chunk import chunk_solver
+    from explorer.testing import plan_shards, shards_folder, stitch, write_shard
+    from explorer.testing import chunk_solver
     _, df, tmp = pivots_run
     study = load_study(tmp / "pivots.toml")
     out = tmp_path / "sharded.h5"

@@ -62,7 +62,7 @@ def test_verbs_on_the_arm(arm_results, capsys, tmp_path):
         df = r.frame()
     failed = df.index[df["status"] != "ok"]
     if len(failed):
-        code, out, _ = cli(capsys, "show", arm_results, str(int(df.loc[failed[0], "variant"])))
+        code, out, _ = cli(capsys, "show", arm_results, "--variant", str(int(df.loc[failed[0], "variant"])))
         t = float(df.loc[failed[0], "fail_theta"])
         assert code == 0 and f"at t = {t:.6g} s" in out and "θ" not in out, out
         assert "explorer metrics" not in out and "driven along a path" in out

@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from explorer import UserError, simulate
-from explorer.gait._path import load_target, path_error, path_match, path_residuals
+from explorer.testing import load_target, path_error, path_match, path_residuals
 from explorer.mechanism import mechanism_from_dict
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))

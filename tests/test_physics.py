@@ -234,11 +234,11 @@ def test_physics_verb_stores_the_group_that_rank_show_and_frame_see(results, cap
     assert "checked 2 designs" in out and "CPU-s" in out
     for v in top:
         assert f"\n{v:>7} " in out or f" {v} " in out
-    code, out, _ = cli(capsys, "show", results, top[0])
+    code, out, _ = cli(capsys, "show", results, "--variant", top[0])
     assert code == 0 and "physics check (MuJoCo" in out and "kinematic" in out
     assert "agrees with the kinematic walker" in out or "disagrees:" in out
     other = next(v for v in range(len(df)) if v not in top)
-    code, out, _ = cli(capsys, "show", results, other)
+    code, out, _ = cli(capsys, "show", results, "--variant", other)
     assert "this design was not checked" in out and "(not checked: `explorer physics`)" in out
     code, out, _ = cli(capsys, "rank", results, "--by", "physics_travel", "--top", "3")
     assert code == 0 and "physics_travel: 2 of the" in out
@@ -361,7 +361,8 @@ def test_a_full_disk_leaves_the_file_as_it_was(results, monkeypatch):
     import errno
 
     from explorer.errors import UserError
-    monkeypatch.setattr("explorer.store._write._fallocate", lambda *a, **k: errno.ENOSPC)  # no room to reserve
+    from explorer.testing import store_write
+    monkeypatch.setattr(store_write, "_fallocate", lambda *a, **k: errno.ENOSPC)  # no room to reserve
     before = sha(results)
     with pytest.raises(UserError, match="the disk is full: updating the file needs up to .* unchanged"):
         physics_check(results, variants=[0], turns=1, workers=1)

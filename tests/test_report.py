@@ -147,8 +147,8 @@ def test_cli_writes_and_refuses_to_overwrite(study, tmp_path, capsys):
 
 
 def test_cli_defaults_are_the_modules():
-    from explorer.cli import _report as cli
-    from explorer.view import _report as view
+    from explorer.testing import cli_report as cli
+    from explorer.testing import view_report as view
     for name in ("DEFAULT_MAX_DESIGNS", "DEFAULT_PC_LINES", "DEFAULT_PATHS", "DEFAULT_SHOWN", "DEFAULT_POINTS"):
         assert getattr(cli, name) == getattr(view, name), name
 

@@ -105,7 +105,7 @@ def test_design_is_every_parameter_nominal_where_not_perturbed(results_path):
 def test_view_names_still_import():
     from explorer.store import check_variant, variant_mechanism, variant_row
     from explorer.view import variant_mechanism as vm
-    from explorer.view._plots import check_variant as cv, is_results as ir, results_band, variant_row as vr
+    from explorer.testing import check_variant as cv, is_results as ir, results_band, variant_row as vr
     assert vm is variant_mechanism and cv is check_variant and vr is variant_row and ir is is_results
     assert callable(results_band)
 

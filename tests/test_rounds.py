@@ -200,7 +200,7 @@ def test_a_study_starts_its_polish_from_the_atlas(tmp_path, monkeypatch):
     """A closed curve of a hidden atlas four-bar, with a search too short to find it alone (one DE
     generation of 8): the polish starts from the cached atlas's nearest designs and reaches it; the
     summary names the atlas."""
-    from explorer.study._atlas import build_atlas, open_atlas
+    from explorer.testing import build_atlas, open_atlas
     monkeypatch.setenv("EXPLORER_ATLAS_DIR", str(tmp_path / "atlas"))
     build_atlas("fourbar", 3000, progress=False)
     at = open_atlas(tmp_path / "atlas" / "fourbar.h5")

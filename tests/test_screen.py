@@ -170,9 +170,9 @@ def test_show_says_why_a_variant_is_screened_out(results, capsys):
     with explorer.open_results(results) as r:
         df = r.frame()
     v = int(df.index[(df.status == "ok") & ~df.buildable][0])
-    out = _cli(capsys, "show", results, v)
+    out = _cli(capsys, "show", results, "--variant", v)
     assert f"screened out ({df.loc[v, 'screen']})" in out
-    assert "buildability screen: pass" in _cli(capsys, "show", results, 0)
+    assert "buildability screen: pass" in _cli(capsys, "show", results, "--variant", 0)
 
 
 def test_screen_table_in_study_is_validated():

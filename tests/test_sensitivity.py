@@ -295,7 +295,7 @@ def test_cli_table_json_summary_and_plot(leg_file, saltelli_file, tmp_path, caps
     assert code == 0, err
     assert list(pd.read_csv(io.StringIO(out))["item"])[0] == "assembles"
     png = tmp_path / "indices.png"
-    code, out, err = run_cli(["sensitivity", saltelli_file, "--metrics", "travel", "--plot", png, "--format", "csv"],
+    code, out, err = run_cli(["sensitivity", saltelli_file, "--metrics", "travel", "-o", png, "--format", "csv"],
                              capsys)
     assert code == 0, err
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
@@ -319,7 +319,7 @@ def oat_file(tmp_path_factory):
     (["sensitivity", "{oat}"], "perturb.method = 'oat'"),
     (["sensitivity", "{leg}", "--format", "xml"], "--format: expected one of table, csv, json"),
     (["sensitivity", "{leg}", "--resamples", "1"], "--resamples: expected a whole number >= 2"),
-    (["sensitivity", "{leg}", "--plot", "{tmp}/p.gif"], "unknown output extension"),
+    (["sensitivity", "{leg}", "-o", "{tmp}/p.gif"], "unknown output extension"),
     (["tolerance", "jansen", "--target", "1.5"], "--target: expected a share in (0, 1)"),
     (["tolerance", "nosuchleg"], "nosuchleg: no mechanism file or built-in"),
     (["tolerance", "jansen", "--parameters", "9-9", "--variants", "20"], "unknown design parameter '9-9'"),

@@ -250,7 +250,7 @@ def test_slot_inside_a_loop_is_a_general_block():
     mech = mechanism_from_dict(slot_loop())
     plan = plan_for(mech)
     assert [b.kind for b in plan.blocks] == [GENERAL]
-    from explorer.kernels._inputs import topology  # the rows the kernels read
+    from explorer.testing import topology
     topo = topology(plan, range(plan.n_blocks), [], [], True)
     assert sorted(topo.gen_rows[:, 0].tolist()).count(ROW_SLIDE) == 2
     cyc = simulate(mech, steps=360, accelerations=True, tolerance=1e-12)

@@ -84,7 +84,7 @@ def test_slider_study_runs_and_rank_says_what_it_lacks(tmp_path):
 def test_show_labels_slider_parameters():
     """Whitworth's slot offset and ram line are labelled by their sliders, never "joint"; a ground
     line's direction has no % of size and stays unitless in mm (--units si), its point is scaled."""
-    from explorer.cli._show import parameter_lines
+    from explorer.testing import parameter_lines
 
     mech = load_mechanism("whitworth")
     design = {"ram.y": 0.35, "block.offset": -0.07, "ram.dy": 0.1}
@@ -101,7 +101,7 @@ def test_show_labels_slider_parameters():
 def test_guide_segment_of_the_slider_crank_over_its_travel():
     """The piston's guide: y = 1, from the closed form's lowest to highest x at the same crank angles,
     lengthened by 10 % of the stroke at each end; mirrored about the crank centre for a mirrored leg."""
-    from explorer.view._draw import guide_segments
+    from explorer.testing import guide_segments
 
     mech = load_mechanism("slidercrank")
     cyc = simulate(mech, steps=90, velocities=False)
@@ -119,7 +119,7 @@ def test_slot_segment_by_hand():
     """A slot a → b with the slider's vertex off it by the offset: the groove runs through the vertex
     parallel to a → b, from a's projection to b's (a = (0, 0), b = (3, 4), the vertex 1 along and 0.5
     to the left: the groove from (−0.4, 0.3) to (2.6, 4.3)); past b it reaches the vertex."""
-    from explorer.view._draw import slot_segments
+    from explorer.testing import slot_segments
 
     mech = load_mechanism("whitworth")
     P = np.zeros((len(mech.vertices), 2))
@@ -142,7 +142,7 @@ def test_rendered_frames_show_the_guide_and_the_slot():
     """A slider-crank frame has the guide's grey pixels on the line y = 1 beyond the foot path's ends;
     a Whitworth frame has the slot's pixels along the arm O4 → B, between the two."""
     from explorer.view import LinkageAnimation
-    from explorer.view._draw import GUIDE_COLOR, SLOT_COLOR
+    from explorer.testing import GUIDE_COLOR, SLOT_COLOR
 
     anim = LinkageAnimation(load_mechanism("slidercrank"), cycles=1, frames=4, steps=72)
     grey = _pixels(anim.fig, GUIDE_COLOR)
@@ -184,7 +184,7 @@ def test_no_walker_load_on_a_foot_on_a_ground_slider(tmp_path):
 def test_describe_names_slider_parameters_and_what_does_not_apply():
     """describe says what each slider parameter is (never "in body ...'s frame") and that a foot on a
     ground slider has no walker, leg or screen metric."""
-    from explorer.cli._describe import describe, text
+    from explorer.testing import cli_describe as describe, describe_text as text
 
     out = text(describe(load_mechanism("whitworth")))
     assert "in body" not in out

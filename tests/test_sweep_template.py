@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 import explorer
-from explorer.kernels import _codegen, _simulate, _sweep, _sweep_template
-from explorer.kernels._sweep_template import HOLES, SECTIONS, render
+from explorer.testing import (kernels_codegen as _codegen, kernels_simulate as _simulate, kernels_sweep as _sweep,
+                              kernels_sweep_template as _sweep_template)
+from explorer.testing import HOLES, SECTIONS, render
 
 
 def test_committed_array_form_is_the_template_rendered():
@@ -36,7 +37,7 @@ def test_committed_array_form_is_the_template_rendered():
 def test_one_batch_loop():
     """Every sweep kernel's per-design loop is the batch template's: the table-driven ones are its array
     form (with and without forces), a generated one its scalar form with the sweep inline."""
-    from explorer.kernels import _batch, _batch_array
+    from explorer.testing import kernels_batch as _batch, kernels_batch_array as _batch_array
 
     for jitted, fn in ((_batch.fast_batch_jit, _batch_array.batch_plain), (_batch.generic_batch_jit, _batch_array.batch_plain),
                        (_batch.fast_forces_jit, _batch_array.batch_forces),
@@ -53,7 +54,7 @@ def test_one_batch_loop():
 
 
 def test_array_form_is_what_the_kernels_run():
-    from explorer.kernels import _sweep_array
+    from explorer.testing import kernels_sweep_array as _sweep_array
 
     assert _sweep.sweep is _sweep_array.sweep
     for jitted in (_sweep.fast_sweep, _sweep.generic_sweep):
@@ -141,7 +142,7 @@ def test_the_hole_marker_answers_introspection_as_an_ordinary_object():
 def test_kernel_cache_key_covers_the_plan():
     """The block kinds (``kinds``) are code and constants frozen into the kernels' machine code (and into
     the generated sources): a change there must key a fresh cache folder."""
-    from explorer.kernels._cache import kernel_sources
+    from explorer.testing import kernel_sources
 
     names = {name for name, _ in kernel_sources()}
     for module in ("plan/_kinds.py", "kinds/__init__.py", "kinds/dyad.py", "kernels/_sweep_template.py",

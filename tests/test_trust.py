@@ -13,7 +13,7 @@ import pytest
 import explorer
 from explorer.cli import main
 from explorer.errors import UserError
-from explorer.store._lock import OutputLock
+from explorer.testing import OutputLock
 
 STUDY = """[study]
 name = "trust"
@@ -149,7 +149,7 @@ def test_truncated_and_foreign_files_give_one_line(results, capsys, tmp_path):
     bare = tmp_path / "bare.h5"
     with h5py.File(bare, "w") as f:
         f.attrs["format"] = "explorer-results"
-    for verb in (["rank", bare], ["show", bare, "0"], ["plot", bare, "--top", "1", "-o", tmp_path / "x.png"]):
+    for verb in (["rank", bare], ["show", bare, "--variant", "0"], ["plot", bare, "--top", "1", "-o", tmp_path / "x.png"]):
         code, _, err = cli(capsys, *verb)
         assert code == 2 and err.count("\n") == 1 and "not a readable explorer results file" in err, err
     broken = tmp_path / "broken.h5"
@@ -183,7 +183,7 @@ def test_one_vertex_name_is_not_its_characters():
 def test_bounded_dpi_and_help_without_double_percent(results, capsys, tmp_path):
     code, _, err = cli(capsys, "plot", results, "--top", "1", "--dpi", "1e9", "-o", tmp_path / "a.png")
     assert code == 2 and "--dpi: expected a number from 1 to 1200" in err
-    for verb in ("show", "run", "plot", "rank"):
+    for verb in ("show", "run", "--variant", "plot", "rank"):
         with pytest.raises(SystemExit):
             main([verb, "--help"])
         assert "%%" not in capsys.readouterr().out
@@ -260,12 +260,12 @@ def test_interrupts_stop_cleanly_and_resume(tmp_path, capsys, signals, gap, code
 
 
 def test_one_way_to_name_a_variant(results, capsys, tmp_path):
-    a = cli(capsys, "show", results, "3")
+    a = cli(capsys, "show", results, "--variant", "3")
     b = cli(capsys, "show", results, "--variant", "3")
     assert a[0] == b[0] == 0 and a[1] == b[1]
     assert cli(capsys, "show", results)[0] == 2
     assert cli(capsys, "plot", results, "--velocity", "--variant", "1", "-o", tmp_path / "v.png")[0] == 0
-    assert cli(capsys, "plot", results, "--velocity", "1", "-o", tmp_path / "w.png")[0] == 0
+    assert cli(capsys, "plot", results, "--velocity", "--variant", "1", "-o", tmp_path / "w.png")[0] == 0
     code, _, err = cli(capsys, "plot", results, "--top", "2", "--variant", "1", "-o", tmp_path / "t.png")
     assert code == 2 and "--variant goes with --velocity" in err
 
@@ -287,7 +287,7 @@ def test_a_disk_that_fills_mid_run_is_one_line_and_resumable(tmp_path):
         study.write_text('[study]\nname = "big"\nmechanism = "jansen"\nvariants = 150000\nsteps = 72\n',
                          encoding="utf-8")
         out = disk / "big.h5"
-        code = ("import sys\nimport explorer.study._output as r\nr._check_disk_space = lambda *a: None\n"
+        code = ("import sys\nfrom explorer.testing import study_output as r\nr._check_disk_space = lambda *a: None\n"
                 "from explorer.cli import main\n"
                 f"sys.exit(main(['run', {str(study)!r}, '-o', {str(out)!r}, '-q']))")
         p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
@@ -316,7 +316,7 @@ def test_corrupt_headers_give_one_line(results, capsys, tmp_path):
             data[pos] = int(rng.integers(0, 256))
         bad = tmp_path / f"bad{k}.h5"
         bad.write_bytes(bytes(data))
-        for argv in (["rank", bad], ["show", bad, "0"]):
+        for argv in (["rank", bad], ["show", bad, "--variant", "0"]):
             code, _, err = cli(capsys, *argv)
             assert code in (0, 2), (k, argv, err)
             assert code == 0 or (err.count("\n") == 1 and err.startswith("explorer: error: ")), (k, err)
@@ -377,7 +377,7 @@ def test_a_disk_that_fills_before_the_first_commit_is_resumable(tmp_path, reserv
         out = disk / "dfull.h5"
         filler = disk / "filler"
         # the start checks pass (the disk is empty), then another writer fills it before the first commit
-        prelude = (f"import os, shutil\nimport explorer.study._run as run\nreal = run.chunk_solver\n"
+        prelude = (f"import os, shutil\nfrom explorer.testing import study_run as run\nreal = run.chunk_solver\n"
                    f"def solver(study, *args):\n    solve = real(study, *args)\n"
                    f"    def first(a, b):\n        if not os.path.exists({str(filler)!r}):\n"
                    f"            st = os.statvfs({str(disk)!r})\n            free = st.f_bavail * st.f_frsize\n"
@@ -385,7 +385,7 @@ def test_a_disk_that_fills_before_the_first_commit_is_resumable(tmp_path, reserv
                    f"                fh.write(bytes(free - 300_000))\n"
                    f"        return solve(a, b)\n    return first\nrun.chunk_solver = solver\n")
         if not reserve:
-            prelude += ("import explorer.store._write as w\nimport errno\nw._fallocate = lambda *a, **k: errno.ENOTSUP\n"
+            prelude += ("from explorer.testing import store_write as w\nimport errno\nw._fallocate = lambda *a, **k: errno.ENOTSUP\n"
                         "import shutil, collections\nU = collections.namedtuple('U', 'total used free')\n"
                         "shutil.disk_usage = lambda p: U(1 << 40, 0, 1 << 40)\n")
         p = _run_cli(["run", study, "-o", out, "-q"], prelude)
@@ -416,7 +416,7 @@ def test_a_full_disk_at_the_first_commit_stops_cleanly_and_resumes(tmp_path, mon
     saying so, and --resume (space freed: the reservation works again) finishes the file."""
     import errno
 
-    import explorer.store._write as w
+    from explorer.testing import store_write as w
     study = tmp_path / "d.toml"
     study.write_text(DISK_STUDY.replace("1500", "40").replace("72", "24"), encoding="utf-8")
     out = tmp_path / "d.h5"
@@ -467,7 +467,7 @@ def test_resume_demands_only_the_room_still_needed(tmp_path, monkeypatch):
 
     import h5py
 
-    from explorer.study._output import _check_disk_space, estimated_bytes
+    from explorer.testing import check_disk_space as _check_disk_space, estimated_bytes
     study = explorer.load_study({"study": {"name": "r", "mechanism": "jansen", "variants": 64, "steps": 24}})
     out = tmp_path / "r.h5"
     explorer.run_study(study, output=out, progress=False, chunk_size=16)
@@ -489,7 +489,7 @@ def test_the_size_estimate_bounds_small_files(tmp_path):
     1.3x-69x under: it counted the data only)."""
     import os
 
-    from explorer.study._output import estimated_bytes
+    from explorer.testing import estimated_bytes
     for n, steps in ((1, 36), (20, 36), (100, 72)):
         study = explorer.load_study({"study": {"name": "e", "mechanism": "jansen", "variants": n, "steps": steps},
                                      "scene": {"metrics": True}})

@@ -140,7 +140,7 @@ def test_without_load_and_rpm_torque_stays_and_speed_is_left_out(files, capsys):
     assert len(said) == 2 and any("peak_torque" in ln for ln in said), out
 
 
-@pytest.mark.parametrize("verb", [["rank"], ["show", "1"], ["report", "-o", "{d}/r.html"]])
+@pytest.mark.parametrize("verb", [["rank"], ["show", "--variant", "1"], ["report", "-o", "{d}/r.html"]])
 def test_si_without_an_operating_unit_is_one_line_exit_2(files, capsys, verb):
     argv = [verb[0], str(files["none"])] + [a.format(d=files["dir"]) for a in verb[1:]] + ["--units", "si"]
     code, out, err = cli(capsys, *argv)
@@ -156,7 +156,7 @@ def test_show_si_lines(files, capsys):
     ok = np.flatnonzero(df["status_code"].to_numpy() == 0)
     v = int(ok[2])
     r, nom = df.iloc[v], df.iloc[0]
-    out = ok_cli(capsys, "show", files["si"], v, "--units", "si")
+    out = ok_cli(capsys, "show", files["si"], "--variant", v, "--units", "si")
     lines = out.splitlines()
     head = next(ln for ln in lines if ln.startswith("parameter "))
     assert "value [mm]" in head and "nominal [mm]" in head
@@ -190,7 +190,7 @@ def test_show_si_lines(files, capsys):
 def test_show_model_units_unchanged_by_default(files, capsys):
     with open_results(files["si"]) as res:
         r = res.frame().iloc[0]
-    lines = ok_cli(capsys, "show", files["si"], 0).splitlines()
+    lines = ok_cli(capsys, "show", files["si"], "--variant", 0).splitlines()
     cells = next(ln for ln in lines if ln.startswith("bob ")).split()
     assert cells[1] == f"{r['bob']:.6g}" and cells[6] == "length"
     assert not any(ln.startswith("speed ") for ln in lines)

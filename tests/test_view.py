@@ -130,7 +130,7 @@ def test_gif_foot_marker_follows_the_cycle(jansen, jansen_cycle, tmp_path):
     anim = LinkageAnimation(jansen, cycles=1, frames=6, dpi=DPI)
     frames = _gif_frames(anim.write(tmp_path / "leg.gif").path)
     foot = jansen.vertex_index(jansen.foot)
-    from explorer.view._draw import FOOT_COLOR
+    from explorer.testing import FOOT_COLOR
     for i, f in enumerate(frames):
         k = anim.frame_index(i)
         assert anim.cycle.theta[k] == pytest.approx(2 * math.pi * i / 6)
@@ -443,7 +443,7 @@ def test_save_figure_errors(jansen_cycle, tmp_path):
 def test_cli_plot_and_animate(results, oat, tmp_path, capsys):
     r, o = str(results.filename), str(oat.filename)
     for argv in (["plot", r, "--top", "2", "--by", "stride"], ["plot", r, "--scatter", "stride,duty"],
-                 ["plot", r, "--velocity", "1"], ["plot", o, "--sensitivity"]):
+                 ["plot", r, "--velocity", "--variant", "1"], ["plot", o, "--sensitivity"]):
         out = tmp_path / f"{argv[2][2:]}.png"
         assert main(argv + ["-o", str(out), "--dpi", "40"]) == 0, argv
         assert out.is_file()
@@ -467,7 +467,7 @@ def test_cli_help(verb, capsys):
 
 @pytest.mark.parametrize("argv, match", [
     (["plot", "{r}", "--top", "2", "--by", "nope", "-o", "{t}/x.png"], "unknown metric 'nope'"),
-    (["plot", "{r}", "--velocity", "999", "-o", "{t}/x.png"], "out of range"),
+    (["plot", "{r}", "--velocity", "--variant", "999", "-o", "{t}/x.png"], "out of range"),
     (["plot", "{r}", "--top", "2", "-o", "{r}/x.png"], "is not a folder"),
     (["plot", "{r}", "--top", "2", "-o", "{t}/x.jpg"], "unknown output extension"),
     (["plot", "{r}", "-o", "{t}/x.png"], "say what to plot"),
@@ -492,7 +492,7 @@ def test_bodies_are_drawn_as_their_outline():
     import matplotlib.pyplot as plt
 
     from explorer import load_mechanism, simulate
-    from explorer.view._draw import LegArtists, hull_order
+    from explorer.testing import LegArtists, hull_order
 
     assert hull_order([(0, 0), (2.5, 0), (5, 0)]) == [0, 2, 0]
     assert hull_order([(0, 0), (1, 0), (0.5, 1), (0.5, 0.3)]) == [0, 1, 2, 0]  # the inner point is no corner

@@ -219,7 +219,7 @@ def test_walker_needs_a_crank_and_valid_tables(tmp_path):
 def test_animate_walker_draws_the_legs_the_metrics_describe(tmp_path):
     """`animate --walker`: each drawn leg sits at the sample the walker kernel reads for that leg."""
     from explorer.gait import leg_samples
-    from explorer.view._animate import LinkageAnimation
+    from explorer.testing import LinkageAnimation
     for name in ("jansen", "fourbar"):
         mech = explorer.load_mechanism(name)
         anim = LinkageAnimation(mech, cycles=1, frames=12, walker=True)

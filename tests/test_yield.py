@@ -19,7 +19,7 @@ from explorer.errors import UserError
 from explorer.gait import Screen
 from explorer.mechanism import load_mechanism
 from explorer.study import design_yield, load_study, robustness_from_dict, run_study
-from explorer.study import _yield as yield_module
+from explorer.testing import study_yield as yield_module
 
 from naive import JANSEN_LINKS, circle_circle, cross, jansen_signs
 
@@ -307,20 +307,20 @@ def test_show_gives_yield_with_its_error_and_warns(yield_file, capsys):
     from explorer.store import open_results
     with open_results(yield_file) as r:
         p = float(r.row(0)["yield"])
-    code, out, _ = _cli(capsys, "show", str(yield_file), "0")
+    code, out, _ = _cli(capsys, "show", str(yield_file), "--variant", "0")
     assert code == 0
     line = next(s for s in out.splitlines() if s.startswith("yield (will it survive the workshop?)"))
     assert f"{p:.3f} ± {math.sqrt(p * (1 - p) / 24):.3f}" in line
     assert ("warning: only" in out) == (p < 0.95)
     # a tolerance wide enough that few copies walk always warns
-    code, out, _ = _cli(capsys, "show", str(yield_file), "0", "--yield", "8%", "--copies", "16")
+    code, out, _ = _cli(capsys, "show", str(yield_file), "--variant", "0", "--yield", "8%", "--copies", "16")
     assert code == 0 and "warning: only" in out and "±8 % (uniform)" in out
 
 
 @pytest.mark.parametrize("argv,words", [
     (["rank", "{f}", "--yield", "2in"], "--yield: expected a tolerance"),
     (["rank", "{f}", "--copies", "8"], "--copies goes with --yield TOL"),
-    (["show", "{f}", "0", "--copies", "8"], "--copies goes with --yield TOL"),
+    (["show", "{f}", "--variant", "0", "--copies", "8"], "--copies goes with --yield TOL"),
     (["rank", "{f}", "--yield", "1mm"], "[operating] unit"),
 ])
 def test_bad_yield_options_exit_2_in_one_line(yield_file, capsys, argv, words):

@@ -7,6 +7,8 @@ from pathlib import Path
 
 
 def register(sub) -> None:
+    from ._args import add_output, add_variant
+
     p = sub.add_parser(
         "animate", help="animate a design (a variant of a results file, or a mechanism) to MP4 or GIF",
         description="Animate a linkage over a few crank turns: links, joints, crank and ground pivots over the "
@@ -15,13 +17,11 @@ def register(sub) -> None:
                     "drawn up to its failure angle, with the failure in the title.")
     p.add_argument("results", nargs="?", default=None, metavar="RESULTS",
                    help="results file (.h5); animates --variant (default 0, the nominal)")
-    p.add_argument("--variant", type=int, default=None, metavar="ID", help="variant of RESULTS to animate")
+    add_variant(p, "variant of RESULTS to animate (default 0, the nominal)")
     p.add_argument("--mechanism", default=None, metavar="NAME",
                    help="animate this mechanism's nominal design instead (built-in name or .toml file)")
-    p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="output .mp4 or .gif (default: <name>.mp4 in the working directory); missing folders are "
-                        "created, an existing file is kept unless --force")
-    p.add_argument("--force", action="store_true", help="overwrite PATH if it exists (never done without it)")
+    add_output(p, "output .mp4 or .gif (default: <name>.mp4 in the working directory); missing folders are "
+                  "created, an existing file is kept unless --force")
     p.add_argument("--cycles", type=float, default=2, metavar="K", help="crank turns to show (default: 2)")
     p.add_argument("--legs", type=int, default=1, metavar="N",
                    help="draw a walker of N legs, crank phases spread evenly, odd legs mirrored (default: 1)")

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 
 def register(sub) -> None:
+    from ._args import add_output, add_seed
+
     p = sub.add_parser(
         "atlas", help="build or describe the curve atlas of a mechanism (what explorer synth looks curves up in)",
         description="The curve atlas of a mechanism: a Sobol sample of its design space (lengths within a factor, "
@@ -28,10 +30,8 @@ def register(sub) -> None:
     b.add_argument("mechanism", metavar="MECHANISM", help="fourbar, watt6, stephenson6, a built-in or a mechanism .toml")
     b.add_argument("--designs", metavar="N", default="1000000",
                    help="designs that turn a full cycle to keep (default 1,000,000)")
-    b.add_argument("--seed", metavar="S", default="0", help="seed of the scrambled Sobol sample (default 0)")
-    b.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="atlas file (default: <atlas dir>/<MECHANISM>.h5)")
-    b.add_argument("--force", action="store_true", help="build again over an existing atlas")
+    add_seed(b, 0, "the scrambled Sobol sample")
+    add_output(b, "atlas file (default: <atlas dir>/<MECHANISM>.h5)", force="build again over an existing atlas")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary")
     b.set_defaults(func=run_build)
     i = s.add_parser("info", help="describe an atlas (or every cached one)",
@@ -45,7 +45,7 @@ def run_build(args) -> int:
     from ..study._atlas import build_atlas
     from ._args import whole
     n = whole(args.designs.replace(",", "").replace("_", ""), "--designs", 1)
-    seed = whole(args.seed, "--seed", 0)
+    seed = args.seed
     summary = build_atlas(args.mechanism, n, output=args.output, seed=seed, force=args.force, progress=not args.quiet)
     if not args.quiet:
         print(summary.text())

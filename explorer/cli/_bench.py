@@ -26,6 +26,8 @@ def _ints(text: str) -> tuple[int, ...]:
 
 
 def register(sub) -> None:
+    from ._args import add_output, add_seed
+
     p = sub.add_parser("bench", help="benchmarks a user can run: what accuracy costs in time",
                        description="Benchmarks of explorer's solvers, run on this machine.")
     verbs = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
@@ -46,7 +48,7 @@ def register(sub) -> None:
                    help="variants drawn; those that assemble all round are kept (default: 1000)")
     a.add_argument("--spread", type=float, default=0.02, metavar="F",
                    help="each link and the crank scaled by uniform(1-F, 1+F) (default: 0.02)")
-    a.add_argument("--seed", type=int, default=1, help="numpy default_rng seed of the draw (default: 1)")
+    add_seed(a, 1, "the draw (numpy default_rng)")
     a.add_argument("--tolerances", type=_floats, default=None, metavar="T1,T2,...",
                    help="Newton tolerances, each from 1e-12 to 1e-6: every solved position within tolerance x the "
                         "longest link (default: 1e-6,1e-8,1e-10,1e-11,1e-12)")
@@ -66,8 +68,8 @@ def register(sub) -> None:
     a.add_argument("--reference-steps", type=int, default=14_400, metavar="S",
                    help="steps of the closed-form reference for the gait metrics (default: 14400)")
     a.add_argument("--repeat", type=int, default=3, metavar="R", help="timing runs per cell, best kept (default: 3)")
-    a.add_argument("-o", "--output", default="bench-accuracy", metavar="DIR",
-                   help="directory for accuracy.csv and accuracy.png (default: ./bench-accuracy)")
+    add_output(a, "directory for accuracy.csv and accuracy.png (default: ./bench-accuracy)", default="bench-accuracy",
+               metavar="DIR", force="overwrite DIR's accuracy.csv and accuracy.png if they exist (never done without it)")
     a.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
     a.set_defaults(func=run)
     r = verbs.add_parser(
@@ -104,9 +106,8 @@ def register(sub) -> None:
                         "'euler ZYX set 2', 'euler XYZ', axis-angle, 'seed axang 4-vector' (slerp always runs: "
                         "the time baseline; default: all)")
     r.add_argument("--csv", default=None, metavar="FILE", help="also write the table as CSV")
-    r.add_argument("-o", "--output", default=None, metavar="FILE.png",
-                   help="draw the interpolated frames, one 3-D panel per method (.png, .pdf or .svg)")
-    r.add_argument("--force", action="store_true", help="overwrite an existing -o or --csv file")
+    add_output(r, "draw the interpolated frames, one 3-D panel per method (.png, .pdf or .svg)", metavar="FILE.png",
+               force="overwrite an existing -o or --csv file")
     r.set_defaults(func=run_rotations)
 
 
@@ -132,6 +133,9 @@ def run(args) -> int:
                         ("--repeat", args.repeat), ("--reference-steps", args.reference_steps)):
         if value < 1:
             raise UserError(f"{name}: expected a positive integer, got {value}")
+    from ._args import output_path
+    for name in ("accuracy.csv", "accuracy.png"):  # the one output policy, before the sweep
+        output_path(f"{args.output}/{name}", args.force)
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     report = accuracy_sweep(args.mechanism, variants=args.variants, spread=args.spread, seed=args.seed,
                             tolerances=args.tolerances or DEFAULT_TOLERANCES, steps=args.steps or DEFAULT_STEPS,

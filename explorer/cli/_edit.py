@@ -8,7 +8,7 @@ import time
 
 
 def register(sub) -> None:
-    from ._args import add_variant_arguments
+    from ._args import add_old_positional_variant, add_variant
 
     p = sub.add_parser(
         "edit", help="design by hand in the browser: drag a joint, watch the gait, the forces and the yield change",
@@ -23,7 +23,8 @@ def register(sub) -> None:
                     "extra (pip install 'explorer[edit]').")
     p.add_argument("target", metavar="MECHANISM|RESULTS", nargs="?", default="jansen",
                    help="a built-in (default jansen), a mechanism .toml, or a results file (.h5) with --variant")
-    add_variant_arguments(p, "the variant of RESULTS to open (default 0, the nominal)")
+    add_variant(p, "the variant of RESULTS to open (default 0, the nominal)")
+    add_old_positional_variant(p)
     p.add_argument("--port", type=int, default=None, metavar="P",
                    help="port to listen on (default 8765, or a free one if it is taken; 0: any free port)")
     p.add_argument("--host", default="127.0.0.1", metavar="H",
@@ -42,15 +43,10 @@ def run(args) -> int:
     require("flask", "explorer edit")  # before any work: one line naming the extra
     if args.port is not None and not 0 <= args.port <= 65535:
         raise UserError(f"--port: expected a port from 0 to 65535, got {args.port}")
-    if args.variant is not None or args.variant_opt is not None:
+    variant = None
+    if args.variant is not None or args.old_variant is not None:
         from ._args import chosen_variant
-        text = chosen_variant(args, "edit", "explorer edit RESULTS --variant N")
-        try:
-            variant = int(str(text).strip())
-        except ValueError:
-            raise UserError(f"--variant: expected a whole number, got {text!r}") from None
-    else:
-        variant = None
+        variant = chosen_variant(args, "edit", "explorer edit RESULTS --variant N")
     from ..edit import EditSession, serve
 
     t = time.perf_counter()

@@ -1,15 +1,14 @@
-"""``explorer export RESULTS VARIANT --format svg|dxf|csv|toml -o PATH``: one design, to cut, to plot or to
-run again; ``explorer export RESULTS VARIANT --format kit -o DIR`` (or ``explorer export MECHANISM --format kit
+"""``explorer export RESULTS --variant N -o PATH [--as svg|dxf|csv|toml]``: one design, to cut, to plot or to
+run again; ``explorer export RESULTS --variant N --as kit -o DIR`` (or ``explorer export MECHANISM --as kit
 -o DIR``): its build kit, a folder of cut sheets, a bill of materials and a README (issue 27)."""
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
 
 
 def register(sub) -> None:
-    from ._args import add_variant_arguments
+    from .._exports import EXPORTS
+    from ._args import add_old, add_old_positional_variant, add_output, add_variant
 
     p = sub.add_parser(
         "export", help="export one variant: its parts for a laser cutter (SVG, DXF), its trajectories (CSV), or "
@@ -35,13 +34,16 @@ def register(sub) -> None:
                     "An existing PATH (or a kit's file in DIR) is never replaced without --force; missing folders "
                     "are created.")
     p.add_argument("results", metavar="RESULTS",
-                   help="results file (.h5) written by `explorer run`; with --format kit also a mechanism (built-in "
+                   help="results file (.h5) written by `explorer run`; with --as kit also a mechanism (built-in "
                         "name or .toml)")
-    add_variant_arguments(p, "as `explorer show --variant` takes it")
-    p.add_argument("--format", dest="fmt", choices=("svg", "dxf", "csv", "toml", "kit"), default=None,
-                   help="what to write (default: from the extension of -o; kit: a folder)")
-    p.add_argument("-o", "--output", metavar="PATH", required=True, help="the file to write (kit: the folder)")
-    p.add_argument("--force", action="store_true", help="overwrite PATH if it exists (never done without it)")
+    add_variant(p, "the variant of RESULTS to export, 0 to N-1 (0 = the nominal design)")
+    add_old_positional_variant(p)
+    p.add_argument("--as", dest="fmt", choices=tuple(EXPORTS), default=None, metavar="FORMAT",
+                   help="what to write (default: from the extension of -o): " + "; ".join(
+                       f"{f.name}: {f.help}" + (f" ({f.extension})" if f.extension else " (a folder)")
+                       for f in EXPORTS.values()))
+    add_old(p, "--format", "--as {}", dest="fmt")
+    add_output(p, "the file to write (a folder for a format that writes one, such as kit)", required=True)
     p.add_argument("--scale", default=None, metavar="MM",
                    help="svg, dxf, kit: millimetres per model unit (default: 1, one model unit = 1 mm; kit: the "
                         "design's [build] unit, else the scale that makes the crank --crank-mm; not with --crank-mm)")
@@ -76,22 +78,6 @@ def register(sub) -> None:
                    help="kit: cut a --hole below what a joint's force needs (the kit says so in README.txt and "
                         "bom.csv)")
     p.set_defaults(func=run)
-
-
-def _format(args) -> str:
-    from ..errors import UserError
-    from ..view import EXPORT_FORMATS
-    ext = Path(args.output).suffix.lower()
-    by_ext = {e: f for f, e in EXPORT_FORMATS.items()}
-    if args.fmt is None:
-        if ext not in by_ext:
-            raise UserError(f"{args.output}: say what to write with --format svg|dxf|csv|toml|kit (the extension "
-                            f"{Path(args.output).suffix or '(none)'!r} does not say)")
-        return by_ext[ext]
-    if ext in by_ext and by_ext[ext] != args.fmt:
-        raise UserError(f"{args.output}: --format {args.fmt} into a {ext} file; name it {EXPORT_FORMATS[args.fmt]} "
-                        f"or drop --format")
-    return args.fmt
 
 
 def parse_sheet(text) -> tuple[float, float]:
@@ -134,45 +120,10 @@ def parse_mm(option: str, text, hi: float, what: str) -> float | None:
     return v
 
 
-def _is_results(path) -> bool:
-    p = Path(path)
-    if not p.is_file():
-        return False
-    with open(p, "rb") as fh:
-        return fh.read(8) == b"\x89HDF\r\n\x1a\n"
-
-
-def _variant_forces(res, v: int) -> dict[str, float]:
-    """{joint: peak reaction, N} of variant v: its ``pin_force.<joint>`` metrics, else the peak magnitude of
-    the stored ``/forces/<joint>``."""
-    import math
-
-    import numpy as np
-
-    from ..store import variant_row
-    row = variant_row(res, v)
-    out = {}
-    for col, val in row.items():
-        if str(col).startswith("pin_force."):
-            try:
-                f = float(val)
-            except (TypeError, ValueError):
-                continue
-            if math.isfinite(f):
-                out[str(col)[len("pin_force."):]] = f
-    if not out:
-        for j in res.force_joints:
-            a = np.asarray(res.force(v, j), dtype=np.float64)
-            m = np.hypot(a[:, 0], a[:, 1])
-            if np.any(np.isfinite(m)):
-                out[j] = float(np.nanmax(m))
-    return out
-
-
 def _kit_command(args, chosen) -> str:
     import shlex
-    words = ["explorer", "export", args.results] + ([str(chosen)] if chosen is not None else [])
-    words += ["--format", "kit", "-o", str(args.output)]
+    words = ["explorer", "export", args.results] + (["--variant", str(chosen)] if chosen is not None else [])
+    words += ["--as", "kit", "-o", str(args.output)]
     for opt, val in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--thickness", args.thickness),
                      ("--scale", args.scale), ("--width", args.width), ("--hole", args.hole),
                      ("--motor-shaft", args.motor_shaft), ("--motor-holes", args.motor_holes),
@@ -181,19 +132,6 @@ def _kit_command(args, chosen) -> str:
             words += [opt, str(val)]
     words += [f for f, on in (("--plates", args.plates), ("--undersized", args.undersized)) if on]
     return " ".join(shlex.quote(w) for w in words)
-
-
-def _variant_torque(res, v: int) -> float | None:
-    """The variant's stored motor_torque_peak (N·m), or None."""
-    import math
-
-    from ..store import variant_row
-    row = variant_row(res, v)
-    try:
-        f = float(row.get("motor_torque_peak")) if "motor_torque_peak" in row.index else math.nan
-    except (TypeError, ValueError):
-        f = math.nan
-    return f if math.isfinite(f) else None
 
 
 def kit_options(args) -> dict:
@@ -212,182 +150,23 @@ def kit_options(args) -> dict:
     return out
 
 
-def run_kit(args) -> int:
-    """``--format kit``: the build kit of a variant of a results file, or of a mechanism."""
-    import math
-
-    from ..errors import UserError
-    from ..mechanism import load_mechanism
-    from ..view import build_kit, design_yield_note, write_kit
-    from ..view._kit import kit_loads, material_of
-
-    opts = kit_options(args)
-    sheet = opts["sheet"]
-    out = Path(args.output)
-    if not str(args.output).strip():
-        raise UserError(f"-o: expected a folder name, got {str(args.output)!r}")
-    if out.exists() and not out.is_dir():
-        raise UserError(f"{out}: cannot write the kit: it is a file, not a folder")
-    if out.is_dir():  # the kit's files already there: the verbs' one policy, each (before any work)
-        from ..view._kit import KIT_FILES
-        from ._args import output_path
-        for name in KIT_FILES:
-            if os.path.lexists(out / name):
-                output_path(out / name, args.force, protect=[args.results])
-    chosen = args.variant if args.variant is not None else args.variant_opt
-    stored: dict[str, float] = {}
-    stored_torque = None
-    note = ""
-    tolerance_note = None
-    study_unit = None
-    if _is_results(args.results):
-        from ..store import FILE_STATUS_NAMES, open_results, variant_row
-        from ..view import variant_design
-        from ._args import chosen_variant, parse_variant
-        chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format kit -o DIR")
-        with open_results(args.results) as res:
-            v = parse_variant(chosen, res.n_variants, res.filename)
-            code = int(res.file["status"][v])
-            status = FILE_STATUS_NAMES.get(code, f"code {code}")
-            mech = variant_design(res, v)
-            stored = _variant_forces(res, v)
-            stored_torque = _variant_torque(res, v)
-            row = variant_row(res, v)
-            y = row.get("yield") if "yield" in row.index else None
-            try:
-                y = float(y)
-            except (TypeError, ValueError):
-                y = None
-            if y is not None and y == y:
-                rob = (res.study or {}).get("robustness") or {}
-                tolerance_note = (f"yield {100 * y:.1f} % (stored by the study: the share of copies cut within "
-                                  f"±{rob.get('tolerance', '?')} {rob.get('unit', '%')} of every design parameter "
-                                  f"that still work)")
-            source = f"{res.filename}, variant {v} (status {status})"
-            operating = res.operating
-            study_unit = operating.unit if operating is not None else None
-        if status != "ok":
-            note = f"; note: variant {v} did not solve over its whole cycle ({status})"
-    else:
-        if chosen is not None:
-            raise UserError(f"{args.results}: a mechanism has no variants; drop {chosen!r} (a VARIANT goes with a "
-                            f"results file)")
-        mech = load_mechanism(args.results)
-        operating = mech.operating
-        source = f"mechanism {args.results}" + (f" ({mech.source})" if mech.source and mech.source != args.results else "")
-    if mech.crank is None:
-        raise UserError(f"{args.results}: mechanism {mech.name!r} is driven along a path, not by a crank: a build kit needs a "
-                        f"crankshaft (export its parts with --format svg or dxf)")
-    material = material_of(mech.build, thickness=opts["thickness"])
-    walker = mech.walker
-    can_compute = operating is not None and operating.rpm is not None
-
-    def loads(scale, width):
-        """The forces of the parts the kit cuts: the study's own where it computed them for this build, else
-        computed again (explorer.simulate with forces) for it."""
-        density = material.density * material.thickness * width / 1e6
-        same_size = study_unit is not None and math.isclose(scale / 1000.0, study_unit, rel_tol=1e-9)
-        same_mass = mech.link_density is not None and math.isclose(mech.link_density, density, rel_tol=1e-6)
-        if stored and stored_torque is not None and same_size and same_mass:
-            return stored, stored_torque, (f"pins and crankshaft sized from the study's own forces (its build: "
-                                           f"{scale:.4g} mm per model unit, links of {density:.4g} kg/m)")
-        if not can_compute:
-            if stored:
-                return {}, None, ("the study's forces are those of another build (its size or its links' mass) and "
-                                  "there is no operating speed to compute them again: pins and shaft are the "
-                                  "default sizes, not sized from a load")
-            return {}, None, None
-        forces, torque = kit_loads(mech, walker, operating, scale, density)
-        why = ("" if not stored else f"; the study's were for {1000 * study_unit:.4g} mm per model unit and links of "
-               f"{(mech.link_density or 0.0):.4g} kg/m" if study_unit else "")
-        return forces, torque, (f"pins and crankshaft sized from forces computed for this build ({scale:.4g} mm per "
-                                f"model unit, {material.thickness:g} mm {material.name} links {width:.4g} mm wide: "
-                                f"{density:.4g} kg/m; {operating.rpm:g} rpm){why}")
-
-    kit = build_kit(mech, crank_mm=opts["crank_mm"], scale=opts["scale"], material=material, width=opts["width"],
-                    hole=opts["hole"], sheet=sheet, loads=loads, source=source, plates=args.plates,
-                    undersized=args.undersized, motor_shaft=opts["motor_shaft"], motor_holes=args.motor_holes,
-                    clearance=1.0 if opts["clearance"] is None else opts["clearance"],
-                    commands=(_kit_command(args, chosen),))
-    if tolerance_note is None:
-        try:
-            tolerance_note = design_yield_note(mech)
-        except UserError as exc:  # the kit does not depend on it: README.txt says why it is missing
-            tolerance_note = f"not computed ({exc}); `explorer tolerance` finds the spread the design takes"
-    if tolerance_note is not None and "explorer tolerance" not in tolerance_note:
-        tolerance_note += "; `explorer tolerance` finds the spread it takes"
-    kit.tolerance_note = tolerance_note
-    paths = write_kit(kit, out, force=args.force)
-    n = sum(p.copies for p in kit.parts)
-    worst = kit.worst
-    print(f"wrote {os.fspath(out)}: {', '.join(p.name for p in paths)}; {n} parts for {kit.walker.legs} legs on "
-          f"{kit.sheets} sheet(s) of {sheet[0]:g} x {sheet[1]:g} mm; scale: 1 model unit = {kit.scale:.4g} mm "
-          f"(crank {kit.scale * mech.crank.radius:.3g} mm, links {kit.width:.3g} mm wide); crankshaft "
-          f"{kit.shaft.diameter:g} mm ({kit.shaft.mode}); worst clearance margin "
-          f"{'-' if worst is None else f'{worst.margin:.2f}'} mm{note}")
-    for line in kit.notes:
-        print(f"note: {line}")
-    return 0
-
-
 def run(args) -> int:
-    from ..errors import UserError
-    from ..store import open_results
-    from ..store import FILE_STATUS_NAMES
-    from ..view import cut_sheet, export_csv, export_dxf, export_svg, export_toml, variant_design
-    from ._args import output_path as check_export_path
-    from ._args import chosen_variant, output_path, parse_variant
+    from .._exports import EXPORTS, export_format, export_variant
+    from ._args import chosen_variant
 
-    if args.fmt == "kit":
-        return run_kit(args)
-    given = [o for o, v in (("--sheet", args.sheet), ("--crank-mm", args.crank_mm), ("--thickness", args.thickness),
-                            ("--motor-shaft", args.motor_shaft), ("--motor-holes", args.motor_holes),
-                            ("--clearance", args.clearance), ("--plates", args.plates or None),
-                            ("--undersized", args.undersized or None))
-             if v is not None]
-    if given:
-        raise UserError(f"export: {', '.join(given)} go{'es' if len(given) == 1 else ''} with --format kit")
-    chosen = chosen_variant(args, "export", "explorer export RESULTS VARIANT --format FORMAT -o PATH")
-    fmt = _format(args)
-    sheet_opts = {"scale": parse_mm("--scale", args.scale, 1e9, "mm per model unit"),
-                  "width": parse_mm("--width", args.width, 1000.0, "the part width in mm"),
-                  "hole": parse_mm("--hole", args.hole, 100.0, "the hole diameter in mm")}
-    if fmt in ("csv", "toml"):
-        given = [f"--{k}" for k, v in sheet_opts.items() if v is not None]
-        if given:
-            raise UserError(f"export: {', '.join(given)} go{'es' if len(given) == 1 else ''} with --format svg or dxf, "
-                            f"not {fmt}")
-    if args.scale is None:
-        sheet_opts["scale"] = 1.0
-    output_path(args.output, args.force, protect=[args.results])  # the verbs' one policy: fails before any work
-    out = check_export_path(args.output, args.force, protect=[args.results])
-    with open_results(args.results) as res:
-        v = parse_variant(chosen, res.n_variants, res.filename)
-        code = int(res.file["status"][v])
-        status = FILE_STATUS_NAMES.get(code, f"code {code}")
-        if fmt == "csv":
-            path = export_csv(res, v, out, force=args.force)
-            import pandas as pd
-            cols = list(pd.read_csv(path, nrows=0).columns)
-            print(f"wrote {os.fspath(path)}: variant {v}, {res.steps} samples × {len(cols)} columns "
-                  f"({', '.join(cols[:5])}{', …' if len(cols) > 5 else ''})")
-            return 0
-        mech = variant_design(res, v)
-        filename = res.filename
-    note = "" if status == "ok" else (f"; note: variant {v} did not solve over its whole cycle ({status}), its design "
-                                      f"is exported all the same")
-    if fmt == "toml":
-        from .. import __version__
-        header = (f"Exported by explorer {__version__}: variant {v} of {filename} (status {status}).\n"
-                  f"Read it with explorer.load_mechanism(PATH), or run a study on it ([study] mechanism = PATH).")
-        path = export_toml(mech, out, force=args.force, header=header)
-        print(f"wrote {os.fspath(path)}: variant {v} as mechanism {mech.name!r} ({len(mech.parameters())} design "
-              f"parameters){note}")
-        return 0
-    sheet = cut_sheet(mech, **sheet_opts)
-    write = export_svg if fmt == "svg" else export_dxf
-    path = write(mech, out, force=args.force, **sheet_opts)
-    W, H = sheet.size
-    print(f"wrote {os.fspath(path)}: {len(sheet.parts)} parts of variant {v} on a {W:.1f} × {H:.1f} mm sheet "
-          f"(1 model unit = {sheet.scale:g} mm; parts {sheet.width:.3g} mm wide, holes {sheet.hole:.3g} mm){note}")
+    fmt = export_format(args.fmt, args.output)
+    options = kit_options(args) if fmt.name == "kit" else {}
+    sheet = {"scale": parse_mm("--scale", args.scale, 1e9, "mm per model unit"),
+             "width": parse_mm("--width", args.width, 1000.0, "the part width in mm"),
+             "hole": parse_mm("--hole", args.hole, 100.0, "the hole diameter in mm")}
+    given = {**sheet, "sheet": args.sheet, "crank_mm": args.crank_mm, "thickness": args.thickness,
+             "motor_shaft": args.motor_shaft, "motor_holes": args.motor_holes, "clearance": args.clearance,
+             "plates": args.plates, "undersized": args.undersized}
+    options = {**{k: v for k, v in given.items() if k in EXPORTS[fmt.name].options or v not in (None, False)},
+               **options}
+    variant = None
+    if args.variant is not None or args.old_variant is not None:
+        variant = chosen_variant(args, "export", "explorer export RESULTS --variant N -o PATH")
+    print(export_variant(args.results, variant, args.output, as_=fmt.name, force=args.force, options=options,
+                         command=_kit_command(args, variant) if fmt.name == "kit" else ""))
     return 0

@@ -96,12 +96,9 @@ def better(direction: str) -> str:
 
 # -- physical units (--units si): the figures of show, rank and report ------------------------------------
 def add_units_argument(p) -> None:
-    """The ``--units model|si`` option of a verb that prints a results file's figures."""
-    p.add_argument("--units", choices=("model", "si"), default="model",
-                   help="model (default: the file's own units) or si: lengths in mm, travel in m per turn, the "
-                        "walking speed in m/s at the study's rpm, the torque metrics in N·m with its load "
-                        "(needs the study's [operating] unit, metres per model unit). Ranks and filters stay over the "
-                        "stored values")
+    """The ``--units model|si`` option (:func:`explorer.cli._args.add_units`, the vocabulary's home)."""
+    from ._args import add_units
+    add_units(p)
 
 
 def results_si(res, frame, units: str):

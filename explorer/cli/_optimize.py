@@ -7,6 +7,8 @@ import sys
 
 
 def register(sub) -> None:
+    from ._args import add_output
+
     p = sub.add_parser(
         "optimize", help="search the design space: multi-objective optimisation or path synthesis of a study "
                          "with an [optimize] table (pymoo: auto, nsga2, nsga3, de, ga, cmaes; then an optional polish)",
@@ -36,11 +38,10 @@ def register(sub) -> None:
                "read back instead of solved. See `explorer plot RESULTS --front` for how the front moved.")
     p.add_argument("study", metavar="STUDY", help="study .toml file with an [optimize] table")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--force", action="store_true", help="overwrite an existing results file")
     g.add_argument("--resume", action="store_true",
                    help="finish an interrupted optimisation of the same study (same final result)")
-    p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="results file (default: the study's [output] path, relative to the working directory)")
+    add_output(p, "results file (default: the study's [output] path, relative to the working directory)", group=g,
+               force="overwrite an existing results file")
     p.add_argument("--dask", metavar="ADDRESS", default=None,
                    help="evaluate each generation on a Dask cluster: a scheduler address (tcp://host:8786), a "
                         "scheduler file (.json), or local:N for N local worker processes (needs "
@@ -72,28 +73,9 @@ def run(args) -> int:
 
 # -- the best design against the nominal ---------------------------------------------------------------
 def best_variant(summary) -> tuple[int, str]:
-    """(variant, how it was chosen) of the design :func:`best_lines` compares with the nominal.
-
-    One objective: the best feasible design. Several: the front member with the best equal-weight
-    score, each objective min-max normalised over the front (1 = its best end, 0 = its worst), the
-    mean over objectives; ties go to the lower variant. ``summary.front`` must not be empty."""
-    import numpy as np
-    front = summary.front
-    if len(summary.objectives) == 1 or len(front) == 1:
-        return int(front["variant"].iloc[0]), "the best feasible design"
-    score = np.zeros(len(front))
-    for o, d in zip(summary.objectives, summary.directions):
-        v = front[o].to_numpy(dtype=np.float64)
-        span = v.max() - v.min()
-        if span > 0:
-            score += (v - v.min()) / span if d == "max" else (v.max() - v) / span
-        else:
-            score += 1.0
-    score /= len(summary.objectives)
-    variants = front["variant"].to_numpy()
-    best = max(range(len(front)), key=lambda i: (score[i], -variants[i]))
-    return int(variants[best]), (f"the front's balanced design: the best mean of its {len(summary.objectives)} "
-                                 f"objectives, each min-max normalised over the {len(front)} front designs")
+    """:func:`explorer.study.best_design` (the rule's home): (variant, how it was chosen)."""
+    from ..study import best_design
+    return best_design(summary)
 
 
 def best_lines(summary) -> list[str]:
@@ -138,7 +120,7 @@ def best_lines(summary) -> list[str]:
     if not has_nominal:
         lines.append("  the nominal lies outside the [optimize] bounds, so the file does not hold it and its "
                      "objectives are not known; the parameters above are against it")
-        lines.append(f"  shown in full by: explorer show {path} {v}" + (" --units si" if si is not None else ""))
+        lines.append(f"  shown in full by: explorer show {path} --variant {v}" + (" --units si" if si is not None else ""))
         return lines
     lines.append("")
     rows = [("metric", "nominal", "best", "change", "change %", "unit", "")]
@@ -170,5 +152,5 @@ def best_lines(summary) -> list[str]:
         lines.append(f"  the nominal did not solve ({row0['status']}): its objectives are not numbers")
     if si is not None:
         lines.append("  " + operating_line(si.operating))
-    lines.append(f"  shown in full by: explorer show {path} {v} --vs 0" + (" --units si" if si is not None else ""))
+    lines.append(f"  shown in full by: explorer show {path} --variant {v} --vs 0" + (" --units si" if si is not None else ""))
     return lines

@@ -7,6 +7,8 @@ import math
 
 
 def register(sub) -> None:
+    from ._args import add_force, add_top, add_variant
+
     p = sub.add_parser(
         "physics", help="check a shortlist in a physics engine (MuJoCo): does the machine rock, do feet fight",
         description="Check designs of a results file in MuJoCo: each design's walker scene (the legs at their "
@@ -20,10 +22,8 @@ def register(sub) -> None:
                     "extra: pip install 'explorer[physics]'.")
     p.add_argument("results", metavar="RESULTS", help="a complete results file (.h5) of a crank-driven walker with an "
                                                       "[operating] table (unit, rpm, load = the body's mass)")
-    p.add_argument("--top", metavar="N", default=None,
-                   help="check the default ranking's top N designs (`explorer rank RESULTS --top N`; default 5)")
-    p.add_argument("--variant", metavar="V", nargs="+", default=None,
-                   help="check these variants (numbers) instead of a top N")
+    add_top(p, "check the default ranking's top N designs (`explorer rank RESULTS --top N`)", "5")
+    add_variant(p, "check these variants (--variant 3 7 12) instead of a top N", many=True)
     p.add_argument("--pitch", metavar="held|free", default="held",
                    help="held (default): the body slides in x and y but does not turn, as the kinematic walker "
                         "holds it level; free: it may pitch about the crank centre (does it rock?)")
@@ -31,8 +31,7 @@ def register(sub) -> None:
                                                              "settling (default 3)")
     p.add_argument("--workers", metavar="W", default=None,
                    help="worker processes (default: the CPUs this process may use, at most one per design)")
-    p.add_argument("--force", action="store_true",
-                   help="replace physics figures the file holds from a check with other settings (--pitch, --turns)")
+    add_force(p, "replace physics figures the file holds from a check with other settings (--pitch, --turns)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no table; errors only")
     p.set_defaults(func=run)
 
@@ -41,16 +40,12 @@ def run(args) -> int:
     from ..physics import physics_check
     from ._args import whole
 
-    top = whole(args.top, "--top", 1) if args.top is not None else None
-    variants = None
-    if args.variant is not None:
-        from ..errors import UserError
-        variants = []
-        for text in args.variant:
-            try:
-                variants.append(int(str(text).strip()))
-            except ValueError:
-                raise UserError(f"--variant: expected variant numbers, got {text!r}") from None
+    top = None if args.top is None else (args.top or None)  # 0 = every ranked design
+    if args.top == 0:
+        from ..store import open_results
+        with open_results(args.results) as res:
+            top = res.n_variants
+    variants = args.variant
     turns = whole(args.turns, "--turns", 1)
     workers = whole(args.workers, "--workers", 1) if args.workers is not None else None
     out = physics_check(args.results, variants=variants, top=top, pitch=args.pitch, turns=turns, workers=workers,
@@ -117,5 +112,5 @@ def summary_lines(out) -> list[str]:
                  + (f"; wrote physics_* into {p} (designs not checked: NaN)" if out["written"] else ""))
     lines.append("Δtravel: against the kinematic walker's travel; forces_peak: the forces effect's motor_torque_peak; "
                  "impact: the largest normal force on a landing foot (it depends on the contact stiffness); "
-                 "`explorer show RESULTS V` sets them beside the kinematic figures")
+                 "`explorer show RESULTS --variant V` sets them beside the kinematic figures")
     return lines

@@ -9,7 +9,16 @@ from pathlib import Path
 MODES = ("top", "scatter", "velocity", "sensitivity", "front")
 
 
+def _top(g) -> None:
+    """--top N in plot's mode group (the vocabulary's option; 0 = every ranked design)."""
+    from ._args import add_top
+    add_top(g, "foot paths of the N best buildable variants over the nominal, ranked as `explorer rank` ranks them "
+               "(the walker score; or --by / --weights)", "5")
+
+
 def register(sub) -> None:
+    from ._args import add_include_screened, add_output, add_units, add_variant, add_where
+
     p = sub.add_parser(
         "plot", help="plot a results file: best foot paths, two metrics with the Pareto front, foot velocity, "
                      "one-at-a-time sensitivity, an optimisation's front, or motor torque and joint reactions",
@@ -18,14 +27,12 @@ def register(sub) -> None:
                     "model units of the link lengths; rates are per radian of crank.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--top", type=int, metavar="N", default=None,
-                   help="foot paths of the N best buildable variants over the nominal, ranked as `explorer rank` "
-                        "ranks them (default: the walker score; or --by / --weights)")
+    _top(g)
     g.add_argument("--scatter", metavar="M1,M2", default=None,
                    help="every ok variant in two metrics (x,y) with the Pareto front and the nominal marked")
-    g.add_argument("--velocity", type=int, metavar="VARIANT", nargs="?", const=-1, default=None,
-                   help="dx/dθ and dy/dθ of the foot of one variant (0 = nominal): analytic solid, central "
-                        "finite differences dashed on top")
+    g.add_argument("--velocity", metavar="VARIANT", nargs="?", const=-1, default=None,
+                   help="dx/dθ and dy/dθ of the foot of the --variant N (default 0 = nominal): analytic solid, "
+                        "central finite differences dashed on top (--velocity N: the old spelling)")
     g.add_argument("--sensitivity", action="store_true",
                    help="one-at-a-time (oat) study: %% change of each metric per +1 %% of each link")
     g.add_argument("--front", nargs="?", const="", default=None, metavar="X,Y",
@@ -41,17 +48,13 @@ def register(sub) -> None:
                         "peak_torque and clearance, as `explorer rank`)")
     p.add_argument("--weights", metavar="M1=W1,...", default=None,
                    help="with --top: rank by a weighted score of these metrics instead")
-    p.add_argument("--include-screened", action="store_true",
-                   help="with --top or --scatter: also rank (or put on the front) the variants the buildability "
-                        "screen removes (toggle, foot above the frame, foot whip, crossing path)")
-    p.add_argument("--where", metavar="EXPR", default=None,
-                   help="filter for --top and --scatter over the frame's columns, e.g. \"bob < 0.2 and slip < 0.01\" (comparisons, arithmetic, and/or/not, in [...]; `backticks` for names such as `1-3`)")
-    p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="output .png, .svg or .pdf (default: RESULTS-<mode>.png in the working directory); missing "
-                        "folders are created, an existing file is kept unless --force")
-    p.add_argument("--force", action="store_true", help="overwrite PATH if it exists (never done without it)")
-    p.add_argument("--variant", type=int, metavar="N", default=None,
-                   help="with --velocity or --forces: the variant (as in `explorer show --variant` and `explorer animate`)")
+    add_include_screened(p, "with --top or --scatter: also rank (or put on the front) the variants the screen "
+                            "removes")
+    add_where(p, "for --top and --scatter")
+    add_units(p, "with --top: foot paths in mm; with --scatter: both axes")
+    add_output(p, "output .png, .svg or .pdf (default: RESULTS-<mode>.png in the working directory); missing "
+                  "folders are created, an existing file is kept unless --force")
+    add_variant(p, "with --velocity or --forces: the variant (0 = the nominal)")
     p.add_argument("--dpi", type=float, default=150, help="resolution of PNG output (default: 150)")
     p.set_defaults(func=run)
 
@@ -83,6 +86,8 @@ def _mode(args) -> str:
         raise UserError(f"plot: --variant goes with --velocity or --forces, not with --{mode}")
     if args.where is not None and mode not in ("top", "scatter"):
         raise UserError(f"plot: --where goes with --top or --scatter, not with --{mode}")
+    if args.units != "model" and mode not in ("top", "scatter"):
+        raise UserError(f"plot: --units goes with --top or --scatter, not with --{mode}")
     return mode
 
 
@@ -103,14 +108,20 @@ def run(args) -> int:
         if mode == "top":
             from ._args import parse_weights
             weights = parse_weights(args.weights) if args.weights is not None else None
-            fig = plot_top(res, by=args.by, top=5 if args.top is None else args.top, where=args.where,
-                           weights=weights, include_screened=args.include_screened)
+            from ._args import top_count
+            fig = plot_top(res, by=args.by, top=top_count(args.top, 5) or res.n_variants, where=args.where,
+                           weights=weights, include_screened=args.include_screened, units=args.units)
         elif mode == "scatter":
             names = [s.strip() for s in args.scatter.split(",") if s.strip()]
             if len(names) != 2:
                 raise UserError(f"--scatter: expected two metrics as M1,M2, got {args.scatter!r}")
-            fig = plot_scatter(res, names[0], names[1], where=args.where, include_screened=args.include_screened)
+            fig = plot_scatter(res, names[0], names[1], where=args.where, include_screened=args.include_screened,
+                               units=args.units)
         elif mode == "velocity":
+            if args.velocity != -1:  # the old spelling --velocity N
+                from ._args import _variant_value, old_spelling
+                old_spelling(f"--velocity {args.velocity}", f"--velocity --variant {args.velocity}")
+                args.velocity = _variant_value(args.velocity)
             v = args.velocity if args.velocity != -1 else args.variant
             if args.velocity != -1 and args.variant is not None and args.variant != args.velocity:
                 raise UserError(f"plot: two different variants given (--velocity {args.velocity}, --variant "

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import sys
 
-from ._args import FORMATS, parse_list, parse_top, parse_weights
-from ._format import add_units_argument, better, format_column, format_floats, json_records, results_si
+from ._args import (FORMATS, add_format, add_include_screened, add_top, add_units, add_vs, add_where, parse_list, parse_top,
+                    parse_weights, top_count)
+from ._format import better, format_column, format_floats, json_records, results_si
 from ._format import frame_table as format_table
 
 # the argument types and the table formatter are shared (._args, ._format); their names stay importable here
@@ -37,10 +38,8 @@ def register(sub) -> None:
     p.add_argument("--by", metavar="METRIC", default=None,
                    help="metric to rank by (default: the walker score of travel, bob, body_speed_ripple, peak_torque and "
                         "clearance)")
-    p.add_argument("--top", metavar="N", default=None,
-                   help="rows to show (default: 10 in the table, every row in csv and json; 0 = all)")
-    p.add_argument("--where", metavar="EXPR", default=None,
-                   help="filter, e.g. \"bob < 0.2 and slip < 0.01\": columns, numbers, comparisons, + - * /, and/or/not, in [...], `backticks` for names such as `1-3`; never run as Python")
+    add_top(p, "rows to show", "10 in the table, every row in csv and json")
+    add_where(p)
     p.add_argument("--pareto", metavar="M1,M2,...", default=None,
                    help="only the Pareto front (non-dominated variants) of these metrics, sorted by the first")
     p.add_argument("--weights", metavar="M1=W1,...", default=None,
@@ -52,12 +51,9 @@ def register(sub) -> None:
                    help="with --by: larger is better")
     p.add_argument("--include-failed", action="store_true",
                    help="keep failed variants (their metrics are NaN and sort last)")
-    p.add_argument("--include-screened", action="store_true",
-                   help="keep the ok variants the buildability screen removes (the screen column says why)")
-    p.add_argument("--format", choices=FORMATS, default="table",
-                   help="table (default, aligned for reading), csv or json (every column, to stdout)")
-    p.add_argument("--vs", type=int, metavar="VARIANT", default=0,
-                   help="table only: the reference design, shown as a marked last row with its own rank (default 0: "
+    add_include_screened(p)
+    add_format(p, what="csv and json: every column, to stdout")
+    add_vs(p, "table only: the reference design, shown as a marked last row with its own rank (default 0: "
                         "the nominal)")
     p.add_argument("--change", action="store_true",
                    help="table only: after each ranking metric, its change against the reference in %% (column "
@@ -66,7 +62,7 @@ def register(sub) -> None:
                    help="table only: the columns after rank, variant and the ranking metrics (default: the other "
                         "metrics, then status); any frame column, e.g. crank or a link name")
     add_yield_arguments(p, "the rows shown (--top)")
-    add_units_argument(p)
+    add_units(p)
     p.set_defaults(func=run)
 
 
@@ -154,7 +150,7 @@ def run(args) -> int:
     from ..store import open_results
 
     # machine formats carry everything unless --top is given; the table shows ten
-    top = parse_top(args.top if args.top is not None else ("0" if args.format in ("csv", "json") else "10"))
+    top = top_count(args.top, 0 if args.format in ("csv", "json") else 10)
     pareto = parse_list(args.pareto, "--pareto") if args.pareto is not None else None
     weights = parse_weights(args.weights) if args.weights is not None else None
     if pareto is not None and weights is not None:
@@ -299,7 +295,7 @@ def run(args) -> int:
         table_rows = table_rows.assign(screen=[short_screen(r) for r in table_rows["screen"]])
     lines.append(f"last row: the {ref_label} (variant {ref}) and its place in this ranking"
                  + ("; METRIC% columns: the change against it" if args.change else "")
-                 + f"; `explorer show RESULTS V --vs {ref}` compares a variant with it metric by metric")
+                 + f"; `explorer show RESULTS --variant V --vs {ref}` compares a variant with it metric by metric")
     if conv is not None:
         lines.append(operating_line(conv.operating) + "; ranks are over the stored values (a torque's: per "
                      "weight × crank radius)")

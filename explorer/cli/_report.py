@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ._format import add_units_argument
+from ._args import add_output, add_seed, add_units, add_vs
 
 
 # The defaults of explorer.view._report, repeated here: importing explorer.view to read them would load
@@ -29,9 +29,7 @@ def register(sub) -> None:
                     f"above --max-designs (default {DEFAULT_MAX_DESIGNS:,}) a seeded uniform sample of them, "
                     "which the page states. An existing -o file is never replaced without --force.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
-    p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="the HTML file to write (default: RESULTS-report.html in the working directory)")
-    p.add_argument("--force", action="store_true", help="overwrite PATH if it exists (never done without it)")
+    add_output(p, "the HTML file to write (default: RESULTS-report.html in the working directory)")
     p.add_argument("--metrics", metavar="M1,M2,...", default=None,
                    help="the metric axes (default: every stored metric)")
     p.add_argument("--scatter", metavar="X,Y", default=None,
@@ -47,11 +45,10 @@ def register(sub) -> None:
                    help=f"draw at most N selected foot paths at once (default: {DEFAULT_SHOWN})")
     p.add_argument("--points", type=int, metavar="N", default=DEFAULT_POINTS,
                    help=f"samples per stored foot path (default: {DEFAULT_POINTS})")
-    p.add_argument("--seed", type=int, default=0, help="seed of the sample above --max-designs (default: 0)")
-    p.add_argument("--vs", type=int, metavar="VARIANT", default=0,
-                   help="the reference design the tables compare every metric with (value and change in %%), "
+    add_seed(p, 0, "the sample above --max-designs")
+    add_vs(p, "the reference design the tables compare every metric with (value and change in %%), "
                         "starred in the scatter and drawn under the foot paths (default 0: the nominal)")
-    add_units_argument(p)
+    add_units(p)
     p.set_defaults(func=run)
 
 

@@ -6,6 +6,8 @@ import sys
 
 
 def register(sub) -> None:
+    from ._args import add_output
+
     p = sub.add_parser(
         "run", help="run a study (default: the built-in Jansen ±2 %% study) into an HDF5 results file",
         description="Simulate every variant of a study and stream the results to one HDF5 file. With no STUDY, "
@@ -13,11 +15,10 @@ def register(sub) -> None:
     p.add_argument("study", nargs="?", default=None, metavar="STUDY",
                    help="study .toml file or built-in study name (default: the built-in 'default')")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--force", action="store_true", help="overwrite an existing results file")
     g.add_argument("--resume", action="store_true",
                    help="finish an interrupted run of the same study (only chunks not yet committed are run)")
-    p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="results file (default: the study's [output] path, relative to the working directory)")
+    add_output(p, "results file (default: the study's [output] path, relative to the working directory)", group=g,
+               force="overwrite an existing results file")
     p.add_argument("--chunk-size", type=int, default=None, metavar="N",
                    help="variants per chunk (memory per chunk; default: chosen from the scene, 2048 for a foot "
                         "path with velocities at 360 steps)")

@@ -1,5 +1,5 @@
 """``explorer sensitivity RESULTS [--metrics M1,M2|all|none] [--method rbd-fast|delta|pawn|sobol] [--summary]
-[--top N] [--format table|csv|json] [--plot PATH] [--resamples N] [--seed N]``: which dimensions matter.
+[--top N] [--format table|csv|json] [-o PATH [--force]] [--resamples N] [--seed N]``: which dimensions matter.
 
 Global sensitivity indices (SALib) of a sampled study's metrics and failures, from the samples in its
 results file, and its tolerance summary (:mod:`explorer.study._sensitivity`)."""
@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import sys
 
-from ._args import FORMATS, check_format, whole
+from ._args import FORMATS, add_format, add_old, add_output, add_seed, add_top, check_format, top_count, whole  # noqa: F401
 from ._format import aligned, json_records
 
 _whole = whole  # the name this module had (explorer tolerance used it)
@@ -35,7 +35,7 @@ def register(sub) -> None:
                     "indices.",
         epilog="examples: explorer sensitivity results/jansen-2pct.h5; "
                "explorer sensitivity R.h5 --summary; "
-               "explorer sensitivity R.h5 --metrics travel,bob --plot indices.png; "
+               "explorer sensitivity R.h5 --metrics travel,bob -o indices.png; "
                "explorer sensitivity R.h5 --format csv > indices.csv")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     p.add_argument("--metrics", metavar="M1,M2|all|none", default=None,
@@ -45,17 +45,14 @@ def register(sub) -> None:
                    help="rbd-fast (default), delta, pawn, or sobol (default and only choice for a saltelli study)")
     p.add_argument("--summary", action="store_true",
                    help="the tolerance summary only (csv/json: its rows instead of the indices)")
-    p.add_argument("--top", metavar="N", default=None,
-                   help="table only: parameters shown per output, largest first (default 5; 0 = all)")
-    p.add_argument("--format", metavar="FORMAT", default="table",
-                   help="table (default), csv or json (every index of every parameter, to stdout)")
-    p.add_argument("--plot", metavar="PATH", default=None,
-                   help="also draw the indices as bars with their intervals, one panel per output (.png, .svg, "
-                        ".pdf); missing folders are created, an existing file is kept unless --force")
-    p.add_argument("--force", action="store_true", help="overwrite the --plot file if it exists")
+    add_top(p, "table only: parameters shown per output, largest first", "5")
+    add_format(p, what="csv and json: every index of every parameter, to stdout")
+    add_output(p, "also draw the indices as bars with their intervals, one panel per output (.png, .svg, .pdf); "
+                  "missing folders are created, an existing file is kept unless --force")
+    add_old(p, "--plot", "-o/--output", dest="output", metavar="PATH")
     p.add_argument("--resamples", metavar="N", default=None,
                    help="bootstrap resamples of the intervals (default: rbd-fast 50, sobol 100, delta 20, pawn 10)")
-    p.add_argument("--seed", metavar="N", default="1", help="seed of the bootstrap resamples (default 1)")
+    add_seed(p, 1, "the bootstrap resamples")
     p.set_defaults(func=run)
 
 
@@ -153,16 +150,14 @@ def run(args) -> int:
     from ..study import INDEX_NAMES
 
     require("SALib", "explorer sensitivity")
-    check_format(args.format)
-    top = whole(args.top, "--top", 0) if args.top is not None else 5
-    top = None if top == 0 else top
+    top = top_count(args.top, 5)
     resamples = whole(args.resamples, "--resamples", 2) if args.resamples is not None else None
-    seed = whole(args.seed, "--seed", 0)
+    seed = args.seed
     plot_path = None
-    if args.plot is not None:
+    if args.output is not None:
         from ..view import FIGURE_FORMATS
         from ._args import output_path
-        plot_path = output_path(args.plot, args.force, "--plot", formats=FIGURE_FORMATS, protect=[args.results])
+        plot_path = output_path(args.output, args.force, "-o", formats=FIGURE_FORMATS, protect=[args.results])
 
     # the library calls a Python user makes; this verb only formats what they return
     with open_results(args.results) as res:

@@ -1,4 +1,4 @@
-"""``explorer show RESULTS VARIANT`` (or ``--variant N``): one variant's design parameters (lengths, crank,
+"""``explorer show RESULTS --variant N``: one variant's design parameters (lengths, crank,
 pivots, ...) against the nominal, its metrics and ranks, its status."""
 
 from __future__ import annotations
@@ -6,11 +6,12 @@ from __future__ import annotations
 import math
 import sys
 
-from ._args import add_variant_arguments, chosen_variant, parse_variant
+from ._args import (add_include_screened, add_old_positional_variant, add_units, add_variant, add_vs, chosen_variant,
+                    parse_variant)
 from ._rank import add_yield_arguments, check_yield_arguments, yields
-from ._format import add_units_argument, better, results_si, table
+from ._format import better, results_si, table
 
-__all__ = ["add_variant_arguments", "chosen_variant", "parameter_lines", "parse_variant", "register", "run"]
+__all__ = ["chosen_variant", "parameter_lines", "parse_variant", "register", "run"]
 
 
 def register(sub) -> None:
@@ -26,14 +27,13 @@ def register(sub) -> None:
                     "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
                     "buildability screen (and if not, why). Variant 0 is the nominal.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
-    add_variant_arguments(p, "as `explorer animate` and `explorer plot --velocity` take it")
-    p.add_argument("--vs", type=int, metavar="VARIANT", default=0,
-                   help="the reference design every metric is compared with (default 0: the nominal)")
+    add_variant(p, "the variant to show, 0 to N-1 (0 = the nominal design)")
+    add_old_positional_variant(p)
+    add_vs(p, "the reference design every metric is compared with (default 0: the nominal)")
     add_yield_arguments(p, "this variant and the reference")
-    p.add_argument("--include-screened", action="store_true",
-                   help="rank among every ok variant, as `explorer rank --include-screened` (default: among the "
-                        "buildable ones, as `explorer rank`)")
-    add_units_argument(p)
+    add_include_screened(p, "rank among every ok variant, as `explorer rank --include-screened` (default: among "
+                            "the buildable ones, as `explorer rank`)")
+    add_units(p)
     p.set_defaults(func=run)
 
 
@@ -151,7 +151,7 @@ def run(args) -> int:
     from ..gait import DEFAULT_WEIGHTS, METRICS, SPEED, metric, operating_line, verdict
     from ..store import open_results
 
-    chosen = chosen_variant(args, "show", "explorer show RESULTS VARIANT (or --variant N)")
+    chosen = chosen_variant(args, "show", "explorer show RESULTS --variant N")
     with open_results(args.results) as res:  # every figure below is a Results call; this verb only formats
         warn_ignored_metrics(res)
         name, n = res.filename, res.n_variants

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 
 def register(sub) -> None:
+    from ._args import add_output, add_top
+
     p = sub.add_parser(
         "synth", help="from target points (a drawn path) to designs: curve-atlas look-up, then a polish",
         description="Find designs whose foot passes through the points of TARGET.csv (columns x, y, and with "
@@ -28,10 +30,8 @@ def register(sub) -> None:
                    help="with --timed: the angles are known up to a common shift (a start nobody prescribes)")
     p.add_argument("--closed", action="store_true",
                    help="the points are a whole closed curve (default: a stretch of path the foot passes through, in order)")
-    p.add_argument("-o", "--output", metavar="PATH", default=None,
-                   help="results file (default results/synth-<mechanism>.h5)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing results file")
-    p.add_argument("--top", metavar="N", default="10", help="distinct designs written, best first (default 10)")
+    add_output(p, "results file (default results/synth-<mechanism>.h5)", force="overwrite an existing results file")
+    add_top(p, "distinct designs written, best first", "10; 0 = every distinct design of the --starts polished")
     p.add_argument("--starts", metavar="N", default="96", help="look-up candidates polished (default 96)")
     p.add_argument("--atlas", metavar="PATH", default=None, help="atlas file (default: the cached atlas of --mechanism)")
     p.add_argument("--no-build", action="store_true", help="fail instead of building a missing atlas")
@@ -46,12 +46,13 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..errors import UserError
     from ..study._synth import synthesize
-    from ._args import whole
+    from ._args import top_count, whole
+    starts = whole(args.starts, "--starts", 1)
     if args.atlas is not None and args.mechanism == "any":
         raise UserError("--atlas: one atlas belongs to one mechanism; give --mechanism with it, not any")
     summary = synthesize(args.target, mechanism=args.mechanism, timed=args.timed, closed=args.closed,
                          free_phase=args.free_phase, output=args.output, force=args.force,
-                         top=whole(args.top, "--top", 1), starts=whole(args.starts, "--starts", 1), atlas=args.atlas,
+                         top=top_count(args.top, 10) or starts, starts=starts, atlas=args.atlas,
                          build=not args.no_build, designs=whole(args.designs.replace(",", ""), "--designs", 1),
                          progress=not args.quiet, scan=None if args.scan is None else whole(args.scan, "--scan", 1),
                          echo=None if args.quiet else print)

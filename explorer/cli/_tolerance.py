@@ -13,6 +13,8 @@ FORMATS = ("table", "json")
 
 
 def register(sub) -> None:
+    from ._args import add_format, add_seed
+
     p = sub.add_parser(
         "tolerance", help="how precisely must the parts be cut so that 99 %% of legs walk (bisection on the spread)",
         description="Find the largest manufacturing spread ±s (every chosen length within ±s of its nominal, "
@@ -39,11 +41,11 @@ def register(sub) -> None:
                         "parameters")
     p.add_argument("--criterion", metavar="WHAT", default="assembles",
                    help="assembles (default: turns a full turn) or buildable (and passes the buildability screen)")
-    p.add_argument("--seed", metavar="N", default="1", help="seed of the samples (default 1)")
+    add_seed(p, 1, "the samples")
     p.add_argument("--steps", metavar="N", default="360", help="crank samples per cycle (default 360)")
     p.add_argument("--rtol", metavar="R", default="0.05",
                    help="stop when the bracket's ends are within this relative distance (default 0.05)")
-    p.add_argument("--format", metavar="FORMAT", default="table", help="table (default) or json")
+    add_format(p, ("table", "json"), "json: every study of the search, to stdout")
     p.set_defaults(func=run)
 
 
@@ -67,8 +69,6 @@ def run(args) -> int:
     from ._args import whole as _whole
     from ..study import tolerance
 
-    if args.format not in FORMATS:
-        raise UserError(f"--format: expected one of {', '.join(FORMATS)}, got {args.format!r}")
     from ..study import PARAMETER_SETS, PARAMETER_WORDS
     params = "all"
     if args.parameters is not None:
@@ -92,7 +92,7 @@ def run(args) -> int:
         print(f"  {'spread':>10}  {'share ± standard error':<22}  {'legs':>7}")
     res = tolerance(args.mechanism, target=_number(args.target, "--target"), spread=_number(args.spread, "--spread"),
                     variants=_whole(args.variants, "--variants", 1), parameters=params,
-                    seed=_whole(args.seed, "--seed", 0), steps=_whole(args.steps, "--steps", 3),
+                    seed=args.seed, steps=_whole(args.steps, "--steps", 3),
                     criterion=args.criterion, rtol=_number(args.rtol, "--rtol"), progress=progress)
     if not table:
         sys.stdout.write(json.dumps(_jsonable(res.as_dict()), indent=1, allow_nan=False) + "\n")

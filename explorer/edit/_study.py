@@ -71,7 +71,7 @@ class Study:
         return self.results.screen
 
     def design(self, variant) -> Mechanism:
-        """The design of ``variant`` as ``explorer export --format toml`` writes it."""
+        """The design of ``variant`` as ``explorer export --as toml`` writes it."""
         from ..view import variant_design
 
         return variant_design(self.results, variant)

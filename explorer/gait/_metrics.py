@@ -305,48 +305,98 @@ def foot_headroom(mech, paths, status=None, geometry=None) -> np.ndarray:
 
 
 # -- public ------------------------------------------------------------------------------------------
-#: Metric groups that describe a foot that lifts and steps: not applicable when the foot is the sliding
-#: vertex of a ground slider (a piston, a ram: its path is a segment of a fixed line, so stance, stride,
-#: slip, clearance ... and the screen's headroom and self-crossings have no meaning there).
-FOOT_ON_LINE_GROUPS = ("walker", "leg", "screen")
+
+
+#: Metrics computed elsewhere than from a foot path: the need that says so, and where they come from.
+COMPUTED_ELSEWHERE = {
+    "forces": ("comes from the forces effect: a study's [scene] forces = true with an [operating] table, or "
+               "simulate_batch(..., forces=True, operating=...)"),
+    "physics": ("comes from the physics check of a shortlist (MuJoCo): `explorer physics RESULTS`, or "
+                "explorer.physics.physics_check"),
+    "robustness": ("comes from copies of each design cut with a manufacturing error: a study's [robustness] table "
+                   "with yield in [scene] metrics, `explorer rank RESULTS --yield 0.5%` for the designs it shows, "
+                   "or explorer.study.design_yield"),
+}
+
+
+def _foot_lifts(mech) -> str | None:
+    """Where the walker, leg and screen groups apply: a foot that lifts and steps (not a ground slider's)."""
+    sl = _foot_slider(mech)
+    if sl is None:
+        return None
+    return (f"the foot {mech.foot!r} of mechanism {mech.name!r} runs on the ground slider {sl.name!r}: "
+            f"a stroke along a fixed line, not a foot that lifts and steps (walker, leg and screen metrics)")
+
+
+def _foot_slides(mech) -> str | None:
+    """Where the slider group applies: a foot on a ground slider."""
+    if _foot_slider(mech) is not None:
+        return None
+    return f"mechanism {mech.name!r} has no foot on a ground slider (a slider's metric)"
+
+
+def _has_fourbar(mech) -> str | None:
+    return None if fourbar_loops(mech) else f"mechanism {mech.name!r} has no crank-driven four-bar loop"
+
+
+#: Metrics with a condition of their own beyond their group's: name -> where(mechanism) (None: it applies).
+METRIC_WHERE = {"min_transmission_angle": _has_fourbar}
+
+
+class _Where(NamedTuple):
+    mechanism: object
+    walker: object
+    crank: object
+    target: object
+
+
+def _elsewhere(info, c: _Where) -> str | None:
+    return next((why for need, why in COMPUTED_ELSEWHERE.items() if need in info.needs), None)
+
+
+def _needs_mechanism(info, c: _Where) -> str | None:
+    return "needs the mechanism (mechanism=, lengths=, crank=)" if "mechanism" in info.needs and c.mechanism is None \
+        else None
+
+
+def _group_applies(info, c: _Where) -> str | None:
+    group = GROUPS.get(info.group)
+    return group.where(c.mechanism) if group is not None and c.mechanism is not None else None
+
+
+def _metric_applies(info, c: _Where) -> str | None:
+    where = METRIC_WHERE.get(info.name)
+    return where(c.mechanism) if where is not None else None
+
+
+def _crank_driven(info, c: _Where) -> str | None:
+    if c.mechanism is not None and c.mechanism.crank is None:
+        return (f"mechanism {c.mechanism.name!r} is driven along a path, not by a crank: gait metrics describe a "
+                f"leg's closed foot path over a crank turn")
+    return None
+
+
+def _crank_given(info, c: _Where) -> str | None:
+    if info.name in CRANK_METRICS and c.mechanism is None and (c.walker is None or c.crank is None):
+        return "needs a crank-driven mechanism (mechanism=) or walker= and crank="
+    return None
+
+
+def _target_given(info, c: _Where) -> str | None:
+    return "needs a target path (a study's [target] table, or target=)" if "target" in info.needs and c.target is None \
+        else None
+
+
+#: Why a metric cannot be computed, asked in this order (the first reason given is the one reported): what
+#: comes from elsewhere, what needs the mechanism, where its group applies (:data:`GROUPS`), where the metric
+#: itself applies (:data:`METRIC_WHERE`), a crank drive, and the inputs a call must pass.
+WHY_NOT = (_elsewhere, _needs_mechanism, _group_applies, _metric_applies, _crank_driven, _crank_given, _target_given)
 
 
 def _available(mechanism, walker, crank, target=None) -> dict[str, str | None]:
-    """{metric: None if it can be computed here, else why not}."""
-    has_crank = mechanism is not None and mechanism.crank is not None
-    out = {}
-    for m in METRICS:
-        why = None
-        needs = BY_NAME[m].needs
-        if "forces" in needs:
-            why = ("comes from the forces effect: a study's [scene] forces = true with an [operating] table, or "
-                   "simulate_batch(..., forces=True, operating=...)")
-        elif "physics" in needs:
-            why = ("comes from the physics check of a shortlist (MuJoCo): `explorer physics RESULTS`, or "
-                   "explorer.physics.physics_check")
-        elif "robustness" in needs:
-            why = ("comes from copies of each design cut with a manufacturing error: a study's [robustness] table "
-                   "with yield in [scene] metrics, `explorer rank RESULTS --yield 0.5%` for the designs it shows, "
-                   "or explorer.study.design_yield")
-        elif "mechanism" in needs and mechanism is None:
-            why = "needs the mechanism (mechanism=, lengths=, crank=)"
-        elif BY_NAME[m].group == "slider" and mechanism is not None and _foot_slider(mechanism) is None:
-            why = f"mechanism {mechanism.name!r} has no foot on a ground slider (a slider's metric)"
-        elif BY_NAME[m].group in FOOT_ON_LINE_GROUPS and mechanism is not None and _foot_slider(mechanism) is not None:
-            sl = _foot_slider(mechanism)
-            why = (f"the foot {mechanism.foot!r} of mechanism {mechanism.name!r} runs on the ground slider {sl.name!r}: "
-                   f"a stroke along a fixed line, not a foot that lifts and steps (walker, leg and screen metrics)")
-        elif m == "min_transmission_angle" and not fourbar_loops(mechanism):
-            why = f"mechanism {mechanism.name!r} has no crank-driven four-bar loop"
-        elif mechanism is not None and not has_crank:
-            why = (f"mechanism {mechanism.name!r} is driven along a path, not by a crank: gait metrics describe a "
-                   f"leg's closed foot path over a crank turn")
-        elif m in CRANK_METRICS and mechanism is None and (walker is None or crank is None):
-            why = "needs a crank-driven mechanism (mechanism=) or walker= and crank="
-        elif "target" in needs and target is None:
-            why = "needs a target path (a study's [target] table, or target=)"
-        out[m] = why
-    return out
+    """{metric: None if it can be computed here, else why not} (the rules of :data:`WHY_NOT`)."""
+    c = _Where(mechanism, walker, crank, target)
+    return {m: next((why for rule in WHY_NOT if (why := rule(BY_NAME[m], c)) is not None), None) for m in METRICS}
 
 
 def available_metrics(mechanism=None, target=None) -> dict[str, str | None]:
@@ -464,10 +514,10 @@ def compute_metrics(paths, velocities=None, status=None, names=None, band: float
     run = N > 0 and bool(np.any(status == 0))
     ctx = _Context(cpaths, vel, velocities, status, band, mechanism, lengths, crank, walker, geometry, target, run, N)
     result = {}
-    for group, compute in GROUPS.items():  # each group's kernel, for the metrics asked of it
-        wanted = [m for m in chosen if BY_NAME[m].group == group]
+    for name, group in GROUPS.items():  # each group's kernel, for the metrics asked of it
+        wanted = [m for m in chosen if BY_NAME[m].group == name]
         if wanted:
-            result.update(compute(ctx, wanted))
+            result.update(group.compute(ctx, wanted))
     return {m: np.array(result[m], dtype=np.float64) for m in chosen}
 
 
@@ -595,8 +645,28 @@ def _slider_group(ctx: _Context, wanted: list[str]) -> dict:
     return {"quick_return": quick_return(ctx.mechanism, ctx.cpaths, ctx.status, ctx.geometry)}
 
 
-GROUPS = {"leg": _leg_group, "walker": _walker_group, "screen": _screen_group, "target": _target_group,
-          "slider": _slider_group}
+class MetricGroup(NamedTuple):
+    """A group of metrics (the ``group`` column of the metric table): compute(ctx, wanted) -> {metric: (N,)}
+    runs its kernel for the metrics asked of it; where(mechanism) -> None where the group applies, else the
+    one-line reason why not."""
+
+    compute: object
+    where: object
+
+
+def _everywhere(mech) -> None:
+    return None
+
+
+#: The metric groups with a kernel here, and where each applies (adding a group is one entry).
+GROUPS = {"leg": MetricGroup(_leg_group, _foot_lifts), "walker": MetricGroup(_walker_group, _foot_lifts),
+          "screen": MetricGroup(_screen_group, _foot_lifts), "target": MetricGroup(_target_group, _everywhere),
+          "slider": MetricGroup(_slider_group, _foot_slides)}
+#: Metric groups that describe a foot that lifts and steps: not applicable when the foot is the sliding
+#: vertex of a ground slider (a piston, a ram: its path is a segment of a fixed line, so stance, stride,
+#: slip, clearance ... and the screen's headroom and self-crossings have no meaning there); read from
+#: :data:`GROUPS`.
+FOOT_ON_LINE_GROUPS = tuple(name for name, group in GROUPS.items() if group.where is _foot_lifts)
 
 def _geometry(geometry, mechanism, N: int) -> dict | None:
     """``geometry`` checked: {coordinate parameter name of ``mechanism``: (N,) float64}, or None."""

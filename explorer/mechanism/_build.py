@@ -14,7 +14,7 @@ In a mechanism file (the design's build) or a study (over the mechanism's, key b
 
 Every key is optional. The link masses of the forces effect come from it when links have no ``mass`` of
 their own and the file gives no ``[mass] link_density``: density × thickness × part_width, kg per metre
-of link (:meth:`Build.link_density`). The build kit (``explorer export --format kit``) takes its defaults
+of link (:meth:`Build.link_density`). The build kit (``explorer export --as kit``) takes its defaults
 from it.
 """
 
@@ -152,7 +152,7 @@ def build_from_dict(table, source: str, key: str = "build", base: Build | None =
                 raise UserError(f"{where(source, f'{key}.{k}')}: expected one of {', '.join(repr(c) for c in choices)}, "
                                 f"got {v!r}")
             out[k] = name
-    from ._load import bounded_number
+    from ._model import bounded_number
     for k, (lo, hi, what) in _RULES.items():
         if k in table:
             out[k] = bounded_number(source, f"{key}.{k}", table[k], lo, False, hi, what)

@@ -12,7 +12,7 @@ from pathlib import Path
 from ..errors import UserError, where
 from ._build import BUILD_KEYS
 from ._model import (BODY_MODELS, LENGTH_RANGE, NAME_RE, Body, Crank, Gear, Link, Mechanism, Operating, PathDriver, Slider,
-                     Walker, _check_length, _short, actuator_path)
+                     Walker, _check_length, _short, actuator_path, bounded_number)
 
 _TOP_KEYS = {"name", "description", "foot", "crank", "driver", "fixed", "guess", "links", "walker", "bodies", "mass",
              "operating", "sliders", "build", "gears"}
@@ -568,17 +568,6 @@ def _mass(source: str, key: str, value, what: str = "a mass in kg") -> float:
         raise UserError(f"{where(source, key)}: expected {what}, a finite number > 0 and at most {_MAX_MASS:g} "
                         f"(leave the key out for none), got {_short(value)}")
     return v
-
-
-def bounded_number(source: str, key: str, v, lo: float, lo_ok: bool, hi: float, what: str) -> float:
-    """A number of a table: finite, above ``lo`` (or equal to it where ``lo_ok``), at most ``hi``; else a one-line
-    UserError naming the file, the key and the value."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise UserError(f"{where(source, key)}: expected {what}, got {_short(v)}")
-    f = float(v) if abs(v) < 1e300 else math.inf
-    if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
-        raise UserError(f"{where(source, key)}: expected {what} (at most {hi:g}), got {_short(v)}")
-    return f
 
 
 def operating_from_dict(table, source: str, key: str = "operating", base: Operating | None = None) -> Operating:

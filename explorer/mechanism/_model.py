@@ -563,3 +563,14 @@ def _short(value) -> str:
     """repr of a value, shortened (a 400-digit integer is not printed whole)."""
     text = repr(value) if not isinstance(value, int) or value.bit_length() < 200 else f"an integer of {len(str(value))} digits"
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+def bounded_number(source: str, key: str, v, lo: float, lo_ok: bool, hi: float, what: str) -> float:
+    """A number of a table: finite, above ``lo`` (or equal to it where ``lo_ok``), at most ``hi``; else a one-line
+    UserError naming the file, the key and the value."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise UserError(f"{where(source, key)}: expected {what}, got {_short(v)}")
+    f = float(v) if abs(v) < 1e300 else math.inf
+    if not (math.isfinite(f) and (f > lo or (lo_ok and f == lo)) and f <= hi):
+        raise UserError(f"{where(source, key)}: expected {what} (at most {hi:g}), got {_short(v)}")
+    return f

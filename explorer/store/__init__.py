@@ -48,23 +48,25 @@ series_filter). Blosc and Zstandard are HDF5 plugin filters: explorer registers 
 plain h5py reads such a file after ``import hdf5plugin``.
 """
 
-from ._datasets import DATASETS, DatasetSpec, create_dataset, dataset_spec, metric_attrs, now
+from ._datasets import (DATASETS, SERIES, DatasetSpec, SeriesSpec, create_dataset, dataset_spec, metric_attrs, now,
+                        register_series)
 from ._guard import Unreadable
 from ._guard import call as guarded
 from ._integrity import seal
 from ._lock import OutputLock
 from ._shards import ShardPlan, clean_folder, completed_shards, plan_shards, shards_folder, stitch, write_shard
-from ._read import RESOLVE_ROWS, Results, inspect, lean_file, open_results, probe, resolve_series
+from ._read import RESOLVE_ROWS, Results, inspect, lean_file, open_for_update, open_results, probe, resolve_series
 from ._update import check_updatable, update_metrics
-from ._variants import check_variant, is_results, results_band, variant_design, variant_mechanism, variant_row
+from ._variants import (check_variant, is_results, results_band, variant_design, variant_mechanism, variant_peak_forces,
+                        variant_row, variant_torque)
 from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN, Exclusive,
                      ResultsWriter, chunk_rows, copy_for_update, create_metric, fingerprint_diff, hdf5_rows,
-                     metrics_group, open_for_update, open_h5, replace_with, write_error_reason)
+                     metrics_group, open_h5, replace_with, write_error_reason)
 
-__all__ = ["DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION",
+__all__ = ["SERIES", "SeriesSpec", "register_series", "DATASETS", "DEFAULT_CHUNK_VARIANTS", "DatasetSpec", "FILE_STATUS_NAMES", "FORMAT", "FORMAT_VERSION",
            "STATUS_NOT_RUN", "Results", "ResultsWriter", "check_variant", "chunk_rows", "create_dataset", "create_metric",
            "dataset_spec", "hdf5_rows", "is_results", "metric_attrs", "metrics_group", "open_for_update", "open_results", "probe", "results_band", "variant_design",
-           "variant_mechanism", "variant_row", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",
+           "variant_mechanism", "variant_peak_forces", "variant_row", "variant_torque", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",
            "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason", "seal",
            "RESOLVE_ROWS", "lean_file", "resolve_series", "guarded", "Unreadable", "inspect",
            "copy_for_update", "replace_with", "open_h5", "Exclusive", "check_updatable", "update_metrics"]

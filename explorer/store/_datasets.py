@@ -109,6 +109,77 @@ DATASETS: tuple[DatasetSpec, ...] = (
                 "done[i] (explorer.store._integrity); zero until committed"),
 )
 
+# -- the series: what the writer creates and fills, the readers and the lean re-solve give back ------------------
+@dataclass(frozen=True)
+class SeriesSpec:
+    """One per-variant series over the crank angles a results file may store (rows of :data:`DATASETS`
+    under ``group``). member : "vertex" or "joint" (a group of datasets ``group/<member>``), or "" (one
+    dataset ``group``); stored(study) : whether a full (not lean) study stores it; members(study) : the names
+    it stores ([] for a single dataset); attrs(study) : the dataset's own attributes; solved(solve) : the
+    names a lean file's ``series_solve`` re-solves (None: not re-solved); rows(batch, name) : its
+    (n, steps, ...) rows of a solved :class:`~explorer.kernels.Batch`; attrs : the dataset's attributes;
+    dataset : its :class:`DatasetSpec` row where :data:`DATASETS` has none (a series added later).
+
+    The writer (:class:`~explorer.store.ResultsWriter`), the readers (``Results.series`` and friends),
+    the integrity checks (:mod:`explorer.store._integrity`) and the lean re-solve iterate over
+    :data:`SERIES`: a new stored series is one :func:`register_series` call (its ``dataset`` row with it)."""
+
+    group: str
+    member: str
+    stored: object
+    members: object
+    solved: object
+    rows: object
+    attrs: object = None
+    dataset: DatasetSpec | None = None
+
+
+def _vertex_series(group: str, flag: str | None) -> SeriesSpec:
+    """paths (always), velocities and accelerations (when the scene asks): one dataset per scene vertex."""
+    return SeriesSpec(group, "vertex",
+                      stored=lambda study: True if flag is None else bool(getattr(study, flag)),
+                      members=lambda study: list(study.vertex_names),
+                      solved=lambda solve: list(solve["stored"]) if group in solve["groups"] else None,
+                      rows=lambda batch, name: getattr(batch, group)[name])
+
+
+def _forced(study) -> bool:
+    return bool(getattr(study, "forces", False))
+
+
+#: The series of a results file, in the order the writer creates them.
+SERIES: list[SeriesSpec] = [
+    _vertex_series("paths", None),
+    _vertex_series("velocities", "velocities"),
+    _vertex_series("accelerations", "accelerations"),
+    SeriesSpec("torque", "", stored=_forced, members=lambda study: [],
+               solved=lambda solve: [None] if solve["forces"] else None, rows=lambda batch, name: batch.torque,
+               attrs=lambda study: {"operating": json.dumps(study.operating.as_dict())}),
+    SeriesSpec("forces", "joint", stored=_forced, members=lambda study: list(study.force_joints),
+               solved=lambda solve: list(solve["force_joints"]) if solve["forces"] else None,
+               rows=lambda batch, name: batch.forces[name]),
+]
+
+
+def register_series(spec: SeriesSpec) -> SeriesSpec:
+    """Add a stored series: the writer creates and fills it where ``spec.stored(study)``, the readers
+    (``Results.series``) and the lean re-solve give it back, the integrity checks cover it."""
+    if series_spec(spec.group) is not None:
+        raise ValueError(f"series {spec.group!r} is already registered")
+    SERIES.append(spec)
+    return spec
+
+
+def series_spec(group: str) -> SeriesSpec | None:
+    """The :data:`SERIES` entry of ``group`` (None for a dataset that is not a series)."""
+    return next((spec for spec in SERIES if spec.group == group), None)
+
+
+def vertex_series() -> tuple[str, ...]:
+    """The series stored per vertex (``paths``, ``velocities``, ``accelerations``, ...)."""
+    return tuple(spec.group for spec in SERIES if spec.member == "vertex")
+
+
 #: Attributes of the groups (those not listed carry none).
 GROUPS: dict[str, dict] = {
     "paths": {"units": "model units"},
@@ -124,7 +195,7 @@ GROUPS: dict[str, dict] = {
 
 def dataset_spec(path: str) -> DatasetSpec:
     """The row of :data:`DATASETS` for ``path`` (such as ``"paths/foot"``); KeyError if none."""
-    for spec in DATASETS:
+    for spec in (*DATASETS, *(s.dataset for s in SERIES if s.dataset is not None)):
         if spec.matches(path):
             return spec
     raise KeyError(f"no dataset spec for {path!r}")

@@ -15,7 +15,7 @@ hang in the child does not hang in the caller. The caller waits for the child in
 handled: Ctrl-C and SIGTERM stop it at once (the child is killed).
 
 The deadline is a budget of progress, not of wall time: the verification reports progress (every
-object, attribute, block of rows and chunk-index entry: :data:`~explorer.store._integrity.PROGRESS`),
+object, attribute, block of rows and chunk-index entry: :data:`PROGRESS`),
 and a child that burns :data:`STALL_CPU_S` CPU-seconds without any (HDF5 looping) is killed and the file
 refused in one line, whatever its size; a child waiting on a slow disk burns none and is left alone.
 A child that dies (HDF5 crashing on damaged bytes) is a refusal too, never a crash of the verb.
@@ -32,6 +32,11 @@ import signal
 import sys
 import time
 import warnings
+
+#: Progress callback of a guarded child process: the checks (:mod:`explorer.store._integrity`) call
+#: ``PROGRESS[0]()`` after every object, attribute, block of rows and chunk-index entry; the child sets it
+#: to a tick its parent reads, so that a child making no progress (HDF5 looping) is told from a slow one.
+PROGRESS: list = [None]
 
 #: CPU-seconds a child may spend without reporting progress before it is taken for a loop. One step of
 #: the verification (an object's metadata, a block of at most ~8 MB of rows, 256 chunk-index entries)
@@ -91,7 +96,6 @@ def _child(fn, args, kwargs, wfd: int, parent: int) -> None:
         warnings.simplefilter("ignore")  # error itself is sent to the parent, which says it once
         if os.getppid() != parent:
             os._exit(1)
-        from . import _integrity
         last = [0.0]
 
         def tick():
@@ -100,7 +104,7 @@ def _child(fn, args, kwargs, wfd: int, parent: int) -> None:
                 last[0] = now
                 os.write(wfd, b".")
 
-        _integrity.PROGRESS[0] = tick
+        PROGRESS[0] = tick
         try:
             out = ("ok", fn(*args, **kwargs))
         except BaseException as exc:  # noqa: BLE001 - sent to the parent, raised there

@@ -47,6 +47,8 @@ import h5py
 import numpy as np
 
 from ..errors import UserError
+from ._datasets import SERIES as _SERIES
+from ._guard import PROGRESS
 
 #: Root attribute holding the metadata checksum.
 ATTR = "integrity"
@@ -56,18 +58,22 @@ SCHEME = b"sha256-v1 "
 DIGEST = "chunks/digest"
 #: Groups never read by a verb, left out of the checksum (``explorer metrics``' scratch group).
 SCRATCH = frozenset({"metrics_partial"})
-#: Groups and datasets whose (N, S, ...) datasets are "series": checked through their chunk index.
-SERIES = ("paths", "velocities", "accelerations", "forces", "torque")
+#: Groups and datasets whose (N, S, ...) datasets are "series": checked through their chunk index (read
+#: from :data:`explorer.store._datasets.SERIES` at each check, so a series added there is checked too).
+def series_groups() -> tuple[str, ...]:
+    return tuple(spec.group for spec in _SERIES)
+
+
+SERIES = series_groups()  # as at import (the checks below call series_groups())
 
 #: What a damaged file's message advises.
 RESTORE = "run the study again or restore the file from a copy"
 
 _warned: set = set()
 
-#: Progress callback of a verification run in a guarded child process (:mod:`explorer.store._guard`
-#: sets it there): called after every object, attribute, block of rows and chunk-index entry, so that a
-#: child making no progress (HDF5 looping on damaged bytes) is told from one that is slow.
-PROGRESS: list = [None]
+#: Progress callback of a verification run in a guarded child process (:data:`explorer.store._guard.PROGRESS`,
+#: which the child sets): called after every object, attribute, block of rows and chunk-index entry, so that
+#: a child making no progress (HDF5 looping on damaged bytes) is told from one that is slow.
 
 
 def _tick() -> None:
@@ -169,7 +175,7 @@ def has_integrity(f: h5py.File) -> bool:
 
 # -- the per-chunk digests ----------------------------------------------------------------------------------
 def _is_series(path: str) -> bool:
-    return path.split("/")[0] in SERIES
+    return path.split("/")[0] in series_groups()
 
 
 def per_variant(f: h5py.File, n: int) -> list[tuple[str, h5py.Dataset]]:
@@ -310,7 +316,7 @@ def _status(f: h5py.File, n: int) -> np.ndarray:
 # -- verification -------------------------------------------------------------------------------------------
 def _check_series(f: h5py.File, n: int, rows: int, done: np.ndarray, status: np.ndarray) -> None:
     ran = status != -1
-    for top in SERIES:
+    for top in series_groups():
         if top not in f:
             continue
         obj = f[top]
@@ -366,7 +372,7 @@ def check(f: h5py.File, digest_rows: bool = True) -> None:
         if got != digest[i].tobytes():
             raise Damaged(f"the data of variants {i * rows}..{min((i + 1) * rows, n) - 1} "
                           f"do not match their checksum")
-    if any(top in f for top in SERIES):
+    if any(top in f for top in series_groups()):
         _check_series(f, n, rows, done, _status(f, n))
 
 

@@ -13,8 +13,9 @@ import numpy as np
 from ..errors import UserError
 from ..mechanism import Mechanism, mechanism_from_dict
 from ..plan import fourbar_loops, grashof_batch
+from ._datasets import SERIES, series_spec, vertex_series
 from ._integrity import READ_CACHE_BYTES, RESTORE, is_legacy, warn_legacy
-from ._write import FILE_STATUS_NAMES, FORMAT
+from ._write import FILE_STATUS_NAMES, FORMAT, open_h5
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -523,9 +524,10 @@ class Results:
     def _lean_series(self, group: str, variant, vertex: str) -> np.ndarray:
         """A lean file's series, re-solved (the same checks and shapes as a stored one)."""
         solve = self._solve
-        if group not in solve["groups"] and group not in ("torque", "forces"):
+        spec = series_spec(group)
+        if spec is None or spec.solved(solve) is None:
             raise UserError(f"{self.filename}: no {group} stored (the study's [scene] did not ask for them)")
-        if group in ("paths", "velocities", "accelerations") and vertex not in self.vertices:
+        if spec.member == "vertex" and vertex not in self.vertices:
             raise UserError(f"{self.filename}: vertex {vertex!r} is not stored "
                             f"(stored: {', '.join(self.vertices)}; set [scene] vertices)")
         if isinstance(variant, (int, np.integer)):
@@ -593,11 +595,12 @@ class Results:
 
     @property
     def series_groups(self) -> tuple[str, ...]:
-        """The series groups of the file, of ``("paths", "velocities", "accelerations")``: those stored,
+        """The series groups of the file stored per vertex (``paths``, ``velocities``, ``accelerations``: the
+        :data:`~explorer.store._datasets.SERIES` entries of member "vertex"): those stored,
         or, in a lean file, those a full study would have stored (re-solved when read)."""
         if self.lean:
             return tuple(self._solve["groups"])
-        return tuple(g for g in ("paths", "velocities", "accelerations") if g in self.file)
+        return tuple(g for g in vertex_series() if g in self.file)
 
     def _vertex(self, vertex) -> str:
         if vertex is not None:
@@ -631,6 +634,26 @@ class Results:
         if self.lean:
             return self._resolved(np.array([v]), "torque", None)[0]
         return self.file["torque"][v]
+
+    def series(self, group: str, variant, name: str | None = None) -> np.ndarray:
+        """Any series the file stores (:data:`explorer.store._datasets.SERIES`: paths, velocities,
+        accelerations, torque, forces, and any registered since) of one ``variant``: ``name`` the vertex or
+        joint (a vertex series: default the foot). Re-solved in a lean file, as the series it would store."""
+        spec = series_spec(group)
+        if spec is None:
+            raise UserError(f"{self.filename}: {group!r} is not a series (series: "
+                            f"{', '.join(s.group for s in SERIES)})")
+        if spec.member == "vertex":
+            return self._series(group, variant, name)
+        v = self.check_variant(variant)
+        if self.lean:
+            solved = spec.solved(self._solve)
+            if solved is None or (spec.member and name not in solved):
+                raise UserError(f"{self.filename}: no {group}{'/' + str(name) if spec.member else ''} stored")
+            return self._resolved(np.array([v]), group, name if spec.member else None)[0]
+        if group not in self.file or (spec.member and name not in self.file[group]):
+            raise UserError(f"{self.filename}: no {group}{'/' + str(name) if spec.member else ''} stored")
+        return (self.file[group][name] if spec.member else self.file[group])[v]
 
     @property
     def force_joints(self) -> tuple[str, ...]:
@@ -733,14 +756,9 @@ def _rows_of(batch, solve: dict, k: int) -> dict:
     """{(group, vertex): (steps, 2), ("torque", None): (steps,)} of row ``k`` of a re-solved batch: what a
     full study stores of it (copies, so that the batch can go)."""
     out = {}
-    for group in solve["groups"]:
-        series = getattr(batch, group)
-        for v in solve["stored"]:
-            out[(group, v)] = series[v][k].copy()
-    if solve["forces"]:
-        out[("torque", None)] = batch.torque[k].copy()
-        for j in solve["force_joints"]:
-            out[("forces", j)] = batch.forces[j][k].copy()
+    for spec in SERIES:  # every series a full study would have stored (explorer.store._datasets.SERIES)
+        for name in spec.solved(solve) or ():
+            out[(spec.group, name)] = spec.rows(batch, name)[k].copy()
     return out
 
 
@@ -814,3 +832,21 @@ def _category_codes(codes: np.ndarray, order: list[int]) -> np.ndarray:
 
 def _text(s) -> str:
     return s.decode() if isinstance(s, bytes) else str(s)
+
+
+def open_for_update(path) -> h5py.File:
+    """An existing, complete-or-not explorer results file opened for writing (``r+``), for a deliberate
+    edit (``explorer metrics`` writes a copy instead: :func:`copy_for_update`). UserError for a missing,
+    foreign, busy, unreadable or damaged file (it is verified first, in a child process:
+    :func:`~explorer.store.inspect`)."""
+    p = Path(os.fspath(path))
+    if not p.is_file():
+        raise UserError(f"{p}: no such results file")
+    inspect(p, warn=False)  # in a child process first: bytes that make HDF5 loop are refused in one line
+    f = open_h5(p, "r+")
+    if f.attrs.get("format") != FORMAT:
+        f.close()
+        raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
+    if is_legacy(f):
+        warn_legacy(p)
+    return f

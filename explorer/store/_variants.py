@@ -145,3 +145,38 @@ def variant_mechanism(results, variant) -> "Mechanism":
         guess = {name: tuple(P0[i]) for i, name in enumerate(nominal.vertices) if name not in skip}
         mech = replace(mech, guess=guess)
     return mech
+
+
+# -- the forces a variant's study stored (the build kit sizes its pins and shaft from them) --------------------
+def variant_peak_forces(res, v: int) -> dict[str, float]:
+    """{joint: peak reaction, N} of variant ``v`` of an open results file: its ``pin_force.<joint>`` metrics,
+    else the peak magnitude of the stored ``/forces/<joint>`` series; {} when the study stored neither."""
+    import numpy as np
+
+    row = variant_row(res, v)
+    out = {}
+    for col, val in row.items():
+        if str(col).startswith("pin_force."):
+            try:
+                f = float(val)
+            except (TypeError, ValueError):
+                continue
+            if math.isfinite(f):
+                out[str(col)[len("pin_force."):]] = f
+    if not out:
+        for j in res.force_joints:
+            a = np.asarray(res.force(v, j), dtype=np.float64)
+            m = np.hypot(a[:, 0], a[:, 1])
+            if np.any(np.isfinite(m)):
+                out[j] = float(np.nanmax(m))
+    return out
+
+
+def variant_torque(res, v: int) -> float | None:
+    """The stored ``motor_torque_peak`` (N·m) of variant ``v`` of an open results file, or None."""
+    row = variant_row(res, v)
+    try:
+        f = float(row.get("motor_torque_peak")) if "motor_torque_peak" in row.index else math.nan
+    except (TypeError, ValueError):
+        f = math.nan
+    return f if math.isfinite(f) else None

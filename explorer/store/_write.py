@@ -60,8 +60,9 @@ import numpy as np
 
 from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
-from ._datasets import SCALAR_FILTERS, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group, metric_attrs, now
-from ._integrity import (DIGEST, RESTORE, chunk_digest, has_integrity, is_legacy, metadata_checksum, per_variant,
+from ._datasets import (SCALAR_FILTERS, SERIES, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group,
+                        metric_attrs, now)
+from ._integrity import (DIGEST, RESTORE, chunk_digest, has_integrity, metadata_checksum, per_variant,
                          salvage, stamp, verify, warn_legacy)
 
 __all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
@@ -145,9 +146,9 @@ class ResultsWriter:
         if "fail_theta_end" in f:
             self._scalars.append((f["fail_theta_end"], "fail_theta_end"))
         self._geometry = f["variants/geometry"] if "variants/geometry" in f else None
-        self._series = [(f[g][v], g, v) for g in ("paths", "velocities", "accelerations") if g in f for v in f[g]]
-        self._torque = f["torque"] if "torque" in f else None
-        self._forces = [(f["forces"][j], j) for j in f["forces"]] if "forces" in f else []
+        # every stored series (explorer.store._datasets.SERIES): (dataset, its spec, its member name or None)
+        self._series = [(f[s.group][m] if s.member else f[s.group], s, m if s.member else None)
+                        for s in SERIES if s.group in f for m in (f[s.group] if s.member else [None])]
         self._done = f["chunks/done"]
         # files of this version carry checksums (explorer.store._integrity), kept up to date at every
         # commit; a file started by an earlier version is finished as it was begun, without them
@@ -175,7 +176,6 @@ class ResultsWriter:
         path = Path(path)
         mech = study.mech
         N, S = study.n_variants, study.steps
-        vertices = study.vertex_names
         rows = int(rows) if exact_rows else chunk_rows(N, S, study.n_series, rows)
         n_chunks = -(-N // rows)
         h = min(hdf5_rows(S), rows)
@@ -248,18 +248,15 @@ class ResultsWriter:
             make("fail_block", attrs={"vertex": _strings(mech.vertices[b.vertices[0]] for b in plan.blocks)})
             make("iterations")
 
-            for group, wanted in (("paths", True), ("velocities", study.velocities),
-                                  ("accelerations", study.accelerations)):
-                if not wanted or lean:
+            for spec in SERIES:  # the series the scene asks for (none in a lean file: re-solved when read)
+                if lean or not spec.stored(study):
                     continue
-                create_group(f, group)  # vertices in scene order
-                for v in vertices:
-                    make(f"{group}/{v}", attrs={"vertex": v})
-            if getattr(study, "forces", False) and not lean:
-                make("torque", attrs={"operating": json.dumps(study.operating.as_dict())})
-                create_group(f, "forces")
-                for j in study.force_joints:
-                    make(f"forces/{j}", attrs={"joint": j})
+                if not spec.member:
+                    make(spec.group, attrs=spec.attrs(study) if spec.attrs else None)
+                    continue
+                create_group(f, spec.group)  # members in scene order
+                for name in spec.members(study):
+                    make(f"{spec.group}/{name}", attrs={spec.member: name})
             # metrics in the order computed; the band they are computed with, as `explorer metrics` records it
             metrics_group(f, band=study.band)
 
@@ -354,12 +351,8 @@ class ResultsWriter:
             d[a:b] = values[key]
         if self._geometry is not None:
             self._geometry[a:b] = geometry
-        for d, group, v in self._series:
-            _write_rows(d, a, b, getattr(batch, group)[v])
-        if self._torque is not None:
-            _write_rows(self._torque, a, b, batch.torque)
-        for d, j in self._forces:
-            _write_rows(d, a, b, batch.forces[j])
+        for d, spec, name in self._series:
+            _write_rows(d, a, b, spec.rows(batch, name))
         g = f["metrics"]
         new = [name for name in (metrics or {}) if name not in g]
         for name in new:  # self-describing from the first write, as `explorer metrics` writes it
@@ -760,25 +753,6 @@ def open_h5(p: Path, mode: str, **kw) -> h5py.File:
             reason = "the file is open in another process (close it, or wait for `explorer run` to finish)"
         raise UserError(f"{p}: cannot open the results file{' for writing' if mode != 'r' else ''}: {reason}") \
             from None
-
-
-def open_for_update(path) -> h5py.File:
-    """An existing, complete-or-not explorer results file opened for writing (``r+``), for a deliberate
-    edit (``explorer metrics`` writes a copy instead: :func:`copy_for_update`). UserError for a missing,
-    foreign, busy, unreadable or damaged file (it is verified first, in a child process:
-    :func:`~explorer.store.inspect`)."""
-    p = Path(os.fspath(path))
-    if not p.is_file():
-        raise UserError(f"{p}: no such results file")
-    from ._read import inspect
-    inspect(p, warn=False)  # in a child process first: bytes that make HDF5 loop are refused in one line
-    f = open_h5(p, "r+")
-    if f.attrs.get("format") != FORMAT:
-        f.close()
-        raise UserError(f"{p}: not an explorer results file (no format = {FORMAT!r} attribute)")
-    if is_legacy(f):
-        warn_legacy(p)
-    return f
 
 
 def metrics_group(f: h5py.Group, name: str = "metrics", band: float | None = None, computed: str | None = None):

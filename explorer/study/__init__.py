@@ -17,6 +17,7 @@ which a share of the legs still walks, by bisection; ``design_yield`` / ``result
 ``synthesize(target, mechanism=...)`` its look-up and polish (``explorer synth``).
 """
 
+from ._best import best_design
 from ._cluster import dask_client, require_dask
 from ._dask import run_study_dask
 from ._metrics import recompute_metrics
@@ -47,3 +48,4 @@ __all__ = ["STUDY_KEYS", "HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_hi
            "Robustness", "YieldResult", "design_yield", "results_robustness", "results_yield", "robustness_from_dict",
            "ConstrainedResiduals", "polish_constrained", "scout_and_polish", "ATLAS_FAMILIES", "Atlas", "AtlasSpec",
            "atlas_dir", "atlas_spec", "build_atlas", "open_atlas", "SynthSummary", "synthesize"]
+__all__ += ["best_design"]

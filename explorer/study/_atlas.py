@@ -603,3 +603,30 @@ def atlas_info(path) -> dict:
     return attrs
 
 
+#: Two starts are distinct when a varied parameter differs by more than this share of its range.
+DISTINCT = 0.02
+
+
+def diverse(atlas, cands, n: int, distinct: float = DISTINCT) -> list:
+    """At most n of the candidates (best first), each more than ``distinct`` from those chosen before it
+    in the atlas's unit box (the largest difference of a varied parameter as a share of its range,
+    lengths on a log scale): nearly the same curve is drawn by designs in different basins of the
+    polish, and starts from one basin all end at its minimum."""
+    spec = atlas.spec
+    lo, hi, log = np.array(spec.lower), np.array(spec.upper), np.array(spec.log)
+
+    def unit(row):
+        x = atlas.params[row].astype(np.float64)
+        u = (x - lo) / (hi - lo)
+        u[log] = np.log(x[log] / lo[log]) / np.log(hi[log] / lo[log])
+        return u
+
+    chosen, units = [], []
+    for c in cands:
+        u = unit(c.row)
+        if all(np.max(np.abs(u - v)) > distinct for v in units):
+            chosen.append(c)
+            units.append(u)
+            if len(chosen) >= n:
+                break
+    return chosen

@@ -8,21 +8,8 @@ import time
 from ..kernels import simulate_batch
 from ..kernels import check_dense
 from ._sample import study_sampler, study_variants
-from ._spec import Study
+from ._spec import Study, metric_plan, series_solve  # noqa: F401 (their home is the spec)
 from ._yield import YIELD, design_yield
-
-
-def metric_plan(study: Study):
-    """(metric names or None for all, needs velocities, needs the foot) of the study's scene: the
-    metrics of the foot path (``yield``, which re-solves copies, is :func:`wants_yield`'s)."""
-    if study.metrics is False:
-        return [], False, False
-    from ..gait import VELOCITY_METRICS
-    names = None if study.metrics is True else [m for m in study.metrics if m != YIELD]
-    if names == []:
-        return [], False, False
-    need_vel = names is None or any(m in VELOCITY_METRICS for m in names)
-    return names, need_vel, True
 
 
 def wants_yield(study: Study) -> bool:
@@ -53,28 +40,6 @@ def compute_study_metrics(study: Study, paths, velocities, status, lengths, cran
     return compute_metrics(paths, velocities, status, names, study.band, mechanism=study.mech, lengths=lengths,
                            crank=crank, walker=study.walker, geometry=geometry_columns(study, geometry),
                            target=study.target)
-
-
-def series_solve(study: Study) -> dict:
-    """How ``study``'s designs are solved, as plain JSON-able values: ``steps``, ``tolerance``,
-    ``method``, ``vertices`` (the solved vertices: the scene's, plus the foot when metrics are asked
-    for), ``velocities`` and ``accelerations`` (solved), ``forces`` and ``force_joints``; and what a
-    full study stores of it: ``stored`` (the scene's vertices) and ``groups`` (``paths``, and
-    ``velocities`` / ``accelerations`` when the scene asks for them). :func:`design_solver` solves
-    with exactly these arguments, and a lean results file records them (root attribute
-    ``series_solve``) so that its readers re-solve any design bit for bit
-    (:meth:`explorer.store.Results.path`)."""
-    mech = study.mech
-    _, metric_vel, want_metrics = metric_plan(study)
-    vertices = list(study.vertex_names)
-    if want_metrics and mech.foot not in vertices:
-        vertices.append(mech.foot)
-    groups = ["paths"] + (["velocities"] if study.velocities else []) + (["accelerations"] if study.accelerations
-                                                                        else [])
-    return {"steps": int(study.steps), "tolerance": float(study.tolerance), "method": study.method,
-            "vertices": vertices, "velocities": bool(study.velocities or metric_vel),
-            "accelerations": bool(study.accelerations), "forces": bool(study.forces),
-            "force_joints": list(study.force_joints), "stored": list(study.vertex_names), "groups": groups}
 
 
 def design_solver(study: Study, timer: dict | None = None):

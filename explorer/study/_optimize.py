@@ -605,7 +605,7 @@ class _AtlasStarts:
                 there_back = np.vstack([t.points, t.points[-2:0:-1]]) if len(t.points) > 2 else t.points
                 loops = self.atlas.query(there_back, None, closed=True, k=len(pool))
                 pool = [c for pair in zip(pool, loops) for c in pair]
-            from ._synth import diverse
+            from ._atlas import diverse
             self._cands = diverse(self.atlas, pool, len(pool), distinct=0.02)
         opt = self.study.optimize
         chosen = self._cands[r * k:(r + 1) * k]

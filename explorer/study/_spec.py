@@ -78,7 +78,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError, where
-from ..gait import SCREEN_KEYS, TARGET_KEYS, Screen, Target, load_target, screen_from_dict
+from ..gait import SCREEN_KEYS, TARGET_KEYS, VELOCITY_METRICS, Screen, Target, load_target, screen_from_dict
 from ..kernels import DEFAULT_TOLERANCE, TOLERANCE_RANGE
 from ..mechanism import (BUILD_KEYS, OPERATING_KEYS, Mechanism, Operating, Walker, builtin_mechanisms, load_mechanism,
                          operating_from_dict, parse_toml, walker_body, walker_from_dict)
@@ -234,9 +234,8 @@ class Study:
         return len(self.vertex_names) * (1 + int(self.velocities) + int(self.accelerations))
 
     def series_solve(self) -> dict:
-        """How the study's series are solved (:func:`explorer.study._chunk.series_solve`): what a lean
-        results file records so that its readers re-solve the series bit for bit."""
-        from ._chunk import series_solve
+        """How the study's series are solved (:func:`series_solve`): what a lean results file records so
+        that its readers re-solve the series bit for bit."""
         return series_solve(self)
 
     @property
@@ -699,4 +698,41 @@ class _Validator:
 
 # -- writing -------------------------------------------------------------------------------------------
 # the TOML writer lives beside the loader, in explorer/mechanism/_toml.py
+
+
+# -- what the scene asks the solver for (the chunk runner and the lean store's re-solve read it) ---------------
+def metric_plan(study: Study):
+    """(metric names or None for all, needs velocities, needs the foot) of the study's scene: the
+    metrics of the foot path (``yield``, which re-solves copies, is ``_chunk.wants_yield``'s)."""
+    if study.metrics is False:
+        return [], False, False
+    names = None if study.metrics is True else [m for m in study.metrics if m != YIELD]
+    if names == []:
+        return [], False, False
+    need_vel = names is None or any(m in VELOCITY_METRICS for m in names)
+    return names, need_vel, True
+
+
+def series_solve(study: Study) -> dict:
+    """How ``study``'s designs are solved, as plain JSON-able values: ``steps``, ``tolerance``,
+    ``method``, ``vertices`` (the solved vertices: the scene's, plus the foot when metrics are asked
+    for), ``velocities`` and ``accelerations`` (solved), ``forces`` and ``force_joints``; and what a
+    full study stores of it: ``stored`` (the scene's vertices) and ``groups`` (``paths``, and
+    ``velocities`` / ``accelerations`` when the scene asks for them). ``_chunk.design_solver`` solves
+    with exactly these arguments, and a lean results file records them (root attribute
+    ``series_solve``) so that its readers re-solve any design bit for bit
+    (:meth:`explorer.store.Results.path`)."""
+    mech = study.mech
+    _, metric_vel, want_metrics = metric_plan(study)
+    vertices = list(study.vertex_names)
+    if want_metrics and mech.foot not in vertices:
+        vertices.append(mech.foot)
+    from ..store import SERIES  # the stored series, one registry (explorer.store._datasets.SERIES)
+    groups = [spec.group for spec in SERIES if spec.member == "vertex" and spec.stored(study)]
+    return {"steps": int(study.steps), "tolerance": float(study.tolerance), "method": study.method,
+            "vertices": vertices, "velocities": bool(study.velocities or metric_vel),
+            "accelerations": bool(study.accelerations), "forces": bool(study.forces),
+            "force_joints": list(study.force_joints), "stored": list(study.vertex_names), "groups": groups}
+
+
 from ..mechanism import dumps_toml  # noqa: E402,F401

@@ -33,8 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from ._atlas import (DEFAULT_DESIGNS, FAMILIES, _designs, atlas_mechanism, build_atlas, default_path, family_source,
-                     open_atlas)
+from ._atlas import (DEFAULT_DESIGNS, DISTINCT, FAMILIES, _designs, atlas_mechanism, build_atlas, default_path, diverse,
+                     family_source, open_atlas)
 
 #: Designs a synthesis writes by default, and look-up candidates it polishes.
 TOP = 10
@@ -48,8 +48,6 @@ LM_ITERATIONS = 100
 SCOUT_STEPS = 90
 #: Look-up candidates ranked before the polish's starts are picked (distinct ones, :func:`diverse`).
 POOL = 512
-#: Two starts are distinct when a varied parameter differs by more than this share of its range.
-DISTINCT = 0.02
 
 
 @dataclass
@@ -86,7 +84,7 @@ class SynthSummary:
                  f"write {t.get('write', 0):.2f} s; {self.cpu_s:.1f} CPU-s in all"]
         for fam, e in self.others.items():
             lines.append(f"  {fam}: best path_error {e:.6g} (not written)")
-        lines.append(f"  shown by: explorer rank {self.path} --by path_error ; explorer show {self.path} 0 ; "
+        lines.append(f"  shown by: explorer rank {self.path} --by path_error ; explorer show {self.path} --variant 0 ; "
                      f"explorer plot {self.path} --top 3 --by path_error -o synth.png")
         return "\n".join(lines)
 
@@ -190,31 +188,6 @@ class _Posed:
 
     def x(self, params: dict) -> np.ndarray:
         return np.clip(np.array([params[p] for p in self.names]), self.lower, self.upper)
-
-
-def diverse(atlas, cands, n: int, distinct: float = DISTINCT) -> list:
-    """At most n of the candidates (best first), each more than ``distinct`` from those chosen before it
-    in the atlas's unit box (the largest difference of a varied parameter as a share of its range,
-    lengths on a log scale): nearly the same curve is drawn by designs in different basins of the
-    polish, and starts from one basin all end at its minimum."""
-    spec = atlas.spec
-    lo, hi, log = np.array(spec.lower), np.array(spec.upper), np.array(spec.log)
-
-    def unit(row):
-        x = atlas.params[row].astype(np.float64)
-        u = (x - lo) / (hi - lo)
-        u[log] = np.log(x[log] / lo[log]) / np.log(hi[log] / lo[log])
-        return u
-
-    chosen, units = [], []
-    for c in cands:
-        u = unit(c.row)
-        if all(np.max(np.abs(u - v)) > distinct for v in units):
-            chosen.append(c)
-            units.append(u)
-            if len(chosen) >= n:
-                break
-    return chosen
 
 
 def _polish(posed, cands, starts, finish):

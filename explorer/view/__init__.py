@@ -38,9 +38,11 @@ spacer and the crankshaft over the turn, crank arms on a D-flat at the legs' pha
 """
 
 from ._animate import DEFAULT_FPS, FRAMES_PER_CYCLE, MOVIE_FORMATS, LinkageAnimation, Movie, animate, ffmpeg_exe
+from ._describe import describe
 from ._draw import FOOT_PATH_COLOR, LegArtists, draw_ground, draw_path, mirror_positions, mirror_velocity
-from ._export import (EXPORT_FORMATS, Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
+from ._export import (Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml,
                       mechanism_toml, trajectory_frame, variant_design)
+from .._exports import EXPORT_FORMATS, EXPORTS, ExportFormat, ExportJob, export_format, export_variant, register_export
 from ._front import plot_front
 from ._kit import (Kit, KitLeg, KitPart, KitPin, Material, Placement, build_kit, design_yield_note, kit_data,
                    pin_diameter, shaft_diameter, write_kit)
@@ -53,7 +55,8 @@ __all__ = ["DEFAULT_FPS", "FIGURE_FORMATS", "FOOT_PATH_COLOR", "FRAMES_PER_CYCLE
            "LinkageAnimation", "Movie", "animate", "central_differences", "draw_ground", "draw_path", "ffmpeg_exe",
            "mirror_positions", "mirror_velocity", "new_figure", "oat_sensitivity", "plot_indices", "plot_scatter",
            "plot_forces", "plot_sensitivity", "plot_top", "plot_velocity", "save_figure", "stance_indices", "variant_mechanism"]
-__all__ += ["plot_front"]
+__all__ += ["plot_front", "describe"]
+__all__ += ["EXPORTS", "ExportFormat", "ExportJob", "export_format", "export_variant", "register_export"]
 __all__ += ["EXPORT_FORMATS", "Sheet", "cut_sheet", "export_csv", "export_dxf", "export_svg", "export_toml",
             "mechanism_toml", "trajectory_frame", "variant_design"]
 __all__ += ["Report", "report_html", "write_report"]

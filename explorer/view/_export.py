@@ -38,8 +38,6 @@ import numpy as np
 from ..errors import UserError
 from ..mechanism import Mechanism, Walker
 
-#: Export formats and their file extensions.
-EXPORT_FORMATS = {"svg": ".svg", "dxf": ".dxf", "csv": ".csv", "toml": ".toml"}
 #: Default part width, as a fraction of the shortest distance between two holes of one part (the crank
 #: radius, the shortest link, the closest two joints of a body or of the frame).
 DEFAULT_WIDTH = 0.2
@@ -494,7 +492,7 @@ def dxf_document(sheet: Sheet):
     (arcs as bulges) and its holes CIRCLEs (in the part's joint order) on layer CUT, its label a TEXT on
     layer LABELS, the three in a DXF group whose description is the part's name."""
     from .._extras import require
-    ezdxf = require("ezdxf", "DXF export (explorer export --format dxf)")
+    ezdxf = require("ezdxf", "DXF export (explorer export --as dxf)")
     from ezdxf import units
 
     doc = ezdxf.new("R2010")
@@ -523,7 +521,7 @@ def export_dxf(mech: Mechanism, path, *, scale: float = 1.0, width: float | None
                hole: float | None = None, force: bool = False) -> Path:
     """Write the cutting sheet of ``mech`` (:func:`cut_sheet`) as DXF to ``path``; returns the path."""
     from .._extras import require
-    require("ezdxf", "DXF export (explorer export --format dxf)")  # before the path is checked
+    require("ezdxf", "DXF export (explorer export --as dxf)")  # before the path is checked
     p = check_export_path(path, force)
     doc = dxf_document(cut_sheet(mech, scale, width, hole))
     return _write(p, lambda tmp: doc.saveas(tmp))

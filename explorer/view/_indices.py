@@ -1,5 +1,5 @@
 """Global sensitivity indices as a picture: one panel per output, the parameters as horizontal bars with
-their intervals (:func:`plot_indices`, what ``explorer sensitivity --plot`` draws)."""
+their intervals (:func:`plot_indices`, what ``explorer sensitivity -o`` draws)."""
 
 from __future__ import annotations
 

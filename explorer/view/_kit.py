@@ -38,6 +38,8 @@ import numpy as np
 from ..errors import UserError
 from ..mechanism import Mechanism, Walker
 from ._export import CRANK_CENTRE
+from ._kit_sheet import Placement
+from ._kit_stack import WASHER, clearance_line
 
 
 @dataclass(frozen=True)
@@ -148,21 +150,6 @@ class KitLeg:
     mirrored: bool
     crank: str = "crank"
     z: float = 0.0
-
-
-@dataclass(frozen=True)
-class Placement:
-    """Where one copy of a part sits: on sheet ``sheet`` (0-based), copy number ``copy`` (1-based) of part
-    ``part``, a mirror image if ``mirrored``; the part's own frame is turned by ``angle_deg`` (counter-
-    clockwise, after mirroring x → −x) and its origin put at (x, y), mm, y up, sheet's lower left = (0, 0)."""
-
-    sheet: int
-    part: str
-    copy: int
-    mirrored: bool
-    x: float
-    y: float
-    angle_deg: float
 
 
 @dataclass(frozen=True)
@@ -309,8 +296,6 @@ DEFAULT_PIN = 0.1
 DEFAULT_SHAFT = 0.2
 #: Default part width as a multiple of the largest pin diameter (a wall of one diameter each side).
 DEFAULT_WIDTH = 3.0
-#: A washer between two parts on a pin, mm thick (so they turn freely).
-WASHER = 0.5
 #: Spare length of a pin past its stack, mm, besides one diameter (a lock nut or a collar and circlip).
 SPARE = 2.0
 #: Length of the crankshaft past the last plate, mm (a shaft collar).
@@ -533,11 +518,11 @@ def build_kit(design: Mechanism, *, crank_mm: float | None = None, scale: float 
     mech = design
     if mech.crank is None:
         raise UserError(f"{mech.name}: a build kit needs a crank-driven design (this one is driven along a "
-                        f"path); export its parts with --format svg or dxf")
+                        f"path); export its parts with --as svg or dxf")
     if mech.sliders:
         names = ", ".join(sl.name for sl in mech.sliders)
         raise UserError(f"{mech.name}: its sliders ({names}) need a slot or a guide, which the kit cannot draw yet; "
-                        f"export its parts with --format svg or dxf")
+                        f"export its parts with --as svg or dxf")
     if scale is not None and crank_mm is not None:
         raise UserError(f"--scale {scale:g} and --crank-mm {crank_mm:g}: each sets the size; give one")
     r = mech.crank.radius
@@ -1122,19 +1107,6 @@ def bom_text(kit: Kit) -> str:
     w.writeheader()
     w.writerows(rows)
     return "\n".join(head) + "\n" + buf.getvalue()
-
-
-def clearance_line(kit: Kit) -> str:
-    """One line on the worst clearance found over the turn."""
-    c = kit.worst
-    if c is None:
-        return "nothing shares a layer with a pin, the shaft or another part"
-    what = {"part": f"parts {c.a} and {c.b} (layer {c.layer})", "pins": f"pins {c.a} and {c.b} (bare, layer {c.layer})",
-            "shaft spacer": f"the crankshaft and part {c.b} (layer {c.layer})"}.get(
-        c.what, f"the {c.what} of pin {c.a} and part {c.b} (layer {c.layer})")
-    return (f"worst margin {c.margin:.2f} mm beyond the {kit.running:g} mm running clearance: {what} at θ = "
-            f"{c.theta_deg:.1f}°, sampled every {360.0 / kit.samples:g}° (between samples at most {kit.bound:.2f} mm "
-            f"less)")
 
 
 def readme_text(kit: Kit, pdf: bool) -> str:

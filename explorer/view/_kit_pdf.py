@@ -509,7 +509,7 @@ def _page_chassis(fig, kit) -> None:
     pin where its phase puts it), the legs' order, the crank arrangement, the shaft's sizing, the motor
     plate, and the clearance found."""
     from matplotlib.patches import Rectangle
-    from ._kit import WASHER
+    from ._kit_stack import WASHER
     from ._kit_chassis import COUPLER, MOTOR_GAP
     mech, sh, ch = kit.mechanism, kit.shaft, kit.chassis
     t = kit.material.thickness
@@ -587,7 +587,7 @@ def _page_chassis(fig, kit) -> None:
     for i, line in enumerate(shaft_lines(kit)):
         _text(fig, 10, y2 - 3.5 - i * 3.0, line, fontsize=6.5, va="top")
     y3 = y2 - 5.0 - len(shaft_lines(kit)) * 3.0 - 2.0
-    from ._kit import clearance_line
+    from ._kit_stack import clearance_line
     for i, line in enumerate(textwrap.wrap("Clearance: " + clearance_line(kit), 105)):
         _text(fig, 10, y3 - i * 3.0, line, fontsize=6.5, va="top", weight="bold" if i == 0 else "normal")
     # the motor plate, front view
@@ -994,7 +994,7 @@ def write_assembly_pdf(kit, path) -> Path:
             fig = Figure(figsize=size)
             _page_part(fig, kit, part)
             figs.append(fig)
-        meta = {"Title": f"{mech.name}: assembly", "Subject": "build kit (explorer export --format kit)",
+        meta = {"Title": f"{mech.name}: assembly", "Subject": "build kit (explorer export --as kit)",
                 "Creator": "explorer"}
         with PdfPages(path, metadata=meta) as pdf:
             for i, fig in enumerate(figs):

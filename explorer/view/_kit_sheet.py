@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import math
 
+from dataclasses import dataclass
+
 from ..errors import UserError
 from ._export import CRANK_CENTRE, CUT_COLOR, LABEL_COLOR, STROKE_MM, _f, _hull, _outline, svg_path, xml_safe
 
@@ -78,13 +80,26 @@ def _box(holes, mirrored, angle, r):
     return min(xs) - r, min(ys) - r, max(xs) + r, max(ys) + r
 
 
+@dataclass(frozen=True)
+class Placement:
+    """Where one copy of a part sits: on sheet ``sheet`` (0-based), copy number ``copy`` (1-based) of part
+    ``part``, a mirror image if ``mirrored``; the part's own frame is turned by ``angle_deg`` (counter-
+    clockwise, after mirroring x → −x) and its origin put at (x, y), mm, y up, sheet's lower left = (0, 0)."""
+
+    sheet: int
+    part: str
+    copy: int
+    mirrored: bool
+    x: float
+    y: float
+    angle_deg: float
+
+
 def nest(parts, sheet: tuple[float, float], mirrored_legs=frozenset()):
     """Placements of every copy of ``parts`` (KitPart) on sheets of ``sheet`` (W, H) mm (see the module
     docstring); UserError naming a part that does not fit on one sheet. Copy k (1-based) of a part is the
     one of leg ``part.legs[k - 1]``; it is mirrored where that leg is in ``mirrored_legs`` and the part is
     not symmetric."""
-    from ._kit import Placement
-
     W, H = sheet
     room_w, room_h = W - 2 * MARGIN, H - 2 * MARGIN - STRIP
     items = []
@@ -286,7 +301,7 @@ def svg_text(kit) -> str:
                                   "viewBox": f"0 0 {_f(TW)} {_f(H)}"})
     ET.SubElement(root, q + "title").text = f"{kit.mechanism.name}: build kit, parts for cutting"
     ET.SubElement(root, q + "desc").text = (
-        f"explorer export --format kit: {n} sheet(s) of {W:g} x {H:g} mm side by side; 1 model unit = "
+        f"explorer export --as kit: {n} sheet(s) of {W:g} x {H:g} mm side by side; 1 model unit = "
         f"{kit.scale:.6g} mm; links {kit.width:.3g} mm wide; red = cut, blue = engrave, grey = sheet edge (not cut)")
     g_sheets = ET.SubElement(root, q + "g", {"id": "sheets", f"{{{ink}}}groupmode": "layer",
                                              f"{{{ink}}}label": "sheets (not cut)"})
@@ -352,7 +367,7 @@ def dxf_document(kit):
     group named after the copy (and so described): "2-6 #3", "leg #2 M". A D-hole (a crank arm's, for the
     crankshaft's flat) is a closed LWPOLYLINE: two arcs (bulges) and the flat."""
     from .._extras import require
-    ezdxf = require("ezdxf", "the kit's DXF (explorer export --format kit)")
+    ezdxf = require("ezdxf", "the kit's DXF (explorer export --as kit)")
     from ezdxf import units
     from ezdxf.enums import TextEntityAlignment
 

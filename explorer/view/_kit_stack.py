@@ -460,3 +460,20 @@ def solve_stack(prob: Problem, legs: int, modes=MODES) -> Layout:
     raise UserError(f"no stack keeps every part clear of the pins and the crankshaft (a through shaft, "
                     f"{'an outboard crank arm, ' if legs == 1 else ''}a crank with throws): {refusal(prob)}; "
                     f"try a smaller --width, --hole or --clearance")
+
+
+#: A washer between two parts on a pin, mm thick (so they turn freely).
+WASHER = 0.5
+
+
+def clearance_line(kit) -> str:
+    """One line on the worst clearance found over the turn of ``kit`` (an :class:`explorer.view.Kit`)."""
+    c = kit.worst
+    if c is None:
+        return "nothing shares a layer with a pin, the shaft or another part"
+    what = {"part": f"parts {c.a} and {c.b} (layer {c.layer})", "pins": f"pins {c.a} and {c.b} (bare, layer {c.layer})",
+            "shaft spacer": f"the crankshaft and part {c.b} (layer {c.layer})"}.get(
+        c.what, f"the {c.what} of pin {c.a} and part {c.b} (layer {c.layer})")
+    return (f"worst margin {c.margin:.2f} mm beyond the {kit.running:g} mm running clearance: {what} at θ = "
+            f"{c.theta_deg:.1f}°, sampled every {360.0 / kit.samples:g}° (between samples at most {kit.bound:.2f} mm "
+            f"less)")

@@ -26,7 +26,7 @@ from matplotlib.lines import Line2D
 
 from .._files import write_replacing, writable_kind
 from ..errors import UserError
-from ..gait import (DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_front, rank,
+from ..gait import (DEFAULT_BAND, DIRECTIONS, METRICS, UNITS, ok_mask, pareto_front, rank, results_si,
                    screened_mask, select, stance_indices)
 from ..kernels import Cycle, simulate
 from ..mechanism import Mechanism
@@ -92,10 +92,10 @@ def _unit(metric: str) -> str:
     return _UNIT_TEXT.get(u, u) if u else ""
 
 
-def metric_label(metric: str) -> str:
+def metric_label(metric: str, unit: str | None = None) -> str:
     """Axis label of a metric: name, [unit], and which way is better, e.g. "travel [model units per crank
-    turn], higher is better" (no nested parentheses)."""
-    u = _unit(metric)
+    turn], higher is better" (no nested parentheses); ``unit`` overrides the table's (an SI unit)."""
+    u = unit or _unit(metric)
     d = DIRECTIONS.get(metric)
     better = {"max": "higher is better", "min": "lower is better"}.get(d)
     text = f"{metric} [{u}]" if u else metric
@@ -126,7 +126,7 @@ def _segments_of(indices: np.ndarray, S: int) -> list[tuple[int, int]]:
 # -- plot_top -------------------------------------------------------------------------------------------
 def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, where: str | None = None,
              include_screened: bool = False, vertex: str | None = None, band: float | None = None,
-             figsize=(9.0, 6.0), dpi: float = 100) -> Figure:
+             units: str = "model", figsize=(9.0, 6.0), dpi: float = 100) -> Figure:
     """Foot paths of the ``top`` best variants over the nominal (variant 0) path.
 
     The ranking is :func:`explorer.gait.rank`'s, so it shows the rows ``explorer rank`` lists for the
@@ -135,9 +135,12 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     metric ``by`` or a ``weights`` score; variants the buildability screen removes are left out unless
     ``include_screened``; ``where`` is a filter as in :func:`explorer.gait.rank`. Equal axes; each variant labelled with
     its rank and ranking value; its single-leg band stance (longest run within ``band`` · height of its
-    lowest point; default: the study's ``[scene] band``) drawn thick.
+    lowest point; default: the study's ``[scene] band``) drawn thick. ``units`` "si": the paths in mm and the
+    ranking values in SI (:func:`explorer.gait.results_si`; the ranking itself over the stored values).
     """
     df = results.frame()
+    conv = results_si(results, df.iloc[:0], units)
+    mm = 1.0 if conv is None else conv.operating.unit * 1000.0  # model units -> mm
     if by is not None:
         by = _check_metric(df, by)
     if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
@@ -157,21 +160,25 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     # the nominal, underneath (a lean file re-solves the designs drawn at once, in one line)
     if getattr(results, "prefetch", None) is not None:
         results.prefetch([0] + [int(v) for v in (ranked["variant"] if "variant" in ranked.columns else ranked.index)])
-    nom = np.asarray(results.path(0, vertex), dtype=np.float64)
+    nom = np.asarray(results.path(0, vertex), dtype=np.float64) * mm
     nom_row = df.loc[df["variant"] == 0] if "variant" in df.columns else df.iloc[:1]
+    shown = ranked
+    if conv is not None:  # the values labelled, in SI
+        nom_row, shown = conv.apply(nom_row).frame, conv.apply(ranked).frame
     nom_val = nom_row[by].iloc[0] if by is not None else math.nan
-    nom_text = f": {by} = {nom_val:.4g}" if by is not None and pd.notna(nom_val) else ""
+    unit = "" if conv is None or by is None or by not in conv.converted else f" {conv.units[by]}"
+    nom_text = f": {by} = {nom_val:.4g}{unit}" if by is not None and pd.notna(nom_val) else ""
     ax.plot(*_closed(nom).T, "-", color="0.55", lw=3.0, zorder=1, label=f"nominal (variant 0){nom_text}")
     si = stance_indices(nom, band)
     for a, b in _segments_of(si, len(nom)):
         ax.plot(nom[a:b, 0], nom[a:b, 1], "-", color="0.55", lw=7.0, alpha=0.45, solid_capstyle="butt", zorder=1)
     cmap = _cmap(len(ranked))
-    for i, (_, row) in enumerate(ranked.iterrows()):
+    for i, (_, row) in enumerate(shown.iterrows()):
         v = int(row["variant"]) if "variant" in row.index else int(row.name)
-        p = np.asarray(results.path(v, vertex), dtype=np.float64)
+        p = np.asarray(results.path(v, vertex), dtype=np.float64) * mm
         c = cmap[i]
         ax.plot(*_closed(p).T, "-", color=c, lw=1.4, zorder=3 + i * 0.01,
-                label=f"#{int(row['rank'])}  variant {v}: {key} = {row[key]:.4g}")
+                label=f"#{int(row['rank'])}  variant {v}: {key} = {row[key]:.4g}{unit}")
         for a, b in _segments_of(stance_indices(p, band), len(p)):
             ax.plot(p[a:b, 0], p[a:b, 1], "-", color=c, lw=4.5, alpha=0.55, solid_capstyle="butt",
                     zorder=2 + i * 0.01)
@@ -183,8 +190,9 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
               title=ranked_by, title_fontsize=LEGEND_SIZE, alignment="left")
     ax.set_aspect("equal", adjustable="datalim")
     what = "foot" if vname == mech.foot else f"vertex {vname}"
-    ax.set_xlabel(f"{what} x [model units]")
-    ax.set_ylabel(f"{what} y [model units]")
+    length = "model units" if conv is None else "mm"
+    ax.set_xlabel(f"{what} x [{length}]")
+    ax.set_ylabel(f"{what} y [{length}]")
     ax.grid(True, lw=0.4, alpha=0.5)
     if by is not None:
         first = {"max": "highest", "min": "lowest"}.get(DIRECTIONS.get(by), "best")
@@ -212,12 +220,14 @@ def _cmap(n: int) -> list:
 
 # -- plot_scatter ---------------------------------------------------------------------------------------
 def plot_scatter(results, x: str, y: str, *, where: str | None = None, directions=None,
-                 include_screened: bool = False, figsize=(7.5, 5.5), dpi: float = 100) -> Figure:
+                 include_screened: bool = False, units: str = "model", figsize=(7.5, 5.5),
+                 dpi: float = 100) -> Figure:
     """Every ok variant as a point in metrics ``x`` and ``y``, the Pareto front over both, the nominal marked.
 
     Variants the buildability screen removes are drawn in grey and left off the front unless
     ``include_screened`` (as ``explorer rank`` leaves them out). ``directions`` overrides the natural
-    directions of the front (dict metric -> "max"/"min").
+    directions of the front (dict metric -> "max"/"min"). ``units`` "si": both axes in SI
+    (:func:`explorer.gait.results_si`; ``where`` filters the stored values).
     """
     df = results.frame()
     x, y = _check_metric(df, x), _check_metric(df, y)
@@ -226,6 +236,9 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     ok = df[ok_mask(df)]
     if where:
         ok = select(ok, where, include_failed=True, include_screened=True)
+    si = results_si(results, df.iloc[:0], units)
+    if si is not None:  # the axes in SI: every value converted, the filter above over the stored ones
+        df, ok = si.apply(df).frame, si.apply(ok).frame
     ok = ok[np.isfinite(ok[x].to_numpy(dtype=float)) & np.isfinite(ok[y].to_numpy(dtype=float))]
     out = ok[screened_mask(ok)] if not include_screened else ok.iloc[:0]
     ok = ok[~screened_mask(ok)] if not include_screened else ok
@@ -247,8 +260,8 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     if len(nominal) and np.isfinite(float(nominal[x].iloc[0])) and np.isfinite(float(nominal[y].iloc[0])):
         ax.plot(nominal[x], nominal[y], "*", color="tab:red", ms=16, mec="black", mew=0.8, zorder=4,
                 label="nominal (variant 0)")
-    ax.set_xlabel(metric_label(x))
-    ax.set_ylabel(metric_label(y))
+    ax.set_xlabel(metric_label(x, None if si is None else si.units.get(x)))
+    ax.set_ylabel(metric_label(y, None if si is None else si.units.get(y)))
     ax.grid(True, lw=0.4, alpha=0.5)
     leg = ax.legend(loc="best", fontsize=LEGEND_SIZE, framealpha=0.9)
     for h in leg.legend_handles:  # the dots of the clouds, large enough to show their colour

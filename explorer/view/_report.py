@@ -694,7 +694,7 @@ def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dic
     return (f"<div class='panel' id='vs-panel'><h2>The best designs against the {esc(ref_label)}</h2>"
             f"<p class='note'>The {min(VS_ROWS, len(pos))} best-ranked of the {pool}, each metric with its change "
             f"against the {esc(ref_label)} in % of its value (Δ % = 100·(value − reference)/|reference|); the last row "
-            f"is the {esc(ref_label)} with its place in the ranking. <code>explorer show RESULTS V --vs {ref}</code> "
+            f"is the {esc(ref_label)} with its place in the ranking. <code>explorer show RESULTS --variant V --vs {ref}</code> "
             f"compares one design metric by metric.</p><table id='vs'>{head}{''.join(body)}</table>{notes}</div>")
 
 
@@ -824,8 +824,8 @@ scatter draws them all).<span id="software-note"></span></p>
 <div class="row">
  <div class="panel">
   <h2>Best selected designs</h2>
-  <p class="note">Take one away: <code>explorer show {results} VARIANT</code>,
-  <code>explorer export {results} VARIANT -o leg.svg</code>.</p>
+  <p class="note">Take one away: <code>explorer show {results} --variant N</code>,
+  <code>explorer export {results} --variant N -o leg.svg</code>.</p>
   <table id="best"></table>
  </div>
  <div class="panel">

@@ -131,13 +131,13 @@ def results(tmp_path_factory):
 WRITERS = {
     "plot": (["plot", "R", "--top", "2", "-o", "T"], ".png"),
     "animate": (["animate", "R", "--variant", "0", "--frames", "4", "-o", "T"], ".gif"),
-    "export-svg": (["export", "R", "0", "--format", "svg", "-o", "T"], ".svg"),
-    "export-dxf": (["export", "R", "0", "--format", "dxf", "-o", "T"], ".dxf"),
-    "export-csv": (["export", "R", "0", "--format", "csv", "-o", "T"], ".csv"),
-    "export-toml": (["export", "R", "0", "--format", "toml", "-o", "T"], ".toml"),
-    "export-kit": (["export", "R", "0", "--format", "kit", "-o", "K"], "parts.svg"),
+    "export-svg": (["export", "R", "--variant", "0", "--as", "svg", "-o", "T"], ".svg"),
+    "export-dxf": (["export", "R", "--variant", "0", "--as", "dxf", "-o", "T"], ".dxf"),
+    "export-csv": (["export", "R", "--variant", "0", "--as", "csv", "-o", "T"], ".csv"),
+    "export-toml": (["export", "R", "--variant", "0", "--as", "toml", "-o", "T"], ".toml"),
+    "export-kit": (["export", "R", "--variant", "0", "--as", "kit", "-o", "K"], "parts.svg"),
     "report": (["report", "R", "-o", "T"], ".html"),
-    "sensitivity": (["sensitivity", "R", "--plot", "T"], ".png"),
+    "sensitivity": (["sensitivity", "R", "-o", "T"], ".png"),
 }
 
 
@@ -264,7 +264,7 @@ def test_library_writers_replace_a_link_never_follow_it(results, tmp_path):
 # -- the output lock's race (item 5) -------------------------------------------------------------------------
 STALLED = """
 import sys, time, fcntl
-import explorer.store._lock as lock
+from explorer.testing import store_lock as lock
 marker, stall = sys.argv[1], float(sys.argv[2])
 
 class Stalled:  # fcntl, with a stall before the first flock (as a busy machine may make)
@@ -287,7 +287,7 @@ def test_a_run_stalled_before_its_flock_does_not_share_the_lock(tmp_path):
     """Run A opens the lock file, stalls; its owner finishes and removes the file; run C takes a new one. A
     used to lock the removed file and run beside C (both exit 0, one's results lost): now it sees that the
     path names another file, tries that one, and stops in one line."""
-    from explorer.store._lock import OutputLock
+    from explorer.testing import OutputLock
     study = tmp_path / "study.toml"
     study.write_text(SMALL, encoding="utf-8")
     out, marker = tmp_path / "out.h5", tmp_path / "opened"
@@ -315,7 +315,7 @@ def test_a_run_stalled_before_its_flock_does_not_share_the_lock(tmp_path):
 
 
 def test_the_lock_is_not_removed_from_under_its_next_owner(tmp_path):
-    from explorer.store._lock import OutputLock, lock_path
+    from explorer.testing import OutputLock, lock_path
     out = tmp_path / "out.h5"
     a = OutputLock(out).acquire()
     os.unlink(lock_path(out))                # removed by hand (or by a run that lost the race)
@@ -338,7 +338,7 @@ def test_a_nul_byte_in_a_path_is_one_line(results, tmp_path, capsys):
     code, _, err = cli(capsys, "run", study, "-o", tmp_path / "x.h5")
     assert code == 2 and err.count("\n") == 1 and "\x00" not in err and "leg\\x00.toml" in err, err
     for args in (["run", tmp_path / "s.toml", "-o", "x\0.h5"], ["plot", results, "--top", "2", "-o", "a\0.png"],
-                 ["export", results, "0", "--format", "svg", "-o", "x\0.svg"], ["show", "r\0.h5", "0"]):
+                 ["export", results, "--variant", "0", "--as", "svg", "-o", "x\0.svg"], ["show", "r\0.h5", "--variant", "0"]):
         code, _, err = cli(capsys, *args)
         assert code == 2 and err.count("\n") == 1 and "\x00" not in err, (args, err)
     assert not list(tmp_path.glob("x*"))
@@ -360,7 +360,7 @@ def test_a_control_character_in_a_name_is_refused_at_load(tmp_path, capsys, old,
     mech.write_text(text.replace(old, new, 1), encoding="utf-8")
     with pytest.raises(explorer.UserError, match=f"leg.toml: {key}"):
         explorer.load_mechanism(mech)
-    code, _, err = cli(capsys, "export", mech, "--format", "kit", "-o", tmp_path / "kit")
+    code, _, err = cli(capsys, "export", mech, "--as", "kit", "-o", tmp_path / "kit")
     assert code == 2 and err.count("\n") == 1 and f"leg.toml: {key}" in err, err
     assert "\x1b" not in err and "\x07" not in err and "\x01" not in err
     assert not (tmp_path / "kit").exists()
@@ -382,7 +382,7 @@ def test_svg_is_well_formed_whatever_a_name_holds(tmp_path):
 def test_where_powers_are_exact_where_finite():
     import numpy as np
     import pandas as pd
-    from explorer.gait._filter import evaluate_filter
+    from explorer.testing import evaluate_filter
     df = pd.DataFrame({"x": [1e64, 1e100, 2e100, 1.0]})
     assert evaluate_filter(df, "x == 10**100").tolist() == [False, True, False, False]
     assert evaluate_filter(df, "x >= 10**100").tolist() == [False, True, True, False]
@@ -404,7 +404,7 @@ def test_show_and_report_say_when_a_metric_is_not_one_per_variant(results, tmp_p
     seal = getattr(explorer.store, "seal", None)
     if seal is not None:
         seal(path)  # edited on purpose: re-checksummed
-    code, out, err = cli(capsys, "show", path, "0")
+    code, out, err = cli(capsys, "show", path, "--variant", "0")
     assert code == 0 and err.count("\n") == 1, err
     assert "warning" in err and "metrics/wide has shape (6, 2), not (6,)" in err and "ignored" in err
     code, out, err = cli(capsys, "report", path, "-o", tmp_path / "r.html")

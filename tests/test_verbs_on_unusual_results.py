@@ -266,9 +266,9 @@ WRITERS = {
     "plot": lambda r, o: ["plot", r, "--top", "2", "-o", o, "--dpi", "30"],
     "animate": lambda r, o: ["animate", r, "--variant", "1", "--frames", "2", "--cycles", "0.1", "--dpi", "20",
                              "-o", o],
-    "export": lambda r, o: ["export", r, "1", "-o", o],
+    "export": lambda r, o: ["export", r, "--variant", "1", "-o", o],
     "report": lambda r, o: ["report", r, "-o", o, "--paths", "2"],
-    "sensitivity": lambda r, o: ["sensitivity", r, "--metrics", "travel", "--resamples", "2", "--plot", o],
+    "sensitivity": lambda r, o: ["sensitivity", r, "--metrics", "travel", "--resamples", "2", "-o", o],
 }
 SUFFIX = {"plot": ".png", "animate": ".gif", "export": ".svg", "report": ".html", "sensitivity": ".png"}
 

@@ -120,10 +120,11 @@ def test_every_verb_refuses_the_damaged_heap_and_run_force_replaces_it(small, tm
     limit; ``run --force`` overwrites it (it used to hang before it could)."""
     bad = zeroed(small, tmp_path / "bad.h5", gcol_headers(small.read_bytes())[0], 16)
     study = tmp_path / "s.toml"
-    from explorer.study._spec import dumps_toml
+    from explorer.testing import dumps_toml
     study.write_text(dumps_toml(SMALL), encoding="utf-8")
     before = bad.read_bytes()
-    argvs = [["rank", bad], ["show", bad, "0"], ["export", bad, "0", "--format", "csv", "-o", tmp_path / "x.csv"],
+    argvs = [["rank", bad], ["show", bad, "--variant", "0"],
+             ["export", bad, "--variant", "0", "--as", "csv", "-o", tmp_path / "x.csv"],
              ["plot", bad, "--top", "1", "-o", tmp_path / "x.png"], ["report", bad, "-o", tmp_path / "x.html"],
              ["metrics", bad, "--band", "0.02"], ["run", study, "-o", bad, "--resume", "-q"],
              ["physics", bad, "--variant", "0"]]
@@ -144,7 +145,7 @@ def test_a_signal_stops_the_wait_for_a_looping_verification(small, tmp_path):
     """SIGTERM while the guarded verification loops (its stall budget made endless here): the verb stops
     at once, in one line, and the looping child is gone with it."""
     bad = zeroed(small, tmp_path / "bad.h5", gcol_headers(small.read_bytes())[0], 16)
-    code = ("import sys\nimport explorer.store._guard as g\ng.STALL_CPU_S = 1e9\nfrom explorer.cli import main\n"
+    code = ("import sys\nfrom explorer.testing import store_guard as g\ng.STALL_CPU_S = 1e9\nfrom explorer.cli import main\n"
             f"sys.exit(main(['rank', {str(bad)!r}]))")
     proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -197,7 +198,7 @@ def _children(pid: int) -> list[int]:
 def test_files_written_before_open_and_the_legacy_format_is_guarded_too(tmp_path, monkeypatch):
     """A file with the layout this version wrote before (version-1 object headers: HDF5's earliest format)
     still opens and reads the same; its damaged heap is refused the same way."""
-    import explorer.store._write as w
+    from explorer.testing import store_write as w
     monkeypatch.setattr(w, "LIBVER", ("earliest", "latest"))
     old = explorer.run_study(SMALL, output=tmp_path / "old.h5", progress=False).path
     monkeypatch.undo()
@@ -292,7 +293,7 @@ import contextlib, io, json, resource, sys, time
 sys.path.insert(0, {tests!r})
 import numpy as np
 import explorer
-import explorer.store._guard as guard
+from explorer.testing import store_guard as guard
 from explorer.cli import main
 from explorer.errors import UserError
 guard.STALL_CPU_S = {stall!r}
@@ -309,7 +310,7 @@ def consume(path):
     except UserError as exc:
         assert "\\n" not in str(exc)
         return ("refused", str(exc)), None
-    for argv in (["rank", path], ["show", path, "3"]):
+    for argv in (["rank", path], ["show", path, "--variant", "3"]):
         o, e = io.StringIO(), io.StringIO()
         with contextlib.redirect_stdout(o), contextlib.redirect_stderr(e):
             code = main([str(a) for a in argv])
@@ -438,7 +439,7 @@ FULL = {"study": {"name": "full", "mechanism": "jansen", "variants": 2000, "step
 
 #: Makes the child that writes the copy die of SIGSEGV as soon as an error reaches it (as HDF5 can when a
 #: write fails on a full disk), instead of sending the error to the caller.
-CRASH_ON_ERROR = ("import os, pickle, signal\nimport explorer.store._guard as g\nclass P:\n"
+CRASH_ON_ERROR = ("import os, pickle, signal\nfrom explorer.testing import store_guard as g\nclass P:\n"
                   "    loads = staticmethod(pickle.loads)\n    @staticmethod\n    def dumps(out):\n"
                   "        if out[0] == 'exc':\n            os.kill(os.getpid(), signal.SIGSEGV)\n"
                   "        return pickle.dumps(out)\ng.pickle = P\n")
@@ -461,7 +462,7 @@ def test_metrics_on_a_full_disk_leaves_the_file_as_it_was(tmp_path, mode):
         size = len(before)
         _fill(disk, size + (200_000 if mode != "reserve" else 100_000))
         prelude = "" if mode == "reserve" else (
-            "import errno, shutil, collections\nimport explorer.store._write as w\n"
+            "import errno, shutil, collections\nfrom explorer.testing import store_write as w\n"
             "w._fallocate = lambda *a, **k: errno.ENOTSUP\n"
             "U = collections.namedtuple('U', 'total used free')\nshutil.disk_usage = lambda p: U(1 << 40, 0, 1 << 40)\n")
         prelude += CRASH_ON_ERROR if mode == "crash" else ""
@@ -505,13 +506,13 @@ def test_metrics_writes_a_copy_and_renames_it(small, tmp_path, monkeypatch):
     path = tmp_path / "m.h5"
     shutil.copy(small, path)
     before, ino = path.read_bytes(), path.stat().st_ino
-    import explorer.store._write as w
+    from explorer.testing import store_write as w
 
     def broken(tmp, p):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(w, "replace_with", broken)
-    import explorer.study._metrics as m
+    from explorer.testing import study_metrics as m
     monkeypatch.setattr(m, "replace_with", broken)
     with pytest.raises(UserError, match="the disk is full .* is unchanged"):
         explorer.recompute_metrics(path, band=0.02)
@@ -526,7 +527,7 @@ def test_metrics_writes_a_copy_and_renames_it(small, tmp_path, monkeypatch):
 def _stitched(folder: Path) -> tuple[Path, Path]:
     from explorer.store import plan_shards, shards_folder, stitch, write_shard
     from explorer.study import load_study
-    from explorer.study._chunk import chunk_solver
+    from explorer.testing import chunk_solver
     study = load_study({**SMALL, "study": {**SMALL["study"], "variants": 40}})
     out = folder / "stitched.h5"
     plan = plan_shards(study, workers=2, shard_size=16, chunk_size=16)
@@ -616,7 +617,7 @@ def _check_signals(rows: list[dict], folder: Path) -> None:
 
 
 def test_signals_at_random_moments_of_the_start_up(tmp_path):
-    from explorer.study._spec import dumps_toml
+    from explorer.testing import dumps_toml
     study = tmp_path / "s.toml"
     study.write_text(dumps_toml({**SMALL, "study": {**SMALL["study"], "variants": 20000}}), encoding="utf-8")
     rows = signal_at_random(study, tmp_path / "o.h5", trials=6, seed=43)
@@ -628,7 +629,7 @@ def test_signals_at_random_moments_many(tmp_path):
     """40 runs, each signalled at a random moment of its first half second (the interpreter starting,
     explorer's imports, Numba's, the study loading): never a traceback from explorer; and what the
     handler caught ends within a second or so (the latency printed; a loaded machine adds its own)."""
-    from explorer.study._spec import dumps_toml
+    from explorer.testing import dumps_toml
     study = tmp_path / "s.toml"
     study.write_text(dumps_toml({**SMALL, "study": {**SMALL["study"], "variants": 20000}}), encoding="utf-8")
     rows = signal_at_random(study, tmp_path / "o.h5", trials=40, seed=4343)
@@ -644,7 +645,7 @@ def test_a_signal_during_a_cold_compile_acts_at_once(tmp_path):
     """A fresh Numba cache: the run compiles its kernels (tens of seconds on 2 cores) in worker threads
     that no signal can stop; SIGTERM or SIGINT during it ends the command at once (it used to wait for the
     compile to finish: 10-24 s)."""
-    from explorer.study._spec import dumps_toml
+    from explorer.testing import dumps_toml
     study = tmp_path / "s.toml"
     study.write_text(dumps_toml(SMALL), encoding="utf-8")
     rng = random.Random(7)
@@ -718,7 +719,7 @@ def test_a_zero_body_mass_or_inertia_is_refused():
 
 def test_a_byte_order_mark_is_accepted(tmp_path, capsys):
     """What Windows editors write at the start of a UTF-8 file: the mechanism and the study load, and run."""
-    from explorer.study._spec import dumps_toml
+    from explorer.testing import dumps_toml
     leg = tmp_path / "leg.toml"
     leg.write_bytes(b"\xef\xbb\xbf" + _jansen_text().encode("utf-8"))
     assert explorer.load_mechanism(leg).lengths.tolist() == explorer.load_mechanism("jansen").lengths.tolist()
@@ -733,7 +734,7 @@ def test_a_byte_order_mark_is_accepted(tmp_path, capsys):
 
 
 def test_study_names_are_bounded(tmp_path, capsys):
-    from explorer.study._spec import dumps_toml
+    from explorer.testing import dumps_toml
     for name, ok in (("a" * 100, True), ("a" * 101, False), ("x" * 2_000_000, False), ("ok\n", False)):
         study = tmp_path / "s.toml"
         study.write_text(dumps_toml({**SMALL, "study": {**SMALL["study"], "name": name}}), encoding="utf-8")
@@ -754,7 +755,8 @@ def test_yield_tolerances_are_bounded(small, capsys):
         explorer.load_study({**SMALL, "robustness": {"tolerance": 100.0, "unit": "model"}})
 
 
-@pytest.mark.parametrize("argv", [["rank", "R", "--top"], ["export", "R", "0", "--format", "kit", "--crank-mm", "x"],
+@pytest.mark.parametrize("argv", [["rank", "R", "--top"],
+                                  ["export", "R", "--variant", "0", "--as", "kit", "--crank-mm", "x"],
                                   ["frobnicate"], ["run", "--nope"], ["bench", "nope"], ["show"]])
 def test_every_argparse_error_is_one_line(small, argv, capsys):
     argv = [str(small) if a == "R" else a for a in argv]
@@ -768,7 +770,7 @@ def test_every_argparse_error_is_one_line(small, argv, capsys):
 @pytest.mark.parametrize("sheet", ["1e9x1e9", "600x5001"])
 def test_kit_sheets_are_bounded(tmp_path, capsys, sheet):
     """A 10^9 mm sheet was accepted (and drawn): at most 5 m a side, one line, nothing written."""
-    code, _, err = cli(capsys, "export", "jansen", "--format", "kit", "-o", tmp_path / "k", "--sheet", sheet)
+    code, _, err = cli(capsys, "export", "jansen", "--as", "kit", "-o", tmp_path / "k", "--sheet", sheet)
     assert code == 2 and err.count("\n") == 1 and "--sheet: " in err and "at most 5000" in err, err
     assert not (tmp_path / "k").exists()
 
@@ -805,7 +807,7 @@ def test_the_parameter_table_is_built_once_per_mechanism(monkeypatch):
 def test_the_sampler_draws_only_the_rows_a_chunk_needs_and_the_same_numbers():
     """Rows of a block drawn alone (the uniform generator advanced, the normal one drawn up to them) equal
     the block drawn whole, as the documented draws define them (written out here)."""
-    from explorer.study._sample import BLOCK, Sampler
+    from explorer.testing import BLOCK, Sampler
     k = 7
     for method in ("uniform", "normal"):
         s = Sampler(method, 3 * BLOCK, k, 0.05, seed=11)
@@ -837,4 +839,4 @@ def test_a_study_of_a_9999_vertex_chain_runs_and_reads(tmp_path, capsys):
         assert len(r.link_names) == 9998 and sum(counts.values()) == 10 and counts.get("not-run", 0) == 0
         assert r.frame().loc[0, "status"] == "ok" and len(r.nominal) == 9999
     assert cli(capsys, "describe", mech)[0] == 0
-    assert cli(capsys, "show", tmp_path / "c.h5", "3")[0] == 0
+    assert cli(capsys, "show", tmp_path / "c.h5", "--variant", "3")[0] == 0

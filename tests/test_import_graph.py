@@ -1,0 +1,104 @@
+"""No import circles in explorer: the graph of which module imports which (every ``import`` statement, at the
+top of a module or inside a function, outside ``if TYPE_CHECKING``) has no cycle, so no two files import
+each other, directly or in a loop; and the pipeline's packages import one way (mechanism -> plan -> kernels
+-> gait -> store -> study -> view -> cli)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import explorer
+
+ROOT = Path(explorer.__file__).parent
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for f in ROOT.rglob("*.py"):
+        parts = list(f.relative_to(ROOT.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = f
+    return out
+
+
+def _imports(name: str, path: Path, modules) -> set[str]:
+    """The explorer modules ``name`` imports anywhere in its body (a package's ``__init__`` counts as the
+    package; ``from .pkg import sub`` as the submodule)."""
+    package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+    found = set()
+
+    def visit(nodes):
+        for node in nodes:
+            if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+                visit(node.orelse)
+                continue
+            if isinstance(node, ast.ImportFrom):
+                base = ".".join(package[:len(package) - node.level + 1] + ([node.module] if node.module else [])) \
+                    if node.level else (node.module or "")
+                for alias in node.names:
+                    sub = f"{base}.{alias.name}"
+                    found.add(sub if sub in modules else base)
+            elif isinstance(node, ast.Import):
+                found.update(alias.name for alias in node.names)
+            visit(ast.iter_child_nodes(node))
+
+    visit(ast.parse(path.read_text(encoding="utf-8")).body)
+    return {m for m in found if m in modules and m != name}
+
+
+def import_graph() -> dict[str, set[str]]:
+    modules = _modules()
+    return {name: _imports(name, path, modules) for name, path in modules.items()}
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module, each a loop of imports (the plan's
+    Tarjan, :func:`explorer.testing.strong_components`)."""
+    from explorer.testing import strong_components
+    names = sorted(graph)
+    at = {n: i for i, n in enumerate(names)}
+    comps = strong_components([sorted(at[d] for d in graph[n] if d in at) for n in names])
+    return [sorted(names[i] for i in c) for c in comps if len(c) > 1]
+
+
+def test_the_checker_finds_a_loop():
+    """The cycle finder itself: a loop of three, a pair, and a chain that is no loop."""
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"e"}, "e": {"d"}, "f": {"a"}, "g": set()}
+    assert sorted(cycles(graph)) == [["a", "b", "c"], ["d", "e"]]
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": set()}) == []
+
+
+def test_the_graph_sees_lazy_and_relative_imports():
+    """The graph is read right: a function-level import counts (the issue's circles were lazy ones), and
+    relative imports resolve to the module."""
+    graph = import_graph()
+    assert "explorer.study._chunk" in graph["explorer.study._run"]  # top level, relative
+    assert "explorer.view._kit_sheet" in graph["explorer.view._kit"]
+    assert "explorer.gait" in graph["explorer.study._spec"]
+
+
+def test_no_import_cycles():
+    found = cycles(import_graph())
+    assert not found, "modules that import each other, directly or in a loop: " + "; ".join(
+        " <-> ".join(c) for c in found)
+
+
+PIPELINE = ("mechanism", "plan", "kernels", "gait", "store", "study", "view", "cli")
+
+
+def test_packages_import_one_way():
+    """No package of the pipeline imports one later in it (mechanism -> plan -> ... -> cli)."""
+    graph = import_graph()
+    back = []
+    for name, deps in graph.items():
+        parts = name.split(".")
+        if len(parts) < 2 or parts[1] not in PIPELINE:
+            continue
+        here = PIPELINE.index(parts[1])
+        for dep in deps:
+            d = dep.split(".")
+            if len(d) > 1 and d[1] in PIPELINE and PIPELINE.index(d[1]) > here:
+                back.append(f"{name} -> {dep}")
+    assert not back, "imports running back up the pipeline: " + ", ".join(sorted(back))
