@@ -286,13 +286,16 @@ def test_an_interrupt_keeps_the_designs_checked(results):
 def test_ctrl_c_in_the_command_stops_the_workers_and_keeps_the_file(results):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
     proc = subprocess.Popen([sys.executable, "-m", "explorer.cli", "physics", str(results), "--variant",
-                             *map(str, range(8)), "--workers", "2"], cwd=REPO, env=env, stdout=subprocess.PIPE,
+                             *map(str, range(8)), "--workers", "2", "--turns", "30"], cwd=REPO, env=env,
+                            stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     lock = results.with_name(f".{results.name}.lock")
     t0 = time.time()
     while not lock.exists() and time.time() - t0 < 120:
         time.sleep(0.1)
-    time.sleep(4.0)  # the designs' models are built, the workers start (and may have checked a design)
+    # the designs' models are built, the workers start (and may have checked a design): 30 turns make the
+    # whole check take ~20 s on an idle machine (4 s with the default 3), so the signal comes while it runs
+    time.sleep(4.0)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, (out, err)
@@ -310,6 +313,24 @@ def test_ctrl_c_in_the_command_stops_the_workers_and_keeps_the_file(results):
         n = int(res.frame()["physics_travel"].notna().sum()) if "physics_travel" in res.metric_names else 0
     assert n == kept
     assert not list(results.parent.glob(".*.partial"))
+
+
+@pytest.mark.slow
+def test_ctrl_c_while_the_table_prints_says_the_figures_are_written(results, capsys, monkeypatch):
+    """A Ctrl-C after the check has written its figures (while the table is drawn) says so, not a bare
+    "interrupted" that leaves the user guessing what the file holds."""
+    import explorer.cli._physics as verb
+
+    def stopped(out):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(verb, "summary_lines", stopped)
+    code, out, err = cli(capsys, "physics", results, "--variant", 0, "--turns", "1", "--workers", "1")
+    assert code == 130
+    assert err == (f"explorer: {results}: interrupted while printing the table, after the check: the physics "
+                   f"figures of 1 design are written\n"), err
+    with open_results(results) as res:
+        assert int(res.frame()["physics_travel"].notna().sum()) == 1
 
 
 # -- bad input ---------------------------------------------------------------------------------------------

@@ -51,7 +51,14 @@ def run(args) -> int:
     out = physics_check(args.results, variants=variants, top=top, pitch=args.pitch, turns=turns, workers=workers,
                         progress=not args.quiet, force=args.force)
     if not args.quiet:
-        print("\n".join(summary_lines(out)))
+        try:
+            print("\n".join(summary_lines(out)))
+        except KeyboardInterrupt as exc:  # the check is done and written: say so, not a bare "interrupted"
+            word = "terminated" if type(exc).__name__ == "Terminated" else "interrupted"
+            n = len(out["checked"]) + len(out["failed"])
+            kept = (f"the physics figures of {n} design{'s' if n != 1 else ''} are written" if out["written"]
+                    else "nothing was written")
+            raise type(exc)(f"{out['path']}: {word} while printing the table, after the check: {kept}") from None
     return 0
 
 
