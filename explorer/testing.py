@@ -21,6 +21,7 @@ _HOMES = {
     "EXTRAS": ("._extras", "EXTRAS"),
     "MissingExtra": ("._extras", "MissingExtra"),
     "require": ("._extras", "require"),
+    "MOVED": ("._moved", "MOVED"),
     # -- bench -------------------------------------------------------------------------------------------------
     "COLUMNS": (".bench._accuracy", "COLUMNS"),
     "draw_variants": (".bench._accuracy", "draw_variants"),
@@ -123,7 +124,7 @@ _HOMES = {
     "gait_walker": (".gait._walker", None),
     "kernels_batch": (".kernels._batch", None),
     "dumps_toml": (".study._spec", "dumps_toml"),
-    "study_metrics": (".study._metrics", None),
+    "analysis_metrics": (".analysis._metrics", None),
     "BLOCK": (".study._sample", "BLOCK"),
     "Sampler": (".study._sample", "Sampler"),
     "store_integrity": (".store._integrity", None),

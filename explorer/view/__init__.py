@@ -15,7 +15,7 @@ Plots (each returns a :class:`matplotlib.figure.Figure`; save with :func:`save_f
 * ``plot_sensitivity(results)`` — a one-at-a-time study: change of each metric per link.
 * ``plot_front(results)`` — an optimisation (``explorer optimize``): how its Pareto front (or best
   design) moved over the generations.
-* ``plot_indices(explorer.study.sensitivity(results))`` — global sensitivity indices of a sampled
+* ``plot_indices(explorer.analysis.sensitivity(results))`` — global sensitivity indices of a sampled
   study: one panel per output, bars with their intervals.
 
 Report: ``write_report(results, "report.html")`` — one self-contained interactive HTML page (plotly.js

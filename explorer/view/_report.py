@@ -593,7 +593,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     yield_note = ""
     if "yield" in mets and "yield" not in keys:  # will it survive the workshop: the stored yield, its settings
         keys.append("yield")
-        from ..study import results_robustness
+        from ..analysis import results_robustness
         rb = results_robustness(res)
         yield_note = (f"yield: the share of copies, {rb.describe()}, that turn and pass the buildability screen "
                       f"(binomial standard error √(p(1 − p)/{rb.copies}): ±{math.sqrt(0.25 / rb.copies):.3f} at "
