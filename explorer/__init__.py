@@ -34,7 +34,7 @@ _LAZY = {
 
 
 #: the subpackages, reachable as attributes (``explorer.gait``) like any imported submodule
-_SUBPACKAGES = ("analysis", "bench", "cli", "edit", "gait", "kernels", "mechanism", "plan", "store", "study", "view", "wrist")
+_SUBPACKAGES = ("analysis", "bench", "cli", "edit", "fabrication", "gait", "kernels", "mechanism", "plan", "store", "study", "view", "wrist")
 
 
 def __getattr__(name: str):
