@@ -72,7 +72,7 @@ class Study:
 
     def design(self, variant) -> Mechanism:
         """The design of ``variant`` as ``explorer export --as toml`` writes it."""
-        from ..view import variant_design
+        from ..fabrication import variant_design
 
         return variant_design(self.results, variant)
 
