@@ -40,14 +40,14 @@ def main(argv=None) -> int:
     from explorer.kernels import simulate_batch
     from explorer.mechanism import load_mechanism
     from explorer.study import design_yield, robustness_from_dict
-    from explorer.study._yield import _copies, _split, draws, full_parameters
+    from explorer.study._yield import _copies, split_parameters, draws, full_parameters
 
     mech = load_mechanism(a.mechanism)
     D, K = a.designs, a.copies
     L, r = variants(mech, D)
     rb = robustness_from_dict({"tolerance": a.tolerance, "copies": K}, "bench", mech)
     X = full_parameters(mech, L, r)
-    Lc, rc, geo = _split(mech, _copies(mech, X, draws(rb, X.shape[1]), rb))
+    Lc, rc, geo = split_parameters(mech, _copies(mech, X, draws(rb, X.shape[1]), rb))
     foot = mech.foot
     names = [m for m in SCREEN_INPUTS if available_metrics(mech).get(m) is None]
 

@@ -27,14 +27,14 @@ _LAZY = {
     **dict.fromkeys(("Crank", "Link", "Mechanism", "PathDriver", "builtin_mechanisms", "load_mechanism"), "mechanism"),
     **dict.fromkeys(("Grashof", "grashof", "make_plan"), "plan"),
     **dict.fromkeys(("Results", "open_results"), "store"),
-    **dict.fromkeys(("RunSummary", "Study", "load_study", "recompute_metrics", "run_optimize", "run_study",
+    **dict.fromkeys(("RunSummary", "Study", "load_study", "run_optimize", "run_study",
                      "run_study_dask", "sample_variants"), "study"),
-    **dict.fromkeys(("sensitivity", "tolerance", "tolerance_summary"), "study"),
+    **dict.fromkeys(("recompute_metrics", "sensitivity", "tolerance", "tolerance_summary"), "analysis"),
 }
 
 
 #: the subpackages, reachable as attributes (``explorer.gait``) like any imported submodule
-_SUBPACKAGES = ("bench", "cli", "edit", "gait", "kernels", "mechanism", "plan", "store", "study", "view")
+_SUBPACKAGES = ("analysis", "bench", "cli", "edit", "fabrication", "gait", "kernels", "mechanism", "plan", "store", "study", "view", "wrist")
 
 
 def __getattr__(name: str):

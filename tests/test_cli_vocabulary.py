@@ -188,7 +188,7 @@ def test_plot_units_si(small, tmp_path, capsys):
 def test_a_toy_export_format_is_one_registry_entry(small, tmp_path, capsys):
     """Adding an export format is one register_export call and its code: the CLI's --as choices and help, the
     extension lookup and the dispatch all follow."""
-    from explorer.view import EXPORT_FORMATS, EXPORTS, ExportFormat, register_export
+    from explorer.fabrication import EXPORT_FORMATS, EXPORTS, ExportFormat, register_export
 
     def write_json(job):
         job.out.write_text(json.dumps({"variant": job.variant, "links": {k.name: k.length for k in job.mechanism.links}}))

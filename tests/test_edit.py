@@ -419,7 +419,7 @@ def test_yield_on_demand_is_design_yield(client):
 @pytest.mark.slow
 def test_results_file_ranking_and_a_variant_loaded(tmp_path):
     from explorer.edit import make_app
-    from explorer.view import variant_design
+    from explorer.fabrication import variant_design
 
     out = explorer.run_study({"study": {"name": "ed", "mechanism": "jansen", "variants": 40, "seed": 3, "steps": 72},
                               "perturb": {"method": "uniform", "spread": 0.03}, "scene": {"metrics": True}},

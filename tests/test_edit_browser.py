@@ -372,7 +372,7 @@ def test_a_body_joint_and_a_slider_drag_in_the_page(page):
 
 
 def test_a_results_files_ranking_loads_a_design(page, pngs, tmp_path_factory):
-    from explorer.view import variant_design
+    from explorer.fabrication import variant_design
 
     session, srv, drv, _ = page
     root = tmp_path_factory.mktemp("edit-study")

@@ -37,7 +37,7 @@ import pytest
 import explorer
 from explorer.cli import main
 from explorer.mechanism import mechanism_from_dict
-from explorer.view import mechanism_toml
+from explorer.fabrication import mechanism_toml
 
 SVG = "{http://www.w3.org/2000/svg}"
 STEPS = 48

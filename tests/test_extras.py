@@ -81,7 +81,8 @@ def test_saltelli_sampling_without_sensitivity_extra(monkeypatch):
 
 
 def test_library_calls_raise_an_import_error_naming_the_extra(monkeypatch, tmp_path):
-    from explorer.study import run_optimize, sensitivity
+    from explorer.analysis import sensitivity
+    from explorer.study import run_optimize
     from explorer.view import write_report
     for module, call in [("plotly", lambda: write_report(tmp_path / "a.h5", tmp_path / "a.html")),
                          ("pymoo", lambda: run_optimize("default")),
@@ -107,7 +108,7 @@ def test_every_verb_loads_without_the_heavy_libraries():
 import sys
 for m in {sorted(EXTRAS) + ['dask', 'distributed']!r}:
     sys.modules[m] = None
-import explorer, explorer.view, explorer.study, explorer.gait, explorer.store
+import explorer, explorer.view, explorer.study, explorer.analysis, explorer.gait, explorer.store
 from explorer.cli import build_parser
 help = build_parser().format_help()
 assert "unavailable" not in help, help

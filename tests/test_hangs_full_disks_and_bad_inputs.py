@@ -512,7 +512,7 @@ def test_metrics_writes_a_copy_and_renames_it(small, tmp_path, monkeypatch):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(w, "replace_with", broken)
-    from explorer.testing import study_metrics as m
+    from explorer.testing import analysis_metrics as m
     monkeypatch.setattr(m, "replace_with", broken)
     with pytest.raises(UserError, match="the disk is full .* is unchanged"):
         explorer.recompute_metrics(path, band=0.02)

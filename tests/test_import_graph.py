@@ -1,7 +1,8 @@
 """No import circles in explorer: the graph of which module imports which (every ``import`` statement, at the
 top of a module or inside a function, outside ``if TYPE_CHECKING``) has no cycle, so no two files import
 each other, directly or in a loop; and the pipeline's packages import one way (mechanism -> plan -> kernels
--> gait -> store -> study -> view -> cli)."""
+-> wrist -> gait -> store -> study -> analysis -> fabrication -> view -> cli); and every name that moved to another room
+(issue 40) is still importable from its old package, as the very object at its new home."""
 
 from __future__ import annotations
 
@@ -75,7 +76,7 @@ def test_the_graph_sees_lazy_and_relative_imports():
     relative imports resolve to the module."""
     graph = import_graph()
     assert "explorer.study._chunk" in graph["explorer.study._run"]  # top level, relative
-    assert "explorer.view._kit_sheet" in graph["explorer.view._kit"]
+    assert "explorer.fabrication._kit_sheet" in graph["explorer.fabrication._kit"]
     assert "explorer.gait" in graph["explorer.study._spec"]
 
 
@@ -85,7 +86,7 @@ def test_no_import_cycles():
         " <-> ".join(c) for c in found)
 
 
-PIPELINE = ("mechanism", "plan", "kernels", "gait", "store", "study", "view", "cli")
+PIPELINE = ("mechanism", "plan", "kernels", "wrist", "gait", "store", "study", "analysis", "fabrication", "view", "cli")
 
 
 def test_packages_import_one_way():
@@ -102,3 +103,22 @@ def test_packages_import_one_way():
             if len(d) > 1 and d[1] in PIPELINE and PIPELINE.index(d[1]) > here:
                 back.append(f"{name} -> {dep}")
     assert not back, "imports running back up the pipeline: " + ", ".join(sorted(back))
+
+
+def test_moved_names_still_import_from_their_old_package():
+    """Each name in explorer._moved.MOVED: the old spelling warns and gives the new home's object."""
+    import importlib
+    import warnings
+
+    from explorer.testing import MOVED
+    for package in ("explorer.kernels", "explorer.study", "explorer.view"):
+        importlib.import_module(package)
+    assert MOVED, "no moved names registered"
+    for package, names in MOVED.items():
+        old = importlib.import_module(package)
+        for name, home in names.items():
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                value = getattr(old, name)
+            assert value is getattr(importlib.import_module(home), name), f"{package}.{name}"
+            assert any(issubclass(w.category, DeprecationWarning) and home in str(w.message) for w in caught)

@@ -245,7 +245,7 @@ def test_designs_of_a_2pct_study_are_clear(tmp_path, capsys):
     capsys.readouterr()
     with explorer.open_results(tmp_path / "r.h5") as res:
         ok = [v for v in range(1, res.n_variants) if res.frame().iloc[v]["status"] == "ok"][:2]
-        designs = [explorer.view.variant_design(res, v) for v in ok]
+        designs = [explorer.fabrication.variant_design(res, v) for v in ok]
     assert len(designs) == 2
     for v, mech in zip(ok, designs):
         kit = build_kit(mech)

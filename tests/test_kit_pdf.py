@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from explorer import load_mechanism
-from explorer.view import build_kit
+from explorer.fabrication import build_kit
 
 pdfium = pytest.importorskip("pypdfium2")
 

@@ -3,7 +3,7 @@
 * a stored series (explorer.store._datasets.SERIES): the writer creates and fills it, ``Results.series``
   reads it, the integrity checks cover it and a lean file re-solves it, all from the one entry;
 * a metric group (explorer.gait._metrics.GROUPS) says where it applies, with no chain of special cases;
-* the export formats (explorer.view.EXPORTS) are tested in test_cli_vocabulary.py (a toy format).
+* the export formats (explorer.fabrication.EXPORTS) are tested in test_cli_vocabulary.py (a toy format).
 """
 
 from __future__ import annotations

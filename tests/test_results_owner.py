@@ -13,7 +13,7 @@ import pytest
 import explorer
 from explorer import UserError, open_results, run_study
 from explorer.store import DATASETS, dataset_spec, is_results
-from explorer.study import recompute_metrics
+from explorer.analysis import recompute_metrics
 
 STUDY = {
     "study": {"name": "owner", "mechanism": "jansen", "variants": 12, "seed": 5, "steps": 36},

@@ -17,7 +17,7 @@ from explorer import UserError, open_results, run_study
 from explorer.gait import DIRECTIONS, TARGET_METRICS
 from explorer.gait import BY_NAME, FORCE_METRICS, ROBUSTNESS_METRICS
 from explorer.gait import METRICS as ALL_METRICS
-from explorer.study import recompute_metrics
+from explorer.analysis import recompute_metrics
 
 #: every metric a leg study stores (path synthesis's path_error needs a [target] path, the forces effect's
 #: need [scene] forces)

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from explorer.cli import main
-from explorer.kernels import (INTERPOLATIONS, SEQUENCES, check_sequence, euler_sets, interpolate, orthonormality_defect,
-                              track, wrist_path)
+from explorer.wrist import (INTERPOLATIONS, SEQUENCES, check_sequence, euler_sets, interpolate, orthonormality_defect,
+                            track, wrist_path)
 
 D = math.radians
 
@@ -322,7 +322,8 @@ def _arm(tmp_path, orientation, name="armw.toml"):
 
 
 def test_arm_builtin_wrist_reaches_the_seed_sets_on_both_branches(tmp_path):
-    from explorer.kernels import simulate, wrist_for
+    from explorer.kernels import simulate
+    from explorer.wrist import wrist_for
     from explorer.mechanism import load_mechanism, mechanism_from_dict, mechanism_toml, parse_toml
 
     arm = load_mechanism("arm")

@@ -3,7 +3,7 @@
 How the indices are checked. Every synthetic model goes through the same code path as a study: a real
 study (Jansen's leg, four links perturbed) is run into an HDF5 results file, then its ``/metrics/travel``
 dataset is overwritten (plain h5py) with a function of the *stored* sampled lengths whose indices are
-known in closed form, and the file is analysed by ``explorer.study.sensitivity(path)`` and by the
+known in closed form, and the file is analysed by ``explorer.analysis.sensitivity(path)`` and by the
 ``explorer sensitivity`` command. The references are written here from the closed forms:
 
 * the Ishigami function (a = 7, b = 0.1) of the first three parameters rescaled to [−π, π]; the fourth is
@@ -33,7 +33,8 @@ import pytest
 
 from explorer import open_results, run_study
 from explorer.cli import main
-from explorer.study import Sampler, load_study, sensitivity, tolerance, tolerance_summary
+from explorer.analysis import sensitivity, tolerance, tolerance_summary
+from explorer.study import Sampler, load_study
 
 P = ["1-3", "3-4", "2-3", "5-7"]  # four links; the synthetic models use the first three
 SPREAD = 0.01                      # at ±1 % on these links every variant turns

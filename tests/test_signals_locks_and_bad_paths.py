@@ -371,7 +371,7 @@ def test_svg_is_well_formed_whatever_a_name_holds(tmp_path):
     """A Mechanism built in Python is not checked by the loader: the SVG writers keep the XML well-formed."""
     import dataclasses
     import xml.dom.minidom
-    from explorer.view import build_kit, export_svg, write_kit
+    from explorer.fabrication import build_kit, export_svg, write_kit
     mech = dataclasses.replace(explorer.load_mechanism("jansen"), name="jan\x01sen\x1b")
     export_svg(mech, tmp_path / "parts.svg")
     xml.dom.minidom.parse(str(tmp_path / "parts.svg"))

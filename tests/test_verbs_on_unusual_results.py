@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from explorer.cli import main
-from explorer.study import tolerance
+from explorer.analysis import tolerance
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -212,7 +212,7 @@ def _study(tmp_path, **extra):
 
 def test_a_study_stores_yield_equal_to_the_designs_yield(tmp_path):
     from explorer.store import open_results
-    from explorer.study import results_yield
+    from explorer.analysis import results_yield
     study = load_study(_study(tmp_path))
     run_study(study, output=tmp_path / "y.h5", progress=False)
     with open_results(tmp_path / "y.h5") as r:

@@ -18,7 +18,7 @@ and time (``explorer bench rotations``):
   unnormalised in Rodrigues' formula; the seed's formula also has a typo in element (1,3), not copied);
 * per row: the orthonormality defect (max ‖RᵀR − I‖_F and max |det R − 1|), the geodesic deviation (max
   angle to the slerp rotation at the same time), the swept angle against the geodesic's, the angular-speed
-  ripple (see :class:`explorer.kernels.WristPath`), and the evaluation time per sample as a ratio to slerp
+  ripple (see :class:`explorer.wrist.WristPath`), and the evaluation time per sample as a ratio to slerp
   measured in the same run.
 
 All angles in the report are degrees; times microseconds.
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..kernels import interpolate, orthonormality_defect, project, relative_angle, wrist_path
+from ..wrist import interpolate, orthonormality_defect, project, relative_angle, wrist_path
 
 #: The seed's published figures.
 SEED_R_PRINTED = np.array([[0.3336, -0.8379, 0.3536], [0.8173, 0.4550, 0.3536], [-0.4698, 0.1710, 0.8660]])
@@ -109,7 +109,7 @@ class RotationsReport:
 
     rows: list[dict] = field(default_factory=list)
     frames: dict = field(default_factory=dict)
-    wrists: dict = field(default_factory=dict)  # label -> explorer.kernels.WristPath (not the seed's 4-vector row)
+    wrists: dict = field(default_factory=dict)  # label -> explorer.wrist.WristPath (not the seed's 4-vector row)
     facts: dict = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
 
@@ -337,7 +337,7 @@ WRIST_COLUMNS = ("t_s", "s", "q1_rad", "q2_rad", "q3_rad", "q1_rate_rad_s", "q2_
 
 
 def write_wrist_csv(wrist, path) -> Path:
-    """One :class:`explorer.kernels.WristPath` as CSV, one row per sample (:data:`WRIST_COLUMNS`); a joint
+    """One :class:`explorer.wrist.WristPath` as CSV, one row per sample (:data:`WRIST_COLUMNS`); a joint
     rate is ``inf`` at an exact gimbal lock (q1 and q3 split undefined)."""
     from .._files import write_replacing
 

@@ -9,7 +9,7 @@ callable taking the parsed ``argparse.Namespace`` and returning an exit code or 
         p.set_defaults(func=run)
 
 Modules are discovered automatically (no edit here needed to add a verb). A verb formats what
-library calls return (``Results.rank``, ``Results.row``, ``explorer.study.sensitivity``, ...), so a
+library calls return (``Results.rank``, ``Results.row``, ``explorer.analysis.sensitivity``, ...), so a
 Python user can get every figure it prints; shared argument types (``--top``, ``--weights``, a
 variant, whole numbers) are in :mod:`._args` and the one table formatter in :mod:`._format`. A
 :class:`~explorer.errors.UserError` raised by a verb is printed as one line on stderr

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 
 def register(sub) -> None:
-    from .._exports import EXPORTS
+    from ..fabrication import EXPORTS
     from ._args import add_old, add_old_positional_variant, add_output, add_variant
 
     p = sub.add_parser(
@@ -137,13 +137,13 @@ def _kit_command(args, chosen) -> str:
 def kit_options(args) -> dict:
     """Every kit option checked (one line naming the option and the value, before anything is read or written)."""
     from ..errors import UserError
-    from ..view._kit_chassis import motor_pattern
+    from ..fabrication import motor_pattern
     out = {attr: parse_mm(opt, getattr(args, attr), hi, what) for opt, attr, hi, what in KIT_SIZES}
     if out["scale"] is not None and out["crank_mm"] is not None:
         raise UserError(f"--scale {args.scale} and --crank-mm {args.crank_mm}: each sets the build's size; give one")
     out["sheet"] = parse_sheet(args.sheet) if args.sheet is not None else (600.0, 400.0)
     if args.motor_holes is not None:
-        from ..view._kit import MOTOR_SHAFT
+        from ..fabrication import MOTOR_SHAFT
         motor_pattern(args.motor_holes, MOTOR_SHAFT if out["motor_shaft"] is None else out["motor_shaft"])
     if args.undersized and out["hole"] is None:
         raise UserError("--undersized: it goes with --hole (a pin diameter below what a joint's force needs)")
@@ -151,7 +151,7 @@ def kit_options(args) -> dict:
 
 
 def run(args) -> int:
-    from .._exports import EXPORTS, export_format, export_variant
+    from ..fabrication import EXPORTS, export_format, export_variant
     from ._args import chosen_variant
 
     fmt = export_format(args.fmt, args.output)

@@ -41,7 +41,7 @@ def parse_band(text):
 
 
 def run(args) -> int:
-    from ..study import recompute_metrics
+    from ..analysis import recompute_metrics
     band = parse_band(args.band)
     out = recompute_metrics(args.results, band=band, names=args.metrics, progress=not args.quiet)
     if args.quiet:

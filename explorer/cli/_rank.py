@@ -113,7 +113,7 @@ def check_yield_arguments(args) -> None:
 
 def yields(res, args, variants) -> tuple[dict, object]:
     """({variant: (yield, standard error)}, Robustness) of ``variants`` for --yield [TOL] [--copies N]."""
-    from ..study import results_robustness, results_yield
+    from ..analysis import results_robustness, results_yield
     from ._args import whole
 
     copies = whole(args.copies, "--copies", 2) if args.copies is not None else None

@@ -64,7 +64,7 @@ def _pct(p: float) -> str:
 
 def summary_lines(summary, indices) -> list[str]:
     """The tolerance summary, in words."""
-    from ..study import INDEX_NAMES
+    from ..analysis import INDEX_NAMES
     lines = ["tolerance summary (sampled variants; variant 0, the nominal, is no sample; ± binomial standard error):"]
     method = indices.attrs.get("method", "")
     s1 = indices[(indices["output"] == "fails") & (indices["index"] == "S1")]["value"]
@@ -110,7 +110,7 @@ def index_table(indices, top: int | None) -> str:
     """Per output, its parameters largest first (by the method's main index), every index side by side."""
     import pandas as pd
 
-    from ..study import main_index
+    from ..analysis import main_index
     method = str(indices["method"].iloc[0])
     names = list(dict.fromkeys(indices["index"]))
     first = main_index(method, "metric")
@@ -146,8 +146,8 @@ def index_table(indices, top: int | None) -> str:
 def run(args) -> int:
     from .._extras import require
     from ..store import open_results
-    from ..study import sensitivity, tolerance_summary
-    from ..study import INDEX_NAMES
+    from ..analysis import sensitivity, tolerance_summary
+    from ..analysis import INDEX_NAMES
 
     require("SALib", "explorer sensitivity")
     top = top_count(args.top, 5)

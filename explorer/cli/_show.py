@@ -97,7 +97,7 @@ def _robustness_lines(res, args, v: int, ref: int, row, ref_row) -> list[str]:
     """Will it survive the workshop: the variant's and the reference's yield ± binomial standard error
     (re-solved with --yield [TOL], else the stored metric with the study's [robustness]), and a warning
     under :data:`YIELD_WARNING`. [] when neither is asked for nor stored."""
-    from ..study import results_robustness
+    from ..analysis import results_robustness
     check_yield_arguments(args)
     if args.yield_tol is not None:
         ys, rb = yields(res, args, [v, ref])

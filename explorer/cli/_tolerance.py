@@ -67,9 +67,9 @@ def _pct(s: float) -> str:
 def run(args) -> int:
     from ..errors import UserError
     from ._args import whole as _whole
-    from ..study import tolerance
+    from ..analysis import tolerance
 
-    from ..study import PARAMETER_SETS, PARAMETER_WORDS
+    from ..analysis import PARAMETER_SETS, PARAMETER_WORDS
     params = "all"
     if args.parameters is not None:
         params = args.parameters.strip()

@@ -228,7 +228,7 @@ class EditSession:
         one of :data:`SAVE_FORMATS`. Returns {"written": [paths]}; with ``check``, writes nothing and
         returns {"exists": [the paths it would replace]}."""
         from .._files import output_path
-        from ..view import build_kit, export_dxf, export_svg, export_toml, write_kit
+        from ..fabrication import build_kit, export_dxf, export_svg, export_toml, write_kit
 
         mech = self.parse(data)
         if fmt not in SAVE_FORMATS:

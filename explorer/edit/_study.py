@@ -2,7 +2,7 @@
 to load, and the yield of the design being edited.
 
 Everything comes from the library: ``Results.rank`` (the ranking ``explorer rank`` prints, screen and
-default score included), the results frame, ``explorer.view.variant_design`` (the design ``explorer export
+default score included), the results frame, ``explorer.fabrication.variant_design`` (the design ``explorer export
 --format toml`` writes, its guess on the branch the study solved) and ``explorer.study.design_yield``.
 """
 
@@ -72,7 +72,7 @@ class Study:
 
     def design(self, variant) -> Mechanism:
         """The design of ``variant`` as ``explorer export --as toml`` writes it."""
-        from ..view import variant_design
+        from ..fabrication import variant_design
 
         return variant_design(self.results, variant)
 

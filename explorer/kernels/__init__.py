@@ -10,12 +10,16 @@ from ._rows import parallel_rows  # noqa: E402
 from ._simulate import check_dense  # noqa: E402
 from ._simulate import (DEFAULT_TOLERANCE, METHODS, TOLERANCE_RANGE, STATUS_NAMES, Batch, Cycle, Failure, assemble,  # noqa: E402
                         branch_signs, plan_for, simulate, simulate_batch, vector_applies, warm_dyad)
-from ._wrist import (INTERPOLATIONS, SEQUENCES, GimbalLock, WristPath, check_sequence, euler_sets,  # noqa: E402
-                     interpolate, lock_distance, orthonormality_defect, project, relative_angle, track, wrist_for,
-                     wrist_path)
+from ._drive import LINEAR, QUINTIC, timing  # noqa: E402 - a prescribed driver's timing laws (explorer.wrist's too)
+from .._moved import moved  # noqa: E402
+
+#: the 3-D wrist moved to explorer.wrist (issue 40's rooms); importable from here for one release
+__getattr__ = moved(__name__, dict.fromkeys(
+    ("INTERPOLATIONS", "SEQUENCES", "GimbalLock", "WristPath", "check_sequence", "euler_sets", "interpolate",
+     "lock_distance", "orthonormality_defect", "project", "relative_angle", "track", "wrist_for", "wrist_path"),
+    "explorer.wrist"))
 
 __all__ = ["check_dense", "lu_solve", "is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "branch_signs", "ground_contact", "leg_feet", "leg_samples",
            "parallel_rows",
            "plan_for", "simulate", "simulate_batch", "vector_applies", "warm_dyad",
-           "INTERPOLATIONS", "SEQUENCES", "GimbalLock", "WristPath", "check_sequence", "euler_sets", "interpolate",
-           "lock_distance", "orthonormality_defect", "project", "relative_angle", "track", "wrist_for", "wrist_path"]
+           "LINEAR", "QUINTIC", "timing"]

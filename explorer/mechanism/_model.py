@@ -190,7 +190,7 @@ class Orientation:
                 for g in (self.euler or (None,) * len(self.keyframes))]
 
 
-#: Orientation interpolations (:class:`Orientation`), one home: explorer.kernels interpolates them.
+#: Orientation interpolations (:class:`Orientation`), one home: explorer.wrist interpolates them.
 INTERPOLATIONS = ("slerp", "spline", "matrix", "euler", "axis-angle")
 #: The 12 Euler sequences (upper case: intrinsic; the lower-case spelling of each is its extrinsic reading).
 EULER_SEQUENCES = tuple(a + b + c for a in "XYZ" for b in "XYZ" for c in "XYZ" if a != b and b != c)

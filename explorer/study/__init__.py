@@ -8,11 +8,10 @@ take ``client=`` (a ``dask.distributed.Client``) to run on a Dask cluster: a stu
 task (``run_study_dask(client, study)`` is the same call), an optimisation each generation split over
 the workers. Module graph: ``_run`` → ``_dask`` → ``_cluster``/``_output``; ``_optimize`` →
 ``_cluster``/``_designs``/``_output``; no runner imports another's private names;
-``recompute_metrics(path, band=...)`` redoes the gait metrics of a results file without re-solving;
-``sensitivity(path)`` and ``tolerance_summary(path)`` say which dimensions matter (SALib's global
-indices from the samples in a results file); ``tolerance(mechanism, target=0.99)`` finds the spread at
-which a share of the legs still walks, by bisection; ``design_yield`` / ``results_yield`` give the
-``yield`` of designs: the share of copies cut with a ``[robustness]`` error that still walk.
+``design_yield`` gives the ``yield`` of designs: the share of copies cut with a ``[robustness]`` error
+that still walk (a running study computes it as a metric). What a results file says once written
+(sensitivity, tolerance, the yield of stored designs, recomputed metrics) is :mod:`explorer.analysis`'s;
+its names are still importable from here for one release (:mod:`explorer._moved`).
 ``build_atlas(mechanism, designs)`` / ``open_atlas(path)`` are the curve atlas (``explorer atlas``) and
 ``synthesize(target, mechanism=...)`` its look-up and polish (``explorer synth``).
 """
@@ -20,7 +19,6 @@ which a share of the legs still walks, by bisection; ``design_yield`` / ``result
 from ._best import best_design
 from ._cluster import dask_client, require_dask
 from ._dask import run_study_dask
-from ._metrics import recompute_metrics
 from ._hypervolume import REFERENCE as HYPERVOLUME_REFERENCE, Hypervolume, hypervolume_history, hypervolume_per_generation
 from ._objectives import ALGORITHMS, Optimize, feasible_mask, objective_matrix
 from ._polish import BatchedLMResult, PathResiduals, PolishResult, batched_lm, distinct_best, multistart, polish
@@ -31,21 +29,25 @@ from ._optimize import OptimizeSummary, final_front, front_history, optimization
 from ._run import RunSummary, Terminated, run_study
 from ._sample import (BLOCK, Sampler, apply_multipliers, apply_samples, saltelli_design, sample_variants,
                       study_sampler, study_variants)
-from ._sensitivity import INDEX_METHODS, INDEX_NAMES, main_index, sensitivity, sensitivity_frame, summary_frame, tolerance_summary
 from ._spec import (MAX_VARIANTS, STUDY_KEYS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHODS, Study, builtin_studies,
                     default_study_text, dumps_toml, load_study, study_from_dict, variant_count)
-from ._tolerance import PARAMETER_SETS, PARAMETER_WORDS, ToleranceResult, tolerance
-from ._yield import (Robustness, YieldResult, design_yield, results_robustness, results_yield,
-                     robustness_from_dict)
+from ._yield import DEFAULT_COPIES, Robustness, YieldResult, design_yield, robustness_from_dict, split_parameters
+from .._moved import moved
 
-__all__ = ["STUDY_KEYS", "HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_history", "hypervolume_per_generation", "dask_client", "require_dask", "INDEX_NAMES", "main_index", "PARAMETER_SETS", "PARAMETER_WORDS", "ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
-           "run_optimize", "Terminated", "BLOCK", "INDEX_METHODS", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
-           "RunSummary", "Sampler", "Study", "ToleranceResult", "apply_multipliers", "apply_samples", "builtin_studies",
-           "default_study_text", "dumps_toml", "load_study", "recompute_metrics", "run_study", "run_study_dask",
-           "saltelli_design", "sample_variants", "sensitivity", "sensitivity_frame", "study_from_dict", "study_sampler",
-           "study_variants", "summary_frame", "tolerance", "tolerance_summary", "variant_count",
+#: names that moved to explorer.analysis (issue 40's rooms), importable from here for one release
+__getattr__ = moved(__name__, dict.fromkeys(
+    ("INDEX_METHODS", "INDEX_NAMES", "PARAMETER_SETS", "PARAMETER_WORDS", "ToleranceResult", "main_index",
+     "recompute_metrics", "results_robustness", "results_yield", "sensitivity", "sensitivity_frame",
+     "summary_frame", "tolerance", "tolerance_summary"), "explorer.analysis"))
+
+__all__ = ["STUDY_KEYS", "HYPERVOLUME_REFERENCE", "Hypervolume", "hypervolume_history", "hypervolume_per_generation", "dask_client", "require_dask", "ALGORITHMS", "Optimize", "OptimizeSummary", "feasible_mask", "final_front", "front_history", "objective_matrix", "optimization_of",
+           "run_optimize", "Terminated", "BLOCK", "MAX_VARIANTS", "PERTURB_METHODS", "SAMPLED_METHODS", "SOLVE_METHODS",
+           "RunSummary", "Sampler", "Study", "apply_multipliers", "apply_samples", "builtin_studies",
+           "default_study_text", "dumps_toml", "load_study", "run_study", "run_study_dask",
+           "saltelli_design", "sample_variants", "study_from_dict", "study_sampler",
+           "study_variants", "variant_count",
            "BatchedLMResult", "PathResiduals", "PolishResult", "batched_lm", "distinct_best", "multistart", "polish",
-           "Robustness", "YieldResult", "design_yield", "results_robustness", "results_yield", "robustness_from_dict",
+           "Robustness", "YieldResult", "design_yield", "robustness_from_dict",
            "ConstrainedResiduals", "polish_constrained", "scout_and_polish", "ATLAS_FAMILIES", "Atlas", "AtlasSpec",
            "atlas_dir", "atlas_spec", "build_atlas", "open_atlas", "SynthSummary", "synthesize"]
-__all__ += ["best_design"]
+__all__ += ["best_design", "DEFAULT_COPIES", "split_parameters"]

@@ -213,7 +213,7 @@ def _copies(mech: Mechanism, X: np.ndarray, U: np.ndarray, robustness: Robustnes
     return Xc.reshape(m * K, P)
 
 
-def _split(mech: Mechanism, Xc: np.ndarray):
+def split_parameters(mech: Mechanism, Xc: np.ndarray):
     """(lengths (n, n_links), crank (n,) or None, geometry {coordinate: (n,)}) of full designs Xc (n, P)."""
     names = list(mech.parameters())
     col = {p: j for j, p in enumerate(names)}
@@ -272,7 +272,7 @@ def design_yield(mech: Mechanism, lengths, crank=None, geometry: dict | None = N
     for a in range(0, n, per_call):
         b = min(n, a + per_call)
         Xc = _copies(mech, X[a:b], U, robustness)
-        L, r, geo = _split(mech, Xc)
+        L, r, geo = split_parameters(mech, Xc)
         batch = simulate_batch(mech, L, r, steps, geometry=geo or None, vertices=[foot], velocities=need_vel,
                                tolerance=tolerance if tolerance is not None else DEFAULT_TOLERANCE, method=method)
         status = np.asarray(batch.status)
@@ -288,54 +288,3 @@ def design_yield(mech: Mechanism, lengths, crank=None, geometry: dict | None = N
                 good = screened[0]
         count[a:b] = good.reshape(b - a, K).sum(axis=1)
     return YieldResult(share=count / K, count=count, copies=K, robustness=robustness)
-
-
-def results_robustness(results, text: str | None = None, copies: int | None = None) -> Robustness:
-    """The :class:`Robustness` of an open results file: from a command line's tolerance ``text``
-    ("0.5%", "0.1mm", "0.02" model units; ``copies`` per design, default 256), or else the study's own
-    ``[robustness]`` table (UserError naming the file if it has none)."""
-    mech = results.mechanism
-    if text:
-        return parse_tolerance(text, results.operating, "--yield", mech, copies or DEFAULT_COPIES)
-    table = results.study.get("robustness")
-    if not table:
-        raise UserError(f"{results.filename}: its study has no [robustness] table; give the tolerance to cut "
-                        f"copies with (e.g. --yield 0.5%)")
-    return robustness_from_dict(table, f"{results.filename} (its study)", mech, results.operating)
-
-
-def results_yield(results, variants, robustness: Robustness | None = None) -> YieldResult:
-    """The yield of some variants of an open results file (:class:`explorer.store.Results`), re-solved
-    as its study solved them (steps, tolerance, method, screen). ``robustness``: None for the study's
-    own ``[robustness]`` table (:func:`results_robustness`)."""
-    study = results.study
-    mech = results.mechanism
-    if robustness is None:
-        robustness = results_robustness(results)
-    frame = results.frame()
-    designs = [results.design(int(v), frame) for v in variants]
-    names = list(mech.parameters())
-    X = np.array([[d[p] for p in names] for d in designs], dtype=np.float64).reshape(len(designs), len(names))
-    L, r, geo = _split(mech, X)
-    st = study.get("study", {})
-    return design_yield(mech, L, r, geo, robustness=robustness, steps=results.steps, tolerance=st.get("tolerance"),
-                        method=st.get("method", "block"), screen=results.screen)
-
-
-def parse_tolerance(text: str, operating: Operating | None, source: str, mech: Mechanism, copies: int,
-                    distribution: str = "uniform", seed: int = 0) -> Robustness:
-    """A command line's tolerance: "0.5%", "0.1mm" or "0.02" (model units) → :class:`Robustness`."""
-    s = str(text).strip().replace(" ", "")
-    unit = "model"
-    for suffix, u in (("%", "%"), ("mm", "mm")):
-        if s.endswith(suffix):
-            s, unit = s[: -len(suffix)], u
-    try:
-        value = float(s)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value > 0 and (unit != "%" or value <= 50)):
-        raise UserError(f"{source}: expected a tolerance > 0 such as 0.5% (relative, at most 50%), 0.1mm or 0.02 "
-                        f"(model units), got {text!r}")
-    return robustness_from_dict({"tolerance": value, "unit": unit, "copies": copies, "distribution": distribution,
-                                 "seed": seed}, source, mech, operating, key="")

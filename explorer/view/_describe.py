@@ -38,7 +38,7 @@ def _wrist(mech) -> dict:
     (the wrist's angles, degrees) and the gimbal locks on its path (at 1,001 samples)."""
     from scipy.spatial.transform import Rotation
 
-    from ..kernels import wrist_for
+    from ..wrist import wrist_for
 
     o = mech.path.orientation
     w = wrist_for(mech)

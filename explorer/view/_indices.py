@@ -18,10 +18,10 @@ MAIN_COLOR, SECOND_COLOR = "#1f77b4", "#ff7f0e"
 
 
 def plot_indices(indices, outputs=None, *, columns: int | None = None, figsize=None, dpi: float = 100):
-    """Sensitivity indices (the frame of :func:`explorer.study.sensitivity`) as horizontal bars with
+    """Sensitivity indices (the frame of :func:`explorer.analysis.sensitivity`) as horizontal bars with
     their intervals, one panel per output (``outputs``: a subset, in that order), parameters sorted by
     the method's main index, largest on top. Returns a matplotlib Figure."""
-    from ..study import INDEX_NAMES, main_index
+    from ..analysis import INDEX_NAMES, main_index
     if indices is None or len(indices) == 0:
         raise UserError("sensitivity plot: no indices to draw")
     names = list(dict.fromkeys(indices["output"]))

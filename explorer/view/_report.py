@@ -593,7 +593,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     yield_note = ""
     if "yield" in mets and "yield" not in keys:  # will it survive the workshop: the stored yield, its settings
         keys.append("yield")
-        from ..study import results_robustness
+        from ..analysis import results_robustness
         rb = results_robustness(res)
         yield_note = (f"yield: the share of copies, {rb.describe()}, that turn and pass the buildability screen "
                       f"(binomial standard error √(p(1 − p)/{rb.copies}): ±{math.sqrt(0.25 / rb.copies):.3f} at "
@@ -750,14 +750,14 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
     :func:`explorer.gait.to_si`). An existing ``path`` is replaced only with ``force``; never the results file itself.
     """
     from .._extras import require
-    from ._export import _write, check_export_path
+    from .._files import output_path, write_replacing
     require("plotly", "explorer report")  # before anything is read
     protect = [results] if not hasattr(results, "file") else [getattr(results, "filename", None)]
-    out = check_export_path(path, force, protect=[p for p in protect if p is not None])
+    out = output_path(path, force, protect=[p for p in protect if p is not None])
     page, rep = _with_results(results, lambda res: build_report(
         res, metrics=metrics, max_designs=max_designs, paths=paths, shown=shown, points=points,
         reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines, vs=vs, units=units))
-    _write(out, lambda tmp: tmp.write_text(page, encoding="utf-8"))
+    write_replacing(out, lambda tmp: tmp.write_text(page, encoding="utf-8"))
     rep.path = out
     rep.bytes = out.stat().st_size
     return rep

@@ -37,9 +37,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from ..mechanism import EULER_SEQUENCES as SEQUENCES  # noqa: F401 - re-exported by explorer.kernels
+from ..mechanism import EULER_SEQUENCES as SEQUENCES  # noqa: F401 - re-exported by explorer.wrist
 from ..mechanism import INTERPOLATIONS, valid_sequence  # one home: the mechanism's [driver] orientation
-from ._drive import LINEAR, QUINTIC, timing
+from ..kernels import LINEAR, QUINTIC, timing
 
 #: A wrist angle this close (radians) to lock counts as *at* lock: q1/q3 split by continuity.
 _AT_LOCK = 1e-7

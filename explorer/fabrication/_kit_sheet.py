@@ -160,7 +160,7 @@ def copy_label(pl) -> str:
 
 
 def hole_segments(centre, d: float, normal_deg=None, depth: float = 0.0) -> list[tuple]:
-    """A hole's outline on the sheet (mm, y up) as :func:`explorer.view._export.svg_path` takes it: a circle
+    """A hole's outline on the sheet (mm, y up) as :func:`explorer.fabrication._export.svg_path` takes it: a circle
     (two half arcs), or a D-hole (``normal_deg``: the direction of the flat's outward normal, degrees; the
     flat ``depth`` mm inside the circle): two arcs of at most 180° and the flat's chord."""
     r = 0.5 * d

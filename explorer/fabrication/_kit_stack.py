@@ -467,7 +467,7 @@ WASHER = 0.5
 
 
 def clearance_line(kit) -> str:
-    """One line on the worst clearance found over the turn of ``kit`` (an :class:`explorer.view.Kit`)."""
+    """One line on the worst clearance found over the turn of ``kit`` (an :class:`explorer.fabrication.Kit`)."""
     c = kit.worst
     if c is None:
         return "nothing shares a layer with a pin, the shaft or another part"

@@ -58,7 +58,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from ..errors import UserError
-from ._spec import SAMPLED_METHODS
+from ..study import SAMPLED_METHODS
 
 #: The index methods, by the name ``--method`` takes.
 INDEX_METHODS = ("rbd-fast", "delta", "pawn", "sobol")
@@ -92,7 +92,7 @@ def _read(results):
         os.fspath(results)
     except TypeError:
         raise UserError(f"sensitivity: expected a results file (a path, a run_study summary or an open Results), "
-                        f"got {type(results).__name__} (for a results frame: explorer.study.sensitivity_frame)") from None
+                        f"got {type(results).__name__} (for a results frame: explorer.analysis.sensitivity_frame)") from None
     with open_results(results) as r:
         return _from_results(r)
 

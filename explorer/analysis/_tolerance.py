@@ -116,8 +116,8 @@ def share_at(mechanism, spread: float, *, variants: int = 1000, parameters=None,
     {spread, share, se, count, n, nominal_ok, meets: None, perturbed} (n = variants − 1: the nominal is no
     sample). ``parameters`` as for :func:`tolerance`."""
     from ..store import open_results
-    from ._run import run_study
-    from ._spec import load_study
+    from ..study import run_study
+    from ..study import load_study
     mech_ref = _mechanism_ref(mechanism)
     # the study's own errors name the mechanism the user gave, not an anonymous <dict>
     study = load_study(_study(mech_ref, spread, variants, parameters, seed, steps, criterion),

@@ -1,5 +1,5 @@
 """The export-format registry: what ``explorer export`` (and :func:`export_variant`) can write (public as
-``explorer.view.EXPORTS``, ``register_export``, ...; kept light here, so that ``explorer --help`` builds its
+``explorer.fabrication.EXPORTS``, ``register_export``, ...; kept light here, so that ``explorer --help`` builds its
 ``--as`` choices without loading the plotting and kit code, which each format's writer imports when it runs).
 
 Each format is one :class:`ExportFormat` entry of :data:`EXPORTS`: its name (``--as NAME``), its file
@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from .errors import UserError
+from ..errors import UserError
 
 
 @dataclass(frozen=True)
@@ -132,8 +132,8 @@ def export_variant(target, variant: int | None, output, *, as_: str | None = Non
     built-in name or a .toml; ``variant`` None) in the format ``as_`` (else ``output``'s extension) to
     ``output``; returns the summary line. ``options``: the format's options (its :attr:`ExportFormat.options`;
     another format's is a one-line UserError)."""
-    from .store import FILE_STATUS_NAMES, open_results
-    from .view._export import variant_design
+    from ..store import FILE_STATUS_NAMES, open_results
+    from ._export import variant_design
 
     fmt = export_format(as_, output)
     given = {k: v for k, v in (options or {}).items() if v is not None and v is not False}
@@ -163,7 +163,7 @@ def export_variant(target, variant: int | None, output, *, as_: str | None = Non
     if variant is not None:
         raise UserError(f"{target}: a mechanism has no variants; drop --variant {variant} (a variant goes with a "
                         f"results file)")
-    from .mechanism import load_mechanism
+    from ..mechanism import load_mechanism
     mech = load_mechanism(target)
     source = f"mechanism {target}" + (f" ({mech.source})" if mech.source and mech.source != str(target) else "")
     _check_crank(fmt, mech, target)
@@ -181,7 +181,7 @@ def _is_results_file(path) -> bool:
 
 
 def _check_output(fmt: ExportFormat, out: Path, force: bool, target) -> None:
-    from ._files import output_path
+    from .._files import output_path
     if fmt.extension is not None:
         output_path(out, force, protect=[target])
         return
@@ -190,7 +190,7 @@ def _check_output(fmt: ExportFormat, out: Path, force: bool, target) -> None:
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: cannot write the {fmt.name}: it is a file, not a folder")
     if fmt.name == "kit" and out.is_dir():  # the kit's files already there: each under the one policy
-        from .view._kit import KIT_FILES
+        from ._kit import KIT_FILES
         for name in KIT_FILES:
             if os.path.lexists(out / name):
                 output_path(out / name, force, protect=[target])
@@ -209,7 +209,7 @@ SHEET_OPTIONS = frozenset({"scale", "width", "hole"})
 def _sheet_writer(kind: str):
     """The writer of the cut sheet as ``kind`` ("svg" or "dxf")."""
     def write(job: ExportJob) -> str:
-        from .view._export import cut_sheet, export_dxf, export_svg
+        from ._export import cut_sheet, export_dxf, export_svg
         opts = {k: job.options.get(k) for k in ("scale", "width", "hole")}
         if opts["scale"] is None:
             opts["scale"] = 1.0
@@ -225,7 +225,7 @@ def _sheet_writer(kind: str):
 def _write_csv(job: ExportJob) -> str:
     import pandas as pd
 
-    from .view._export import export_csv
+    from ._export import export_csv
     path = export_csv(job.results, job.variant, job.out, force=job.force)
     cols = list(pd.read_csv(path, nrows=0).columns)
     return (f"wrote {os.fspath(path)}: variant {job.variant}, {job.results.steps} samples × {len(cols)} columns "
@@ -233,8 +233,8 @@ def _write_csv(job: ExportJob) -> str:
 
 
 def _write_toml(job: ExportJob) -> str:
-    from . import __version__
-    from .view._export import export_toml
+    from .. import __version__
+    from ._export import export_toml
     mech = job.mechanism
     header = (f"Exported by explorer {__version__}: variant {job.variant} of {job.results.filename} (status "
               f"{job.status}).\nRead it with explorer.load_mechanism(PATH), or run a study on it ([study] mechanism = "
@@ -250,11 +250,11 @@ KIT_OPTIONS = frozenset({"scale", "width", "hole", "thickness", "crank_mm", "she
 
 
 def _write_kit(job: ExportJob) -> str:
-    """The build kit of the design (:func:`explorer.view.build_kit`, :func:`explorer.view.write_kit`): the
+    """The build kit of the design (:func:`explorer.fabrication.build_kit`, :func:`explorer.fabrication.write_kit`): the
     pins and crankshaft sized from the study's stored forces where they are this build's, else from forces
     computed again for it."""
-    from .store import variant_peak_forces, variant_row, variant_torque
-    from .view._kit import build_kit, design_yield_note, kit_loads, material_of, write_kit
+    from ..store import variant_peak_forces, variant_row, variant_torque
+    from ._kit import build_kit, design_yield_note, kit_loads, material_of, write_kit
 
     o = job.options
     out, mech = job.out, job.mechanism

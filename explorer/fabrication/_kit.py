@@ -5,7 +5,7 @@ phases, mirrored legs) into a :class:`Kit` that turns:
 
 * **the parts**: every part once per leg (the frame plate, the crank arm, each link, each body, or a plate
   for each rigid triangle of links with ``plates=True``), the chassis' motor plate and end plate;
-* **the stack** (:mod:`explorer.view._kit_stack`): the layer of every part, chosen so that over the whole
+* **the stack** (:mod:`explorer.fabrication._kit_stack`): the layer of every part, chosen so that over the whole
   turn no part comes near a part of its layer, nor a pin, spacer, head, nut or the crankshaft on its
   layer, by more than the running clearance; the crankshaft runs through every layer (*through*), ends at
   an outboard crank arm (one leg), or is a crank with *throws* (an inner and an outer crank web per leg,
@@ -13,7 +13,7 @@ phases, mirrored legs) into a :class:`Kit` that turns:
 * **the crank**: crank arms (webs) fixed to the shaft by a D-flat, each at its leg's phase (the D-hole is
   turned in the arm by the phase, the shaft's flat is one straight flat); the legs one after the other
   along the shaft from the motor's end;
-* **the chassis** (:mod:`explorer.view._kit_chassis`): threaded-rod standoffs through every plate where
+* **the chassis** (:mod:`explorer.fabrication._kit_chassis`): threaded-rod standoffs through every plate where
   nothing turns, a motor plate with the motor's hole pattern, a shaft coupler, flanged bushings where
   the shaft passes a plate;
 * **the sizes**: pins from their joints' peak reactions, the crankshaft from the peak motor torque and the
@@ -200,7 +200,7 @@ class Kit:
     height) of one sheet, mm; placements : where each copy is cut; source : where the design came from;
     commands : the commands that made the kit; tolerance_note : the tolerance the design needs, if
     known; shaft, chassis : :class:`KitShaft`, :class:`KitChassis`; clearance : the checks over the turn
-    (:class:`explorer.view._kit_stack.Check`, worst first); samples, bound, running : how (samples of
+    (:class:`explorer.fabrication._kit_stack.Check`, worst first); samples, bound, running : how (samples of
     the turn; mm a distance may shrink between two; the running clearance, mm); torque : the peak motor
     torque, N·m, the sizes come from (None: none); notes : lines README.txt and bom.csv carry (where the
     forces come from, what was refused or undersized); forces : the joints' peak reactions, N, the pins come
@@ -278,7 +278,7 @@ class Kit:
 
     @property
     def worst(self):
-        """The worst clearance checked over the turn (a :class:`~explorer.view._kit_stack.Check`) or None."""
+        """The worst clearance checked over the turn (a :class:`~explorer.fabrication._kit_stack.Check`) or None."""
         return self.clearance[0] if self.clearance else None
 
 
@@ -894,7 +894,7 @@ def design_yield_note(mech: Mechanism, tolerance: float = 0.5, copies: int = 256
 
 
 # -- kit.json: the kit as data ---------------------------------------------------------------------------------
-#: The files of a kit folder, in the order written (assembly.pdf only where explorer.view._kit_pdf exists).
+#: The files of a kit folder, in the order written (assembly.pdf only where explorer.fabrication._kit_pdf exists).
 KIT_FILES = ("kit.json", "parts.svg", "parts.dxf", "bom.csv", "README.txt", "assembly.pdf")
 #: kit.json's format name and version (checks outside this repository read it).
 KIT_FORMAT = ("explorer build kit", 1)
@@ -1217,7 +1217,7 @@ def readme_text(kit: Kit, pdf: bool) -> str:
                                "the design takes."),
               "",
               "Made by:"]
-    lines += [f"  {c}" for c in kit.commands] or ["  explorer.view.write_kit (from Python)"]
+    lines += [f"  {c}" for c in kit.commands] or ["  explorer.fabrication.write_kit (from Python)"]
     return "\n".join(lines) + "\n"
 
 
@@ -1231,7 +1231,7 @@ def _pdf_writer():
 
 def write_kit(kit: Kit, folder, force: bool = False) -> list[Path]:
     """Write the kit folder ``folder``: kit.json, parts.svg, parts.dxf, bom.csv, README.txt, and assembly.pdf
-    where :mod:`explorer.view._kit_pdf` exists. The folder (and its parents) is created if missing; a file of
+    where :mod:`explorer.fabrication._kit_pdf` exists. The folder (and its parents) is created if missing; a file of
     the kit already there is kept (UserError naming it) unless ``force``. Everything is written to a
     temporary folder first and moved into place at the end: a failure leaves nothing half-written.
     Returns the paths written."""
