@@ -128,8 +128,10 @@ def test_every_verb_refuses_the_damaged_heap_and_run_force_replaces_it(small, tm
              ["plot", bad, "--top", "1", "-o", tmp_path / "x.png"], ["report", bad, "-o", tmp_path / "x.html"],
              ["metrics", bad, "--band", "0.02"], ["run", study, "-o", bad, "--resume", "-q"],
              ["physics", bad, "--variant", "0"]]
+    # the stall budget (3 CPU-s by default) made 1 here: each verb refuses the same way, sooner
     for argv in argvs:
-        p = python(f"import sys\nfrom explorer.cli import main\nsys.exit(main({[str(a) for a in argv]!r}))", cpu_s=60)
+        p = python(f"import sys\nfrom explorer.testing import store_guard as g\ng.STALL_CPU_S = 1.0\n"
+                   f"from explorer.cli import main\nsys.exit(main({[str(a) for a in argv]!r}))", cpu_s=60)
         assert p.returncode == 2, (argv, p.returncode, p.stderr[-500:])
         assert p.stderr.count("\n") == 1 and "damaged" in p.stderr, (argv, p.stderr)
         assert bad.read_bytes() == before
