@@ -119,3 +119,24 @@ def test_forces_path_velocities_and_accelerations_match_finite_differences(name)
         r = mech.crank.radius  # the tip's speed per radian and acceleration per radian²: the scale
         np.testing.assert_allclose(V, np.moveaxis(dP, 0, 1), rtol=0, atol=1e-6 * r)
         np.testing.assert_allclose(A, np.moveaxis(ddP, 0, 1), rtol=0, atol=1e-4 * r)
+
+
+def test_a_machine_that_does_not_travel_reads_zero_travel_in_the_walker_metrics_too():
+    """The walker metrics share the forces' rule (one home: kernels' contact_stroke): one leg's closed
+    foot path travels exactly 0 per turn, and the slip per unit of travel is NaN (it read 1e16 and more
+    when the travel was the rounding left in a sum). Reference: the contact foot is the only foot, so
+    the net stroke is Σ_k dx/dθ(θ_k), compared here with the total stroke Σ_k |dx/dθ| in plain numpy."""
+    from explorer.gait import compute_metrics
+    mech = _triad_with_masses()
+    c = explorer.simulate(mech, 360, walker=Walker(legs=1))
+    assert c.ok, c.failure
+    vx = c.velocity(mech.foot)[:, 0]
+    assert abs(vx.sum()) <= 1e-9 * np.abs(vx).sum()  # the premise, in numpy: only rounding is left
+    p, v = c.path(mech.foot)[None], c.velocity(mech.foot)[None]
+    out = compute_metrics(p, v, np.zeros(1, dtype=np.int64), ["travel", "slip", "body_speed_ripple"],
+                          mechanism=mech, walker=Walker(legs=1))
+    assert out["travel"][0] == 0.0
+    assert np.isnan(out["slip"][0])
+    # the body speed's ripple still reads the stroke (not the net): finite, as the numpy form gives
+    s = np.abs(vx)
+    assert out["body_speed_ripple"][0] == pytest.approx(np.sqrt(np.mean((s - s.mean()) ** 2)) / s.mean(), rel=1e-9)

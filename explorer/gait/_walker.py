@@ -45,7 +45,9 @@ At each sample, with Δ = 2π/S:
   ground): the tallest obstacle every foot steps over mid-swing.
 
 A variant whose status is not ok, or whose path or velocity holds a non-finite value, gets NaN.
-``travel`` = 0 makes ``slip`` NaN; a body speed whose mean is 0 makes ``body_speed_ripple`` NaN.
+``travel`` = 0 makes ``slip`` NaN (a net stroke within 1e-9 of the total stroke is rounding and reads 0:
+:func:`explorer.kernels.contact_stroke`, shared with the forces); a body speed whose mean is 0 makes
+``body_speed_ripple`` NaN.
 """
 
 from __future__ import annotations
@@ -55,7 +57,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..kernels import ground_contact, leg_feet, leg_samples, parallel_rows
+from ..kernels import contact_stroke, ground_contact, leg_feet, leg_samples, parallel_rows
 from ._runs import all_finite, longest_cyclic_run
 from ._table import WALKER_METRICS
 
@@ -147,18 +149,14 @@ def _walker_kernel(base, frac, sign, mirrored, drag, contact, paths, vel, status
         # -- ground, contact leg, body motion ----------------------------------------------------------
         gmin = np.inf
         gmax = -np.inf
-        sum_vx = 0.0
-        sum_s = 0.0
         ground_contact(Y, G, C)
         for k in range(S):
-            c = C[k]
             g = G[k]
             if g < gmin:
                 gmin = g
             if g > gmax:
                 gmax = g
-            sum_vx += VX[c, k]
-            sum_s += abs(VX[c, k])
+        sum_vx, sum_s = contact_stroke(VX, C)  # sum_vx exactly 0 for a walker that does not travel
         travel = abs(d * sum_vx)
         walk = 0.0
         if sum_vx < 0.0:

@@ -5,7 +5,7 @@ from ._cache import guard_cache, is_cached
 guard_cache()  # before any kernel is loaded from the on-disk cache
 
 from ..kinds._common import lu_solve  # noqa: E402
-from ._legs import ground_contact, leg_feet, leg_samples  # noqa: E402
+from ._legs import contact_stroke, ground_contact, leg_feet, leg_samples  # noqa: E402
 from ._rows import parallel_rows  # noqa: E402
 from ._simulate import check_dense  # noqa: E402
 from ._simulate import (DEFAULT_TOLERANCE, METHODS, TOLERANCE_RANGE, STATUS_NAMES, Batch, Cycle, Failure, assemble,  # noqa: E402
@@ -19,7 +19,7 @@ __getattr__ = moved(__name__, dict.fromkeys(
      "lock_distance", "orthonormality_defect", "project", "relative_angle", "track", "wrist_for", "wrist_path"),
     "explorer.wrist"))
 
-__all__ = ["check_dense", "lu_solve", "is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "branch_signs", "ground_contact", "leg_feet", "leg_samples",
+__all__ = ["check_dense", "lu_solve", "is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "branch_signs", "contact_stroke", "ground_contact", "leg_feet", "leg_samples",
            "parallel_rows",
            "plan_for", "simulate", "simulate_batch", "vector_applies", "warm_dyad",
            "LINEAR", "QUINTIC", "timing"]

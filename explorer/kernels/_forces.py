@@ -85,7 +85,7 @@ from ..mechanism import BODY_MODELS, crank_masses, link_masses
 from ..plan import Plan
 from ._design import pair_coordinates
 from ._kinds_array import reactions_any, reactions_closed, singular_any, singular_closed
-from ._legs import ground_contact, leg_feet, leg_samples
+from ._legs import contact_stroke, ground_contact, leg_feet, leg_samples
 
 # The kinds' forces code the per-design function calls (``_kinds_array``: each block's singularity
 # check and reactions, rendered from the kinds); bound in the specialised copies (:func:`_specialise`),
@@ -336,15 +336,7 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     C = fs.C
     leg_feet(base, frac, sign, mirrored, pos[:, foot, :], fs.vel[:, foot, :], Y, VX, fs.VY)
     ground_contact(Y, fs.G, C)
-    sum_vx = 0.0
-    sum_abs = 0.0
-    for k in range(S):
-        sum_vx += VX[C[k], k]
-        sum_abs += abs(VX[C[k], k])
-    # a walker whose contact feet come back to where they started (one leg: its foot's path is closed)
-    # travels nothing: what the sum holds then is rounding, which made the cost of transport 1e16
-    if abs(sum_vx) <= 1e-9 * sum_abs:
-        sum_vx = 0.0
+    sum_vx, _ = contact_stroke(VX, C)  # exactly 0 for a walker that does not travel
     fr.travel[i] = abs(d * sum_vx)
     walk = 0.0
     if sum_vx < 0.0:

@@ -95,3 +95,22 @@ def ground_contact(Y, G, C):
                 c = j
         G[k] = g
         C[k] = c
+
+
+@njit(cache=True, nogil=True)
+def contact_stroke(VX, C):
+    """(Σ_k VX[C_k, k], Σ_k |VX[C_k, k]|) over the S samples: the contact feet's net horizontal rate sum
+    (travel per turn = |2π/S · net|, the body moving by −dx of the planted foot) and its total stroke.
+    A net within 1e-9 of the stroke is rounding (a walker whose contact feet come back to where they
+    started, e.g. one leg, whose foot path is closed) and is returned as exactly 0: such a machine
+    travels nothing (it made the cost of transport 1e16 and the slip per unit of travel as large).
+    One home for the walker metrics (``gait._walker``) and the forces (``_forces``)."""
+    net = 0.0
+    stroke = 0.0
+    for k in range(C.shape[0]):
+        v = VX[C[k], k]
+        net += v
+        stroke += abs(v)
+    if abs(net) <= 1e-9 * stroke:
+        net = 0.0
+    return net, stroke
