@@ -105,6 +105,7 @@ _HOMES = {
     "store_guard": (".store._guard", None),
     "store_lock": (".store._lock", None),
     "verb_modules": (".cli", "_verb_modules"),
+    "cli_physics": (".cli._physics", None),
     # -- added for the tests' imports --------------------------------------------------------------------
     "N_CURVE": (".gait._curves", "N_CURVE"),
     "angles_at_arc": (".gait._curves", "angles_at_arc"),

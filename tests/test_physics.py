@@ -319,7 +319,7 @@ def test_ctrl_c_in_the_command_stops_the_workers_and_keeps_the_file(results):
 def test_ctrl_c_while_the_table_prints_says_the_figures_are_written(results, capsys, monkeypatch):
     """A Ctrl-C after the check has written its figures (while the table is drawn) says so, not a bare
     "interrupted" that leaves the user guessing what the file holds."""
-    import explorer.cli._physics as verb
+    from explorer.testing import cli_physics as verb
 
     def stopped(out):
         raise KeyboardInterrupt
