@@ -14,6 +14,9 @@ that still walk (a running study computes it as a metric). What a results file s
 its names are still importable from here for one release (:mod:`explorer._moved`).
 ``build_atlas(mechanism, designs)`` / ``open_atlas(path)`` are the curve atlas (``explorer atlas``) and
 ``synthesize(target, mechanism=...)`` its look-up and polish (``explorer synth``).
+:mod:`explorer.study.runner` is the chunk runner's door for the rooms above study that solve designs of
+their own (the optimiser, synthesis): the solver, an optimiser's designs, the Dask plumbing, the output
+checks.
 """
 
 from ._best import best_design

@@ -41,13 +41,11 @@ from ..errors import Terminated, UserError, signals_held
 from ..gait import pareto_front
 from ..store import Results
 from ..store import OutputLock, ResultsWriter
-from ._chunk import design_solver
-from ._cluster import Recipe, check_client, one_thread, warm_everywhere, worker_threads
-from ._designs import designs_from_x, nominal_x, stored_x
 from ._front_polish import front_polish_generation
 from ._hypervolume import Hypervolume, hypervolume_history
 from ._objectives import objective_matrix
-from ._output import _counts, _state, results_path, validate_study
+from .runner import (Recipe, check_client, design_solver, designs_from_x, nominal_x, one_thread, optimize_writer,
+                     results_path, results_state, stored_x, validate_study, warm_everywhere, worker_threads, writer_counts)
 from ._spec import Study, load_study
 
 
@@ -301,19 +299,19 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
                 writer = ResultsWriter.resume(out, study)
                 resumed = True
             elif force:
-                writer = _create(out, study)
+                writer = optimize_writer(out, study)
             else:
-                state = _state(out)
+                state = results_state(out)
                 raise UserError(f"{out}: results file exists ({state}); pass --force to overwrite it"
                                 + (" or --resume to finish it" if state != "complete" else ""))
         else:
-            writer = _create(out, study)
+            writer = optimize_writer(out, study)
         try:
             evaluate = _dask_evaluator(client, study) if client is not None else _local_evaluator(study)
             ran, stopped, _, polished, rounds = _search(study, writer, out, evaluate, progress)
             if not writer.complete:
                 writer.finish()
-            counts = _counts(writer)
+            counts = writer_counts(writer)
             df = Results(writer.f, out).frame()
         finally:
             with signals_held():
@@ -326,15 +324,6 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
                            int((df["status"].astype(str) != "not-run").sum()), int(feasible.sum()), counts, front,
                            time.perf_counter() - t0, stopped, resumed, hv, opt.constraints, hvd, polished=polished,
                            rounds=rounds)
-
-
-def _create(out: Path, study: Study) -> ResultsWriter:
-    opt = study.optimize
-    P = opt.population
-    generation = np.arange(study.n_variants, dtype=np.int64) // P
-    return ResultsWriter.create(out, study, P, exact_rows=True, columns={
-        "generation": (generation, f"optimiser generation (rows g*{P} … g*{P}+{P - 1}); the nominal design, "
-                                   f"when inside the bounds, is variant 0")})
 
 
 def final_front(df, study: Study):
@@ -699,7 +688,7 @@ def _residuals(study: Study, evaluate):
     chunk runner (metrics, screen) when a constraint names a metric or the screen applies, else by the
     same plain batch solve, the constraints then evaluated over the parameters alone."""
     from ..kernels import simulate_batch
-    from ._chunk import geometry_columns, metric_plan
+    from .runner import geometry_columns, metric_plan
     from ._polish import ConstrainedResiduals, PathResiduals
     opt = study.optimize
     mech, target = study.mech, study.target

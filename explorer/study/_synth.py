@@ -312,10 +312,8 @@ def _write(out, force, at, posed, X, points, angles, free_phase, steps, name, in
     """The results file of designs X (n, k) (a one-generation optimisation, see the module docstring)."""
     from ..errors import signals_held
     from ..store import OutputLock
-    from ._chunk import design_solver
-    from ._designs import designs_from_x
-    from ._optimize import _create
     from ._spec import load_study
+    from .runner import design_solver, designs_from_x, optimize_writer
     mech_file = family_source(at.family) if at.family in FAMILIES else None
     tmp_mech = None
     if mech_file is None:
@@ -350,7 +348,7 @@ def _write(out, force, at, posed, X, points, angles, free_phase, steps, name, in
             if out.exists():
                 if not force:
                     raise UserError(f"{out}: results file exists; pass --force to overwrite it")
-            writer = _create(out, study)
+            writer = optimize_writer(out, study)
             try:
                 lengths, crank, geometry = designs_from_x(study, X)
                 batch, metrics = design_solver(study)(lengths, crank, geometry)
