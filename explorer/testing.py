@@ -99,7 +99,7 @@ _HOMES = {
     "is_results": (".view._plots", "is_results"),
     "results_band": (".view._plots", "results_band"),
     "variant_row": (".view._plots", "variant_row"),
-    "study_front_polish": (".study._front_polish", None),
+    "optimize_front_polish": (".optimize._front_polish", None),
     "study_output": (".study._output", None),
     "study_run": (".study._run", None),
     "store_guard": (".store._guard", None),

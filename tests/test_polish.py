@@ -16,7 +16,8 @@ from explorer import load_mechanism, open_results
 from explorer.errors import UserError
 from explorer.kernels import simulate_batch
 from explorer.store import seal
-from explorer.study import PathResiduals, batched_lm, distinct_best, load_study, polish, run_optimize
+from explorer.optimize import run_optimize
+from explorer.study import PathResiduals, batched_lm, distinct_best, load_study, polish
 
 S = 72
 PARAMS = ("rocker", "A-P", "B-P", "B0.x")

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .runner import designs_from_x
+from ..study.runner import designs_from_x
 from ._objectives import objective_matrix
 
 #: Finite-difference step, a share of each parameter's bounds' span.

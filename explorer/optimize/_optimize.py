@@ -41,12 +41,12 @@ from ..errors import Terminated, UserError, signals_held
 from ..gait import pareto_front
 from ..store import Results
 from ..store import OutputLock, ResultsWriter
+from ..study import Study, load_study
+from ..study.runner import (Recipe, check_client, design_solver, designs_from_x, nominal_x, one_thread, optimize_writer,
+                           results_path, results_state, stored_x, validate_study, warm_everywhere, worker_threads, writer_counts)
 from ._front_polish import front_polish_generation
 from ._hypervolume import Hypervolume, hypervolume_history
 from ._objectives import objective_matrix
-from .runner import (Recipe, check_client, design_solver, designs_from_x, nominal_x, one_thread, optimize_writer,
-                     results_path, results_state, stored_x, validate_study, warm_everywhere, worker_threads, writer_counts)
-from ._spec import Study, load_study
 
 
 @dataclass
@@ -551,7 +551,7 @@ class _AtlasStarts:
         if opt.atlas is False or study.target is None or opt.objectives != ("path_error",):
             self.why = "not asked for" if opt.atlas is False else "no target"
             return
-        from ._atlas import atlas_spec, find_atlas, open_atlas, same_branch, structure_key
+        from ..study._atlas import atlas_spec, find_atlas, open_atlas, same_branch, structure_key
         mech = study.mech
         gauge = atlas_spec(mech).gauge
         missing = [g for g in gauge if g not in opt.parameters]
@@ -594,12 +594,12 @@ class _AtlasStarts:
                 there_back = np.vstack([t.points, t.points[-2:0:-1]]) if len(t.points) > 2 else t.points
                 loops = self.atlas.query(there_back, None, closed=True, k=len(pool))
                 pool = [c for pair in zip(pool, loops) for c in pair]
-            from ._atlas import diverse
+            from ..study._atlas import diverse
             self._cands = diverse(self.atlas, pool, len(pool), distinct=0.02)
         opt = self.study.optimize
         chosen = self._cands[r * k:(r + 1) * k]
         rows = []
-        from ._atlas import move_parameters
+        from ..study._atlas import move_parameters
         names = tuple(self.study.mech.parameters())
         for c in chosen:
             full = move_parameters(self.atlas.mech, self.atlas.design(c.row), c.A, c.B, names)
@@ -636,7 +636,7 @@ def _polish_generation(study: Study, writer: ResultsWriter, results: Results, ev
     X = stored_x(df, study)
     lo, hi = np.array(opt.lower), np.array(opt.upper)
     res, cres, coarse = _residuals(study, evaluate)
-    from ._polish import distinct_best, finish, polish, polish_constrained, scout_and_polish
+    from ..study._polish import distinct_best, finish, polish, polish_constrained, scout_and_polish
     inside = -1  # the candidate polished inside the constraints even though it meets them (a feasible start)
     extra = atlas.starts(r, max(opt.polish_starts, 1 + opt.restarts)) if atlas is not None else np.empty((0, len(lo)))
     first = distinct_best(X, f, lo, hi, opt.polish_starts, distinct=0.02) if opt.polish_starts > 0 else []
@@ -688,8 +688,8 @@ def _residuals(study: Study, evaluate):
     chunk runner (metrics, screen) when a constraint names a metric or the screen applies, else by the
     same plain batch solve, the constraints then evaluated over the parameters alone."""
     from ..kernels import simulate_batch
-    from .runner import geometry_columns, metric_plan
-    from ._polish import ConstrainedResiduals, PathResiduals
+    from ..study.runner import geometry_columns, metric_plan
+    from ..study._polish import ConstrainedResiduals, PathResiduals
     opt = study.optimize
     mech, target = study.mech, study.target
     kw = dict(match=target.match, angles=target.angles, ignore=target.ignore, phase=target.phase)
@@ -796,7 +796,7 @@ def _held(study: Study, res, x, lo, hi) -> dict:
     (within 1e-9 of the span) that the objective's gradient pushes against, and the constraints whose
     margin is at most HELD_MARGIN and which the unconstrained descent would break; "exact" when the fit is exact;
     else an interior minimum. One batch solve of the design and its forward-difference copies."""
-    from ._polish import FD_STEP
+    from ..study._polish import FD_STEP
     k = len(x)
     span = hi - lo
     step = FD_STEP * np.maximum(np.abs(x), 1e-2 * span)
@@ -863,7 +863,7 @@ def _bar(progress: bool, total: int, name: str):
 def optimization_of(results):
     """The :class:`~._objectives.Optimize` of an optimisation's results file (an open
     :class:`~explorer.store.Results`); UserError for a file of a sampled study."""
-    from ._objectives import optimize_from_dict
+    from ..study import optimize_from_dict
     d = results.study.get("optimize") if isinstance(results.study, dict) else None
     if not d:
         raise UserError(f"{results.filename}: not an optimisation (its study has no [optimize] table); "
