@@ -1,7 +1,7 @@
 """explorer: design-space exploration of planar linkages (Jansen's Strandbeest leg first).
 
 The pipeline, one subpackage each: mechanism → plan → kernels → wrist → gait → store → study → analysis →
-optimize → fabrication → view → cli.
+synthesis → optimize → fabrication → view → cli.
 
 The public names below are imported on first use (PEP 562), so that ``import explorer`` and
 ``explorer --help`` stay light: Numba, h5py and the kernels load only when something needs them.
@@ -36,7 +36,7 @@ _LAZY = {
 
 #: the subpackages, reachable as attributes (``explorer.gait``) like any imported submodule
 _SUBPACKAGES = ("analysis", "bench", "cli", "edit", "fabrication", "gait", "kernels", "mechanism", "optimize", "plan", "store",
-                "study", "view", "wrist")
+                "study", "synthesis", "view", "wrist")
 
 
 def __getattr__(name: str):

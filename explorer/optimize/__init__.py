@@ -8,11 +8,13 @@ splits each generation over the workers. ``objective_matrix`` / ``feasible_mask`
 designs as the search does; ``final_front``, ``front_history`` and ``optimization_of`` read a finished
 run back; ``hypervolume_per_generation`` / ``hypervolume_history`` measure its fronts; ``best_design``
 is the one rule that picks an optimisation's best design. A path-synthesis search (one objective,
-``path_error``) is polished by least squares on the path residuals, and a several-objective front by
-SLSQP (the front polish, committed as one more generation).
+``path_error``) starts from the curve atlas's designs and is polished by least squares on the path
+residuals (both :mod:`explorer.synthesis`'s), a several-objective front by SLSQP (the front polish here),
+each committed as one more generation.
 
 Module graph: ``_optimize`` → ``_front_polish``, ``_hypervolume`` → ``_objectives``; every module
-imports :mod:`explorer.study` (and its runner door), never its private modules.
+imports :mod:`explorer.study` (and its runner door) and :mod:`explorer.synthesis` by their faces, never
+their private modules.
 """
 
 from ._best import best_design
