@@ -35,7 +35,7 @@ HERE = Path(__file__).resolve().parent
 def held_out(at, n, seed):
     """n targets (points (60, 2), true relative error 0) from random designs of the atlas's space."""
     from explorer.kernels import simulate_batch
-    from explorer.study._atlas import _designs, _sample
+    from explorer.synthesis._atlas import _designs, _sample
     mech, spec = at.mech, at.spec
     out = []
     rng = np.random.default_rng(seed)
@@ -67,8 +67,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     import numba
 
-    from explorer.study._atlas import atlas_info, build_atlas, default_path, open_atlas
-    from explorer.study._synth import synthesize
+    from explorer.synthesis import atlas_info, build_atlas, default_path, open_atlas, synthesize
     print(f"load before: {os.getloadavg()[0]:.2f} (1-min average); {os.cpu_count()} CPUs, numba threads "
           f"{numba.get_num_threads()}", flush=True)
     tmp = Path(tempfile.mkdtemp(prefix="bench-atlas-"))

@@ -35,7 +35,8 @@ def one(problem: str, seed: int, out: str, seconds: float | None) -> dict:
     """Run one seed in this process; returns the record."""
     import numpy as np
 
-    from explorer.study import load_study, run_optimize
+    from explorer.optimize import run_optimize
+    from explorer.study import load_study
     from explorer.mechanism import parse_toml
     path = STUDIES / f"{problem}.toml"
     data = parse_toml(path.read_text(), str(path))

@@ -18,7 +18,8 @@ import time
 import numpy as np
 
 from explorer import open_results
-from explorer.study import final_front, load_study, objective_matrix, run_optimize
+from explorer.optimize import final_front, objective_matrix, run_optimize
+from explorer.study import load_study
 
 
 def main(argv=None):

@@ -13,11 +13,11 @@ match in the global search). Every batch of designs is ONE call of explorer's ke
 (``simulate_batch`` with every design's lengths and geometry) and of ``path_residuals``.
 
 explorer's ``auto`` (as ``[optimize] algorithm = "auto"`` runs it): pymoo DE, ``population`` ×
-``generations`` from a Latin hypercube, then ``explorer.study.polish`` (bounded least squares on the
+``generations`` from a Latin hypercube, then ``explorer.synthesis.polish`` (bounded least squares on the
 residuals, Jacobian by one batched finite difference per iteration) from the ``starts`` best distinct
 designs DE evaluated; then restart rounds (DE from a fresh seed, polish) while the seed has run for less
 than ``--seconds`` (a round begun runs to its end). ``--batch K``: after each DE round,
-``explorer.study.batched_lm`` (``--lm-iterations``) advances K starts together first: the round's final
+``explorer.synthesis.batched_lm`` (``--lm-iterations``) advances K starts together first: the round's final
 population, its K/2 best distinct evaluated designs and a Latin hypercube of the box from the seed's
 generator filling up to K; the ``--starts`` best distinct answers of DE and the LM are then polished
 (0, the default, is 28a's auto; the README text says what K = 128 gave). ``--de-only`` is the baseline: DE alone,
@@ -120,7 +120,7 @@ def run(problem, population, generations, seed, steps):
 class Posed:
     """A problem as the search sees it: the vector x of its free variables (those of ``problem.free``,
     then φ for a phase-timed problem), their bounds, the map to the nine variables, one batch solve of
-    designs, and the residuals (explorer.study.PathResiduals: timed x/y differences, or the untimed
+    designs, and the residuals (explorer.synthesis.PathResiduals: timed x/y differences, or the untimed
     formulation with a free crank angle per point)."""
 
     def __init__(self, problem, steps=360):
@@ -132,7 +132,7 @@ class Posed:
         self.upper = np.concatenate([hi9[self.free], [2 * np.pi] if problem.phase else []])
         self.mech = template(problem)
         self.target = np.array(problem.points)
-        from explorer.study import PathResiduals
+        from explorer.synthesis import PathResiduals
         offset = (lambda X: self.nine(X)[:, 6] + (X[:, -1] if problem.phase else 0.0)) if problem.timed else None
         self.residuals = PathResiduals(self.simulate, self.target, match="timed" if problem.timed else "closest",
                                        angles=np.array(problem.angles) if problem.timed else None, offset=offset)
@@ -167,13 +167,13 @@ class Posed:
 def auto(posed, seed, *, population=40, generations=60, starts=4, budget=None, deadline_s=None, batch=0,
          lm_iterations=80):
     """explorer's ``algorithm = "auto"`` on a posed problem: pymoo DE (``population`` × ``generations``)
-    from a Latin hypercube, then :func:`explorer.study.polish` from the ``starts`` best distinct designs
+    from a Latin hypercube, then :func:`explorer.synthesis.polish` from the ``starts`` best distinct designs
     it evaluated; repeated from fresh seeds (restarts) while fewer than ``budget`` designs were solved
     (default: one round). Returns (best sum of squares, best x, designs solved, rounds)."""
     from pymoo.algorithms.soo.nonconvex.de import DE
     from pymoo.core.evaluator import Evaluator
     from pymoo.core.problem import Problem
-    from explorer.study import batched_lm, distinct_best, polish
+    from explorer.synthesis import batched_lm, distinct_best, polish
 
     lo, hi = posed.lower, posed.upper
     best_f, best_x, solved, rounds = np.inf, None, 0, 0

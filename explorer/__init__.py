@@ -1,6 +1,7 @@
 """explorer: design-space exploration of planar linkages (Jansen's Strandbeest leg first).
 
-The pipeline, one subpackage each: mechanism → plan → kernels → gait → store → study → view → cli.
+The pipeline, one subpackage each: mechanism → plan → kernels → wrist → gait → store → study → analysis →
+synthesis → optimize → fabrication → view → cli.
 
 The public names below are imported on first use (PEP 562), so that ``import explorer`` and
 ``explorer --help`` stay light: Numba, h5py and the kernels load only when something needs them.
@@ -27,14 +28,15 @@ _LAZY = {
     **dict.fromkeys(("Crank", "Link", "Mechanism", "PathDriver", "builtin_mechanisms", "load_mechanism"), "mechanism"),
     **dict.fromkeys(("Grashof", "grashof", "make_plan"), "plan"),
     **dict.fromkeys(("Results", "open_results"), "store"),
-    **dict.fromkeys(("RunSummary", "Study", "load_study", "run_optimize", "run_study",
-                     "run_study_dask", "sample_variants"), "study"),
+    **dict.fromkeys(("RunSummary", "Study", "load_study", "run_study", "run_study_dask", "sample_variants"), "study"),
+    "run_optimize": "optimize",
     **dict.fromkeys(("recompute_metrics", "sensitivity", "tolerance", "tolerance_summary"), "analysis"),
 }
 
 
 #: the subpackages, reachable as attributes (``explorer.gait``) like any imported submodule
-_SUBPACKAGES = ("analysis", "bench", "cli", "edit", "fabrication", "gait", "kernels", "mechanism", "plan", "store", "study", "view", "wrist")
+_SUBPACKAGES = ("analysis", "bench", "cli", "edit", "fabrication", "gait", "kernels", "mechanism", "optimize", "plan", "store",
+                "study", "synthesis", "view", "wrist")
 
 
 def __getattr__(name: str):

@@ -4,7 +4,7 @@
 module             extra           needed by
 =================  ==============  ===============================================
 ``plotly``         ``report``      ``explorer report`` (:func:`~explorer.view.write_report`)
-``pymoo``          ``optimize``    ``explorer optimize`` (:func:`~explorer.study.run_optimize`)
+``pymoo``          ``optimize``    ``explorer optimize`` (:func:`~explorer.optimize.run_optimize`)
 ``SALib``          ``sensitivity`` ``explorer sensitivity``, ``perturb.method = "saltelli"``
 ``ezdxf``          ``cad``         ``explorer export --as dxf``
 ``imageio_ffmpeg`` ``movie``       ``explorer animate`` to .mp4 (a .gif needs nothing more)

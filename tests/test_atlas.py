@@ -1,4 +1,4 @@
-"""The curve atlas and ``explorer synth`` (explorer/study/_atlas.py, _synth.py, explorer/gait/_curves.py).
+"""The curve atlas and ``explorer synth`` (explorer/synthesis/_atlas.py, _synth.py, _curves.py).
 
 References written here, independent of the code: a plain numpy closed form of the atlas four-bar (crank,
 rocker, coupler as one rigid body; the rocker pin left of the line from the crank pin to the rocker

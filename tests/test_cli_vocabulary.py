@@ -24,7 +24,7 @@ EXPECTED = {
     "sensitivity": {"top", "format", "output", "force", "seed"},
     "tolerance": {"format", "seed"},
     "describe": {"format"},
-    "physics": {"top", "variant", "force"},
+    "physics": {"top", "variant", "force", "where"},
     "run": {"output", "force"},
     "optimize": {"output", "force"},
     "edit": {"variant"},

@@ -249,7 +249,7 @@ def test_run_study_takes_a_client(client, reference, tmp_path):
 
 @needs_dask
 def test_client_must_be_a_client(tmp_path):
-    from explorer.study import run_optimize
+    from explorer.optimize import run_optimize
     with pytest.raises(UserError, match="run_study_dask: expected a dask.distributed.Client"):
         run_study(STUDY, output=tmp_path / "x.h5", client=object())
     if importlib.util.find_spec("pymoo") is not None:
@@ -316,7 +316,7 @@ def test_optimize_on_dask_equals_single_process(client, tmp_path):
     """explorer optimize --dask: each generation split over the workers; the file is the local run's, bit
     for bit, and this process keeps its Numba threads."""
     import numba
-    from explorer.study import run_optimize
+    from explorer.optimize import run_optimize
     threads = numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(threads)
     a = run_optimize(OPT_STUDY, output=tmp_path / "local.h5", progress=False)

@@ -82,7 +82,7 @@ def test_saltelli_sampling_without_sensitivity_extra(monkeypatch):
 
 def test_library_calls_raise_an_import_error_naming_the_extra(monkeypatch, tmp_path):
     from explorer.analysis import sensitivity
-    from explorer.study import run_optimize
+    from explorer.optimize import run_optimize
     from explorer.view import write_report
     for module, call in [("plotly", lambda: write_report(tmp_path / "a.h5", tmp_path / "a.html")),
                          ("pymoo", lambda: run_optimize("default")),

@@ -1,8 +1,9 @@
 """No import circles in explorer: the graph of which module imports which (every ``import`` statement, at the
 top of a module or inside a function, outside ``if TYPE_CHECKING``) has no cycle, so no two files import
 each other, directly or in a loop; and the pipeline's packages import one way (mechanism -> plan -> kernels
--> wrist -> gait -> store -> study -> analysis -> fabrication -> view -> cli); and every name that moved to another room
-(issue 40) is still importable from its old package, as the very object at its new home."""
+-> wrist -> gait -> store -> study -> analysis -> synthesis -> optimize -> fabrication -> view -> cli); and
+every name that moved to another room (issue 40) is still importable from its old package, as the very
+object at its new home."""
 
 from __future__ import annotations
 
@@ -86,7 +87,8 @@ def test_no_import_cycles():
         " <-> ".join(c) for c in found)
 
 
-PIPELINE = ("mechanism", "plan", "kernels", "wrist", "gait", "store", "study", "analysis", "fabrication", "view", "cli")
+PIPELINE = ("mechanism", "plan", "kernels", "wrist", "gait", "store", "study", "analysis", "synthesis", "optimize",
+            "fabrication", "view", "cli")
 
 
 def test_packages_import_one_way():

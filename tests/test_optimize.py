@@ -19,7 +19,8 @@ from explorer import load_mechanism, open_results
 from explorer.errors import UserError
 from explorer.gait import compute_metrics
 from explorer.kernels import simulate_batch
-from explorer.study import front_history, load_study, run_optimize
+from explorer.optimize import front_history, run_optimize
+from explorer.study import load_study
 
 STUDY = """\
 [study]

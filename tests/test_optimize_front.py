@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from explorer import open_results
-from explorer.study import HYPERVOLUME_REFERENCE, hypervolume_per_generation, run_optimize
+from explorer.optimize import HYPERVOLUME_REFERENCE, hypervolume_per_generation, run_optimize
 
 from clihelp import ok_cli
 
@@ -306,8 +306,8 @@ def test_front_polish_dominates_its_starts_and_resumes_exactly(tmp_path, monkeyp
     # stopped during the polish (the search committed), --resume polishes again to the same rows
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
-    from explorer.testing import study_front_polish
-    monkeypatch.setattr(study_front_polish, "polish_front", interrupted)
+    from explorer.testing import optimize_front_polish
+    monkeypatch.setattr(optimize_front_polish, "polish_front", interrupted)
     with pytest.raises(KeyboardInterrupt, match="3 of 4 generations committed"):
         run_optimize(study, output=tmp_path / "b.h5", progress=False)
     monkeypatch.undo()

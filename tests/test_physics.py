@@ -354,6 +354,32 @@ def test_failed_variants_are_skipped_and_counted(results, capsys):
 
 
 @pytest.mark.slow
+def test_where_checks_the_top_of_the_designs_the_filter_keeps(results, capsys):
+    """--where (rank's filter language) narrows the ranking physics takes its top N from, as `explorer rank
+    --where` does: the design checked is the top of the default ranking of the rows a plain pandas mask keeps
+    (travel strictly below, or above, the unfiltered top design's)."""
+    with open_results(results) as res:
+        df = res.frame()
+        ranked = res.rank(top=None, frame=df)
+        travel = ranked["travel"].to_numpy()
+        cut = float(travel[0])  # the top design's: the filter leaves it out
+        op = "<" if (travel < cut).any() else ">"
+        kept = df[df["travel"] < cut] if op == "<" else df[df["travel"] > cut]
+        expected = int(res.rank(top=1, frame=kept)["variant"].iloc[0])
+    assert expected != int(ranked["variant"].iloc[0])
+    code, out, err = cli(capsys, "physics", results, "--where", f"travel {op} {cut!r}", "--top", "1", "--turns", "1",
+                         "--workers", "1")
+    assert code == 0, err
+    assert stored(results)["checked"] == {str(expected): "ok"}
+    assert f"top 1 where travel {op} {cut!r}" in out
+    before = sha(results)
+    one_line(capsys, "physics", results, "--where", "travel > 0", "--variant", "1",
+             expect="--where and --variant: give one")
+    one_line(capsys, "physics", results, "--where", "no_such_metric > 1", expect="no_such_metric")
+    assert sha(results) == before
+
+
+@pytest.mark.slow
 def test_refusals_in_one_line(results, capsys, tmp_path):
     before = sha(results)
     one_line(capsys, "physics", results, "--turns", "0", expect="--turns: expected a whole number >= 1")

@@ -1,4 +1,4 @@
-"""The least-squares polish of path synthesis (explorer/study/_polish.py) and ``[optimize] algorithm =
+"""The least-squares polish of path synthesis (explorer/synthesis/_polish.py) and ``[optimize] algorithm =
 "auto"``: its Jacobian against finite differences of a plain numpy closed-form four-bar written here;
 recovery of a hidden four-bar made here from its coupler points, per formulation (timed, untimed with a
 free crank angle per point, a closed curve all round the cycle) to 1e-9; the polish generation through
@@ -16,7 +16,9 @@ from explorer import load_mechanism, open_results
 from explorer.errors import UserError
 from explorer.kernels import simulate_batch
 from explorer.store import seal
-from explorer.study import PathResiduals, batched_lm, distinct_best, load_study, polish, run_optimize
+from explorer.optimize import run_optimize
+from explorer.study import load_study
+from explorer.synthesis import PathResiduals, batched_lm, distinct_best, polish
 
 S = 72
 PARAMS = ("rocker", "A-P", "B-P", "B0.x")

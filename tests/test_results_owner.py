@@ -111,7 +111,7 @@ def test_view_names_still_import():
 
 
 def test_run_optimize_at_the_top_level():
-    from explorer.study import run_optimize
+    from explorer.optimize import run_optimize
     assert explorer.run_optimize is run_optimize
     assert "run_optimize" in explorer.__all__ and "run_optimize" in dir(explorer)
 

@@ -20,7 +20,9 @@ from explorer import open_results
 from explorer.errors import UserError
 from explorer.gait import path_error
 from explorer.store import seal
-from explorer.study import PathResiduals, batched_lm, load_study, run_optimize
+from explorer.optimize import run_optimize
+from explorer.study import load_study
+from explorer.synthesis import PathResiduals, batched_lm
 
 LIT = Path(__file__).resolve().parent.parent / "studies" / "literature"
 

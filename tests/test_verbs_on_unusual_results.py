@@ -138,7 +138,7 @@ def test_optimize_header_commands_run(tmp_path, monkeypatch, capsys):
 def opt_file(tmp_path_factory):
     """A small run of studies/jansen-optimize.toml."""
     pytest.importorskip("pymoo")
-    from explorer.study import run_optimize
+    from explorer.optimize import run_optimize
     folder = tmp_path_factory.mktemp("opt")
     study = folder / "opt.toml"
     study.write_text(small_optimize_study((ROOT / "studies" / "jansen-optimize.toml").read_text()))

@@ -237,7 +237,7 @@ def test_optimize_constraint_on_yield(tmp_path):
     optimiser computes yield, and every feasible design meets the constraint."""
     pytest.importorskip("pymoo")
     from explorer.store import open_results
-    from explorer.study import feasible_mask, optimization_of, run_optimize
+    from explorer.optimize import feasible_mask, optimization_of, run_optimize
     d = {"study": {"name": "yo", "mechanism": "jansen", "seed": 2, "steps": 90},
          "optimize": {"algorithm": "nsga2", "population": 8, "generations": 2, "objectives": ["travel", "bob"],
                       "constraints": ["yield >= 0.8"], "spread": 0.03, "parameters": ["1-3", "crank"]},

@@ -42,7 +42,7 @@ def register(sub) -> None:
 
 
 def run_build(args) -> int:
-    from ..study._atlas import build_atlas
+    from ..synthesis import build_atlas
     from ._args import whole
     n = whole(args.designs.replace(",", "").replace("_", ""), "--designs", 1)
     seed = args.seed
@@ -57,7 +57,7 @@ def run_info(args) -> int:
     from pathlib import Path
 
     from ..errors import UserError
-    from ..study._atlas import atlas_dir, atlas_info, default_path
+    from ..synthesis import atlas_dir, atlas_info, default_path
     if args.atlas is None:
         files = sorted(atlas_dir().glob("*.h5")) if atlas_dir().is_dir() else []
         if not files:

@@ -52,7 +52,8 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from .._extras import require
-    from ..study import load_study, run_optimize
+    from ..optimize import run_optimize
+    from ..study import load_study
     require("pymoo", "explorer optimize")
     study = load_study(args.study)  # a bad study fails before a cluster is started
     if args.dask:
@@ -73,8 +74,8 @@ def run(args) -> int:
 
 # -- the best design against the nominal ---------------------------------------------------------------
 def best_variant(summary) -> tuple[int, str]:
-    """:func:`explorer.study.best_design` (the rule's home): (variant, how it was chosen)."""
-    from ..study import best_design
+    """:func:`explorer.optimize.best_design` (the rule's home): (variant, how it was chosen)."""
+    from ..optimize import best_design
     return best_design(summary)
 
 

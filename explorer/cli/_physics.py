@@ -7,7 +7,7 @@ import math
 
 
 def register(sub) -> None:
-    from ._args import add_force, add_top, add_variant
+    from ._args import add_force, add_top, add_variant, add_where
 
     p = sub.add_parser(
         "physics", help="check a shortlist in a physics engine (MuJoCo): does the machine rock, do feet fight",
@@ -24,6 +24,7 @@ def register(sub) -> None:
                                                       "[operating] table (unit, rpm, load = the body's mass)")
     add_top(p, "check the default ranking's top N designs (`explorer rank RESULTS --top N`)", "5")
     add_variant(p, "check these variants (--variant 3 7 12) instead of a top N", many=True)
+    add_where(p, "the top N of the designs it keeps, as `explorer rank RESULTS --where EXPR --top N`")
     p.add_argument("--pitch", metavar="held|free", default="held",
                    help="held (default): the body slides in x and y but does not turn, as the kinematic walker "
                         "holds it level; free: it may pitch about the crank centre (does it rock?)")
@@ -49,7 +50,7 @@ def run(args) -> int:
     turns = whole(args.turns, "--turns", 1)
     workers = whole(args.workers, "--workers", 1) if args.workers is not None else None
     out = physics_check(args.results, variants=variants, top=top, pitch=args.pitch, turns=turns, workers=workers,
-                        progress=not args.quiet, force=args.force)
+                        progress=not args.quiet, force=args.force, where=args.where)
     if not args.quiet:
         try:
             print("\n".join(summary_lines(out)))

@@ -45,7 +45,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..errors import UserError
-    from ..study._synth import synthesize
+    from ..synthesis import synthesize
     from ._args import top_count, whole
     starts = whole(args.starts, "--starts", 1)
     if args.atlas is not None and args.mechanism == "any":

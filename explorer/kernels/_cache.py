@@ -7,8 +7,8 @@ the old step, and one that renumbers the block kinds would leave every cached ke
 the old numbers. Instead of deleting cache files, every explorer kernel is
 cached in a folder named after a hash of the code of every module that defines or feeds a kernel
 (:data:`KERNEL_PACKAGES`: ``explorer/kernels``, ``explorer/kinds``, ``explorer/plan``,
-``explorer/gait``, ``explorer/bench``, ``explorer/wrist``): changed code, a new folder, a fresh
-compile; a changed docstring or comment leaves the hash alone (it is taken over the syntax tree,
+``explorer/gait``, ``explorer/bench``, ``explorer/wrist``, ``explorer/synthesis``): changed code, a new
+folder, a fresh compile; a changed docstring or comment leaves the hash alone (it is taken over the syntax tree,
 docstrings removed), so it costs at most the recompile of the functions in that one file (Numba's own
 check). The folder is ``$NUMBA_CACHE_DIR/explorer-<hash>`` when that variable is set, else the user's
 cache folder, ``$XDG_CACHE_HOME/explorer/numba-<hash>`` (``~/.cache/...``), and only if that cannot be
@@ -42,7 +42,7 @@ _PACKAGE = Path(__file__).resolve().parents[1]      # explorer/
 GENERATED_PREFIX = "explorer_gen_"
 #: Subpackages whose modules define kernels, code the kernels inline, or constants frozen into their
 #: machine code (``kinds``: the block kinds' numerics and numbers).
-KERNEL_PACKAGES = ("kernels", "kinds", "plan", "gait", "bench", "wrist")
+KERNEL_PACKAGES = ("kernels", "kinds", "plan", "gait", "bench", "wrist", "synthesis")
 
 
 def _strip_docstrings(tree: ast.AST) -> ast.AST:

@@ -135,7 +135,8 @@ def _job(job):
 
 def physics_check(path, variants=None, top: int | None = None, pitch: str = "held", turns: int = 3,
                   workers: int | None = None, progress: bool = False, force: bool = False,
-                  settings: Settings | None = None, write: bool = True, on_result=None) -> dict:
+                  settings: Settings | None = None, write: bool = True, on_result=None,
+                  where: str | None = None) -> dict:
     """The physics check of a shortlist of the results file ``path`` (a complete file of a crank-driven
     walker with an ``[operating]`` table giving ``unit``, ``rpm`` and ``load``, the body's mass).
 
@@ -147,6 +148,8 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
     settings : a :class:`~explorer.physics.Settings` for everything else (``pitch`` and ``turns`` win).
     write : store the figures in the file (False: only return them).
     on_result : called with (variant, metrics dict or None, failure or None) as each design finishes.
+    where : a filter of the ranked designs (``explorer rank --where``'s language, e.g. "bob < 0.2"): the
+        default ranking's ``top`` of the designs it keeps. Not with ``variants``.
 
     Returns a dict: ``path``; ``settings`` (dict); ``mujoco`` (version); ``legs``; ``checked``
     {variant: {metric: value, "cpu_s": s}}; ``failed`` {variant: why}; ``skipped`` [(variant, why)] (not
@@ -159,6 +162,8 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
 
     mujoco = require("mujoco", "explorer physics")
     pitch, turns, workers = check_arguments(pitch, turns, workers, top, variants)
+    if where is not None and variants:
+        raise UserError("--where and --variant: give one of them (--where filters the default ranking's top N)")
     t0 = time.perf_counter()
     base = settings or Settings()
     st = Settings(**{**base.__dict__, "pitch": pitch, "turns": turns})
@@ -168,7 +173,7 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
     state = {"written": False, "last": time.perf_counter(), "jobs": 0}
     try:
         with open_results(p) as res:
-            prep = _prepare(res, variants, top, st)
+            prep = _prepare(res, variants, top, st, where)
         jobs = prep["jobs"]
         state["jobs"] = len(jobs)
         new = st.as_dict()
@@ -235,7 +240,7 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
             "written": state["written"], "operating": op}
 
 
-def _prepare(res, variants, top, st: Settings) -> dict:
+def _prepare(res, variants, top, st: Settings, where: str | None = None) -> dict:
     """The designs to check and their models: ``jobs`` [(variant, Model, samples, kinematic travel m/turn)],
     ``skipped`` [(variant, why)], ``chosen``, ``how`` (in words), ``prior`` (the stored physics attribute),
     ``operating``, ``walker``. One line (UserError) for a file the check cannot model."""
@@ -249,8 +254,9 @@ def _prepare(res, variants, top, st: Settings) -> dict:
         how = f"variant{'s' if len(chosen) > 1 else ''} {', '.join(map(str, chosen))}"
     else:
         k = DEFAULT_TOP if top is None else int(top)
-        chosen = [int(v) for v in res.rank(top=k, frame=df)["variant"]]
-        how = f"the default ranking's top {k}" + (f" ({len(chosen)} ranked)" if len(chosen) < k else "")
+        chosen = [int(v) for v in res.rank(top=k, where=where, frame=df)["variant"]]
+        how = (f"the default ranking's top {k}" + (f" where {where}" if where is not None else "")
+               + (f" ({len(chosen)} ranked)" if len(chosen) < k else ""))
     solver = res.study.get("study", {})
     jobs, skipped = [], []
     for v in chosen:

@@ -1,5 +1,5 @@
 """Dask plumbing shared by every runner that takes ``client=``: :func:`~explorer.study.run_study`
-(through :mod:`._dask`, one shard file per task) and :func:`~explorer.study.run_optimize` (each
+(through :mod:`._dask`, one shard file per task) and :func:`~explorer.optimize.run_optimize` (each
 generation's designs split over the workers).
 
 A study travels to the workers as a :class:`Recipe` (its fields and the mechanism's TOML text: a

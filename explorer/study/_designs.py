@@ -1,5 +1,5 @@
 """An optimiser's designs: the searched parameters X (n, k) ↔ the (lengths, crank, geometry) the chunk
-runner solves. Shared by :mod:`._optimize` (each generation) and :mod:`._cluster` (warming a worker's
+runner solves. Shared by :mod:`explorer.optimize` (each generation) and :mod:`._cluster` (warming a worker's
 kernels on the nominal design), so neither reaches into the other."""
 
 from __future__ import annotations

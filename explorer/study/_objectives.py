@@ -1,7 +1,8 @@
-"""What an optimisation searches and scores: the ``[optimize]`` table of a study file, and the
-objectives, constraints and feasibility of evaluated designs.
+"""What an optimisation searches: the ``[optimize]`` table of a study file, part of the study it
+belongs to. How evaluated designs are scored against it (objectives, constraint violations,
+feasibility) is :mod:`explorer.optimize`'s (``objective_matrix``).
 
-A study file with an ``[optimize]`` table is run by ``explorer optimize`` (:mod:`._optimize`)::
+A study file with an ``[optimize]`` table is run by ``explorer optimize`` (:mod:`explorer.optimize`)::
 
     [optimize]
     algorithm = "auto"            # auto (default) | nsga2 | nsga3 (several objectives) | de | ga | cmaes (one)
@@ -21,7 +22,7 @@ A study file with an ``[optimize]`` table is run by ``explorer optimize`` (:mod:
 
 One objective (``algorithm = "auto"``, or any single-objective algorithm with ``polish = true``):
 ``auto`` runs pymoo's DE for the generations, then, when the objective is ``path_error``, *polishes*
-(:mod:`._polish`: bounded least squares on the path residuals, the untimed formulation with one free
+(the path polish: bounded least squares on the path residuals, the untimed formulation with one free
 crank angle per target point for ``closest`` matching) the best design and the ``restarts`` next best
 distinct designs of the run, and commits the polished designs as one more generation (number
 ``generations``, rows ``generations·P …``). ``auto`` with several objectives is ``nsga2``::
@@ -39,13 +40,13 @@ distinct designs of the run, and commits the polished designs as one more genera
                                   # ("auto", default), from this atlas file, or none (false)
 
 With ``polish_starts`` = K > 0 the polish first advances the K best distinct feasible designs of the
-run together by a batched bounded Levenberg–Marquardt (:func:`._polish.batched_lm`: one batch solve of
+run together by a batched bounded Levenberg–Marquardt (``batched_lm``: one batch solve of
 K·(1 + k) designs per iteration), then finishes the best ``1 + restarts`` distinct answers with the
 least squares. With constraints or the screen, each polished design is committed beside points on the
 way back to the design it started from (half, a quarter, … of the step, as the generation's rows
 allow), so the best *feasible* design the polish reached is kept.
 
-Several objectives with ``polish = true`` (:mod:`._front_polish`): after the generations, each design of
+Several objectives with ``polish = true`` (the front polish of :mod:`explorer.optimize`): after the generations, each design of
 the final front (at most P of them) is polished by SLSQP on the equal-weight sum of its normalised
 objectives, no objective allowed to get worse, and the designs it improves (each dominating the
 design it started from) are committed as the same extra generation. ``restarts`` does not apply.
@@ -63,8 +64,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
-import numpy as np
 
 from ..errors import UserError, where
 from ..mechanism import Mechanism
@@ -85,9 +84,6 @@ REPEAT = 3
 RESTARTS = 4
 #: Designs the batched Levenberg–Marquardt of the polish advances together, by default.
 POLISH_STARTS = 64
-#: What the objective of an infeasible design is set to (pymoo needs numbers; constraint domination
-#: ranks every feasible design first, so the value never decides anything).
-INFEASIBLE_VALUE = 1e30
 #: Most evaluations one optimisation may ask for (rows of its results file).
 MAX_EVALUATIONS = 10_000_000
 
@@ -320,39 +316,6 @@ def metrics_needed(opt: Optimize, screen_metrics) -> tuple:
         if n not in out:
             out.append(n)
     return tuple(out)
-
-
-def objective_matrix(df, opt: Optimize, screen) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Objectives and constraint violations of evaluated designs, as pymoo minimises them.
-
-    df : the results frame of these designs (:meth:`explorer.store.Results.frame`: status, the
-    parameters, the metrics, ``buildable``). Returns F (n, n_obj): each objective, negated where it
-    is maximised, :data:`INFEASIBLE_VALUE` for infeasible designs; G (n, 2 + n_constraints) ≤ 0 where
-    satisfied: [not ok or an objective NaN, fails the screen, each constraint false] as 0 / 1; and
-    feasible (n,) bool.
-    """
-    n = len(df)
-    G = np.zeros((n, 2 + len(opt.constraints)))
-    ok = (df["status"].astype(str) == "ok").to_numpy()
-    F = np.empty((n, len(opt.objectives)))
-    for j, (name, direction) in enumerate(zip(opt.objectives, opt.directions)):
-        v = df[name].to_numpy(dtype=np.float64, na_value=np.nan)
-        F[:, j] = -v if direction == "max" else v
-    solved = ok & np.isfinite(F).all(axis=1)
-    G[:, 0] = np.where(solved, 0.0, 1.0)
-    if opt.screen and "buildable" in df.columns:
-        G[:, 1] = np.where(df["buildable"].to_numpy(dtype=bool), 0.0, 1.0)
-    from ..gait import evaluate_filter
-    for j, c in enumerate(opt.constraints):
-        G[:, 2 + j] = np.where(evaluate_filter(df, c), 0.0, 1.0)
-    feasible = (G <= 0.0).all(axis=1)
-    F[~feasible] = INFEASIBLE_VALUE
-    return F, G, feasible
-
-
-def feasible_mask(df, opt: Optimize, screen=None) -> np.ndarray:
-    """(len(df),) bool: the designs of a results frame that are feasible for ``opt``."""
-    return objective_matrix(df, opt, screen)[2]
 
 
 def optimize_from_dict(d: dict, mech: Mechanism) -> Optimize:

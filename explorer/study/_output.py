@@ -15,7 +15,7 @@ import numpy as np
 from .._files import format_size
 from ..errors import UserError, where
 from ..kernels import STATUS_NAMES, assemble
-from ..store import FILE_STATUS_NAMES
+from ..store import FILE_STATUS_NAMES, ResultsWriter
 from ._chunk import compute_study_metrics, metric_plan
 from ._spec import Study
 
@@ -228,3 +228,14 @@ def _state(path: Path) -> str:
     if info["format"] is None:
         return "not an explorer results file"
     return "complete" if info["complete"] else "incomplete"
+
+
+def optimize_writer(out: Path, study: Study):
+    """A new results file for an ``[optimize]`` study: P = ``[optimize] population`` rows a chunk (one
+    generation), and a ``generation`` column (rows g·P … g·P + P − 1 hold generation g). What
+    ``explorer optimize`` and ``explorer synth`` (its designs as one generation) write into."""
+    P = study.optimize.population
+    generation = np.arange(study.n_variants, dtype=np.int64) // P
+    return ResultsWriter.create(out, study, P, exact_rows=True, columns={
+        "generation": (generation, f"optimiser generation (rows g*{P} … g*{P}+{P - 1}); the nominal design, "
+                                   f"when inside the bounds, is variant 0")})

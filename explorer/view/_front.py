@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UserError
-from ..study import front_history, objective_matrix, optimization_of
+from ..optimize import front_history, objective_matrix, optimization_of
 from ._plots import LEGEND_SIZE, metric_label, new_figure, style_axes
 
 

@@ -1,6 +1,6 @@
 """``explorer optimize``: search a study's design parameters with pymoo, one batch solve per generation.
 
-Each generation is one call of the chunk runner (:func:`~._chunk.design_solver`, the same code that
+Each generation is one call of the chunk runner (:func:`~explorer.study.runner.design_solver`, the same code that
 runs a sampled study's chunks, locally or on Dask) and one committed chunk of an ordinary results
 file: rows ``g·P … g·P + P − 1`` hold generation g (P = ``[optimize] population``), with a
 ``generation`` column, so ``rank``, ``show``, ``plot``, ``animate`` and ``open_results(...).frame()``
@@ -15,7 +15,7 @@ uninterrupted run's, whenever the previous run was stopped (kill -9 included: a 
 atomically or not at all).
 
 With ``[optimize] polish`` (the default of ``algorithm = "auto"`` on ``path_error``), one more
-generation, number G = ``generations``, holds the polished designs (:mod:`._polish`: the batched
+generation, number G = ``generations``, holds the polished designs (:mod:`explorer.synthesis._polish`: the batched
 Levenberg–Marquardt from the ``polish_starts`` best distinct feasible designs of generations 0 … G−1,
 then least squares from the best of its answers and the ``restarts`` next best distinct ones; with
 constraints or the screen, also points on the way back to each start), solved
@@ -41,14 +41,12 @@ from ..errors import Terminated, UserError, signals_held
 from ..gait import pareto_front
 from ..store import Results
 from ..store import OutputLock, ResultsWriter
-from ._chunk import design_solver
-from ._cluster import Recipe, check_client, one_thread, warm_everywhere, worker_threads
-from ._designs import designs_from_x, nominal_x, stored_x
+from ..study import Study, load_study
+from ..study.runner import (Recipe, check_client, design_solver, designs_from_x, nominal_x, one_thread, optimize_writer,
+                           results_path, results_state, stored_x, validate_study, warm_everywhere, worker_threads, writer_counts)
 from ._front_polish import front_polish_generation
 from ._hypervolume import Hypervolume, hypervolume_history
 from ._objectives import objective_matrix
-from ._output import _counts, _state, results_path, validate_study
-from ._spec import Study, load_study
 
 
 @dataclass
@@ -301,19 +299,19 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
                 writer = ResultsWriter.resume(out, study)
                 resumed = True
             elif force:
-                writer = _create(out, study)
+                writer = optimize_writer(out, study)
             else:
-                state = _state(out)
+                state = results_state(out)
                 raise UserError(f"{out}: results file exists ({state}); pass --force to overwrite it"
                                 + (" or --resume to finish it" if state != "complete" else ""))
         else:
-            writer = _create(out, study)
+            writer = optimize_writer(out, study)
         try:
             evaluate = _dask_evaluator(client, study) if client is not None else _local_evaluator(study)
             ran, stopped, _, polished, rounds = _search(study, writer, out, evaluate, progress)
             if not writer.complete:
                 writer.finish()
-            counts = _counts(writer)
+            counts = writer_counts(writer)
             df = Results(writer.f, out).frame()
         finally:
             with signals_held():
@@ -326,15 +324,6 @@ def run_optimize(study, output=None, resume: bool = False, force: bool = False, 
                            int((df["status"].astype(str) != "not-run").sum()), int(feasible.sum()), counts, front,
                            time.perf_counter() - t0, stopped, resumed, hv, opt.constraints, hvd, polished=polished,
                            rounds=rounds)
-
-
-def _create(out: Path, study: Study) -> ResultsWriter:
-    opt = study.optimize
-    P = opt.population
-    generation = np.arange(study.n_variants, dtype=np.int64) // P
-    return ResultsWriter.create(out, study, P, exact_rows=True, columns={
-        "generation": (generation, f"optimiser generation (rows g*{P} … g*{P}+{P - 1}); the nominal design, "
-                                   f"when inside the bounds, is variant 0")})
 
 
 def final_front(df, study: Study):
@@ -562,7 +551,7 @@ class _AtlasStarts:
         if opt.atlas is False or study.target is None or opt.objectives != ("path_error",):
             self.why = "not asked for" if opt.atlas is False else "no target"
             return
-        from ._atlas import atlas_spec, find_atlas, open_atlas, same_branch, structure_key
+        from ..synthesis import atlas_spec, find_atlas, open_atlas, same_branch, structure_key
         mech = study.mech
         gauge = atlas_spec(mech).gauge
         missing = [g for g in gauge if g not in opt.parameters]
@@ -605,12 +594,12 @@ class _AtlasStarts:
                 there_back = np.vstack([t.points, t.points[-2:0:-1]]) if len(t.points) > 2 else t.points
                 loops = self.atlas.query(there_back, None, closed=True, k=len(pool))
                 pool = [c for pair in zip(pool, loops) for c in pair]
-            from ._atlas import diverse
+            from ..synthesis import diverse
             self._cands = diverse(self.atlas, pool, len(pool), distinct=0.02)
         opt = self.study.optimize
         chosen = self._cands[r * k:(r + 1) * k]
         rows = []
-        from ._atlas import move_parameters
+        from ..synthesis import move_parameters
         names = tuple(self.study.mech.parameters())
         for c in chosen:
             full = move_parameters(self.atlas.mech, self.atlas.design(c.row), c.A, c.B, names)
@@ -620,11 +609,11 @@ class _AtlasStarts:
 
 def _polish_generation(study: Study, writer: ResultsWriter, results: Results, evaluate, r: int = 0,
                        atlas=None) -> dict:
-    """The polish of round r (``[optimize] polish``, :mod:`._polish`): the batched
+    """The polish of round r (``[optimize] polish``, :mod:`explorer.synthesis._polish`): the batched
     Levenberg–Marquardt from the ``polish_starts`` best distinct feasible designs of the round's
     generations and as many atlas starts (:class:`_AtlasStarts`), then least squares from the best of its
     answers and the ``restarts`` next best distinct ones, inside the constraints when there are any (or
-    the screen: :func:`._polish.polish_constrained`), the polished designs committed as the round's last
+    the screen: :func:`explorer.synthesis.polish_constrained`), the polished designs committed as the round's last
     generation through the chunk runner (rows beyond them not-run). Read from the file and the atlas, so
     a resumed run polishes the same starts to the same designs; a committed polish generation is read
     back. Returns {"starts", "best_before", "best_after", "solved" (None when read back), "held" (what
@@ -647,7 +636,7 @@ def _polish_generation(study: Study, writer: ResultsWriter, results: Results, ev
     X = stored_x(df, study)
     lo, hi = np.array(opt.lower), np.array(opt.upper)
     res, cres, coarse = _residuals(study, evaluate)
-    from ._polish import distinct_best, finish, polish, polish_constrained, scout_and_polish
+    from ..synthesis import distinct_best, finish, polish, polish_constrained, scout_and_polish
     inside = -1  # the candidate polished inside the constraints even though it meets them (a feasible start)
     extra = atlas.starts(r, max(opt.polish_starts, 1 + opt.restarts)) if atlas is not None else np.empty((0, len(lo)))
     first = distinct_best(X, f, lo, hi, opt.polish_starts, distinct=0.02) if opt.polish_starts > 0 else []
@@ -699,8 +688,8 @@ def _residuals(study: Study, evaluate):
     chunk runner (metrics, screen) when a constraint names a metric or the screen applies, else by the
     same plain batch solve, the constraints then evaluated over the parameters alone."""
     from ..kernels import simulate_batch
-    from ._chunk import geometry_columns, metric_plan
-    from ._polish import ConstrainedResiduals, PathResiduals
+    from ..study.runner import geometry_columns, metric_plan
+    from ..synthesis import ConstrainedResiduals, PathResiduals
     opt = study.optimize
     mech, target = study.mech, study.target
     kw = dict(match=target.match, angles=target.angles, ignore=target.ignore, phase=target.phase)
@@ -807,7 +796,7 @@ def _held(study: Study, res, x, lo, hi) -> dict:
     (within 1e-9 of the span) that the objective's gradient pushes against, and the constraints whose
     margin is at most HELD_MARGIN and which the unconstrained descent would break; "exact" when the fit is exact;
     else an interior minimum. One batch solve of the design and its forward-difference copies."""
-    from ._polish import FD_STEP
+    from ..synthesis import FD_STEP
     k = len(x)
     span = hi - lo
     step = FD_STEP * np.maximum(np.abs(x), 1e-2 * span)
@@ -874,7 +863,7 @@ def _bar(progress: bool, total: int, name: str):
 def optimization_of(results):
     """The :class:`~._objectives.Optimize` of an optimisation's results file (an open
     :class:`~explorer.store.Results`); UserError for a file of a sampled study."""
-    from ._objectives import optimize_from_dict
+    from ..study import optimize_from_dict
     d = results.study.get("optimize") if isinstance(results.study, dict) else None
     if not d:
         raise UserError(f"{results.filename}: not an optimisation (its study has no [optimize] table); "

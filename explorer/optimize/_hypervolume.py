@@ -29,7 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._objectives import Optimize, objective_matrix
+from ..study import Optimize
+from ._objectives import objective_matrix
 
 #: The reference point in every normalised objective (the nadir of the run's fronts is 1, the ideal 0).
 REFERENCE = 1.1

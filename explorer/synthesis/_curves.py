@@ -1,6 +1,6 @@
 """Closed curves as comparable shapes: the curve atlas's descriptors and its alignment scans.
 
-A design's foot path over one crank cycle is a closed curve. The atlas (:mod:`explorer.study._atlas`)
+A design's foot path over one crank cycle is a closed curve. The atlas (:mod:`explorer.synthesis._atlas`)
 keeps each design's curve in two *normalised* forms, each of ``n`` points (``N_CURVE`` = 32):
 
 ``curve`` (arc length)
@@ -46,7 +46,7 @@ Scans (exact alignment of a target with many atlas curves; Numba, parallel over 
 
 Every scan returns, per design, the residual as a share of the target's spread about its centroid
 (0: the same shape; 1: no better than a point) and the fitted transform; they are first cuts at the
-resolution of n points, which the polish (:mod:`explorer.study._synth`) finishes on the real
+resolution of n points, which the polish (:mod:`explorer.synthesis._synth`) finishes on the real
 kinematics.
 """
 

@@ -6,7 +6,7 @@ look-up and a short polish instead of a search from scratch.
 space (:func:`atlas_spec`: which parameters vary, within which bounds), solves the designs with the
 batch kernels (``simulate_batch``, 128 crank steps, positions only) and keeps the designs that turn a
 full cycle (and pass the buildability screen, for a walking leg), each with its path in the two
-normalised forms of :mod:`explorer.gait._curves` and its design parameters. :func:`open_atlas` reads
+normalised forms of :mod:`explorer.synthesis._curves` and its design parameters. :func:`open_atlas` reads
 one back; :meth:`Atlas.query` finds the designs whose paths best match target points, each with the
 similarity transform that puts it onto them.
 
@@ -18,7 +18,7 @@ positions (so every design has the nominal's ground line), and each rigid body k
 at its nominal position in its own frame and its second joint on its nominal line (y fixed). Every
 other design parameter varies: link lengths and the crank radius log-uniformly within a factor
 :data:`LENGTH_FACTOR` of the nominal, coordinates uniformly within :data:`COORDINATE_SPREAD` × the
-mechanism's size of the nominal. The atlas four-bar (``fourbar``: ``explorer/study/atlas/fourbar.toml``,
+mechanism's size of the nominal. The atlas four-bar (``fourbar``: ``explorer/synthesis/atlas/fourbar.toml``,
 the coupler a rigid body) has its own, wider bounds (:data:`FAMILY_BOUNDS`). The designs are a
 scrambled Sobol sequence (scipy.stats.qmc, seeded) over those bounds, in order; the atlas keeps the
 first N that turn a full cycle.
@@ -38,7 +38,7 @@ was applied).
 datasets: ``params`` (N, p) float64 the varied parameters; ``index`` (N,) int64 each design's position
 in the Sobol sequence; ``centre`` (N, 2) and ``scale`` (N,) float64 of its path (model units);
 ``curve`` and ``timed`` (N, 32, 2) float16 the normalised arc-length and crank-angle curves;
-``descriptor`` (N, 16) float32 (:func:`explorer.gait._curves.descriptors`).
+``descriptor`` (N, 16) float32 (:func:`explorer.synthesis._curves.descriptors`).
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def atlas_dir() -> Path:
 def family_source(name: str) -> str:
     """The mechanism file or built-in of an atlas family, or ``name`` itself (a mechanism)."""
     if name == "fourbar":
-        return str(resources.files("explorer.study") / "atlas" / "fourbar.toml")
+        return str(resources.files("explorer.synthesis") / "atlas" / "fourbar.toml")
     return name
 
 
@@ -229,7 +229,7 @@ def build_atlas(mechanism: str, designs: int = DEFAULT_DESIGNS, *, output=None, 
     import hdf5plugin
 
     from .. import __version__
-    from ..gait._curves import MAX_STEP_SHARE, N_CURVE, descriptors, normalise
+    from ._curves import MAX_STEP_SHARE, N_CURVE, descriptors, normalise
     from ..kernels import simulate_batch
     from ..mechanism import mechanism_toml
     if isinstance(designs, bool) or not isinstance(designs, int) or not 1 <= designs <= 100_000_000:
@@ -351,7 +351,7 @@ class Candidate:
 
     def arc_positions(self, fractions) -> np.ndarray | None:
         """Where the target points (their shares ``fractions`` (M,) of the way along the target,
-        :func:`explorer.gait._curves.arc_fractions`) fall on this design's path, as shares of its length
+        :func:`explorer.synthesis._curves.arc_fractions`) fall on this design's path, as shares of its length
         from the atlas curve's start (the design's θ = 0 point before the move, θ = arg A after it):
         the look-up's alignment, in order along the path; None for a timed look-up."""
         if self.arc_start is None:
@@ -426,13 +426,13 @@ class Atlas:
         :class:`Candidate` s.
 
         Untimed (``angles`` None) and ``closed``: the ``neighbours`` nearest descriptors of the target
-        (both ways round) from the index, then :func:`~explorer.gait._curves.align_closed` on them.
-        Untimed and open: :func:`~explorer.gait._curves.align_open` over the first ``scan`` designs
+        (both ways round) from the index, then :func:`~explorer.synthesis._curves.align_closed` on them.
+        Untimed and open: :func:`~explorer.synthesis._curves.align_open` over the first ``scan`` designs
         (default :data:`SCAN`; the atlas is a Sobol sequence, so its first rows are an even sample).
         Timed (``angles`` (M,) radians, explorer's crank angle in the target's frame):
-        :func:`~explorer.gait._curves.align_timed` over the first ``scan`` designs, the phase fixed
+        :func:`~explorer.synthesis._curves.align_timed` over the first ``scan`` designs, the phase fixed
         (rotating a design delays its crank by the same angle) or free."""
-        from ..gait._curves import N_CURVE, align_closed, align_open, align_timed, descriptors, resample_target
+        from ._curves import N_CURVE, align_closed, align_open, align_timed, descriptors, resample_target
         P = np.asarray(points, dtype=np.float64)
         n_scan = min(SCAN, len(self)) if scan is None else max(1, min(int(scan), len(self)))
         out = []
@@ -440,7 +440,7 @@ class Atlas:
             q, c, r = resample_target(P, N_CURVE, closed=True)
             qn = (q - c) / r
             d = descriptors(qn[None])[0]
-            from ..gait._curves import reverse_descriptor
+            from ._curves import reverse_descriptor
             nb = min(neighbours, len(self))
             rows = np.unique(np.concatenate([np.atleast_1d(self.tree.query(d, k=nb)[1]),
                                              np.atleast_1d(self.tree.query(reverse_descriptor(d), k=nb)[1])]))
@@ -456,7 +456,7 @@ class Atlas:
         err = np.empty(n_scan)
         fits = []
         if angles is None:
-            from ..gait._curves import OPEN_POINTS
+            from ._curves import OPEN_POINTS
             q, c, r = resample_target(P, OPEN_POINTS, closed=False)
             for a0 in range(0, n_scan, 65536):
                 a1 = min(a0 + 65536, n_scan)

@@ -248,11 +248,11 @@ class PathResiduals:
 
     def ordered_start(self, X):
         """The untimed formulation's start angles (K, M) of designs X (K, k): the target points matched in
-        order along each design's path (:func:`explorer.gait._curves.ordered_match`: the assignment that
+        order along each design's path (:func:`explorer.synthesis._curves.ordered_match`: the assignment that
         goes round the path once, either way, never back). Each point's closest match on its own may lie
         on another stretch of a path that passes near itself, a local minimum the least squares does not
         leave. None when the formulation has no free angles."""
-        from ..gait._curves import ordered_match
+        from ._curves import ordered_match
         if self.form != "untimed":
             return None
         foot, _, ok = self._solve(np.atleast_2d(X))

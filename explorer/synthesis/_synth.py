@@ -1,13 +1,13 @@
 """``explorer synth``: from target points to designs, by the curve atlas and a polish.
 
-1. **Look-up** (:meth:`explorer.study._atlas.Atlas.query`): the atlas designs whose paths best match
+1. **Look-up** (:meth:`explorer.synthesis._atlas.Atlas.query`): the atlas designs whose paths best match
    the target, each moved onto it by the best similarity transform (position, rotation, scale).
 2. **Polish**: the ``starts`` best of them advanced together by the batched bounded
-   Levenberg–Marquardt (:func:`explorer.study.batched_lm`) over every design parameter the atlas
+   Levenberg–Marquardt (:func:`explorer.synthesis.batched_lm`) over every design parameter the atlas
    varies *and* its gauge (the crank centre and the first ground pivot: where the design stands, how
    it is turned and how big it is), on the real kinematics (``simulate_batch``, ``steps`` crank steps,
    the path between samples by cubic Hermite interpolation); the best distinct answers finished by
-   scipy's least squares (:func:`explorer.study.polish`). The residuals are those of a study's polish:
+   scipy's least squares (:func:`explorer.synthesis.polish`). The residuals are those of a study's polish:
    untimed, each target point's crank angle is a variable (the literature's untimed formulation,
    "closest" matching); timed, the foot at each point's crank angle (explorer's crank angle in the
    target's frame: counter-clockwise from +x), or with a free phase the angles plus one shared shift.
@@ -41,7 +41,7 @@ TOP = 10
 STARTS = 256
 #: The polish: every start SCOUT_ITERATIONS batched Levenberg–Marquardt iterations on the path at
 #: SCOUT_STEPS crank steps, the KEEP best distinct answers LM_ITERATIONS more at ``steps`` (then again
-#: from their points matched in order), then the finish (explorer.study._polish.finish).
+#: from their points matched in order), then the finish (explorer.synthesis._polish.finish).
 SCOUT_ITERATIONS = 12
 KEEP = 8
 LM_ITERATIONS = 100
@@ -152,7 +152,7 @@ class _Posed:
         self.atlas, self.mech = atlas, atlas.mech
         self.names = atlas.spec.synth
         # bounds wide enough never to hold an answer, and no wider: the polish's finite-difference
-        # steps are 1e-8 of their span (explorer.study._polish)
+        # steps are 1e-8 of their span (explorer.synthesis._polish)
         size = max(_size(points), 1e-300)
         self.size = size
         c = points.mean(axis=0)
@@ -312,10 +312,8 @@ def _write(out, force, at, posed, X, points, angles, free_phase, steps, name, in
     """The results file of designs X (n, k) (a one-generation optimisation, see the module docstring)."""
     from ..errors import signals_held
     from ..store import OutputLock
-    from ._chunk import design_solver
-    from ._designs import designs_from_x
-    from ._optimize import _create
-    from ._spec import load_study
+    from ..study import load_study
+    from ..study.runner import design_solver, designs_from_x, optimize_writer
     mech_file = family_source(at.family) if at.family in FAMILIES else None
     tmp_mech = None
     if mech_file is None:
@@ -350,7 +348,7 @@ def _write(out, force, at, posed, X, points, angles, free_phase, steps, name, in
             if out.exists():
                 if not force:
                     raise UserError(f"{out}: results file exists; pass --force to overwrite it")
-            writer = _create(out, study)
+            writer = optimize_writer(out, study)
             try:
                 lengths, crank, geometry = designs_from_x(study, X)
                 batch, metrics = design_solver(study)(lengths, crank, geometry)

@@ -15,7 +15,7 @@ forward; the weights decide where along the common descent directions it goes.
 The solver is scipy's SLSQP (``scipy.optimize.minimize(method="SLSQP")``) on the parameters scaled to
 [0, 1] by their bounds. Values and gradients come from ONE batch solve of 1 + k designs per point (the
 point and each parameter moved by :data:`FD_STEP` of its bounds' span, backwards at the upper bound:
-forward differences), through the study's chunk runner (:func:`~._chunk.design_solver`, or the Dask
+forward differences), through the study's chunk runner (:func:`~explorer.study.runner.design_solver`, or the Dask
 evaluator) and :func:`~._objectives.objective_matrix`, exactly as a generation is scored: a design that
 fails, fails the screen or breaks a constraint is infeasible; SLSQP sees a large φ there and the
 polish keeps the best *feasible* design it evaluated that satisfies the constraints. A design no
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._designs import designs_from_x
+from ..study.runner import designs_from_x
 from ._objectives import objective_matrix
 
 #: Finite-difference step, a share of each parameter's bounds' span.
