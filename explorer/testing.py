@@ -130,7 +130,6 @@ _HOMES = {
     "Sampler": (".study._sample", "Sampler"),
     "store_integrity": (".store._integrity", None),
     "cli_report": (".cli._report", None),
-    "cli_physics": (".cli._physics", None),
     "view_report": (".view._report", None),
     "cli_describe": (".cli._describe", "describe"),
     "kernels_sweep": (".kernels._sweep", None),
