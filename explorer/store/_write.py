@@ -52,6 +52,7 @@ import json
 import math
 import os
 import sys
+import time
 from glob import escape as glob_escape
 from pathlib import Path
 
@@ -60,9 +61,10 @@ import numpy as np
 
 from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
+from ._chunks import ChunkFilter, write_rows
 from ._datasets import (SCALAR_FILTERS, SERIES, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group,
                         metric_attrs, now)
-from ._integrity import (DIGEST, RESTORE, chunk_digest, has_integrity, metadata_checksum, per_variant,
+from ._integrity import (DIGEST, RESTORE, digests, has_integrity, metadata_checksum, per_variant,
                          salvage, stamp, verify, warn_legacy)
 
 __all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
@@ -92,6 +94,11 @@ WRITE_CACHE_BYTES = HDF5_CHUNK_BYTES
 LIBVER = ("v108", "latest")
 #: Default variants per study chunk (a multiple of the HDF5 chunk rows; see ``chunk_rows``).
 DEFAULT_CHUNK_VARIANTS = 2048
+#: Seconds of commits marked done together by ``explorer run`` (``ResultsWriter.sync_every``): the unit a
+#: kill -9 can lose (what was written since the last sync; a resume solves it again). One sync costs two
+#: flushes and the metadata checksum, which walks every attribute of the file (tens of ms on a lean file
+#: of 40 metric datasets): once a commit, it was the commit thread's largest cost.
+SYNC_SECONDS = 1.0
 #: Upper bound on the solver output one study chunk holds in memory, bytes.
 CHUNK_MEMORY = 96 << 20
 
@@ -149,6 +156,8 @@ class ResultsWriter:
         # every stored series (explorer.store._datasets.SERIES): (dataset, its spec, its member name or None)
         self._series = [(f[s.group][m] if s.member else f[s.group], s, m if s.member else None)
                         for s in SERIES if s.group in f for m in (f[s.group] if s.member else [None])]
+        # each series' filter pipeline, applied off the GIL (explorer.store._chunks; None: written through h5py)
+        self._filters = [ChunkFilter.of(d) for d, _, _ in self._series]
         self._done = f["chunks/done"]
         # files of this version carry checksums (explorer.store._integrity), kept up to date at every
         # commit; a file started by an earlier version is finished as it was begun, without them
@@ -158,6 +167,11 @@ class ResultsWriter:
         self._row_size = None  # uncompressed bytes of one row of every per-variant dataset (likewise)
         self._reserved = 0  # end of the space reserved for commits (given back at close)
         self._last, self._ratio = None, None  # (file end, raw bytes) at the last reservation; bytes/raw seen
+        #: Seconds between syncs (:meth:`sync`): chunks written meanwhile are marked done together, with one
+        #: metadata checksum; 0 (the default): every chunk at its commit. ``explorer run`` uses SYNC_SECONDS.
+        self.sync_every = 0.0
+        self._unsynced: list[int] = []  # chunks written whole since the last sync
+        self._synced_at = -math.inf
 
     # -- opening ---------------------------------------------------------------------------------------
     @classmethod
@@ -351,8 +365,8 @@ class ResultsWriter:
             d[a:b] = values[key]
         if self._geometry is not None:
             self._geometry[a:b] = geometry
-        for d, spec, name in self._series:
-            _write_rows(d, a, b, spec.rows(batch, name))
+        for (d, spec, name), chunk_filter in zip(self._series, self._filters):
+            write_rows(d, a, b, spec.rows(batch, name), chunk_filter)
         g = f["metrics"]
         new = [name for name in (metrics or {}) if name not in g]
         for name in new:  # self-describing from the first write, as `explorer metrics` writes it
@@ -412,6 +426,10 @@ class ResultsWriter:
                 return
             if free >= need:
                 return
+        try:  # the chunks written whole before this one are kept
+            self.sync()
+        except Exception:  # noqa: BLE001 - the disk is full: they stay not done (a resume solves them again)
+            pass
         done = int(self.done.sum())
         have = "" if free is None else f", {_size(free)} free"
         kept = (f"the {done} of {self.n_chunks} chunks committed before are kept" if done else
@@ -449,38 +467,41 @@ class ResultsWriter:
             return DEFAULT_BAND
 
     def _commit(self, i: int) -> None:
-        """The rows reach the disk (flush), then, in one more flush, the chunk's digest, ``done[i]`` and
-        the metadata checksum that covers both."""
+        """Chunk ``i``'s rows are written: it joins the group :meth:`sync` marks done, now (``sync_every``
+        0) or once ``sync_every`` seconds have passed since the last sync."""
+        self._unsynced.append(int(i))
+        if self.sync_every <= 0 or time.monotonic() - self._synced_at >= self.sync_every:
+            self.sync()
+
+    def sync(self) -> None:
+        """Mark done every chunk written since the last sync: their rows reach the disk (flush), then, in
+        one more flush, their digests, their ``done`` flags and the metadata checksum that covers them
+        (one checksum per group of commits: it walks every attribute of the file)."""
+        indices = sorted(set(self._unsynced) - set(np.flatnonzero(self.done).tolist()))
+        if not indices:
+            self._unsynced = []
+            return
         self.f.flush()
         if self.integrity:
             if self._covered is None:
                 self._covered = per_variant(self.f, self.n_variants)
-            self._digest[i] = chunk_digest(self._covered, *self.chunk_range(i))
-        self._done[i] = True
+            for i, got in zip(indices, digests(self._covered, [self.chunk_range(i) for i in indices])):
+                self._digest[i] = np.frombuffer(got, dtype=np.uint8)
+        self._done[indices] = True
         if self.integrity:
             stamp(self.f)
         self.f.flush()
-        self.done[i] = True
+        self.done[indices] = True
+        self._unsynced = []
+        self._synced_at = time.monotonic()
 
     def skip_chunks(self, indices) -> None:
         """Commit the chunks ``indices`` with no variant run (their rows stay "not-run") in one go: their
         digests and done flags, then one metadata checksum and flush (an optimisation's restart rounds
         that never began: committed one by one, each commit's checksum of the whole file made it
         quadratic)."""
-        indices = sorted(int(i) for i in indices if not self.done[i])
-        if not indices:
-            return
-        self.f.flush()
-        if self.integrity:
-            if self._covered is None:
-                self._covered = per_variant(self.f, self.n_variants)
-            for i in indices:
-                self._digest[i] = chunk_digest(self._covered, *self.chunk_range(i))
-        self._done[indices] = True
-        if self.integrity:
-            stamp(self.f)
-        self.f.flush()
-        self.done[indices] = True
+        self._unsynced += [int(i) for i in indices]
+        self.sync()
 
     def stamp(self) -> None:
         """Update the metadata checksum after attributes were set directly (a Dask shard's done marker);
@@ -490,6 +511,7 @@ class ResultsWriter:
 
     def finish(self) -> None:
         """Mark the file complete (every chunk must be done) and flush."""
+        self.sync()
         if not self.done.all():
             raise RuntimeError(f"{self.path}: {int((~self.done).sum())} chunks are not done")
         self.f.attrs["complete"] = True
@@ -498,7 +520,13 @@ class ResultsWriter:
         self.f.flush()
 
     def close(self) -> None:
+        """Mark done the chunks written since the last sync (:meth:`sync`; if that fails they stay not
+        done, and a resume solves them again), close the file."""
         if self.f.id.valid:
+            try:
+                self.sync()
+            except Exception:  # noqa: BLE001 - already failing (a full disk ...): the file as the last sync left it
+                pass
             self.f.close()
             self._release()
 
@@ -543,18 +571,6 @@ def _check_resumable(path: Path, fingerprint: str) -> bool:
         return legacy
     finally:
         f.close()
-
-
-def _write_rows(d: h5py.Dataset, a: int, b: int, values) -> None:
-    """d[a:b] = values, one HDF5 chunk per call. h5py holds the GIL while HDF5 filters and writes, so a
-    commit thread writing a whole study chunk in one call (16 HDF5 chunks, 20-200 ms) keeps the
-    solver's threads from picking up their next block of rows; in calls of one HDF5 chunk (~1.5 ms
-    with Blosc) the GIL is free between calls, and the runner shortens the interpreter's switch
-    interval so that a waiting thread gets it at the next one (explorer.study._run)."""
-    h = d.chunks[0] if d.chunks is not None else b - a
-    for lo in range(a, b, h):
-        hi = min(lo + h, b)
-        d[lo:hi] = values[lo - a:hi - a]
 
 
 class DiskFull(UserError):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..errors import Terminated, UserError, signals_held
 from ..gait import start_kernel_warmup, stop_kernel_warmup
-from ..store import OutputLock, ResultsWriter
+from ..store import SYNC_SECONDS, OutputLock, ResultsWriter
 from ._chunk import chunk_solver, metric_plan
 from ._output import (RunSummary, _check_disk_space, _check_overwritable, _counts, _state,  # noqa: F401
                       estimated_bytes, results_path, validate_study)
@@ -88,6 +88,7 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
         writer = ResultsWriter.create(out, study, chunk_size)
 
     ran = 0
+    writer.sync_every = SYNC_SECONDS  # chunks marked done in groups: what a kill -9 can lose (docs/results.md)
     switch = sys.getswitchinterval()
     try:
         bar = committer = None
@@ -107,6 +108,10 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
             with signals_held():  # a second Ctrl-C must not cut the commit in flight (h5py would crash)
                 if committer is not None:
                     committer.abort()
+                try:
+                    writer.sync()  # the chunks written whole are kept
+                except Exception:  # noqa: BLE001 - they stay not done: the resume solves them again
+                    pass
                 done = int(writer.done.sum())
             what = "terminated" if isinstance(exc, Terminated) else "interrupted"
             raise type(exc)(f"{out}: {what} with {done} of {writer.n_chunks} chunks committed; run again with "
