@@ -2,10 +2,17 @@
 
 Crash safety. The file is built with every dataset at its full size under a hidden temporary
 name, closed, and renamed into place, so the results path never holds a half-created file. A
-chunk of variants is then committed as: write all of its rows, flush, set ``/chunks/done[i]``,
+chunk of variants is then committed as: write all of its rows; at the next sync (at once, or for
+``explorer run`` about once a second: :data:`SYNC_SECONDS`, ``ResultsWriter.sync``), flush, set the
+digests and ``/chunks/done`` of every chunk written since the last sync and the metadata checksum,
 flush. A process killed between flushes (kill -9 included) leaves the metadata of the last flush
 on disk plus, at worst, unreferenced bytes at the end of the file, so the file opens and
-``/chunks/done`` names exactly the chunks that are complete. Resuming rewrites every chunk that is
+``/chunks/done`` names exactly the chunks that are complete (what was written since the last sync is
+solved again by a resume: the resume unit).
+
+Series rows are filtered off the GIL and written whole HDF5 chunk by chunk with ``write_direct_chunk``
+(:mod:`explorer.store._chunks`): the same bytes HDF5's own pipeline stores, checked by HDF5 the same
+way when read. Resuming rewrites every chunk that is
 not done; variants are a pure function of the study, so the result is the same, bit for bit, as an
 uninterrupted run. ``/chunks/done`` is contiguous and uncompressed, so setting a flag is an
 in-place write of one byte. HDF5 has no journal: the one window left is a kill in the middle of a
@@ -109,6 +116,18 @@ def hdf5_rows(steps: int) -> int:
     return max(1, 1 << int(math.floor(math.log2(max(HDF5_CHUNK_BYTES / per, 1.0)))))
 
 
+def series_rows(rows: int, steps: int) -> int:
+    """Rows per HDF5 chunk of the series of a file committed ``rows`` variants at a time: :func:`hdf5_rows`,
+    or a divisor of ``rows`` not under half of it, so that every commit covers whole HDF5 chunks (they
+    are then written with ``write_direct_chunk``: :mod:`explorer.store._chunks`); ``rows`` itself when
+    smaller. Files written before keep their layout (the writer sends a commit's partial chunks through
+    h5py)."""
+    h = hdf5_rows(steps)
+    if rows <= h:
+        return rows
+    return next((d for d in range(h, h // 2 - 1, -1) if rows % d == 0), h)
+
+
 def chunk_rows(n_variants: int, steps: int, n_series: int, target: int | None = None) -> int:
     """Variants per study chunk: ``target`` (default :data:`DEFAULT_CHUNK_VARIANTS`) rounded to a
     multiple of the HDF5 chunk rows, lowered so that ``n_series`` (N, steps, 2) outputs fit in
@@ -192,7 +211,7 @@ class ResultsWriter:
         N, S = study.n_variants, study.steps
         rows = int(rows) if exact_rows else chunk_rows(N, S, study.n_series, rows)
         n_chunks = -(-N // rows)
-        h = min(hdf5_rows(S), rows)
+        h = series_rows(rows, S)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
