@@ -164,3 +164,14 @@ def test_chunks_are_marked_done_per_sync_and_a_kill_between_syncs_leaves_a_file_
             assert f["chunks/done"][...].tolist() == done
             ran = f["status"][...] != -1
             assert ran[:16].all() and ran[48:].sum() == 0
+
+
+@pytest.mark.parametrize("rows", [1, 50, 128, 200, 300, 384, 2048, 257])
+def test_series_chunks_divide_the_commit(rows):
+    """A new file's series chunks: at most hdf5_rows (128 at 360 steps) variants, and a divisor of the commit
+    when one exists from half of that up (else 128: the commit's partial chunks then go through h5py)."""
+    from explorer.store._write import hdf5_rows, series_rows
+    h = series_rows(rows, 360)
+    assert hdf5_rows(360) == 128
+    divisors = [d for d in range(64, 129) if rows % d == 0]
+    assert h == (rows if rows <= 128 else max(divisors) if divisors else 128)
