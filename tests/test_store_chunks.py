@@ -75,7 +75,7 @@ def test_a_direct_chunk_with_a_flipped_byte_is_a_read_error(tmp_path):
     path = tmp_path / "c.h5"
     with h5py.File(path, "w") as f:
         d = f.create_dataset("s", shape=x.shape, chunks=x.shape, dtype="f8", **SERIES_FILTERS["none"])
-        data = bytearray(ChunkFilter.of(d).encode(x))
+        data = bytearray(ChunkFilter.of(d).encode(x).tobytes())
         d.id.write_direct_chunk((0, 0, 0), bytes(data), 0)
         assert np.array_equal(d[...], x)
         data[1000] ^= 0x10

@@ -24,6 +24,7 @@ whose pipeline holds a filter not listed here (lzf, whose code lives inside h5py
 from __future__ import annotations
 
 import ctypes
+import struct
 import zlib
 
 import h5py
@@ -205,8 +206,8 @@ class ChunkFilter:
         dcpl.get_fill_value(fill)
         return cls(steps, tuple(d.chunks), d.dtype, fill[0])
 
-    def encode(self, rows: np.ndarray) -> bytes | None:
-        """The stored bytes of one HDF5 chunk holding ``rows`` (its first rows; a chunk past the end of
+    def encode(self, rows: np.ndarray) -> np.ndarray | None:
+        """The stored bytes (uint8) of one HDF5 chunk holding ``rows`` (its first rows; a chunk past the end of
         the dataset is padded with the fill value, as HDF5 stores edge chunks whole)."""
         rows = np.asarray(rows, dtype=self.dtype)
         if rows.shape != self.chunk_shape:
@@ -224,12 +225,13 @@ class ChunkFilter:
                 if out is None:
                     return None
                 data = np.frombuffer(out, dtype=np.uint8)
-            else:  # fletcher32: the checksum of the bytes so far, appended little-endian
-                total = np.empty(data.nbytes + 4, dtype=np.uint8)
-                total[:-4] = data
-                total[-4:] = np.frombuffer(np.array([fletcher32(data)], dtype="<u4").tobytes(), dtype=np.uint8)
-                data = total
-        return data.tobytes()
+            else:  # fletcher32: the checksum of the bytes so far, appended little-endian (one copy)
+                total = bytearray(data.nbytes + 4)
+                view = memoryview(total)
+                view[:-4] = data
+                view[-4:] = struct.pack("<I", fletcher32(data))
+                data = np.frombuffer(total, dtype=np.uint8)
+        return data
 
 
 def write_rows(d: h5py.Dataset, a: int, b: int, values, chunk_filter: ChunkFilter | None) -> None:
