@@ -17,9 +17,8 @@ import h5py
 import numpy as np
 import pytest
 
-from explorer.kernels._rows import parallel_rows
-from explorer.store._chunks import ChunkFilter, fletcher32, write_rows
-from explorer.store._datasets import SERIES_FILTERS
+from explorer.testing import (SERIES_FILTERS, ChunkFilter, check_integrity, chunk_solver, fletcher32, parallel_rows,
+                              series_rows, write_rows)
 from naive import fletcher32_naive
 
 
@@ -145,8 +144,6 @@ def test_chunks_are_marked_done_per_sync_and_a_kill_between_syncs_leaves_a_file_
 
     from explorer import load_study
     from explorer.store import ResultsWriter
-    from explorer.store._integrity import check
-    from explorer.study._chunk import chunk_solver
     study = load_study(SMALL)
     path = tmp_path / "r.h5"
     w = ResultsWriter.create(path, study, 16)
@@ -160,7 +157,7 @@ def test_chunks_are_marked_done_per_sync_and_a_kill_between_syncs_leaves_a_file_
     w.close()
     for name, done in (("killed.h5", [True, False, False, False]), ("r.h5", [True, True, True, False])):
         with h5py.File(tmp_path / name, "r") as f:
-            check(f)
+            check_integrity(f)
             assert f["chunks/done"][...].tolist() == done
             ran = f["status"][...] != -1
             assert ran[:16].all() and ran[48:].sum() == 0
@@ -170,7 +167,7 @@ def test_chunks_are_marked_done_per_sync_and_a_kill_between_syncs_leaves_a_file_
 def test_series_chunks_divide_the_commit(rows):
     """A new file's series chunks: at most hdf5_rows (128 at 360 steps) variants, and a divisor of the commit
     when one exists from half of that up (else 128: the commit's partial chunks then go through h5py)."""
-    from explorer.store._write import hdf5_rows, series_rows
+    from explorer.store import hdf5_rows
     h = series_rows(rows, 360)
     assert hdf5_rows(360) == 128
     divisors = [d for d in range(64, 129) if rows % d == 0]
