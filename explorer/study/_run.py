@@ -64,7 +64,7 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
     timer = dict.fromkeys(STAGES, 0.0)
     # before any file is made: what cannot be solved is refused first; with the commit thread, each chunk's
     # metrics are computed there, while the main thread solves the next chunk
-    solve = chunk_solver(study, timer, deferred=_THREADED)
+    solve = chunk_solver(study, timer, _THREADED)  # (deferred, positionally: tests wrap it as solver(study, *args))
     if out.exists():
         if resume and _nothing_committed(out, study) is not None:
             # a run stopped before its first commit (a disk that filled, a kill) holds no result: it is
