@@ -56,6 +56,13 @@ _HOMES = {
     "strong_components": (".plan._blt", "_tarjan"),
     # -- store -------------------------------------------------------------------------------------------------
     "store_write": (".store._write", None),
+    "ChunkFilter": (".store._chunks", "ChunkFilter"),
+    "SERIES_FILTERS": (".store._datasets", "SERIES_FILTERS"),
+    "fletcher32": (".store._chunks", "fletcher32"),
+    "write_rows": (".store._chunks", "write_rows"),
+    "series_rows": (".store._write", "series_rows"),
+    "parallel_rows": (".kernels._rows", "parallel_rows"),
+    "check_integrity": (".store._integrity", "check"),
     "series_groups": (".store._integrity", "series_groups"),
     "stamp": (".store._integrity", "stamp"),
     "OutputLock": (".store._lock", "OutputLock"),

@@ -321,3 +321,27 @@ def sequential_dyads(mech, thetas):
         P[v], _ = circle_circle(P[a], P[b], L[la], L[lb], side)
     pos = np.stack([P[v] for v in mech.vertices], axis=1)
     return pos, np.all(np.isfinite(pos), axis=(1, 2))
+
+
+def fletcher32_naive(data: bytes) -> int:
+    """HDF5's ``H5_checksum_fletcher32`` (H5checksum.c) line by line: 16-bit big-endian words, the two sums
+    folded with (s & 0xffff) + (s >> 16) after every 360 words, an odd last byte as a word shifted by 8."""
+    n, k, s1, s2 = len(data), 0, 0, 0
+    words = n // 2
+    while words:
+        t = min(words, 360)
+        words -= t
+        for _ in range(t):
+            s1 = (s1 + ((data[k] << 8) | data[k + 1])) & 0xFFFFFFFF
+            k += 2
+            s2 = (s2 + s1) & 0xFFFFFFFF
+        s1 = (s1 & 0xFFFF) + (s1 >> 16)
+        s2 = (s2 & 0xFFFF) + (s2 >> 16)
+    if n % 2:
+        s1 = (s1 + (data[k] << 8)) & 0xFFFFFFFF
+        s2 = (s2 + s1) & 0xFFFFFFFF
+        s1 = (s1 & 0xFFFF) + (s1 >> 16)
+        s2 = (s2 & 0xFFFF) + (s2 >> 16)
+    s1 = (s1 & 0xFFFF) + (s1 >> 16)
+    s2 = (s2 & 0xFFFF) + (s2 >> 16)
+    return (s2 << 16) | s1

@@ -450,7 +450,16 @@ def test_a_write_that_fails_in_the_first_commit_is_started_over_by_resume(tmp_pa
             raise OSError(errno.ENOSPC, "No space left on device")
         return real(self, key, value)
 
+    from explorer.testing import store_write
+    real_rows = store_write.write_rows  # the series go to HDF5 as whole chunks (write_direct_chunk)
+
+    def full_rows(d, a, b, values, chunk_filter):
+        if d.name.startswith("/paths"):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real_rows(d, a, b, values, chunk_filter)
+
     monkeypatch.setattr(h5py.Dataset, "__setitem__", full)
+    monkeypatch.setattr(store_write, "write_rows", full_rows)
     with pytest.raises(OSError):
         explorer.run_study(study, output=out, progress=False)
     monkeypatch.undo()

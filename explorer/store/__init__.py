@@ -59,7 +59,8 @@ from ._read import RESOLVE_ROWS, Results, inspect, lean_file, open_for_update, o
 from ._update import check_updatable, update_metrics
 from ._variants import (check_variant, is_results, results_band, variant_design, variant_mechanism, variant_peak_forces,
                         variant_row, variant_torque)
-from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN, Exclusive,
+from ._write import (DEFAULT_CHUNK_VARIANTS, FILE_STATUS_NAMES, FORMAT, FORMAT_VERSION, STATUS_NOT_RUN, SYNC_SECONDS,
+                     Exclusive,
                      ResultsWriter, chunk_rows, copy_for_update, create_metric, fingerprint_diff, hdf5_rows,
                      metrics_group, open_h5, replace_with, write_error_reason)
 
@@ -69,4 +70,5 @@ __all__ = ["SERIES", "SeriesSpec", "register_series", "DATASETS", "DEFAULT_CHUNK
            "variant_mechanism", "variant_peak_forces", "variant_row", "variant_torque", "now", "OutputLock", "ShardPlan", "clean_folder", "completed_shards",
            "plan_shards", "shards_folder", "stitch", "write_shard", "fingerprint_diff", "write_error_reason", "seal",
            "RESOLVE_ROWS", "lean_file", "resolve_series", "guarded", "Unreadable", "inspect",
-           "copy_for_update", "replace_with", "open_h5", "Exclusive", "check_updatable", "update_metrics"]
+           "copy_for_update", "replace_with", "open_h5", "Exclusive", "check_updatable", "update_metrics",
+           "SYNC_SECONDS"]

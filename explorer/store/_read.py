@@ -487,6 +487,16 @@ class Results:
 
     # -- series ----------------------------------------------------------------------------------------
     def _series(self, group: str, variant, vertex) -> np.ndarray:
+        """Rows of a stored (or re-solved) series; a chunk that fails HDF5's Fletcher-32 or its filter (a
+        damaged data chunk) is a one-line UserError naming the file, never a traceback."""
+        try:
+            return self._series_rows(group, variant, vertex)
+        except OSError as exc:
+            what = " ".join(str(exc).split())[:160] or type(exc).__name__
+            raise UserError(f"{self.filename}: not a readable explorer results file (damaged: /{group}: {what}); "
+                            f"{RESTORE}") from None
+
+    def _series_rows(self, group: str, variant, vertex) -> np.ndarray:
         vertex = self._vertex(vertex)
         if self.lean:
             return self._lean_series(group, variant, vertex)

@@ -2,10 +2,17 @@
 
 Crash safety. The file is built with every dataset at its full size under a hidden temporary
 name, closed, and renamed into place, so the results path never holds a half-created file. A
-chunk of variants is then committed as: write all of its rows, flush, set ``/chunks/done[i]``,
+chunk of variants is then committed as: write all of its rows; at the next sync (at once, or for
+``explorer run`` about once a second: :data:`SYNC_SECONDS`, ``ResultsWriter.sync``), flush, set the
+digests and ``/chunks/done`` of every chunk written since the last sync and the metadata checksum,
 flush. A process killed between flushes (kill -9 included) leaves the metadata of the last flush
 on disk plus, at worst, unreferenced bytes at the end of the file, so the file opens and
-``/chunks/done`` names exactly the chunks that are complete. Resuming rewrites every chunk that is
+``/chunks/done`` names exactly the chunks that are complete (what was written since the last sync is
+solved again by a resume: the resume unit).
+
+Series rows are filtered off the GIL and written whole HDF5 chunk by chunk with ``write_direct_chunk``
+(:mod:`explorer.store._chunks`): the same bytes HDF5's own pipeline stores, checked by HDF5 the same
+way when read. Resuming rewrites every chunk that is
 not done; variants are a pure function of the study, so the result is the same, bit for bit, as an
 uninterrupted run. ``/chunks/done`` is contiguous and uncompressed, so setting a flag is an
 in-place write of one byte. HDF5 has no journal: the one window left is a kill in the middle of a
@@ -52,6 +59,7 @@ import json
 import math
 import os
 import sys
+import time
 from glob import escape as glob_escape
 from pathlib import Path
 
@@ -60,9 +68,10 @@ import numpy as np
 
 from ..errors import UserError
 from ..kernels import STATUS_NAMES, plan_for
+from ._chunks import ChunkFilter, write_rows
 from ._datasets import (SCALAR_FILTERS, SERIES, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group,
                         metric_attrs, now)
-from ._integrity import (DIGEST, RESTORE, chunk_digest, has_integrity, metadata_checksum, per_variant,
+from ._integrity import (DIGEST, RESTORE, digests, has_integrity, metadata_checksum, per_variant,
                          salvage, stamp, verify, warn_legacy)
 
 __all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
@@ -92,6 +101,11 @@ WRITE_CACHE_BYTES = HDF5_CHUNK_BYTES
 LIBVER = ("v108", "latest")
 #: Default variants per study chunk (a multiple of the HDF5 chunk rows; see ``chunk_rows``).
 DEFAULT_CHUNK_VARIANTS = 2048
+#: Seconds of commits marked done together by ``explorer run`` (``ResultsWriter.sync_every``): the unit a
+#: kill -9 can lose (what was written since the last sync; a resume solves it again). One sync costs two
+#: flushes and the metadata checksum, which walks every attribute of the file (tens of ms on a lean file
+#: of 40 metric datasets): once a commit, it was the commit thread's largest cost.
+SYNC_SECONDS = 1.0
 #: Upper bound on the solver output one study chunk holds in memory, bytes.
 CHUNK_MEMORY = 96 << 20
 
@@ -100,6 +114,18 @@ def hdf5_rows(steps: int) -> int:
     """Rows (variants) per HDF5 chunk of an (N, steps, 2) float64 dataset: a power of two, ≈ 1 MiB."""
     per = steps * 2 * 8
     return max(1, 1 << int(math.floor(math.log2(max(HDF5_CHUNK_BYTES / per, 1.0)))))
+
+
+def series_rows(rows: int, steps: int) -> int:
+    """Rows per HDF5 chunk of the series of a file committed ``rows`` variants at a time: :func:`hdf5_rows`,
+    or a divisor of ``rows`` not under half of it, so that every commit covers whole HDF5 chunks (they
+    are then written with ``write_direct_chunk``: :mod:`explorer.store._chunks`); ``rows`` itself when
+    smaller. Files written before keep their layout (the writer sends a commit's partial chunks through
+    h5py)."""
+    h = hdf5_rows(steps)
+    if rows <= h:
+        return rows
+    return next((d for d in range(h, h // 2 - 1, -1) if rows % d == 0), h)
 
 
 def chunk_rows(n_variants: int, steps: int, n_series: int, target: int | None = None) -> int:
@@ -149,7 +175,10 @@ class ResultsWriter:
         # every stored series (explorer.store._datasets.SERIES): (dataset, its spec, its member name or None)
         self._series = [(f[s.group][m] if s.member else f[s.group], s, m if s.member else None)
                         for s in SERIES if s.group in f for m in (f[s.group] if s.member else [None])]
+        # each series' filter pipeline, applied off the GIL (explorer.store._chunks; None: written through h5py)
+        self._filters = [ChunkFilter.of(d) for d, _, _ in self._series]
         self._done = f["chunks/done"]
+        self._metrics: dict = {}  # name -> its /metrics dataset, as written
         # files of this version carry checksums (explorer.store._integrity), kept up to date at every
         # commit; a file started by an earlier version is finished as it was begun, without them
         self.integrity = has_integrity(f) and DIGEST in f
@@ -158,6 +187,11 @@ class ResultsWriter:
         self._row_size = None  # uncompressed bytes of one row of every per-variant dataset (likewise)
         self._reserved = 0  # end of the space reserved for commits (given back at close)
         self._last, self._ratio = None, None  # (file end, raw bytes) at the last reservation; bytes/raw seen
+        #: Seconds between syncs (:meth:`sync`): chunks written meanwhile are marked done together, with one
+        #: metadata checksum; 0 (the default): every chunk at its commit. ``explorer run`` uses SYNC_SECONDS.
+        self.sync_every = 0.0
+        self._unsynced: list[int] = []  # chunks written whole since the last sync
+        self._synced_at = -math.inf
 
     # -- opening ---------------------------------------------------------------------------------------
     @classmethod
@@ -178,7 +212,7 @@ class ResultsWriter:
         N, S = study.n_variants, study.steps
         rows = int(rows) if exact_rows else chunk_rows(N, S, study.n_series, rows)
         n_chunks = -(-N // rows)
-        h = min(hdf5_rows(S), rows)
+        h = series_rows(rows, S)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -351,10 +385,11 @@ class ResultsWriter:
             d[a:b] = values[key]
         if self._geometry is not None:
             self._geometry[a:b] = geometry
-        for d, spec, name in self._series:
-            _write_rows(d, a, b, spec.rows(batch, name))
+        for (d, spec, name), chunk_filter in zip(self._series, self._filters):
+            write_rows(d, a, b, spec.rows(batch, name), chunk_filter)
         g = f["metrics"]
-        new = [name for name in (metrics or {}) if name not in g]
+        known = self._metrics  # the metric datasets, looked up once (h5py lookups cost ~0.1 ms each)
+        new = [name for name in (metrics or {}) if name not in known and name not in g]
         for name in new:  # self-describing from the first write, as `explorer metrics` writes it
             create_metric(g, name, self.n_variants, self.chunk_rows, self._band())
         if new:
@@ -363,7 +398,9 @@ class ResultsWriter:
                 stamp(f)
                 f.flush()
         for name, values in (metrics or {}).items():
-            g[name][a:b] = values
+            if name not in known:
+                known[name] = g[name]
+            known[name][a:b] = values
         self._commit(i)
 
     def _row_bytes(self) -> int:
@@ -412,6 +449,10 @@ class ResultsWriter:
                 return
             if free >= need:
                 return
+        try:  # the chunks written whole before this one are kept
+            self.sync()
+        except Exception:  # noqa: BLE001 - the disk is full: they stay not done (a resume solves them again)
+            pass
         done = int(self.done.sum())
         have = "" if free is None else f", {_size(free)} free"
         kept = (f"the {done} of {self.n_chunks} chunks committed before are kept" if done else
@@ -449,38 +490,41 @@ class ResultsWriter:
             return DEFAULT_BAND
 
     def _commit(self, i: int) -> None:
-        """The rows reach the disk (flush), then, in one more flush, the chunk's digest, ``done[i]`` and
-        the metadata checksum that covers both."""
+        """Chunk ``i``'s rows are written: it joins the group :meth:`sync` marks done, now (``sync_every``
+        0) or once ``sync_every`` seconds have passed since the last sync."""
+        self._unsynced.append(int(i))
+        if self.sync_every <= 0 or time.monotonic() - self._synced_at >= self.sync_every:
+            self.sync()
+
+    def sync(self) -> None:
+        """Mark done every chunk written since the last sync: their rows reach the disk (flush), then, in
+        one more flush, their digests, their ``done`` flags and the metadata checksum that covers them
+        (one checksum per group of commits: it walks every attribute of the file)."""
+        indices = sorted(set(self._unsynced) - set(np.flatnonzero(self.done).tolist()))
+        if not indices:
+            self._unsynced = []
+            return
         self.f.flush()
         if self.integrity:
             if self._covered is None:
                 self._covered = per_variant(self.f, self.n_variants)
-            self._digest[i] = chunk_digest(self._covered, *self.chunk_range(i))
-        self._done[i] = True
+            for i, got in zip(indices, digests(self._covered, [self.chunk_range(i) for i in indices])):
+                self._digest[i] = np.frombuffer(got, dtype=np.uint8)
+        self._done[indices] = True
         if self.integrity:
             stamp(self.f)
         self.f.flush()
-        self.done[i] = True
+        self.done[indices] = True
+        self._unsynced = []
+        self._synced_at = time.monotonic()
 
     def skip_chunks(self, indices) -> None:
         """Commit the chunks ``indices`` with no variant run (their rows stay "not-run") in one go: their
         digests and done flags, then one metadata checksum and flush (an optimisation's restart rounds
         that never began: committed one by one, each commit's checksum of the whole file made it
         quadratic)."""
-        indices = sorted(int(i) for i in indices if not self.done[i])
-        if not indices:
-            return
-        self.f.flush()
-        if self.integrity:
-            if self._covered is None:
-                self._covered = per_variant(self.f, self.n_variants)
-            for i in indices:
-                self._digest[i] = chunk_digest(self._covered, *self.chunk_range(i))
-        self._done[indices] = True
-        if self.integrity:
-            stamp(self.f)
-        self.f.flush()
-        self.done[indices] = True
+        self._unsynced += [int(i) for i in indices]
+        self.sync()
 
     def stamp(self) -> None:
         """Update the metadata checksum after attributes were set directly (a Dask shard's done marker);
@@ -490,6 +534,7 @@ class ResultsWriter:
 
     def finish(self) -> None:
         """Mark the file complete (every chunk must be done) and flush."""
+        self.sync()
         if not self.done.all():
             raise RuntimeError(f"{self.path}: {int((~self.done).sum())} chunks are not done")
         self.f.attrs["complete"] = True
@@ -498,7 +543,13 @@ class ResultsWriter:
         self.f.flush()
 
     def close(self) -> None:
+        """Mark done the chunks written since the last sync (:meth:`sync`; if that fails they stay not
+        done, and a resume solves them again), close the file."""
         if self.f.id.valid:
+            try:
+                self.sync()
+            except Exception:  # noqa: BLE001 - already failing (a full disk ...): the file as the last sync left it
+                pass
             self.f.close()
             self._release()
 
@@ -543,18 +594,6 @@ def _check_resumable(path: Path, fingerprint: str) -> bool:
         return legacy
     finally:
         f.close()
-
-
-def _write_rows(d: h5py.Dataset, a: int, b: int, values) -> None:
-    """d[a:b] = values, one HDF5 chunk per call. h5py holds the GIL while HDF5 filters and writes, so a
-    commit thread writing a whole study chunk in one call (16 HDF5 chunks, 20-200 ms) keeps the
-    solver's threads from picking up their next block of rows; in calls of one HDF5 chunk (~1.5 ms
-    with Blosc) the GIL is free between calls, and the runner shortens the interpreter's switch
-    interval so that a waiting thread gets it at the next one (explorer.study._run)."""
-    h = d.chunks[0] if d.chunks is not None else b - a
-    for lo in range(a, b, h):
-        hi = min(lo + h, b)
-        d[lo:hi] = values[lo - a:hi - a]
 
 
 class DiskFull(UserError):

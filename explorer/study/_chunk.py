@@ -42,12 +42,15 @@ def compute_study_metrics(study: Study, paths, velocities, status, lengths, cran
                            target=study.target)
 
 
-def design_solver(study: Study, timer: dict | None = None):
+def design_solver(study: Study, timer: dict | None = None, deferred: bool = False):
     """solve(lengths, crank, geometry) → (batch, metrics) for given designs of ``study``'s mechanism:
     lengths (n, n_links) in ``mech.links`` order, crank radii (n,), geometry (n, g) of the coordinates
     in ``study.geometry_names`` order. What a sampled study and an optimiser's generation both run.
     timer : optional dict to which the wall seconds of ``"solve"`` (the kernels) and ``"metrics"`` (the
     metrics, yield included) are added.
+
+    deferred : solve(...) → (batch, finish) instead, where ``finish()`` → metrics computes them (on
+    another thread, while the next designs are solved: ``explorer run``'s commit thread).
 
     Solves only what the scene asks for: its vertices (plus the foot when metrics are asked for),
     velocities when stored or needed by a metric, accelerations when stored, and the forces effect
@@ -74,6 +77,14 @@ def design_solver(study: Study, timer: dict | None = None):
         batch = simulate_batch(mech, lengths, radii, study.steps, vertices=vertices, velocities=velocities,
                                accelerations=study.accelerations, tolerance=study.tolerance, method=study.method,
                                **extra)
+        if timer is not None:
+            timer["solve"] = timer.get("solve", 0.0) + (clock() - t0)
+        if deferred:
+            return batch, lambda: finish(batch, lengths, crank, geometry, moved)
+        return batch, finish(batch, lengths, crank, geometry, moved)
+
+    def finish(batch, lengths, crank, geometry, moved):
+        """The metrics of the solved ``batch`` (None if the scene asks for none)."""
         foot = mech.foot
         metrics = None
         t1 = clock()
@@ -87,20 +98,20 @@ def design_solver(study: Study, timer: dict | None = None):
                              tolerance=study.tolerance, method=study.method, screen=study.screen)
             metrics = {**(metrics or {}), YIELD: y.share}
         if timer is not None:
-            timer["solve"] = timer.get("solve", 0.0) + (t1 - t0)
             timer["metrics"] = timer.get("metrics", 0.0) + (clock() - t1)
-        return batch, metrics
+        return metrics
 
     return solve
 
 
-def chunk_solver(study: Study, timer: dict | None = None):
+def chunk_solver(study: Study, timer: dict | None = None, deferred: bool = False):
     """solve(a, b) → (lengths, crank, geometry, batch, metrics) for variants [a, b) of a sampled
     ``study`` (:func:`design_solver` on its sampled designs); geometry is (n, g), the perturbed
     coordinates in ``study.geometry_names`` order ((n, 0) if none). timer : optional dict to which the
-    wall seconds of ``"sample"``, ``"solve"`` and ``"metrics"`` are added."""
+    wall seconds of ``"sample"``, ``"solve"`` and ``"metrics"`` are added. deferred : ``metrics`` is a
+    function that computes them (:func:`design_solver`)."""
     sampler = study_sampler(study)
-    solve_designs = design_solver(study, timer)
+    solve_designs = design_solver(study, timer, deferred)
 
     def solve(a: int, b: int):
         t0 = time.perf_counter()

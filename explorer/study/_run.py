@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..errors import Terminated, UserError, signals_held
 from ..gait import start_kernel_warmup, stop_kernel_warmup
-from ..store import OutputLock, ResultsWriter
+from ..store import SYNC_SECONDS, OutputLock, ResultsWriter
 from ._chunk import chunk_solver, metric_plan
 from ._output import (RunSummary, _check_disk_space, _check_overwritable, _counts, _state,  # noqa: F401
                       estimated_bytes, results_path, validate_study)
@@ -62,7 +62,9 @@ def run_study(study=None, output=None, resume: bool = False, force: bool = False
 def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chunk_size, t0: float) -> RunSummary:
     resumed = False
     timer = dict.fromkeys(STAGES, 0.0)
-    solve = chunk_solver(study, timer)  # before any file is made: what cannot be solved is refused first
+    # before any file is made: what cannot be solved is refused first; with the commit thread, each chunk's
+    # metrics are computed there, while the main thread solves the next chunk
+    solve = chunk_solver(study, timer, _THREADED)  # (deferred, positionally: tests wrap it as solver(study, *args))
     if out.exists():
         if resume and _nothing_committed(out, study) is not None:
             # a run stopped before its first commit (a disk that filled, a kill) holds no result: it is
@@ -88,6 +90,7 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
         writer = ResultsWriter.create(out, study, chunk_size)
 
     ran = 0
+    writer.sync_every = SYNC_SECONDS  # chunks marked done in groups: what a kill -9 can lose (docs/results.md)
     switch = sys.getswitchinterval()
     try:
         bar = committer = None
@@ -107,6 +110,10 @@ def _run_locked(study, out: Path, resume: bool, force: bool, progress: bool, chu
             with signals_held():  # a second Ctrl-C must not cut the commit in flight (h5py would crash)
                 if committer is not None:
                     committer.abort()
+                try:
+                    writer.sync()  # the chunks written whole are kept
+                except Exception:  # noqa: BLE001 - they stay not done: the resume solves them again
+                    pass
                 done = int(writer.done.sum())
             what = "terminated" if isinstance(exc, Terminated) else "interrupted"
             raise type(exc)(f"{out}: {what} with {done} of {writer.n_chunks} chunks committed; run again with "
@@ -151,10 +158,11 @@ def _uncommitted_rows(out: Path, fingerprint: str, n_variants: int) -> int | Non
         return rows if 1 <= rows <= n_variants else None
 
 
-#: The stages a run's wall time is broken into (``RunSummary.timings``, seconds): sampling the designs,
-#: the kernels, the metrics (on the main thread, in turn), writing (the commit thread, overlapping them)
-#: and ``wait``, the main thread blocked on the commit thread (the writes the solve did not hide);
-#: ``write_cpu``: the CPU seconds of the commit thread (filters, checksums, HDF5), whatever core ran it.
+#: The stages a run's wall time is broken into (``RunSummary.timings``, seconds): sampling the designs and
+#: the kernels (the main thread, in turn), the metrics and writing (the commit thread, chunk k's while
+#: the main thread solves chunk k+1) and ``wait``, the main thread blocked on the commit thread (the
+#: metrics and writes the solve did not hide); ``write_cpu``: the CPU seconds of the commit thread's
+#: writing (filters, checksums, HDF5), whatever core ran it.
 STAGES = ("sample", "solve", "metrics", "write", "wait", "write_cpu")
 
 #: Commit chunks on a background thread while the next chunk is solved. Off: commit inline (for
@@ -185,6 +193,8 @@ class _Committer:
 
     def _commit(self, item) -> None:
         i, lengths, crank, geometry, batch, metrics = item
+        if callable(metrics):  # deferred by the chunk solver: computed here, beside the next chunk's solve
+            metrics = metrics()
         t0, c0 = time.perf_counter(), time.thread_time()
         self.writer.write_chunk(i, lengths, crank, batch, metrics, geometry=geometry)
         self.timer["write"] = self.timer.get("write", 0.0) + (time.perf_counter() - t0)
