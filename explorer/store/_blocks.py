@@ -116,6 +116,53 @@ def _ranked_names(head: pd.DataFrame, by, weights, pareto) -> list[str]:
     return list(dict.fromkeys(str(c) for c in names))
 
 
+def _head(results) -> pd.DataFrame:
+    """The frame's first row (none for an empty file), typed as the whole frame: its columns, to check
+    arguments against before any block is read."""
+    return as_whole(results, results.frame(rows=(0, min(1, int(results.n_variants)))))
+
+
+def _scan(results, head: pd.DataFrame, keep: list, where, include_failed: bool, include_screened: bool):
+    """(the rows of the whole frame that :func:`explorer.gait.select` keeps, only the columns ``keep``,
+    indexed by variant; the screen's counts of every ok variant), in one pass over the blocks."""
+    import pandas as pd
+
+    from ..gait import screen_counts as counts
+    from ..gait import select
+    parts, total, screen = [], None, results.screen
+    for df in blocks(results):
+        total = _add_counts(total, counts(df, screen))
+        parts.append(select(df, where, include_failed, include_screened)[keep])
+    results._screen_counts = total  # the summary of this pass, for Results.screen_summary
+    if not parts:
+        return head[keep].iloc[:0], counts(head.iloc[:0], screen)
+    return (pd.concat(parts) if len(parts) > 1 else parts[0]), total
+
+
+def _columns(head: pd.DataFrame, columns, first=("variant",)) -> list:
+    """``first`` then ``columns`` (names of frame columns; None: every column), each once; UserError naming
+    an unknown one."""
+    names = list(head.columns) if columns is None else [str(c) for c in columns]
+    wanted = list(dict.fromkeys([*first, *names]))
+    unknown = [c for c in wanted if c not in head.columns]
+    if unknown:
+        from ..errors import UserError
+        raise UserError(f"unknown column {unknown[0]!r} (columns: {', '.join(map(str, head.columns))})")
+    return wanted
+
+
+def select(results, where: str | None = None, include_failed: bool = False, include_screened: bool = False,
+           columns=None) -> pd.DataFrame:
+    """:func:`explorer.gait.select` of ``results.frame()`` (ok unless ``include_failed``, buildable unless
+    ``include_screened``, then ``where``), read in blocks: the same rows, indexed by variant, with only
+    ``columns`` (``variant`` first; default every column)."""
+    from ..gait import select as select_frame
+    head = _head(results)
+    select_frame(head, where, include_failed, include_screened)  # the errors the whole frame gives, first
+    keep = _columns(head, columns)
+    return _scan(results, head, keep, where, include_failed, include_screened)[0]
+
+
 def rank(results, by=None, top: int | None = 10, where: str | None = None, ascending=None, weights=None,
          pareto=None, include_failed: bool = False, include_screened: bool = False,
          columns=None) -> pd.DataFrame:
@@ -131,24 +178,13 @@ def rank(results, by=None, top: int | None = 10, where: str | None = None, ascen
 
     Along the way the screen's counts of every ok variant are summed (what :meth:`Results.screen_summary`
     gives), and kept on ``results`` so that the summary costs no second pass."""
-    import pandas as pd
-
     from ..gait import rank as rank_frame
-    from ..gait import screen_counts as counts
-    from ..gait import select
-    n = int(results.n_variants)
-    head = as_whole(results, results.frame(rows=(0, min(1, n))))
+    head = _head(results)
     # every argument checked on the frame's columns: the errors the whole frame gives, before any block is read
     rank_frame(head, by=by, top=top, where=where, ascending=ascending, weights=weights, pareto=pareto,
                include_failed=include_failed, include_screened=include_screened)
-    keep = ["variant"] + [c for c in _ranked_names(head, by, weights, pareto) if c != "variant"]
-    parts, total, screen = [], None, results.screen
-    for df in blocks(results):
-        total = _add_counts(total, counts(df, screen))
-        parts.append(select(df, where, include_failed, include_screened)[keep])
-    results._screen_counts = total  # the summary of this pass, for Results.screen_summary
-    slim = pd.concat(parts) if len(parts) > 1 else parts[0] if parts else head[keep].iloc[:0]
-    del parts
+    keep = _columns(head, _ranked_names(head, by, weights, pareto))
+    slim = _scan(results, head, keep, where, include_failed, include_screened)[0]
     # the rows kept are already filtered: rank them all, as rank() ranks the rows its filters keep
     ranked = rank_frame(slim, by=by, top=top, ascending=ascending, weights=weights, pareto=pareto,
                         include_failed=True, include_screened=True)
@@ -157,13 +193,8 @@ def rank(results, by=None, top: int | None = 10, where: str | None = None, ascen
     if columns is None:
         out = frame_rows(results, variants).copy()
     else:
-        wanted = [c for c in dict.fromkeys(["variant", *keep, *map(str, columns)]) if c not in ("rank", "score")]
-        unknown = [c for c in wanted if c not in head.columns]
-        if unknown:
-            from ..errors import UserError
-            raise UserError(f"rank: unknown column {unknown[0]!r} (columns: {', '.join(map(str, head.columns))})")
-        out = ranked[[c for c in wanted if c in ranked.columns]].copy() if set(wanted) <= set(ranked.columns) \
-            else frame_rows(results, variants)[wanted].copy()
+        wanted = _columns(head, [c for c in columns if c not in ("rank", "score")], keep)
+        out = ranked[wanted].copy() if set(wanted) <= set(ranked.columns) else frame_rows(results, variants)[wanted]
         out.index = ranked.index
     out.insert(0, "rank", ranked["rank"].to_numpy())
     if "score" in ranked.columns:

@@ -353,6 +353,15 @@ class Results:
         from ._blocks import frame_rows
         return frame_rows(self, self._indices(variants))
 
+    def select(self, where: str | None = None, include_failed: bool = False, include_screened: bool = False,
+               columns=None) -> "pd.DataFrame":
+        """The rows of :meth:`frame` that :meth:`rank` ranks (ok unless ``include_failed``, passing the
+        buildability screen unless ``include_screened``, then the filter ``where``), in variant order, indexed by
+        variant, with only ``columns`` (``variant`` first; default every column): read in blocks of rows, so
+        that a million-design file's frame is never held whole (:func:`explorer.store._blocks.select`)."""
+        from ._blocks import select
+        return select(self, where, include_failed, include_screened, columns)
+
     # -- one variant -----------------------------------------------------------------------------------
     def check_variant(self, variant) -> int:
         """``variant`` as an int in 0 … N−1 (UserError otherwise)."""
