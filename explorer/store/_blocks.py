@@ -129,14 +129,24 @@ def _scan(results, head: pd.DataFrame, keep: list, where, include_failed: bool, 
 
     from ..gait import screen_counts as counts
     from ..gait import select
-    parts, total, screen = [], None, results.screen
+    parts, index, total, screen = {c: [] for c in keep}, [], None, results.screen
     for df in blocks(results):
         total = _add_counts(total, counts(df, screen))
-        parts.append(select(df, where, include_failed, include_screened)[keep])
+        sub = select(df, where, include_failed, include_screened)
+        index.append(sub.index.to_numpy().copy())
+        for c in keep:  # each column by itself: no block of every column is kept
+            parts[c].append(sub[c].to_numpy().copy() if sub[c].dtype.kind in "biuf" else sub[c].copy())
     results._screen_counts = total  # the summary of this pass, for Results.screen_summary
-    if not parts:
+    df = sub = None  # the last block goes before the columns are joined
+    if not index:
         return head[keep].iloc[:0], counts(head.iloc[:0], screen)
-    return (pd.concat(parts) if len(parts) > 1 else parts[0]), total
+    out = {}
+    for c in keep:  # joined one column at a time, its blocks let go as it is
+        got = parts.pop(c)
+        out[c] = np.concatenate(got) if isinstance(got[0], np.ndarray) else pd.concat(got, ignore_index=True)
+        del got
+    cols = {c: (v if isinstance(v, np.ndarray) else v.array) for c, v in out.items()}  # .array: keeps the dtype
+    return pd.DataFrame(cols, index=pd.Index(np.concatenate(index), dtype=np.int64), copy=False), total
 
 
 def _columns(head: pd.DataFrame, columns, first=("variant",)) -> list:

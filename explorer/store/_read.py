@@ -351,7 +351,8 @@ class Results:
         whole frame, read without it (only the blocks of rows that hold them:
         :func:`explorer.store._blocks.frame_rows`). UserError for a variant outside 0 … N−1."""
         from ._blocks import frame_rows
-        return frame_rows(self, self._indices(variants))
+        empty = np.size(variants) == 0  # [] reads as float: no rows
+        return frame_rows(self, np.empty(0, dtype=np.int64) if empty else self._indices(variants))
 
     def select(self, where: str | None = None, include_failed: bool = False, include_screened: bool = False,
                columns=None) -> "pd.DataFrame":
