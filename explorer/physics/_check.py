@@ -243,14 +243,14 @@ def _prepare(res, variants, top, st: Settings) -> dict:
     _refuse(res)
     op = _operating(res)
     walker = _walker(res)
-    df = res.frame()
     if variants:
         chosen = list(dict.fromkeys(res.check_variant(v) for v in variants))
         how = f"variant{'s' if len(chosen) > 1 else ''} {', '.join(map(str, chosen))}"
     else:
         k = DEFAULT_TOP if top is None else int(top)
-        chosen = [int(v) for v in res.rank(top=k, frame=df)["variant"]]
+        chosen = [int(v) for v in res.rank(top=k, columns=["variant"])["variant"]]  # read in blocks of rows
         how = f"the default ranking's top {k}" + (f" ({len(chosen)} ranked)" if len(chosen) < k else "")
+    df = res.frame_rows(chosen)  # the chosen rows alone (indexed by variant)
     solver = res.study.get("study", {})
     jobs, skipped = [], []
     for v in chosen:
