@@ -57,7 +57,7 @@ def build(n: int, folder: Path, tree: Path) -> Path:
     toml.write_text(explorer.mechanism.dumps_toml(lean_study(n, out)))
     print(f"building {out} ({n:,} designs) ...", flush=True)
     subprocess.run([sys.executable, "-m", "explorer.cli", "run", str(toml)], check=True, env=env_for(tree),
-                   stdout=subprocess.DEVNULL)
+                   stdout=subprocess.DEVNULL, cwd=tree)
     return out
 
 
@@ -70,7 +70,7 @@ def env_for(tree: Path) -> dict:
 def measure(argv: list[str], tree: Path) -> dict:
     """Peak RSS (bytes), CPU-seconds (user + system) and wall of ``explorer ARGV`` run with ``tree``'s explorer."""
     p = subprocess.run(["/usr/bin/time", "-v", sys.executable, "-m", "explorer.cli", *argv], env=env_for(tree),
-                       capture_output=True, text=True)
+                       capture_output=True, text=True, cwd=tree)  # in the tree: `python -m` imports from there
     err = p.stderr
 
     def field(name: str) -> str:
@@ -97,12 +97,17 @@ def main(argv=None) -> None:
     ap.add_argument("--baseline", default=None, metavar="TREE", help="another explorer source tree to compare with")
     ap.add_argument("--dir", default=None, help="folder for the study and the outputs (default: a temporary one)")
     ap.add_argument("--only", default=None, help="comma-separated substrings: run the verbs whose label has one")
+    ap.add_argument("--warm", action="store_true",
+                    help="first run `plot --velocity 7` once per tree, unmeasured (its kernels into the Numba cache)")
     a = ap.parse_args(argv)
-    folder = Path(a.dir) if a.dir else Path(tempfile.gettempdir()) / "bench-reads"
+    folder = (Path(a.dir) if a.dir else Path(tempfile.gettempdir()) / "bench-reads").resolve()
     folder.mkdir(parents=True, exist_ok=True)
-    f = Path(a.file) if a.file else build(a.designs, folder, ROOT)
+    f = Path(a.file).resolve() if a.file else build(a.designs, folder, ROOT)
     trees = [("this", ROOT)] + ([("baseline", Path(a.baseline).resolve())] if a.baseline else [])
     verbs = [v for v in VERBS if a.only is None or any(s in v[0] for s in a.only.split(","))]
+    if a.warm:  # the re-solving verbs load the kernels from the cache, as a user's second command does
+        for _, tree in trees:
+            measure(["plot", str(f), "--velocity", "7", "-o", str(folder / "warm.png"), "--force"], tree)
     print(f"reading verbs on {f} ({f.stat().st_size / 1e6:,.1f} MB); {os.cpu_count()} cores; {load()}")
     head = f"{'verb':28s}" + "".join(f" {t + ' MB':>13s} {t + ' CPU-s':>14s}" for t, _ in trees)
     if len(trees) > 1:

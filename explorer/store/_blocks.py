@@ -6,7 +6,7 @@ single rows of a million-design file without holding its whole frame (issue 39, 
 they need, and give the answer the whole frame gives: the same rows, columns, order and values (the tests
 check them against :func:`explorer.gait.rank` on the whole frame, with the block size patched small).
 
-Memory: a block is ~``READ_BLOCK`` × (columns) × 8 bytes (~12 MB for a Jansen study with every metric); a
+Memory: a block is ~``READ_BLOCK`` × (columns) × 8 bytes (~6 MB for a Jansen study with every metric); a
 ranking keeps the ranked columns of the rows that pass the filters (``variant`` + the ranked metrics, 8 bytes
 each per row); the rows shown are read again, whole, by themselves (:func:`frame_rows`).
 """
@@ -21,8 +21,8 @@ if TYPE_CHECKING:
     import pandas as pd
 
 #: Rows of the frame read at a time by the blocked readers (a block of a Jansen study with every metric:
-#: ~32,768 × 45 columns × 8 bytes ≈ 12 MB, ~70 MB at its peak while it is built).
-READ_BLOCK = 1 << 15
+#: ~16,384 × 45 columns × 8 bytes ≈ 6 MB, ~20 MB at its peak while it is built).
+READ_BLOCK = 1 << 14
 
 
 def blocks(results, size: int | None = None) -> Iterator[pd.DataFrame]:

@@ -249,8 +249,10 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     if x == y:
         raise UserError(f"scatter: name two different metrics, got {x!r} twice")
     if blocked:
+        # ok rows only (so no status column); the crank radius only where --units si converts a torque by it
+        extra = ("buildable",) + (("crank",) if units == "si" else ())
         ok = results.select(where, include_failed=False, include_screened=True,
-                            columns=[x, y, "status", *(c for c in ("crank", "buildable") if c in df.columns)])
+                            columns=[x, y, *(c for c in extra if c in df.columns)])
     else:
         ok = df[ok_mask(df)]
         if where:
