@@ -56,6 +56,7 @@ _HOMES = {
     "strong_components": (".plan._blt", "_tarjan"),
     # -- store -------------------------------------------------------------------------------------------------
     "store_write": (".store._write", None),
+    "store_blocks": (".store._blocks", None),
     "series_groups": (".store._integrity", "series_groups"),
     "stamp": (".store._integrity", "stamp"),
     "OutputLock": (".store._lock", "OutputLock"),

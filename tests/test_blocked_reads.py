@@ -1,6 +1,6 @@
 """Reading a results file in blocks of rows (issue 39, "lean reads that stay lean"): ``Results.rank``,
 ``select``, ``screen_summary``, ``metric_ranks``, ``row`` and ``frame_rows`` read the frame a block at a time
-(``explorer.store._blocks.READ_BLOCK``, patched to a few rows here so that every answer spans many blocks,
+(``READ_BLOCK`` of ``testing.store_blocks``, patched to a few rows here so that every answer spans many blocks,
 the last one short) and must give exactly what the whole frame gives: the same rows in the same order, the
 same columns, dtypes and values, the same screened and failed counts. The references are plain pandas over
 ``Results.frame()`` (every row at once), written out in the tests, and ``explorer.gait.rank`` on that frame.
@@ -16,10 +16,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import explorer.store._blocks as blocks
+from explorer import testing
 from explorer import open_results, run_study
 from explorer.cli import main
 from explorer.gait import DIRECTIONS, rank
+
+blocks = testing.store_blocks  # explorer.store._blocks: READ_BLOCK, patched small here
 
 #: A lean Jansen study at ±6 %: about half its designs fail to assemble, and the screen removes some of the others.
 STUDY = {"study": {"name": "blocked", "mechanism": "jansen", "variants": 300, "seed": 3, "steps": 60},
