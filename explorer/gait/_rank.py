@@ -107,8 +107,9 @@ def select(df: pd.DataFrame, where=None, include_failed: bool = False, include_s
     keep = np.ones(len(df), dtype=bool) if include_failed else ok_mask(df).copy()
     if not include_screened:
         keep &= ~screened_mask(df)
-    if not keep.all():  # every row kept: the frame itself (no copy; callers never change it in place)
-        df = df[keep]
+    # every row kept: a shallow copy (no data copied: a million-row frame is not duplicated; pandas' copy on
+    # write keeps the caller's frame as it is)
+    df = df[keep] if not keep.all() else df.copy(deep=False)
     if where is not None and str(where).strip():
         df = df[evaluate_filter(df, str(where))]
     return df
