@@ -63,6 +63,7 @@ _HOMES = {
     "series_rows": (".store._write", "series_rows"),
     "parallel_rows": (".kernels._rows", "parallel_rows"),
     "check_integrity": (".store._integrity", "check"),
+    "store_blocks": (".store._blocks", None),
     "series_groups": (".store._integrity", "series_groups"),
     "stamp": (".store._integrity", "stamp"),
     "OutputLock": (".store._lock", "OutputLock"),

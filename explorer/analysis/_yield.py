@@ -38,8 +38,10 @@ def results_yield(results, variants, robustness: Robustness | None = None) -> Yi
     mech = results.mechanism
     if robustness is None:
         robustness = results_robustness(results)
-    frame = results.frame()
-    designs = [results.design(int(v), frame) for v in variants]
+    variants = [int(v) for v in variants]
+    # the rows of these variants alone where the results read them so (an open results file), else the frame
+    frame = results.frame_rows(variants) if callable(getattr(results, "frame_rows", None)) else results.frame()
+    designs = [results.design(v, frame) for v in variants]
     names = list(mech.parameters())
     X = np.array([[d[p] for p in names] for d in designs], dtype=np.float64).reshape(len(designs), len(names))
     L, r, geo = split_parameters(mech, X)

@@ -80,7 +80,7 @@ def summary_lines(out) -> list[str]:
              "verdict")]
     if n_ok or n_failed:
         with open_results(p) as res:
-            df = res.frame()
+            df = res.frame_rows(list(dict.fromkeys(out["order"])))  # the rows shown alone (indexed by variant)
         for v in out["order"]:
             if v in out["failed"]:
                 rows.append((str(v),) + ("-",) * 12 + (f"failed: {out['failed'][v]}",))

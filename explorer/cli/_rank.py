@@ -173,18 +173,25 @@ def run(args) -> int:
     with open_results(args.results) as res:
         if mode == "default":  # the default score over the metrics the file stores (an optimisation: some)
             weights, unstored = res.default_weights()
-        frame = res.frame()  # read once: the ranking and the screen's counts share it
+        # read in blocks of rows (a million-design file's frame is never held whole): the rows shown are read
+        # whole, the rest of the ranking only as its rank and variant; one pass also counts the screen
         full = res.rank(by=by, top=None, where=args.where, ascending=args.ascending, weights=weights,
                         pareto=pareto, include_failed=args.include_failed, include_screened=args.include_screened,
-                        frame=frame)
+                        columns=["variant"])
         counts = res.status_counts()
-        screened = res.screen_summary(frame)
+        screened = res.screen_summary()
         thresholds = res.screen
         n, complete, name = res.n_variants, res.complete, res.filename
         ref = res.check_variant(args.vs)
-        # --units si: the rows shown in SI, the ranking itself over the stored values (--where too)
-        si = results_si(res, frame.iloc[:0], args.units)
         ranked = full if top is None else full.iloc[:top]
+        # the rows shown, whole (every frame column, the same rows as Results.rank()), ranked as above
+        rows = res.frame_rows(ranked["variant"].to_numpy())
+        rows.index = ranked.index
+        ranked = rows.assign(**{k: ranked[k].to_numpy() for k in ranked.columns if k not in rows.columns})[
+            ["rank", *rows.columns, *(["score"] if "score" in ranked.columns else [])]]
+        # --units si: the rows shown in SI, the ranking itself over the stored values (--where too)
+        frame = res.frame_rows([ref])  # the reference's row (its own place in the ranking, or none)
+        si = results_si(res, frame.iloc[:0], args.units)
         robust = yields(res, args, [*ranked["variant"].tolist(), ref]) if args.yield_tol is not None else None
     if robust is not None:  # each shown design's yield, ± its binomial standard error
         ys, robustness = robust
@@ -252,7 +259,9 @@ def run(args) -> int:
     import pandas as pd
     ref_label = "nominal" if ref == 0 else "reference"
     in_full = full.index[full["variant"] == ref]
-    ref_row = (full.loc[[in_full[0]]] if len(in_full) else frame.iloc[[ref]]).copy()
+    ref_row = (frame.assign(rank=full.loc[in_full[0], "rank"], **({"score": full.loc[in_full[0], "score"]}
+                                                                  if "score" in full.columns else {}))
+               if len(in_full) else frame).copy()
     if robust is not None:
         ref_row = ref_row.assign(**{"yield": ys[ref][0], "yield_se": ys[ref][1]})
     place = f"{int(ref_row['rank'].iloc[0])}" if len(in_full) else "-"

@@ -156,16 +156,18 @@ def run(args) -> int:
         warn_ignored_metrics(res)
         name, n = res.filename, res.n_variants
         v = parse_variant(chosen, n, name)
-        df = res.frame()
+        ref = parse_variant(args.vs, n, name)
+        # the two rows shown, read by themselves; the ranks and the score are counted over the file in blocks of
+        # rows (a million-design file's frame is never held whole)
+        df = res.frame_rows([v, ref])
         si = results_si(res, df, args.units)  # --units si: the figures shown, converted (ranks stay the file's)
         row = res.row(v, frame=df)
         design = res.design(v, frame=df)
-        ranks = res.metric_ranks(v, frame=df, include_screened=args.include_screened)
-        ref = parse_variant(args.vs, n, name)
+        ranks = res.metric_ranks(v, include_screened=args.include_screened)
         ref_row = res.row(ref, frame=df)
         shown, shown_ref = (row, ref_row) if si is None else (res.row(v, frame=si.frame), res.row(ref, frame=si.frame))
         # the walker score, as `explorer rank` computes it, where the file stores every metric it weighs
-        scored = (res.rank(top=None, include_screened=args.include_screened, frame=df)
+        scored = (res.rank(top=None, include_screened=args.include_screened, columns=["variant"])
                   if set(DEFAULT_WEIGHTS) <= set(res.metric_names) else None)
         nominal = res.nominal
         perturbed = set(res.perturbed)

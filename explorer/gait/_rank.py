@@ -107,7 +107,9 @@ def select(df: pd.DataFrame, where=None, include_failed: bool = False, include_s
     keep = np.ones(len(df), dtype=bool) if include_failed else ok_mask(df).copy()
     if not include_screened:
         keep &= ~screened_mask(df)
-    df = df[keep]
+    # every row kept: a shallow copy (no data copied: a million-row frame is not duplicated; pandas' copy on
+    # write keeps the caller's frame as it is)
+    df = df[keep] if not keep.all() else df.copy(deep=False)
     if where is not None and str(where).strip():
         df = df[evaluate_filter(df, str(where))]
     return df
@@ -154,13 +156,41 @@ def _costs(df: pd.DataFrame, cols: list[str], directions: dict[str, str]) -> np.
     return cost
 
 
-def _finish(df: pd.DataFrame, order: np.ndarray, top) -> pd.DataFrame:
-    out = df.iloc[order]
+def _finish(df: pd.DataFrame, order: np.ndarray, top, score: np.ndarray | None = None) -> pd.DataFrame:
+    """The rows ``order`` (positions in ``df``) of ``df``, the first ``top`` only, with ``rank`` first (and
+    ``score``, one value per row of ``df``, last)."""
     if top is not None:
-        out = out.iloc[:top]
-    out = out.copy()
+        order = order[:top]  # only the rows returned are copied
+    out = df.iloc[order].copy()
     out.insert(0, "rank", np.arange(1, len(out) + 1, dtype=np.int64))
+    if score is not None:
+        out["score"] = score[order]
     return out
+
+
+#: Rows scored at a time by :func:`_score` (its temporaries stay small on a million-row frame).
+SCORE_ROWS = 1 << 16
+
+
+def _score(cost: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The weighted score (n,) of the (n, k) costs (smaller is better) with weights (k,): each column
+    min-max normalised over the rows (1 = best; a constant column gives 1), Σ w s / Σ w; NaN where a cost
+    is. Row by row arithmetic, in blocks of :data:`SCORE_ROWS` rows (the same bits as all rows at once)."""
+    n = len(cost)
+    score = np.empty(n, dtype=np.float64)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
+        lo = np.nanmin(cost, axis=0) if n else np.zeros(cost.shape[1])
+        hi = np.nanmax(cost, axis=0) if n else np.zeros(cost.shape[1])
+        span = hi - lo
+        for a in range(0, n, SCORE_ROWS):
+            c = cost[a:a + SCORE_ROWS]
+            s = np.where(span > 0, (hi - c) / np.where(span > 0, span, 1.0), 1.0)
+            s[np.isnan(c)] = np.nan
+            part = (s * w).sum(axis=1) / w.sum()
+            part[np.isnan(s).any(axis=1)] = np.nan
+            score[a:a + SCORE_ROWS] = part
+    return score
 
 
 # -- public --------------------------------------------------------------------------------------------
@@ -276,20 +306,9 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
         used = w > 0  # a zero weight neither counts nor turns a row's score NaN
         cols, w = [c for c, u in zip(cols, used) if u], w[used]
         sub = select(df, where, include_failed, include_screened)
-        cost = _costs(sub, cols, dirs)  # smaller is better
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
-            lo = np.nanmin(cost, axis=0) if len(sub) else np.zeros(len(cols))
-            hi = np.nanmax(cost, axis=0) if len(sub) else np.zeros(len(cols))
-            span = hi - lo
-            s = np.where(span > 0, (hi - cost) / np.where(span > 0, span, 1.0), 1.0)
-            s[np.isnan(cost)] = np.nan
-        score = (s * w).sum(axis=1) / w.sum()
-        score[np.isnan(s).any(axis=1)] = np.nan
-        sub = sub.copy()
-        sub["score"] = score
+        score = _score(_costs(sub, cols, dirs), w)  # costs: smaller is better
         key = np.where(np.isnan(score), np.inf, -score)
-        return _finish(sub, np.lexsort([_tiebreak(sub), key]), top)
+        return _finish(sub, np.lexsort([_tiebreak(sub), key]), top, score)
     # one metric
     if isinstance(ascending, Mapping):
         raise UserError("ascending: with by= pass True/False (or None for the natural direction)")

@@ -248,15 +248,15 @@ def _prepare(res, variants, top, st: Settings, where: str | None = None) -> dict
     _refuse(res)
     op = _operating(res)
     walker = _walker(res)
-    df = res.frame()
     if variants:
         chosen = list(dict.fromkeys(res.check_variant(v) for v in variants))
         how = f"variant{'s' if len(chosen) > 1 else ''} {', '.join(map(str, chosen))}"
     else:
         k = DEFAULT_TOP if top is None else int(top)
-        chosen = [int(v) for v in res.rank(top=k, where=where, frame=df)["variant"]]
+        chosen = [int(v) for v in res.rank(top=k, where=where, columns=["variant"])["variant"]]  # in blocks of rows
         how = (f"the default ranking's top {k}" + (f" where {where}" if where is not None else "")
                + (f" ({len(chosen)} ranked)" if len(chosen) < k else ""))
+    df = res.frame_rows(chosen)  # the chosen rows alone (indexed by variant)
     solver = res.study.get("study", {})
     jobs, skipped = [], []
     for v in chosen:

@@ -220,6 +220,8 @@ class Results:
         else:
             self.vertices = tuple(f["paths"].keys()) if "paths" in f else ()
         self._mech = None
+        self._screen_counts = None  # the screen's counts of the last blocked rank() (explorer.store._blocks)
+        self._failed_at_vertex = None  # whether any variant failed at a vertex (explorer.store._blocks.as_whole)
         _check_shapes(f, filename, self.n_variants)
 
     # -- metadata --------------------------------------------------------------------------------------
@@ -343,6 +345,24 @@ class Results:
             df["buildable"], df["screen"] = screened[0], screened[1]
         return df
 
+    def frame_rows(self, variants) -> "pd.DataFrame":
+        """The rows of :meth:`frame` of ``variants`` (a variant, or any sequence of them: any order, repeats
+        allowed), in that order, indexed by variant: the same columns, dtypes and values as those rows of the
+        whole frame, read without it (only the blocks of rows that hold them:
+        :func:`explorer.store._blocks.frame_rows`). UserError for a variant outside 0 … N−1."""
+        from ._blocks import frame_rows
+        empty = np.size(variants) == 0  # [] reads as float: no rows
+        return frame_rows(self, np.empty(0, dtype=np.int64) if empty else self._indices(variants))
+
+    def select(self, where: str | None = None, include_failed: bool = False, include_screened: bool = False,
+               columns=None) -> "pd.DataFrame":
+        """The rows of :meth:`frame` that :meth:`rank` ranks (ok unless ``include_failed``, passing the
+        buildability screen unless ``include_screened``, then the filter ``where``), in variant order, indexed by
+        variant, with only ``columns`` (``variant`` first; default every column): read in blocks of rows, so
+        that a million-design file's frame is never held whole (:func:`explorer.store._blocks.select`)."""
+        from ._blocks import select
+        return select(self, where, include_failed, include_screened, columns)
+
     # -- one variant -----------------------------------------------------------------------------------
     def check_variant(self, variant) -> int:
         """``variant`` as an int in 0 … N−1 (UserError otherwise)."""
@@ -374,6 +394,9 @@ class Results:
         ``include_screened``) with a finite value (1 = best in the metric's natural direction, ties
         share a rank), None when it is not in that pool (failed, not run, screened out, NaN). What
         ``explorer show`` prints. ``frame``: a :meth:`frame` already read, to reuse."""
+        if frame is None:  # counted block by block (a million-design file's frame is never held)
+            from ._blocks import metric_ranks as blocked
+            return blocked(self, self.check_variant(variant), include_screened)
         from ._variants import metric_ranks
         return metric_ranks(self, variant, frame, include_screened)
 
@@ -386,9 +409,15 @@ class Results:
 
     def screen_summary(self, df=None) -> dict:
         """What the buildability screen removes from the ok variants: {"removed": n, "checks": {check:
-        n}, "applied": [check names]} (:func:`explorer.gait.screen_counts`); ``df`` : a frame() to reuse."""
+        n}, "applied": [check names]} (:func:`explorer.gait.screen_counts`); ``df`` : a frame() to reuse (without
+        it the counts are summed block by block, or taken from the :meth:`rank` that just read every block)."""
         from ..gait import screen_counts
-        out = screen_counts(self.frame() if df is None else df, self.screen)
+        if df is not None:
+            out = screen_counts(df, self.screen)
+        else:
+            from ._blocks import screen_counts as blocked
+            out = self._screen_counts if self._screen_counts is not None else blocked(self)
+            out = {**out, "checks": dict(out["checks"]), "applied": list(out["applied"])}
         out["path_driven"] = self.mechanism.crank is None
         if not out["path_driven"]:  # a foot on a ground slider: the screen's inputs do not apply (the reason)
             from ..gait import available_metrics
@@ -423,14 +452,17 @@ class Results:
 
     def rank(self, by=None, top: int | None = 10, where: str | None = None, ascending=None, weights=None,
              pareto=None, include_failed: bool = False, include_screened: bool = False,
-             frame: "pd.DataFrame | None" = None) -> "pd.DataFrame":
+             frame: "pd.DataFrame | None" = None, columns=None) -> "pd.DataFrame":
         """Ranked rows of :meth:`frame`, best first, with a ``rank`` column: :func:`explorer.gait.rank`
         (by default the weighted score of :data:`explorer.gait.DEFAULT_WEIGHTS` over those of them stored,
         :meth:`default_weights`; one metric ``by``, a weighted ``score`` over normalised metrics with ``weights``, or the
         Pareto front of ``pareto``; ``where`` is a filter such as "bob < 0.5 and slip < 0.05" (explorer.gait._filter);
         failed variants are left out unless ``include_failed``, variants the buildability screen
         removes unless ``include_screened``; the frame's ``screen`` column says why). ``frame``: a
-        :meth:`frame` already read, to reuse.
+        :meth:`frame` already read, to reuse; without it the file is read in blocks of rows and only the
+        ranked columns of the rows that pass the filters are kept (:func:`explorer.store._blocks.rank`: the
+        same answer, in the memory of those columns). ``columns``: without ``frame``, the frame columns to
+        return after ``rank`` (``variant`` and the ranked ones always; default: every column).
 
         A metric that is not stored raises UserError saying how to compute it
         (``explorer metrics RESULTS`` or ``[scene] metrics = true``).
@@ -440,7 +472,11 @@ class Results:
             self.default_weights()  # ranks over the default metrics stored; UserError if none is
         else:
             self._check_metrics(_ranked_columns(by, weights, pareto))
-        return rank(self.frame() if frame is None else frame, by=by, top=top, where=where, ascending=ascending,
+        if frame is None:
+            from ._blocks import rank as blocked
+            return blocked(self, by=by, top=top, where=where, ascending=ascending, weights=weights, pareto=pareto,
+                           include_failed=include_failed, include_screened=include_screened, columns=columns)
+        return rank(frame, by=by, top=top, where=where, ascending=ascending,
                     weights=weights, pareto=pareto, include_failed=include_failed, include_screened=include_screened)
 
     def default_weights(self, check: bool = True) -> tuple[dict[str, float], list[str]]:

@@ -62,6 +62,8 @@ def check_variant(results, variant) -> int:
 def variant_row(results, variant: int, frame: "pd.DataFrame | None" = None) -> "pd.Series":
     """Row ``variant`` of the results' frame (``frame()``, or ``frame`` already read), as a Series
     indexed by column name."""
+    if frame is None and callable(getattr(results, "frame_rows", None)):  # the row alone, not the whole frame
+        return results.frame_rows([variant]).iloc[0]
     # the whole frame, as Results.frame() gives it (a one-row read types some cells differently: None
     # for NaN in an object column)
     df = results.frame() if frame is None else frame

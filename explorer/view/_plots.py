@@ -102,6 +102,12 @@ def metric_label(metric: str, unit: str | None = None) -> str:
     return f"{text}, {better}" if better else text
 
 
+def _blocked(results) -> bool:
+    """Whether ``results`` reads its frame in blocks of rows (an open :class:`~explorer.store.Results`:
+    ``frame_rows``, ``select``, ``rank`` without a frame), so that a view need not hold its whole frame."""
+    return all(callable(getattr(results, a, None)) for a in ("frame_rows", "select", "rank", "screen_summary"))
+
+
 def _check_metric(df: pd.DataFrame, metric: str) -> str:
     metric = str(metric)
     known = [m for m in METRICS if m in df.columns]
@@ -138,7 +144,8 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
     lowest point; default: the study's ``[scene] band``) drawn thick. ``units`` "si": the paths in mm and the
     ranking values in SI (:func:`explorer.gait.results_si`; the ranking itself over the stored values).
     """
-    df = results.frame()
+    blocked = _blocked(results)  # an open results file: its frame is read in blocks of rows, never whole
+    df = results.frame_rows([0]) if blocked else results.frame()  # blocked: the nominal's row
     conv = results_si(results, df.iloc[:0], units)
     mm = 1.0 if conv is None else conv.operating.unit * 1000.0  # model units -> mm
     if by is not None:
@@ -147,12 +154,18 @@ def plot_top(results, by: str | None = None, top: int = 5, *, weights=None, wher
         raise UserError(f"top: expected a whole number >= 1, got {top!r}")
     band = results_band(results) if band is None else float(band)
     ranked = rank(df, by=by, top=int(top), where=where, weights=weights, include_screened=include_screened)
+    n_all = len(df)
+    if blocked:  # the same ranking and counts, read in blocks (the arguments checked on the row above first)
+        ranked = results.rank(by=by, top=int(top), where=where, weights=weights, include_screened=include_screened)
+        n_ok, n_all = int(results.status_counts().get("ok", 0)), int(results.n_variants)
+        n_pool = n_ok - (0 if include_screened else int(results.screen_summary()["removed"]))
+    else:
+        n_ok = int(ok_mask(df).sum())
+        n_pool = n_ok - (0 if include_screened else int(screened_mask(df).sum()))
     key = by if by is not None else "score"
-    n_ok = int(ok_mask(df).sum())
-    n_pool = n_ok - (0 if include_screened else int(screened_mask(df).sum()))
     pool = f"{n_pool:,} ok" + ("" if include_screened or n_pool == n_ok else " buildable")
     if ranked.empty:
-        raise UserError(f"no ok variant to rank ({pool} of {len(df):,}" + (f", filter {where!r}" if where else "") + ")")
+        raise UserError(f"no ok variant to rank ({pool} of {n_all:,}" + (f", filter {where!r}" if where else "") + ")")
     mech = results.mechanism
     vname = vertex if vertex is not None else mech.foot
     fig = new_figure(figsize, dpi)
@@ -229,13 +242,21 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     directions of the front (dict metric -> "max"/"min"). ``units`` "si": both axes in SI
     (:func:`explorer.gait.results_si`; ``where`` filters the stored values).
     """
-    df = results.frame()
+    blocked = _blocked(results)  # an open results file: only the columns drawn of the ok rows are read, in blocks
+    df = results.frame_rows([0]) if blocked else results.frame()  # blocked: the nominal's row
+    n = int(results.n_variants) if blocked else len(df)
     x, y = _check_metric(df, x), _check_metric(df, y)
     if x == y:
         raise UserError(f"scatter: name two different metrics, got {x!r} twice")
-    ok = df[ok_mask(df)]
-    if where:
-        ok = select(ok, where, include_failed=True, include_screened=True)
+    if blocked:
+        # ok rows only (so no status column); the crank radius only where --units si converts a torque by it
+        extra = ("buildable",) + (("crank",) if units == "si" else ())
+        ok = results.select(where, include_failed=False, include_screened=True,
+                            columns=[x, y, *(c for c in extra if c in df.columns)])
+    else:
+        ok = df[ok_mask(df)]
+        if where:
+            ok = select(ok, where, include_failed=True, include_screened=True)
     si = results_si(results, df.iloc[:0], units)
     if si is not None:  # the axes in SI: every value converted, the filter above over the stored ones
         df, ok = si.apply(df).frame, si.apply(ok).frame
@@ -268,7 +289,6 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
         if hasattr(h, "set_sizes"):
             h.set_sizes([36.0])
             h.set_alpha(0.9)
-    n = len(df)
     filt = f", where {where}" if where else ""
     style_axes(ax, f"{mech.name}: {y} against {x}, {len(ok) + len(out):,} ok of {n:,} variants{filt}")
     return fig
