@@ -299,7 +299,13 @@ def _run_jobs(jobs, workers, take, progress: bool) -> None:
         import multiprocessing as mp
         ctx = mp.get_context("forkserver")  # workers forked from a clean server (no threads, no Numba state)
         ctx.set_forkserver_preload(["mujoco", "explorer.physics._simulate"])
-        pool = ctx.Pool(n_workers, initializer=_worker_init)
+        from ..errors import signals_held
+        # a Ctrl-C while the pool starts its workers (seconds on a loaded machine: the forkserver preloads
+        # MuJoCo) is held until the pool is made, then stops it below: raised inside the constructor, it left
+        # a worker being started, which then found the pool's semaphores gone (the command unlinks them as
+        # it exits) and printed a traceback after the command's one line
+        with signals_held():
+            pool = ctx.Pool(n_workers, initializer=_worker_init)
         for got in pool.imap_unordered(_job, jobs):
             take(*got)
             if bar is not None:
