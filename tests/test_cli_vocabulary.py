@@ -16,11 +16,11 @@ from clihelp import cli
 #: What each verb takes of the vocabulary (verb, or "bench accuracy"): the words of VOCABULARY.
 EXPECTED = {
     "rank": {"top", "format", "units", "where", "include-screened"},
-    "show": {"variant", "units", "include-screened"},
+    "show": {"variant", "units", "include-screened", "format"},
     "plot": {"top", "variant", "output", "force", "units", "where", "include-screened"},
     "animate": {"variant", "output", "force"},
     "export": {"variant", "output", "force"},
-    "report": {"output", "force", "seed", "units"},
+    "report": {"output", "force", "seed", "units", "where"},
     "sensitivity": {"top", "format", "output", "force", "seed"},
     "tolerance": {"format", "seed"},
     "describe": {"format"},
@@ -161,6 +161,45 @@ def test_old_spellings_run_to_the_same_output(small, tmp_path, capsys):
     assert code == 0 and err == "" and old == new
     code, _, err = cli(capsys, "plot", small, "--velocity", "2", "-o", tmp_path / "v.png", "--dpi", "30")
     assert code == 0 and "--velocity 2 is now --velocity --variant 2" in err
+
+
+def test_show_format_prints_the_metric_table(small, capsys):
+    """show --format csv|json: the metric table alone, one row per stored metric: the stored value, the nominal's,
+    the change, and the rank among the buildable ok designs, counted here with plain pandas."""
+    import io
+
+    import numpy as np
+    import pandas as pd
+
+    import explorer
+    from explorer.gait import metric
+    with explorer.open_results(small) as res:
+        df = res.frame()
+        names = list(res.metric_names)
+    pool = df[(df["status"].astype(str) == "ok") & df["buildable"].astype(bool)]
+    v = int(pool["variant"].iloc[-1])
+    row, nom = df[df["variant"] == v].iloc[0], df[df["variant"] == 0].iloc[0]
+    code, out, err = cli(capsys, "show", small, "--variant", v, "--format", "json")
+    assert code == 0 and err == "", err
+    rows = {r["metric"]: r for r in json.loads(out)}
+    assert set(rows) == set(names)
+    for m, r in rows.items():
+        x, x0 = float(row[m]), float(nom[m])
+        assert r["value"] == x and r["reference"] == x0 and r["change"] == x - x0, m
+        values = pool[m].to_numpy(dtype=np.float64)
+        values = values[np.isfinite(values)]
+        better = values > x if metric(m).direction == "max" else values < x
+        assert (r["rank"], r["ranked_among"]) == (1 + int(better.sum()), len(values)), m
+    code, out_csv, err = cli(capsys, "show", small, "--variant", v, "--format", "csv")
+    table = pd.read_csv(io.StringIO(out_csv))
+    assert code == 0 and list(table.columns) == ["metric", "value", "reference", "change", "change_pct", "unit",
+                                                 "rank", "ranked_among"]
+    assert table.set_index("metric")["rank"].to_dict() == {m: r["rank"] for m, r in rows.items()}
+    # where a format does not apply: one line, exit 2
+    for argv, words in ((["--format", "json", "--yield"], ["--format json", "--yield"]),
+                        (["--format", "xml"], ["--format: expected one of table, csv, json"])):
+        code, out, err = cli(capsys, "show", small, "--variant", v, *argv)
+        assert code == 2 and out == "" and err.count("\n") == 1 and all(w in err for w in words), err
 
 
 def test_plot_units_si(small, tmp_path, capsys):

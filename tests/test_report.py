@@ -170,6 +170,52 @@ def test_cli_errors_are_one_line_exit_2(study, tmp_path, capsys, argv, words):
     assert not (tmp_path / "r.html").exists()
 
 
+# -- --where: the views hold the ok designs the filter keeps (issue 40's vocabulary) -------------------------
+def _where(df: pd.DataFrame):
+    """A filter on bob at its median over the ok designs, and the variants plain pandas says it keeps."""
+    ok = df[df["status"].astype(str) == "ok"]
+    cut = float(np.median(ok["bob"]))
+    kept = ok.loc[(ok["bob"] < cut) & (ok["stride"] > 0), "variant"]
+    return f"bob < {cut!r} and stride > 0", set(int(v) for v in kept)
+
+
+def test_where_keeps_the_designs_the_filter_keeps_and_says_so(study):
+    path, df, root = study
+    expr, kept = _where(df)
+    n_ok = int((df["status"].astype(str) == "ok").sum())
+    assert 0 < len(kept) < n_ok
+    rep = write_report(path, root / "where.html", where=expr, paths=5)
+    text = (root / "where.html").read_text(encoding="utf-8")
+    v = np.frombuffer(__import__("base64").b64decode(_data(text)["variant"]), dtype="<i4")
+    assert set(v.tolist()) == kept and len(v) == len(kept)
+    assert rep.where == expr and rep.n_kept == rep.n_designs == len(kept) and rep.n_ok == n_ok and not rep.sampled
+    note = htmlmod.unescape(re.search(r"<p class='warn' id='where-note'>(.*?)</p>", text, re.S).group(1))
+    assert expr in note and f"{len(kept):,} of the {n_ok:,} ok" in note
+    assert _table_counts(text) == _expected_counts(df)  # the counts by reason stay over every variant
+    # sampled from the kept designs only
+    few = write_report(path, root / "where-few.html", where=expr, max_designs=3, paths=0, seed=1)
+    v = np.frombuffer(__import__("base64").b64decode(_data((root / "where-few.html").read_text("utf-8"))["variant"]),
+                      dtype="<i4")
+    assert few.sampled and len(v) == 3 and set(v.tolist()) <= kept
+
+
+def test_cli_where(study, tmp_path, capsys):
+    path, df, _ = study
+    expr, kept = _where(df)
+    out = tmp_path / "w.html"
+    assert main(["report", str(path), "-o", str(out), "--where", expr, "--paths", "5"]) == 0
+    said = capsys.readouterr().out
+    assert said.startswith(f"wrote {out}") and f"{len(kept):,} designs in the views (where {expr}: " in said
+    for bad, words in (("bob <", ["bob <"]), ("nope > 1", ["nope"]), ("bob < -1e9", ["keeps none"]),
+                       ("__import__('os')", ["__import__"])):
+        code = main(["report", str(path), "-o", str(tmp_path / "bad.html"), "--where", bad])
+        err = capsys.readouterr().err
+        assert code == 2 and err.startswith("explorer: error: ") and err.count("\n") == 1, err
+        for w in words:
+            assert w in err, err
+        assert not (tmp_path / "bad.html").exists()
+
+
 # -- in a real browser ---------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def browser():
@@ -274,6 +320,24 @@ def test_report_in_headless_chromium(study, page, browser):
     assert listed == "failed: assembly: variants " + ", ".join(map(str, failed))
     severe = [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
     assert not severe, severe
+
+
+def test_where_page_in_headless_chromium(study, tmp_path, browser):
+    """The filtered page loads clean, counts the designs pandas keeps and says the filter."""
+    path, df, _ = study
+    expr, kept = _where(df)
+    out = tmp_path / "where.html"
+    write_report(path, out, where=expr, metrics=METRICS, paths=5)
+    drv = browser
+    drv.get(out.as_uri())
+    assert _wait(drv, "return document.body.getAttribute('data-ready')", "1") == "1"
+    severe = [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
+    assert not severe, severe
+    assert _count(drv, "n-designs") == _count(drv, "n-selected") == len(kept)
+    note = drv.execute_script("return document.getElementById('where-note').textContent")
+    assert expr in note and note.startswith("Filtered:")
+    summary = drv.execute_script("return document.getElementById('summary').textContent")
+    assert f"the ok ones where {expr}" in " ".join(summary.split())
 
 
 # -- the force axes: scaled to the buildable designs, their end labels apart (issue 40) ---------------------

@@ -234,3 +234,54 @@ def test_missing_study_file(tmp_path, capsys):
         load_study(missing)
     assert main(["run", str(missing)]) == 2
     assert "nope.toml" in capsys.readouterr().err
+
+
+# -- Study as typed sections (issue 40): one section per table, the flat names of before still read ----------
+#: {flat name: (section attribute, key)} written out here, from the study file's tables (not from the code)
+FLAT = {"steps": ("solver", "steps"), "tolerance": ("solver", "tolerance"), "method": ("solver", "method"),
+        "perturb_method": ("perturb", "method"), "spread": ("perturb", "spread"), "links": ("perturb", "links"),
+        "crank": ("perturb", "crank"), "parameters": ("perturb", "parameters"),
+        "vertices": ("scene", "vertices"), "velocities": ("scene", "velocities"),
+        "accelerations": ("scene", "accelerations"), "band": ("scene", "band"), "metrics": ("scene", "metrics"),
+        "forces": ("scene", "forces"), "force_joints": ("scene", "force_joints"), "store": ("scene", "store"),
+        "output": ("results_file", "path"), "compression": ("results_file", "compression")}
+
+
+def test_study_is_typed_sections_and_the_flat_names_still_read(tmp_path):
+    import dataclasses
+    import pickle
+
+    from explorer.study import Output, Perturb, Scene, Solver
+    from explorer.study.runner import Recipe
+
+    data = copy.deepcopy(BASE)
+    data["scene"].update({"metrics": ["travel", "bob"], "store": "metrics"})
+    data["output"]["compression"] = "lzf"
+    s = study_from_dict(data, "s.toml")
+    assert (type(s.solver), type(s.perturb), type(s.scene), type(s.results_file)) == (Solver, Perturb, Scene, Output)
+    # each flat name is its section's value, and the value the file gave
+    for flat, (section, key) in FLAT.items():
+        assert getattr(s, flat) is getattr(getattr(s, section), key), flat
+    assert (s.steps, s.tolerance, s.method) == (36, 1e-10, "block")
+    assert (s.perturb_method, s.spread, s.links, s.crank) == ("uniform", 0.02, "all", True)
+    assert (s.vertices, s.metrics, s.store, s.lean) == (("7",), ("travel", "bob"), "metrics", True)
+    assert (s.output, s.compression) == ("results/t.h5", "lzf")
+    # the flat names read only; a section is replaced whole, and the flat name follows it
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.scene.band = 0.5
+    with pytest.raises(AttributeError):
+        s.steps = 10
+    t = dataclasses.replace(s, solver=dataclasses.replace(s.solver, steps=72))
+    assert t.steps == 72 and t.n_series == s.n_series and t.fingerprint() != s.fingerprint()
+    # what a worker rebuilds from a pickled recipe is the same study (the same fingerprint and text)
+    back = pickle.loads(pickle.dumps(Recipe(s))).study()
+    assert back == s and back.fingerprint() == s.fingerprint() and back.text == s.text
+    # the fields are the sections, not the flat names: 33 flat fields became 19
+    names = {f.name for f in dataclasses.fields(s)}
+    assert {"solver", "perturb", "scene", "results_file"} <= names and not names & set(FLAT)
+
+
+def test_an_optimize_study_has_the_optimisers_perturb_section():
+    s = load_study(STUDIES / "jansen-optimize.toml")
+    assert s.perturb.method == s.perturb_method == "optimize" and s.perturb.spread == 0.0
+    assert s.perturb.parameters == s.optimize.parameters and s.variants == s.optimize.evaluations

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ._args import add_output, add_seed, add_units, add_vs
+from ._args import add_output, add_seed, add_units, add_vs, add_where
 
 
 # The defaults of explorer.view._report, repeated here: importing explorer.view to read them would load
@@ -25,7 +25,8 @@ def register(sub) -> None:
                     "change in %, the reference's own place); the screened-out and failed designs counted by "
                     "reason, each viewable. --units si gives lengths in mm, travel in m per turn, a walking speed in "
                     "m/s and torque in N·m at the study's [operating] point. Brushing "
-                    "an axis or selecting in the scatter filters every view. The views hold the ok designs; "
+                    "an axis or selecting in the scatter filters every view. The views hold the ok designs (those "
+                    "--where EXPR keeps, as `explorer rank --where`: the page says the filter); "
                     f"above --max-designs (default {DEFAULT_MAX_DESIGNS:,}) a seeded uniform sample of them, "
                     "which the page states. An existing -o file is never replaced without --force.")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
@@ -49,6 +50,8 @@ def register(sub) -> None:
     add_vs(p, "the reference design the tables compare every metric with (value and change in %%), "
                         "starred in the scatter and drawn under the foot paths (default 0: the nominal)")
     add_units(p)
+    add_where(p, "the views hold the ok designs it keeps, and the page says the filter; the counts by reason stay "
+                 "over every variant")
     p.set_defaults(func=run)
 
 
@@ -79,9 +82,11 @@ def run(args) -> int:
         warn_ignored_metrics(res)
         rep = write_report(res, out, force=args.force, metrics=args.metrics, max_designs=args.max_designs,
                            paths=args.paths, shown=args.shown, points=args.points, seed=args.seed, x=x, y=y, pc_lines=args.lines,
-                           vs=args.vs, units=args.units)
+                           vs=args.vs, units=args.units, where=args.where)
     views = f"{rep.n_designs:,} designs in the views"
-    if rep.sampled:
+    if rep.where is not None:
+        views += f" (where {rep.where}: {rep.n_kept:,} of the {rep.n_ok:,} ok" + (", a seeded sample" if rep.sampled else "") + ")"
+    elif rep.sampled:
         views += f" (a seeded sample of the {rep.n_ok:,} ok)"
     failed = sum(n for k, n in rep.counts.items() if k.startswith("failed: "))
     screened = rep.counts.get("screened out (any check)", 0)

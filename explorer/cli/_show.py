@@ -1,13 +1,14 @@
-"""``explorer show RESULTS --variant N``: one variant's design parameters (lengths, crank,
-pivots, ...) against the nominal, its metrics and ranks, its status."""
+"""``explorer show RESULTS --variant N [--format table|csv|json]``: one variant's design parameters (lengths,
+crank, pivots, ...) against the nominal, its metrics and ranks, its status; ``--format csv|json`` prints its
+metric table alone, for a program to read."""
 
 from __future__ import annotations
 
 import math
 import sys
 
-from ._args import (add_include_screened, add_old_positional_variant, add_units, add_variant, add_vs, chosen_variant,
-                    parse_variant)
+from ._args import (add_format, add_include_screened, add_old_positional_variant, add_units, add_variant, add_vs,
+                    chosen_variant, parse_variant)
 from ._rank import add_yield_arguments, check_yield_arguments, yields
 from ._format import better, results_si, table
 
@@ -25,7 +26,9 @@ def register(sub) -> None:
                     "variants `explorer rank` ranks (1 = best in the metric's natural direction; ties share a "
                     "rank), the walker score and its rank, a verdict against the reference, its status "
                     "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
-                    "buildability screen (and if not, why). Variant 0 is the nominal.")
+                    "buildability screen (and if not, why). Variant 0 is the nominal. --format csv or json prints "
+                    "the metric table alone, one row per metric, to stdout.",
+        epilog="examples: explorer show R.h5 --variant 3; explorer show R.h5 --variant 3 --vs 7 --format csv > v3.csv")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     add_variant(p, "the variant to show, 0 to N-1 (0 = the nominal design)")
     add_old_positional_variant(p)
@@ -34,6 +37,8 @@ def register(sub) -> None:
     add_include_screened(p, "rank among every ok variant, as `explorer rank --include-screened` (default: among "
                             "the buildable ones, as `explorer rank`)")
     add_units(p)
+    add_format(p, what="csv and json: the metric table alone, one row per metric (metric, value, reference, change, "
+                       "change_pct, unit, rank, ranked_among), numbers unrounded, to stdout")
     p.set_defaults(func=run)
 
 
@@ -151,7 +156,13 @@ def run(args) -> int:
     from ..gait import DEFAULT_WEIGHTS, METRICS, SPEED, metric, operating_line, verdict
     from ..store import open_results
 
+    from ..errors import UserError
+
     chosen = chosen_variant(args, "show", "explorer show RESULTS --variant N")
+    machine = getattr(args, "format", "table") != "table"
+    if machine and args.yield_tol is not None:
+        raise UserError(f"show: --format {args.format} prints the metric table alone; --yield's lines are not part of "
+                        f"it (use --format table, or `explorer rank --yield --format {args.format}`)")
     with open_results(args.results) as res:  # every figure below is a Results call; this verb only formats
         warn_ignored_metrics(res)
         name, n = res.filename, res.n_variants
@@ -213,6 +224,9 @@ def run(args) -> int:
                                                  f"screened out ({row['screen']}); `explorer rank` leaves it out "
                                                  f"unless --include-screened"))
     lines.append("")
+    if machine and not metrics:
+        raise UserError(f"{name}: --format {args.format} prints the metric table, and this file stores no metrics "
+                        f"(use --format table for the design parameters and status)")
     if not metrics:
         lines.append("no gait metrics: the mechanism is driven along a path, not by a crank, so it has no gait"
                      if mech.crank is None else f"no gait metrics stored; compute them with `explorer metrics {name}`")
@@ -223,6 +237,7 @@ def run(args) -> int:
     ref_label = "nominal" if ref == 0 else f"variant {ref}"
     rows = [("metric", "value", ref_label, "change", "change %", "unit",
              f"rank among the {n_pool if n_pool is not None else '-'} {pool} variants (band {band:g})")]
+    records = []  # the same table for --format csv|json: numbers unrounded, None where the text says "-"
     order = [m for m in METRICS if m in metrics] + [m for m in metrics if m not in METRICS]
     if si is not None and SPEED in si.units:  # the walking speed follows travel (it ranks as travel does)
         order.insert(order.index("travel") + 1, SPEED)
@@ -249,6 +264,17 @@ def run(args) -> int:
                 rank = f"rank {r[0]:,} of {r[1]:,} ({better(info.direction)})"
         unit = si.units.get(m, "") if si is not None else (info.unit if info is not None else "")
         rows.append((m, text, rtext, change, pct, unit, rank))
+        if machine:
+            fin = status == "ok" and math.isfinite(x)
+            r = ranks.get("travel" if m == SPEED else m) if fin else None
+            records.append({"metric": m, "value": x if fin else None, "reference": r0 if math.isfinite(r0) else None,
+                            "change": x - r0 if fin and math.isfinite(r0) else None,
+                            "change_pct": 100.0 * (x - r0) / abs(r0) if fin and math.isfinite(r0) and r0 != 0 else None,
+                            "unit": unit, "rank": int(r[0]) if r is not None else None,
+                            "ranked_among": int(r[1]) if r is not None else None})
+    if machine:
+        _print_records(records, args.format)
+        return 0
     lines += table(rows, (False, True, True, True, True, False, False))
     # -- the walker score and a verdict against the reference ------------------------------------------
     if scored is not None and "score" in scored.columns:
@@ -291,6 +317,17 @@ def run(args) -> int:
         lines += force_model_lines(body, row if status == "ok" else None, op)
     print("\n".join(lines))
     return 0
+
+
+def _print_records(records: list[dict], fmt: str) -> None:
+    """The metric table of ``show --format csv|json`` on stdout (None: an empty CSV cell, JSON null)."""
+    import pandas as pd
+    from ._format import json_records
+    columns = ["metric", "value", "reference", "change", "change_pct", "unit", "rank", "ranked_among"]
+    # whole numbers stay whole (object columns): an empty cell (null) where a metric is unranked
+    df = pd.DataFrame({c: pd.Series([r[c] for r in records], dtype=object if c in ("rank", "ranked_among", "metric", "unit")
+                                    else "float64") for c in columns})
+    sys.stdout.write(df.to_csv(index=False) if fmt == "csv" else json_records(df) + "\n")
 
 
 def force_model_lines(body: str | None, row, op: dict) -> list[str]:

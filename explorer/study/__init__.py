@@ -23,7 +23,8 @@ from ._objectives import ALGORITHMS, Optimize, optimize_from_dict
 from ._run import RunSummary, Terminated, run_study
 from ._sample import (BLOCK, Sampler, apply_multipliers, apply_samples, saltelli_design, sample_variants,
                       study_sampler, study_variants)
-from ._spec import (MAX_VARIANTS, STUDY_KEYS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHODS, Study, builtin_studies,
+from ._spec import (MAX_VARIANTS, STUDY_KEYS, PERTURB_METHODS, SAMPLED_METHODS, SOLVE_METHODS, Output, Perturb, Scene,
+                    Solver, Study, builtin_studies,
                     default_study_text, dumps_toml, load_study, study_from_dict, variant_count)
 from ._yield import DEFAULT_COPIES, Robustness, YieldResult, design_yield, robustness_from_dict, split_parameters
 from .._moved import moved
@@ -48,4 +49,4 @@ __all__ = ["STUDY_KEYS", "dask_client", "require_dask", "ALGORITHMS", "Optimize"
            "saltelli_design", "sample_variants", "study_from_dict", "study_sampler",
            "study_variants", "variant_count",
            "Robustness", "YieldResult", "design_yield", "robustness_from_dict"]
-__all__ += ["DEFAULT_COPIES", "split_parameters"]
+__all__ += ["DEFAULT_COPIES", "split_parameters", "Output", "Perturb", "Scene", "Solver"]

@@ -71,7 +71,7 @@ import hashlib
 import json
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 
@@ -119,71 +119,144 @@ MAX_NAME = 100
 
 
 @dataclass(frozen=True)
+class Solver:
+    """``[study]``'s solver settings: how every design is solved.
+
+    steps : crank samples per cycle (≥ 3). tolerance : the bound on every solved position's error,
+    relative to the longest link. method : ``"block"``, ``"dense"`` or ``"auto"``."""
+
+    steps: int = 360
+    tolerance: float = DEFAULT_TOLERANCE
+    method: str = "block"
+
+
+@dataclass(frozen=True)
+class Perturb:
+    """``[perturb]``, resolved: which design parameters vary and how.
+
+    method : one of :data:`PERTURB_METHODS`, or ``"optimize"`` for an optimiser's designs. spread :
+    relative spread (± or sigma). links : ``"all"`` or a tuple of the perturbed link names (those named
+    in ``parameters`` included). crank : whether the crank radius is perturbed (``parameters`` naming
+    "crank" included). parameters : ``[perturb] parameters`` as written: ``"all"``, a tuple of names,
+    or ``()`` when absent."""
+
+    method: str = "uniform"
+    spread: float = 0.02
+    links: object = "all"
+    crank: bool = True
+    parameters: object = ()
+
+
+@dataclass(frozen=True)
+class Scene:
+    """``[scene]``: what each design's solve computes and what is stored.
+
+    vertices : ``"all"`` or a tuple of vertex names whose series are stored. velocities, accelerations :
+    whether their series are stored. band : the gait metrics' stance band, in (0, 1). metrics : a bool or
+    a tuple of metric names. forces : the forces effect (motor torque, joint reactions, ``/torque``);
+    force_joints : the joints whose reactions are stored (``/forces/<joint>``). store : ``"series"`` or
+    ``"metrics"`` (a lean study: designs, statuses and metrics, no series)."""
+
+    vertices: object = "all"
+    velocities: bool = True
+    accelerations: bool = False
+    band: float = 0.01
+    metrics: object = False
+    forces: bool = False
+    force_joints: tuple = ()
+    store: str = "series"
+
+
+@dataclass(frozen=True)
+class Output:
+    """``[output]``: the results file. path : as written (a relative path resolves against the working
+    directory when the file is opened). compression : the series' HDF5 filter, one of
+    :data:`COMPRESSIONS`."""
+
+    path: str = ""
+    compression: str = "blosc"
+
+
+def _alias(section: str, key: str):
+    """A read-only property ``Study.<old name>`` → ``study.<section>.<key>`` (the flat names of before the
+    sections, kept for every caller)."""
+    def get(self):
+        return getattr(getattr(self, section), key)
+    return property(get, doc=f"``{section}.{key}`` (the flat name, kept).")
+
+
+@dataclass(frozen=True)
 class Study:
-    """A validated study. Field names follow the file: ``[section] key`` → ``section_key`` or ``key``.
+    """A validated study, composed of one typed section per TOML table.
 
     name, mechanism : as written in ``[study]``; ``mechanism_path`` is the resolved file (None for
-        a built-in). variants, seed, steps, tolerance, method : ``[study]``.
-    perturb_method, spread, links, crank, parameters : ``[perturb]``, resolved: ``links`` is ``"all"``
-        or a tuple of the perturbed link names (those named in ``parameters`` included), ``crank``
-        whether the crank radius is perturbed (``parameters`` naming "crank" included);
-        ``parameters`` is ``[perturb] parameters`` as written: ``"all"``, a tuple of names, or ``()``
-        when absent. :attr:`parameter_names` is the union, in ``mech.parameters()`` order.
-    vertices : ``"all"`` or a tuple of vertex names; velocities, accelerations, band, metrics : ``[scene]``
-        (``metrics`` is a bool or a tuple of names). store : ``[scene] store``, ``"series"`` or
-        ``"metrics"`` (a lean study: designs, statuses and metrics, no series; :attr:`lean`).
-    output : the ``[output] path`` as written (relative paths resolve against the working directory
-        when the file is opened).
+        a built-in). variants, seed : ``[study]`` (the number of designs as written and the sampler's seed).
+    solver : ``[study]``'s solver settings (:class:`Solver`: steps, tolerance, method).
+    perturb : ``[perturb]``, resolved (:class:`Perturb`); :attr:`parameter_names` is the union of its
+        links, crank and parameters, in ``mech.parameters()`` order.
+    scene : ``[scene]`` (:class:`Scene`); :attr:`lean` for ``store = "metrics"``.
+    results_file : ``[output]`` (:class:`Output`: path, compression).
     source : the file the study came from (``builtin:NAME`` or ``<dict>``); text : its TOML text.
     walker : the walker scene (:class:`~explorer.mechanism.Walker`: the study's ``[walker]`` over
         the mechanism's own), None for a path-driven mechanism. screen : the ``[screen]`` thresholds.
     target : the ``[target]`` path (:class:`~explorer.gait.Target`) the ``path_error`` metric compares
         the foot path with, else None.
-    forces, force_joints : ``[scene] forces`` (the forces effect: motor torque, joint reactions and their
-        metrics, ``/torque``) and the joints whose reactions are stored (``/forces/<joint>``).
     operating : the operating point (:class:`~explorer.mechanism.Operating`: the study's ``[operating]``
         over the mechanism's own), None when neither gives one.
-    robustness : the ``[robustness]`` table (:class:`~explorer.study._yield.Robustness`: the
+    robustness : the ``[robustness]`` table (:class:`~explorer.study.Robustness`: the
         manufacturing error the ``yield`` metric's copies are cut with), None when absent.
-    optimize : the ``[optimize]`` table (:class:`~explorer.study._objectives.Optimize`) of a study run by
-        ``explorer optimize``, else None. Its designs are the optimiser's: ``perturb_method`` is
+    optimize : the ``[optimize]`` table (:class:`~explorer.study.Optimize`) of a study run by
+        ``explorer optimize``, else None. Its designs are the optimiser's: ``perturb.method`` is
         ``"optimize"``, ``variants`` is population × generations and the perturbed parameters are the
         searched ones.
+    build : the study's ``[build]`` table as written (over the mechanism's, key by key), else None.
+
+    The flat names of before the sections still read (read-only properties): ``steps``, ``tolerance``,
+    ``method`` (→ ``solver``); ``perturb_method``, ``spread``, ``links``, ``crank``, ``parameters``
+    (→ ``perturb``); ``vertices``, ``velocities``, ``accelerations``, ``band``, ``metrics``, ``forces``,
+    ``force_joints``, ``store`` (→ ``scene``); ``output`` (the path) and ``compression`` (→
+    ``results_file``). Replace a section with :func:`dataclasses.replace` (``replace(study,
+    scene=replace(study.scene, ...))``).
     """
 
     name: str
     mechanism: str
     variants: int
     seed: int
-    steps: int
-    tolerance: float
-    method: str
-    perturb_method: str
-    spread: float
-    links: object
-    crank: bool
-    vertices: object
-    velocities: bool
-    accelerations: bool
-    band: float
-    metrics: object
-    output: str
+    solver: Solver
+    perturb: Perturb
+    scene: Scene
+    results_file: Output
     source: str
     text: str
-    compression: str = "blosc"
     mechanism_path: str | None = None
-    parameters: object = ()
     walker: Walker | None = None
     screen: Screen = field(default_factory=Screen)
     optimize: Optimize | None = None
     target: Target | None = None
-    forces: bool = False
-    force_joints: tuple = ()
     operating: Operating | None = None
     robustness: Robustness | None = None
-    store: str = "series"
     build: dict | None = None  # the study's [build] table as written (over the mechanism's, key by key)
     _mech: Mechanism | None = field(default=None, repr=False, compare=False)
+
+    steps = _alias("solver", "steps")
+    tolerance = _alias("solver", "tolerance")
+    method = _alias("solver", "method")
+    perturb_method = _alias("perturb", "method")
+    spread = _alias("perturb", "spread")
+    links = _alias("perturb", "links")
+    crank = _alias("perturb", "crank")
+    parameters = _alias("perturb", "parameters")
+    vertices = _alias("scene", "vertices")
+    velocities = _alias("scene", "velocities")
+    accelerations = _alias("scene", "accelerations")
+    band = _alias("scene", "band")
+    metrics = _alias("scene", "metrics")
+    forces = _alias("scene", "forces")
+    force_joints = _alias("scene", "force_joints")
+    store = _alias("scene", "store")
+    output = _alias("results_file", "path")
+    compression = _alias("results_file", "compression")
 
     # -- derived -------------------------------------------------------------------------------
     @property
@@ -459,15 +532,17 @@ def study_from_dict(data: dict, source: str = "<dict>", *, text: str | None = No
 
     common = _scene_and_output(v, source, name, mech, sc, ou, wa, scr, data.get("target"), base,
                                data.get("operating"), data.get("robustness"))
-    return Study(name=name, mechanism=mech_name, variants=variants, seed=seed, steps=steps, tolerance=float(tolerance),
-                 method=method, perturb_method=pmethod, spread=float(spread), links=links, crank=crank,
+    return Study(name=name, mechanism=mech_name, variants=variants, seed=seed,
+                 solver=Solver(steps=steps, tolerance=float(tolerance), method=method),
+                 perturb=Perturb(method=pmethod, spread=float(spread), links=links, crank=crank, parameters=parameters),
                  source=source, text=text if text is not None else dumps_toml(data), mechanism_path=mech_path,
-                 _mech=mech, parameters=parameters, build=data.get("build"), **common)
+                 _mech=mech, build=data.get("build"), **common)
 
 
 def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, sc, ou, wa, scr, ta=None,
                       base: Path | None = None, op=None, rb=None) -> dict:
-    """The Study fields of [scene], [walker], [screen], [output] and [target], validated."""
+    """The Study fields of [scene], [walker], [screen], [output], [target], [operating] and [robustness],
+    validated (``scene`` and ``results_file`` as their sections)."""
     target = load_target(ta, base, source=source, key="target") if ta is not None else None
     vertices = v.names("scene.vertices", sc.get("vertices", [mech.foot]), mech.vertices, "vertex")
     velocities = v.boolean("scene.velocities", sc.get("velocities", True))
@@ -524,9 +599,10 @@ def _scene_and_output(v: "_Validator", source: str, name: str, mech: Mechanism, 
     compression = v.choice("output.compression", ou.get("compression", "blosc"), COMPRESSIONS)
     store = v.choice("scene.store", sc.get("store", "series"), STORES)
 
-    return dict(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
-                metrics=metrics, output=out, compression=compression, walker=walker, screen=screen, target=target,
-                forces=forces, force_joints=force_joints, operating=operating, robustness=robustness, store=store)
+    scene = Scene(vertices=vertices, velocities=velocities, accelerations=accelerations, band=float(band),
+                  metrics=metrics, forces=forces, force_joints=force_joints, store=store)
+    return dict(scene=scene, results_file=Output(path=out, compression=compression), walker=walker, screen=screen,
+                target=target, operating=operating, robustness=robustness)
 
 
 def _solver_keys(v: "_Validator", st: dict):
@@ -560,24 +636,24 @@ def _optimize_study(data, source, text, v, name, mech_name, mech, mech_path, st,
     needed = metrics_needed(opt, tuple(col for check in CHECKS for col in check.inputs if why_not.get(col) is None))
     from ..gait import metric
     forced = [m for m in needed if metric(m) is not None and metric(m).group == "forces"]
-    if forced and not common["forces"]:
+    if forced and not common["scene"].forces:
         raise UserError(f"{where(source, 'optimize')}: {', '.join(forced)} come from the forces effect; set "
                         f"[scene] forces = true (with an [operating] table) to search on them")
     needed = tuple(m for m in needed if m not in forced)  # the forces effect computes those with the solve
     if YIELD in needed and common["robustness"] is None:
         raise UserError(f"{where(source, 'optimize')}: {YIELD!r} needs a [robustness] table (tolerance = ..., the "
                         f"manufacturing error its copies are cut with, e.g. tolerance = 0.5 and unit = \"%\")")
-    metrics = common["metrics"]
+    metrics = common["scene"].metrics
     if metrics is not True:  # compute what the search needs on top of what the scene asks for
         metrics = tuple(dict.fromkeys((metrics or ()) + needed))
-    common["metrics"] = metrics
+    common["scene"] = replace(common["scene"], metrics=metrics)
     params = opt.parameters
     links = tuple(n for n in mech.link_names if n in params)
-    return Study(name=name, mechanism=mech_name, variants=opt.evaluations, seed=seed, steps=steps,
-                 tolerance=tolerance, method=method, perturb_method="optimize", spread=0.0, links=links,
-                 crank="crank" in params, source=source, text=text if text is not None else dumps_toml(data),
-                 mechanism_path=mech_path, _mech=mech, parameters=params, optimize=opt, build=data.get("build"),
-                 **common)
+    perturb = Perturb(method="optimize", spread=0.0, links=links, crank="crank" in params, parameters=params)
+    return Study(name=name, mechanism=mech_name, variants=opt.evaluations, seed=seed,
+                 solver=Solver(steps=steps, tolerance=tolerance, method=method), perturb=perturb, source=source,
+                 text=text if text is not None else dumps_toml(data), mechanism_path=mech_path, _mech=mech,
+                 optimize=opt, build=data.get("build"), **common)
 
 
 def _parameters(v: "_Validator", pe: dict, mech: Mechanism):

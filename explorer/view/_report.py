@@ -35,6 +35,10 @@ Foot paths are downsampled to ``points`` (default 60) per path and stored for th
 16-bit integers over their common bounding box. 10,000 Jansen variants make a 7.3 MB page, 100,000 a
 22 MB one (plotly.js itself is 4.8 MB of it).
 
+Filter: ``where="bob < 0.2"`` (``explorer report --where``, the restricted grammar of ``explorer rank
+--where``) keeps the ok designs the filter holds for in the views (rank = place among them; the sample
+above ``max_designs`` is drawn from them); the page says the filter and how many it keeps.
+
 Units: the file's model units, or with ``units="si"`` (``--units si``) lengths in mm, travel in m per turn,
 a walking speed in m/s and torque in N·m at the study's ``[operating]`` point (:func:`explorer.gait.to_si`);
 the ranking stays that of the stored values.
@@ -102,10 +106,12 @@ class Report:
     """What :func:`write_report` wrote (or :func:`report_html` built).
 
     path : the file (None for :func:`report_html`); bytes : its size; n_variants : every variant of
-    the results; n_ok : the ok ones; n_designs : the designs in the linked views (n_ok, or the sample);
+    the results; n_ok : the ok ones; n_designs : the designs in the linked views (n_kept, or the sample);
     sampled : whether they are a sample; n_paths : designs whose foot paths the page holds;
     parameters, metrics : the axes; counts : {reason: number of variants} (the table of the page:
-    "ok, buildable", "screened out (any check)", "screened out: CHECK" …, "failed: STATUS" …).
+    "ok, buildable", "screened out (any check)", "screened out: CHECK" …, "failed: STATUS" …, over every
+    variant); where : the filter the views were chosen with (None: every ok design); n_kept : the ok
+    designs it keeps (n_ok without a filter).
     """
 
     path: Path | None
@@ -118,6 +124,12 @@ class Report:
     parameters: list = field(default_factory=list)
     metrics: list = field(default_factory=list)
     counts: dict = field(default_factory=dict)
+    where: str | None = None
+    n_kept: int = -1
+
+    def __post_init__(self):
+        if self.n_kept < 0:
+            self.n_kept = self.n_ok
 
     def iframe(self, width="100%", height: int = 1100):
         """The written page in a notebook cell (``IPython.display.IFrame``; the file must be reachable
@@ -308,7 +320,7 @@ def _check_count(name, value, minimum) -> int:
 def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, paths: int = DEFAULT_PATHS,
                  shown: int = DEFAULT_SHOWN, points: int = DEFAULT_POINTS, reason_paths: int = DEFAULT_REASON_PATHS,
                  seed: int = 0, x: str | None = None, y: str | None = None, title: str | None = None,
-                 pc_lines: int = DEFAULT_PC_LINES, vs: int = 0, units: str = "model"):
+                 pc_lines: int = DEFAULT_PC_LINES, vs: int = 0, units: str = "model", where: str | None = None):
     """(html text, :class:`Report` with path None) of an open results file; see :func:`write_report`."""
     from .._extras import require
     require("plotly", "explorer report")
@@ -317,8 +329,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     from plotly.offline import get_plotlyjs
 
     from .. import __version__
-    from ..gait import ok_mask
+    from ..gait import evaluate_filter, ok_mask
 
+    where = str(where).strip() if where is not None and str(where).strip() else None
     max_designs = _check_count("max_designs", max_designs, 1)
     paths = _check_count("paths", paths, 0)
     shown = _check_count("shown", shown, 0)
@@ -359,10 +372,15 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         return _unit_text(meta.unit) if meta else "model units"
 
     order, by_score = _ranked_ok(df)
-    sampled = n_ok > max_designs
+    if where is not None:  # the views hold the ok designs the filter keeps, in the same order
+        order = order[evaluate_filter(df, where)[order]]
+    n_kept = len(order)
+    if n_kept == 0 and where is not None:
+        raise UserError(f"{res.filename}: --where {where!r} keeps none of the {n_ok:,} ok designs: nothing to show")
+    sampled = n_kept > max_designs
     if sampled:
         rng = np.random.default_rng(seed)
-        pick = np.sort(rng.choice(n_ok, size=max_designs, replace=False))
+        pick = np.sort(rng.choice(n_kept, size=max_designs, replace=False))
         order = order[pick]
     n = len(order)
     rows = df.iloc[order]
@@ -546,7 +564,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     # -- the page's data ---------------------------------------------------------------------------------------
     study = res.study.get("study", {}) if isinstance(res.study, dict) else {}
     data = {
-        "n_variants": N, "n_ok": n_ok, "n_designs": n, "sampled": bool(sampled), "seed": int(seed),
+        "n_variants": N, "n_ok": n_ok, "n_kept": n_kept, "where": where, "n_designs": n, "sampled": bool(sampled), "seed": int(seed),
         "max_designs": max_designs, "columns": columns, "x": sx, "y": sy, "metrics": mets, "params": params,
         "by_score": by_score, "variant": _b64(variant.astype(np.int32)),
         "table": _b64(np.concatenate(table) if table else np.zeros(0, np.float32)),
@@ -564,11 +582,17 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     tables = _reason_table(reasons, counts, N)
     sample_note = ""
     if sampled:
-        sample_note = (f"<p class='warn' id='sample-note'>This study has {n_ok:,} ok designs, more than the "
+        which = f"{n_kept:,} ok designs" + (" the filter keeps" if where is not None else "")
+        sample_note = (f"<p class='warn' id='sample-note'>This study has {which}, more than the "
                        f"{max_designs:,} this page shows: the views hold a uniform random sample of {n:,} of them "
-                       f"(seed {int(seed)}, in rank order; rank = place among all {n_ok:,}). The counts by reason "
+                       f"(seed {int(seed)}, in rank order; rank = place among all {n_kept:,}). The counts by reason "
                        f"below are over all {N:,} variants. Use <code>--max-designs</code> to change the cap, or "
                        f"<code>explorer rank --where</code> to narrow the study.</p>")
+    where_note = ""
+    if where is not None:
+        where_note = (f"<p class='warn' id='where-note'>Filtered: the views hold the {n_kept:,} of the {n_ok:,} ok "
+                      f"designs where <code>{html.escape(where)}</code> (<code>--where</code>; rank = place among "
+                      f"them). The counts by reason are over all {N:,} variants.</p>")
     off_note = ""
     if off_scale:
         parts = ", ".join(f"{html.escape(m)} ({k:,} designs, up to {far:.4g} {html.escape(col_of[m]['unit'] or '')})"
@@ -619,14 +643,16 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         heading=html.escape(f"{name} — {mech.name}"),
         meta=html.escape(f"{res.filename} · {N:,} variants × {res.steps} steps · {n_ok:,} ok · explorer {__version__} "
                          f"· {created}"),
-        n_designs=n, n_designs_text=f"{n:,}", n_ok=f"{n_ok:,}", N=f"{N:,}", sample_note=sample_note + dropped_note + units_note + off_note,
+        n_designs=n, n_designs_text=f"{n:,}", N=f"{N:,}",
+        pool=(f"the ok ones: {n_ok:,} of {N:,} variants" if where is None else
+              html.escape(f"the ok ones where {where}: {n_kept:,} of the {n_ok:,} ok, {N:,} variants")), sample_note=where_note + sample_note + dropped_note + units_note + off_note,
         order_note=order_note, options=options, reason_table=tables, axes_rows=axes_rows, no_scatter=no_scatter,
         no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data=_script_safe(json.dumps(data)),
         figs=fig_scripts, results=html.escape(str(res.filename)), foot=html.escape(str(vname or "-")),
         vs_section=vs_section, ref_label=html.escape(ref_label), pc_width=PC_AXIS_WIDTH * len(dims) + 100,
         points=npts)
     rep = Report(path=None, bytes=len(page.encode("utf-8")), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
-                 n_paths=n_paths, parameters=params, metrics=mets, counts=counts)
+                 n_paths=n_paths, parameters=params, metrics=mets, counts=counts, where=where, n_kept=n_kept)
     return page, rep
 
 
@@ -733,7 +759,8 @@ def _with_results(results, fn):
 def write_report(results, path, *, force: bool = False, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS,
                  paths: int = DEFAULT_PATHS, shown: int = DEFAULT_SHOWN, points: int = DEFAULT_POINTS,
                  reason_paths: int = DEFAULT_REASON_PATHS, seed: int = 0, x: str | None = None, y: str | None = None,
-                 title: str | None = None, pc_lines: int = DEFAULT_PC_LINES, vs: int = 0, units: str = "model") -> Report:
+                 title: str | None = None, pc_lines: int = DEFAULT_PC_LINES, vs: int = 0, units: str = "model",
+                 where: str | None = None) -> Report:
     """Write the interactive report of ``results`` (an open results file, or a path to one) to ``path``
     as one self-contained HTML file (plotly.js inlined; it opens offline). Returns a :class:`Report`.
 
@@ -747,7 +774,10 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
     default 0, the nominal) whose value every metric table shows with the change against it in %, starred
     in the scatter and drawn grey under the foot paths; units : "model" (default) or "si" (lengths in mm,
     travel in m per turn, a walking speed in m/s, torque in N·m; needs the study's ``[operating] unit``,
-    :func:`explorer.gait.to_si`). An existing ``path`` is replaced only with ``force``; never the results file itself.
+    :func:`explorer.gait.to_si`); where : a filter over the results frame's columns (``explorer rank
+    --where``'s restricted grammar, e.g. "bob < 0.2 and slip < 0.01"): the views hold the ok designs it keeps,
+    and the page says so (the counts by reason stay over every variant). An existing ``path`` is replaced
+    only with ``force``; never the results file itself.
     """
     from .._extras import require
     from .._files import output_path, write_replacing
@@ -756,7 +786,8 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
     out = output_path(path, force, protect=[p for p in protect if p is not None])
     page, rep = _with_results(results, lambda res: build_report(
         res, metrics=metrics, max_designs=max_designs, paths=paths, shown=shown, points=points,
-        reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines, vs=vs, units=units))
+        reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines, vs=vs, units=units,
+        where=where))
     write_replacing(out, lambda tmp: tmp.write_text(page, encoding="utf-8"))
     rep.path = out
     rep.bytes = out.stat().st_size
@@ -797,7 +828,7 @@ _TEMPLATE = """<!DOCTYPE html>
 <p class="meta">{meta}</p>
 <div id="summary"><b id="n-selected" data-count="{n_designs}">{n_designs_text}</b> selected of
 <b id="n-designs" data-count="{n_designs}">{n_designs_text}</b> designs in the views
-(the ok ones: {n_ok} of {N} variants) · <span id="n-front" data-count="0">0</span> on the Pareto front
+({pool}) · <span id="n-front" data-count="0">0</span> on the Pareto front
 <button id="reset">clear every brush</button></div>
 {sample_note}
 <p class="note">Drag along an axis to brush it (drag again elsewhere on it to add a range, click a range to
