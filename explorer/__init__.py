@@ -27,8 +27,8 @@ _LAZY = {
     **dict.fromkeys(("STATUS_NAMES", "Batch", "Cycle", "Failure", "simulate", "simulate_batch"), "kernels"),
     **dict.fromkeys(("Crank", "Link", "Mechanism", "PathDriver", "builtin_mechanisms", "load_mechanism"), "mechanism"),
     **dict.fromkeys(("Grashof", "grashof", "make_plan"), "plan"),
-    **dict.fromkeys(("Results", "open_results"), "store"),
-    **dict.fromkeys(("RunSummary", "Study", "load_study", "run_study", "run_study_dask", "sample_variants"), "study"),
+    "Results": "store",
+    **dict.fromkeys(("RunSummary", "open_results", "Study", "load_study", "run_study", "run_study_dask", "sample_variants"), "study"),
     "run_optimize": "optimize",
     **dict.fromkeys(("recompute_metrics", "sensitivity", "tolerance", "tolerance_summary"), "analysis"),
 }

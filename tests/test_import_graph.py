@@ -113,7 +113,7 @@ def test_moved_names_still_import_from_their_old_package():
     import warnings
 
     from explorer.testing import MOVED
-    for package in ("explorer.kernels", "explorer.study", "explorer.view"):
+    for package in ("explorer.kernels", "explorer.store", "explorer.study", "explorer.view"):
         importlib.import_module(package)
     assert MOVED, "no moved names registered"
     for package, names in MOVED.items():
@@ -124,3 +124,25 @@ def test_moved_names_still_import_from_their_old_package():
                 value = getattr(old, name)
             assert value is getattr(importlib.import_module(home), name), f"{package}.{name}"
             assert any(issubclass(w.category, DeprecationWarning) and home in str(w.message) for w in caught)
+
+
+def test_store_does_not_import_the_kernels():
+    """store reads and writes files only (issue 40): no module of it imports explorer.kernels, anywhere in its
+    body, and importing it loads no kernel; a lean file's re-solve and a variant's assembly are study's
+    (explorer.study.resolve_series, through the resolver store is given). The status codes it stores are the
+    kernels' (its own table, held equal to theirs here)."""
+    import subprocess
+    import sys
+
+    from explorer.kernels import STATUS_NAMES
+    from explorer.store import FILE_STATUS_NAMES, STATUS_NOT_RUN
+    graph = import_graph()
+    store = [n for n in graph if n == "explorer.store" or n.startswith("explorer.store.")]
+    assert "explorer.store._read" in store and "explorer.store._write" in store
+    bad = sorted(f"{n} -> {d}" for n in store for d in graph[n] if d.split(".")[:2] == ["explorer", "kernels"])
+    assert not bad, "store imports the kernels: " + ", ".join(bad)
+    run = subprocess.run([sys.executable, "-c", "import sys, explorer.store; "
+                          "print(sorted(m for m in sys.modules if m.startswith('explorer.kernels')))"],
+                         capture_output=True, text=True, check=True)
+    assert run.stdout.strip() == "[]", run.stdout
+    assert FILE_STATUS_NAMES == {**{int(k): v for k, v in STATUS_NAMES.items()}, STATUS_NOT_RUN: "not-run"}

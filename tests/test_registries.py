@@ -2,6 +2,8 @@
 
 * a stored series (explorer.store._datasets.SERIES): the writer creates and fills it, ``Results.series``
   reads it, the integrity checks cover it and a lean file re-solves it, all from the one entry;
+* a per-variant dataset (explorer.store._datasets.VARIANT_DATA): the writer creates and fills it, the chunk
+  digests cover it, ``Results.frame`` reads it back, all from the one entry;
 * a metric group (explorer.gait._metrics.GROUPS) says where it applies, with no chain of special cases;
 * the export formats (explorer.fabrication.EXPORTS) are tested in test_cli_vocabulary.py (a toy format).
 """
@@ -14,7 +16,8 @@ import numpy as np
 import pytest
 
 import explorer
-from explorer.store import SERIES, DatasetSpec, SeriesSpec, register_series
+from explorer.store import (SERIES, VARIANT_DATA, DatasetSpec, SeriesSpec, VariantData, register_series,
+                            register_variant_data)
 
 STUDY = {"study": {"name": "toy", "mechanism": "jansen", "variants": 8, "seed": 3, "steps": 36},
          "perturb": {"method": "uniform", "spread": 0.01}, "scene": {"velocities": True, "metrics": ["stride"]}}
@@ -33,13 +36,18 @@ TOY = SeriesSpec("speeds", "vertex", stored=lambda study: bool(study.velocities)
                                      "speed of the vertex per radian of crank, |dV/dθ|"))
 
 
+def _registered(register, registry: list, entry):
+    """A fixture's body: ``entry`` registered while the test runs, removed after."""
+    register(entry)
+    try:
+        yield entry
+    finally:
+        registry.remove(entry)
+
+
 @pytest.fixture
 def toy_series():
-    register_series(TOY)
-    try:
-        yield TOY
-    finally:
-        SERIES.remove(TOY)
+    yield from _registered(register_series, SERIES, TOY)
 
 
 def test_a_toy_series_is_one_registry_entry(toy_series, tmp_path):
@@ -105,3 +113,74 @@ def test_metric_groups_say_where_they_apply(monkeypatch):
     monkeypatch.setitem(GROUPS, "leg", GROUPS["leg"]._replace(where=lambda mech: None))
     assert all(available_metrics(slider)[m] is None or "foot" not in available_metrics(slider)[m] for m in leg
                if "mechanism" not in BY_NAME[m].needs)
+
+
+def _foot_reach(commit):
+    """Toy per-variant value: the longest link of each design over its crank radius (n,)."""
+    return np.asarray(commit.lengths).max(axis=1) / np.asarray(commit.crank)
+
+
+TOY_DATA = VariantData("toy/reach", rows=_foot_reach,
+                       columns=lambda results, values, a: {"toy_reach": values},
+                       dataset=DatasetSpec("toy/reach", "f8", ("N",), "scalar", math.nan, "",
+                                           "longest link over crank radius"))
+
+
+@pytest.fixture
+def toy_variant_data():
+    yield from _registered(register_variant_data, VARIANT_DATA, TOY_DATA)
+
+
+def test_a_toy_per_variant_dataset_is_one_registry_entry(toy_variant_data, tmp_path):
+    import h5py
+    with pytest.raises(ValueError, match="already registered"):
+        register_variant_data(TOY_DATA)
+    path = explorer.run_study(STUDY, output=tmp_path / "toy.h5", progress=False).path
+    with h5py.File(path, "r") as f:  # the writer made it from its entry and filled every row
+        d = f["toy/reach"]
+        assert d.shape == (8,) and d.dtype == np.float64 and d.attrs["description"] == "longest link over crank radius"
+        stored = d[...]
+        lengths, crank = f["variants/lengths"][...], f["variants/crank"][...]
+    reach = np.array([max(lengths[i]) / crank[i] for i in range(8)])  # plainly, row by row
+    np.testing.assert_array_equal(stored, reach)
+    with explorer.open_results(path) as res:  # read back as a frame column, after the failure columns
+        df = res.frame()
+        np.testing.assert_array_equal(df["toy_reach"].to_numpy(), reach)
+        cols = list(df.columns)
+        assert cols.index("iterations") < cols.index("toy_reach") < cols.index("stride")
+        np.testing.assert_array_equal(res.frame_rows([5, 2])["toy_reach"].to_numpy(), reach[[5, 2]])
+    # the integrity checks cover it: one value changed with plain h5py is a refusal naming the file
+    with h5py.File(path, "r+") as f:
+        f["toy/reach"][3] = 1.0
+    with pytest.raises(explorer.UserError, match="damaged"):
+        explorer.open_results(path)
+    # a file written without the entry opens alike (the entry is read where the file has it)
+    VARIANT_DATA.remove(TOY_DATA)
+    try:
+        plain = explorer.run_study(STUDY, output=tmp_path / "plain.h5", progress=False).path
+        with explorer.open_results(plain) as res:
+            assert "toy_reach" not in res.frame().columns
+    finally:
+        VARIANT_DATA.append(TOY_DATA)
+
+
+def test_open_results_takes_a_resolver(tmp_path):
+    """store re-solves a lean file through the resolver it is given (store reads and writes files only);
+    explorer.open_results is study's, with explorer's resolver; the kernels' assembly places a variant."""
+    from explorer.store import Resolver
+    from explorer.store import open_results as store_open
+    from explorer.study import RESOLVER, resolve_series
+    lean = {**STUDY, "scene": {**STUDY["scene"], "store": "metrics"}}
+    path = explorer.run_study(lean, output=tmp_path / "lean.h5", progress=False).path
+    calls = []
+
+    def series(f, variants, **kw):
+        calls.append(np.asarray(variants).tolist())
+        return resolve_series(f, variants, **kw)
+
+    with store_open(path, resolver=Resolver(series=series, assemble=RESOLVER.assemble)) as res:
+        got = res.path(2)
+        assert calls == [[2]]
+    with explorer.open_results(path) as res:
+        assert res.resolver is RESOLVER
+        np.testing.assert_array_equal(res.path(2), got)

@@ -37,8 +37,9 @@ import numpy as np
 
 from ..errors import UserError
 from ..store import (STATUS_NOT_RUN, Exclusive, OutputLock, Unreadable, copy_for_update, create_metric, guarded, hdf5_rows, inspect,
-                     lean_file, metrics_group, open_h5, replace_with, resolve_series, write_error_reason)
+                     lean_file, metrics_group, open_h5, replace_with, write_error_reason)
 from ..store import now as timestamp
+from ..study import resolve_series
 from ..store._integrity import has_integrity, stamp, write_digests
 
 #: Name of the group the new metrics are written to before they replace ``/metrics``.

@@ -10,7 +10,9 @@ file is created (by :class:`~explorer.store.ResultsWriter` for a run, an optimis
 Dask shard, and by :func:`~explorer.store.metrics_group` for ``explorer metrics``), so every
 file describes itself the same way whoever wrote it.
 
-A new stored dataset is one row here (and its values in ``ResultsWriter.write_chunk``).
+A new per-variant dataset is one :func:`register_variant_data` entry (:data:`VARIANT_DATA`: its row, how a
+commit's values and its frame columns are made), a new series one :func:`register_series` entry
+(:data:`SERIES`); the writer, the readers, the integrity checks and the lean re-solve iterate over both.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import json
 import math
 from dataclasses import dataclass
 from datetime import datetime, timezone
+from typing import Callable, NamedTuple
 
 import h5py
 import hdf5plugin  # noqa: F401 - registers the Blosc and Zstandard filters with HDF5 (15 ms after h5py)
@@ -180,6 +183,148 @@ def vertex_series() -> tuple[str, ...]:
     return tuple(spec.group for spec in SERIES if spec.member == "vertex")
 
 
+# -- the per-variant datasets that are not series: status, failure, design, ... -----------------------------------
+#: Status code of a variant whose chunk has not been committed yet (incomplete files only).
+STATUS_NOT_RUN = -1
+#: Every status code that can appear in ``/status`` (the file format's table, stored in its attributes): the
+#: kernels' codes (:data:`explorer.kernels.STATUS_NAMES`, which tests/test_import_graph.py holds equal to
+#: these: store does not import the kernels) plus ``-1: not-run``.
+FILE_STATUS_NAMES = {0: "ok", 1: "assembly", 2: "branch", 3: "no-convergence", 4: "invalid", 5: "singular",
+                     STATUS_NOT_RUN: "not-run"}
+
+
+class Commit(NamedTuple):
+    """What one commit of ``ResultsWriter.write_chunk`` holds for its n variants: lengths (n, n_links), crank (n,)
+    radii, batch (the :class:`~explorer.kernels.Batch` that solved them), geometry ((n, k) moved coordinates, or
+    None) and metrics ({name: (n,)})."""
+
+    lengths: object
+    crank: object
+    batch: object
+    geometry: object = None
+    metrics: dict | None = None
+
+
+@dataclass(frozen=True)
+class VariantData:
+    """One per-variant dataset of a results file that is not a series (shape (N,) or (N, k), stored
+    ``scalar``), a row of :data:`VARIANT_DATA`.
+
+    path : where it is stored (``"status"``, ``"variants/lengths"``); rows(commit) : its (n, ...) values of a
+    :class:`Commit`; columns(results, values, a) : the :meth:`~explorer.store.Results.frame` columns of rows
+    ``a ...`` read back from it ({column: (n,)}, in frame order); stored(study) : whether a file of ``study``
+    has it (None: every file); attrs(study) : the dataset's own attributes when it is created (None: only its
+    row's units and description); optional : readers skip it where a file lacks it (one written before it
+    existed); dataset : its :class:`DatasetSpec` where :data:`DATASETS` has none (a dataset added later).
+
+    The writer (:class:`~explorer.store.ResultsWriter`: created in ``create``, filled in ``write_chunk``), the
+    readers (``Results.frame`` and every reader built on it), the integrity checks (the chunk digests cover
+    every per-variant dataset, :func:`explorer.store._integrity.per_variant`) and a Dask stitch iterate over
+    :data:`VARIANT_DATA`: a new one is one :func:`register_variant_data` call and its code."""
+
+    path: str
+    rows: Callable
+    columns: Callable
+    stored: Callable | None = None
+    attrs: Callable | None = None
+    optional: bool = False
+    dataset: DatasetSpec | None = None
+
+
+def strings(values) -> np.ndarray:
+    """Text values as an HDF5 variable-length string array (what attributes listing names hold)."""
+    return np.array([str(v) for v in values], dtype=h5py.string_dtype())
+
+
+def _text(s) -> str:
+    return s.decode() if isinstance(s, bytes) else str(s)
+
+
+def _column(name: str) -> Callable:
+    return lambda results, values, a: {name: values}
+
+
+def _split(names: Callable) -> Callable:
+    """Frame columns of an (n, k) dataset: one per name of ``names(results)``, in order."""
+    return lambda results, values, a: {name: values[:, j] for j, name in enumerate(names(results))}
+
+
+def _status_attrs(study) -> dict:
+    codes = sorted(FILE_STATUS_NAMES)
+    return {"codes": np.array(codes, dtype=np.int8), "names": strings(FILE_STATUS_NAMES[c] for c in codes),
+            "mapping": json.dumps({str(c): FILE_STATUS_NAMES[c] for c in codes})}
+
+
+def _status_columns(results, codes, a) -> dict:
+    """``status`` (categorical, every known status a category, not-run last) and ``status_code``."""
+    import pandas as pd
+    order = sorted(FILE_STATUS_NAMES, key=lambda c: (c < 0, c))
+    lut = np.full(256, -1, dtype=np.int64)
+    for i, c in enumerate(order):
+        lut[c & 0xFF] = i
+    return {"status": pd.Categorical.from_codes(lut[codes.astype(np.int64) & 0xFF],
+                                                categories=[FILE_STATUS_NAMES[c] for c in order]),
+            "status_code": codes}
+
+
+def _block_attrs(study) -> dict:
+    """``vertex``: the first vertex each plan block places (the "failing vertex" of a failed variant)."""
+    from ..plan import make_plan
+    mech = study.mech
+    return {"vertex": strings(mech.vertices[b.vertices[0]] for b in make_plan(mech).blocks)}
+
+
+def _block_columns(results, block, a) -> dict:
+    names = np.array([None] + [_text(s) for s in results.file["fail_block"].attrs["vertex"]], dtype=object)
+    return {"fail_vertex": names[np.where(block >= 0, block + 1, 0)]}
+
+
+def _lengths_attrs(study) -> dict:
+    mech = study.mech
+    return {"links": strings(mech.link_names), "link_ends": strings(f"{l.a}-{l.b}" for l in mech.links),
+            "nominal": mech.lengths}
+
+
+def _crank_attrs(study) -> dict:
+    mech = study.mech
+    if mech.crank is None:
+        return {"nominal": np.nan, "description": "no crank: the mechanism is driven along a path (NaN)"}
+    return {"nominal": float(mech.crank.radius)}
+
+
+def _geometry_attrs(study) -> dict:
+    moved, nominal = study.geometry_names, study.mech.parameters()
+    return {"names": strings(moved), "nominal": np.array([nominal[n] for n in moved], dtype=np.float64)}
+
+
+#: The per-variant datasets of a results file that are not series, in the order the writer creates them and
+#: the frame shows their columns (after any ``variants/<column>`` an optimiser's writer adds, before
+#: ``grashof`` and the metrics). ``/metrics/<name>`` (the metric table's, :mod:`explorer.gait`) and
+#: ``/variants/<column>`` (given whole when the file is created) are not rows: they come and go by name.
+VARIANT_DATA: list[VariantData] = [
+    VariantData("variants/lengths", rows=lambda c: c.lengths, columns=_split(lambda r: r.link_names),
+                attrs=_lengths_attrs),
+    VariantData("variants/crank", rows=lambda c: c.crank, columns=_column("crank"), attrs=_crank_attrs),
+    VariantData("variants/geometry", rows=lambda c: c.geometry, columns=_split(lambda r: r.geometry_names),
+                stored=lambda study: bool(study.geometry_names), attrs=_geometry_attrs, optional=True),
+    VariantData("status", rows=lambda c: c.batch.status, columns=_status_columns, attrs=_status_attrs),
+    VariantData("fail_theta", rows=lambda c: c.batch.fail_theta, columns=_column("fail_theta")),
+    VariantData("fail_theta_end", rows=lambda c: c.batch.fail_theta_end, columns=_column("fail_theta_end"),
+                optional=True),
+    VariantData("fail_block", rows=lambda c: c.batch.fail_block, columns=_block_columns, attrs=_block_attrs),
+    VariantData("iterations", rows=lambda c: c.batch.iterations, columns=_column("iterations"), optional=True),
+]
+
+
+def register_variant_data(spec: VariantData) -> VariantData:
+    """Add a per-variant dataset: the writer creates it (where ``spec.stored(study)``) and fills it at every
+    commit, the chunk digests cover it, :meth:`~explorer.store.Results.frame` reads its columns back."""
+    if any(v.path == spec.path for v in VARIANT_DATA):
+        raise ValueError(f"per-variant dataset {spec.path!r} is already registered")
+    VARIANT_DATA.append(spec)
+    return spec
+
+
 #: Attributes of the groups (those not listed carry none).
 GROUPS: dict[str, dict] = {
     "paths": {"units": "model units"},
@@ -195,7 +340,7 @@ GROUPS: dict[str, dict] = {
 
 def dataset_spec(path: str) -> DatasetSpec:
     """The row of :data:`DATASETS` for ``path`` (such as ``"paths/foot"``); KeyError if none."""
-    for spec in (*DATASETS, *(s.dataset for s in SERIES if s.dataset is not None)):
+    for spec in (*DATASETS, *(s.dataset for s in (*SERIES, *VARIANT_DATA) if s.dataset is not None)):
         if spec.matches(path):
             return spec
     raise KeyError(f"no dataset spec for {path!r}")

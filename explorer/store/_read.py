@@ -13,16 +13,21 @@ import numpy as np
 from ..errors import UserError
 from ..mechanism import Mechanism, mechanism_from_dict
 from ..plan import fourbar_loops, grashof_batch
-from ._datasets import SERIES, series_spec, vertex_series
+from ._datasets import FILE_STATUS_NAMES, SERIES, VARIANT_DATA, series_spec, vertex_series
+from ._resolver import Resolver, registered_resolver
 from ._integrity import READ_CACHE_BYTES, RESTORE, is_legacy, warn_legacy
-from ._write import FILE_STATUS_NAMES, FORMAT, open_h5
+from ._write import FORMAT, open_h5
 
 if TYPE_CHECKING:
     import pandas as pd
 
 
-def open_results(path) -> "Results":
+def open_results(path, resolver: Resolver | None = None) -> "Results":
     """Open a results file written by ``explorer run`` / :func:`explorer.run_study` (read only).
+
+    ``resolver``: how a lean file's series are re-solved and a variant's mechanism assembled
+    (:class:`~explorer.store.Resolver`); default: the one :mod:`explorer.study` registers
+    (:func:`explorer.open_results` passes it).
 
     ``path`` is a path or anything with ``__fspath__`` (such as the summary ``run_study`` returns).
     Incomplete files (an interrupted run) open too: rows not yet run have status "not-run".
@@ -49,7 +54,7 @@ def open_results(path) -> "Results":
     else:
         raise UserError(f"{p}: the file keeps changing while it is read (is a run writing it?)")
     try:
-        r = Results(f, p)
+        r = Results(f, p, resolver)
         if report["legacy"]:  # an earlier version's file: one line, once the file has opened
             warn_legacy(p)
         return r
@@ -196,11 +201,13 @@ class Results:
     link_names, geometry_names (the perturbed coordinates stored in ``/variants/geometry``, () if
     none), vertices (stored), n_variants N, steps, complete (False for an interrupted run),
     attrs : the root attributes as a dict. ``file`` is the underlying ``h5py.File``.
+    resolver : how designs are solved again (:class:`~explorer.store.Resolver`; None: the registered one).
     Use as a context manager or call :meth:`close`.
     """
 
-    def __init__(self, f: h5py.File, filename: Path):
+    def __init__(self, f: h5py.File, filename: Path, resolver: Resolver | None = None):
         self.file, self.filename = f, filename
+        self._resolver = resolver
         self.attrs = dict(f.attrs)
         self.theta = f["theta"][...]
         self.study = json.loads(self.attrs["study_resolved"])
@@ -211,7 +218,7 @@ class Results:
         g = f["variants"].get("geometry")
         self.geometry_names = tuple(_text(s) for s in g.attrs["names"]) if g is not None else ()
         #: a lean file (``[scene] store = "metrics"``): no series stored; :meth:`path` and the other
-        #: series readers re-solve the designs they are asked for, bit for bit (:func:`resolve_series`)
+        #: series readers re-solve the designs they are asked for, bit for bit (:func:`explorer.study.resolve_series`)
         self.lean = lean_file(f)
         self._solve = json.loads(self.attrs["series_solve"]) if self.lean else None
         self._cache: dict = {}  # a lean file's re-solved series: {variant: {(group, vertex): (steps, 2)}}
@@ -223,6 +230,12 @@ class Results:
         self._screen_counts = None  # the screen's counts of the last blocked rank() (explorer.store._blocks)
         self._failed_at_vertex = None  # whether any variant failed at a vertex (explorer.store._blocks.as_whole)
         _check_shapes(f, filename, self.n_variants)
+
+    @property
+    def resolver(self) -> Resolver:
+        """How this file's designs are solved again: the one given to :func:`open_results`, else the
+        registered one (:func:`~explorer.store.registered_resolver`)."""
+        return self._resolver if self._resolver is not None else registered_resolver()
 
     # -- metadata --------------------------------------------------------------------------------------
     @property
@@ -296,7 +309,8 @@ class Results:
         column per perturbed coordinate (named by its parameter, such as ``"2.x"`` or ``"crank.y"``),
         ``status`` (name; categorical), ``status_code``, ``fail_theta`` and ``fail_theta_end`` (rad,
         the unreachable crank range of a failed variant; NaN when ok), ``fail_vertex`` (None when ok),
-        ``iterations``, ``grashof`` and ``grashof_margin`` (class and margin of the limiting
+        ``iterations`` (these from the per-variant datasets of :data:`~explorer.store.VARIANT_DATA`, then the
+        columns of any registered since), ``grashof`` and ``grashof_margin`` (class and margin of the limiting
         crank-driven four-bar loop, for mechanisms that have one), then one column per
         ``/metrics/<name>``, then ``buildable`` (bool: ok and passing the buildability screen,
         :mod:`explorer.gait._screen`) and ``screen`` ("pass" or why not) when the file stores a
@@ -311,28 +325,14 @@ class Results:
         for name, d in f["variants"].items():
             if d.attrs.get("column", False):
                 cols[name] = d[s]
-        L = f["variants/lengths"][s]
-        for j, name in enumerate(self.link_names):
-            cols[name] = L[:, j]
-        cols["crank"] = f["variants/crank"][s]
-        geometry = {}
-        if self.geometry_names:
-            G = f["variants/geometry"][s]
-            geometry = {name: G[:, j] for j, name in enumerate(self.geometry_names)}
-            cols.update(geometry)
-        codes = f["status"][s]
-        order = sorted(FILE_STATUS_NAMES, key=lambda c: (c < 0, c))
-        cols["status"] = pd.Categorical.from_codes(_category_codes(codes, order),
-                                                   categories=[FILE_STATUS_NAMES[c] for c in order])
-        cols["status_code"] = codes
-        cols["fail_theta"] = f["fail_theta"][s]
-        if "fail_theta_end" in f:
-            cols["fail_theta_end"] = f["fail_theta_end"][s]
-        block = f["fail_block"][s]
-        names = np.array([None] + [_text(s) for s in f["fail_block"].attrs["vertex"]], dtype=object)
-        cols["fail_vertex"] = names[np.where(block >= 0, block + 1, 0)]
-        if "iterations" in f:
-            cols["iterations"] = f["iterations"][s]
+        read = {}  # every per-variant dataset of the registry (explorer.store._datasets.VARIANT_DATA), in order
+        for spec in VARIANT_DATA:
+            if spec.optional and spec.path not in f:
+                continue
+            read[spec.path] = values = f[spec.path][s]
+            cols.update(spec.columns(self, values, a))
+        L = read["variants/lengths"]
+        geometry = {name: cols[name] for name in self.geometry_names} if "variants/geometry" in read else {}
         if fourbar_loops(self.mechanism):
             cols["grashof"], cols["grashof_margin"] = grashof_batch(self.mechanism, L, cols["crank"],
                                                                     geometry=geometry or None)
@@ -612,7 +612,7 @@ class Results:
             t0 = time.perf_counter()
             for a in range(0, todo.size, RESOLVE_ROWS):
                 part = todo[a:a + RESOLVE_ROWS]
-                batch = resolve_series(self.file, part, mechanism=self.mechanism, solve=self._solve,
+                batch = self.resolver.series(self.file, part, mechanism=self.mechanism, solve=self._solve,
                                        study=self.study, operating=self.operating if self._solve["forces"] else None)
                 for k, v in enumerate(part.tolist()):
                     rows = _rows_of(batch, self._solve, k)
@@ -753,49 +753,27 @@ def stored_operating(table: dict, source: str):
     return operating_from_dict({"body": "held", **table}, source, "operating")
 
 
-def resolve_series(f: h5py.File, variants, *, mechanism: Mechanism | None = None, solve: dict | None = None,
-                   study: dict | None = None, operating=None, vertices=None, velocities: bool | None = None):
-    """Solve again, from their stored designs, variants of a lean results file ``f`` exactly as the run
-    solved them (its root attribute ``series_solve``: the same vertices, velocities, accelerations,
-    steps, tolerance, method and forces): the :class:`~explorer.kernels.Batch` whose ``paths``,
-    ``velocities``, ``accelerations``, ``torque`` and ``forces`` are, bit for bit, what a study storing
-    its series writes for them (each design is solved apart from the others, whatever the batch).
-
-    variants : (n,) increasing variant indices, or a slice of them. mechanism, solve, study,
-    operating : the file's nominal mechanism, ``series_solve`` and ``study_resolved`` (parsed) and
-    operating point, when the caller has them already (read from ``f`` otherwise). vertices,
-    velocities : solve these vertices, or velocities, where the run did not (``explorer metrics``
-    asking for the foot or its velocities of a study that solved neither); the rest stays the run's."""
-    from ..kernels import simulate_batch
-    if solve is None:
-        solve = json.loads(f.attrs["series_solve"])
-    if study is None:
-        study = json.loads(f.attrs["study_resolved"])
-    if mechanism is None:
-        from ..mechanism import parse_toml
-        mechanism = mechanism_from_dict(parse_toml(str(f.attrs["mechanism"]), "its stored mechanism"),
-                                        "its stored mechanism")
+def stored_designs(f: h5py.File, variants) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The designs of ``variants`` (an (n,) increasing index array or a slice) as an open results file
+    stores them: lengths (n, n_links), crank radii (n,) and {coordinate name: (n,)} of the coordinates the
+    study moved (empty when it moved none), model units: what a re-solve solves
+    (:func:`explorer.study.resolve_series`)."""
     rows = variants if isinstance(variants, slice) else np.asarray(variants, dtype=np.int64)
     lengths = f["variants/lengths"][rows]
     crank = f["variants/crank"][rows]
-    extra = {}
+    moved = {}
     if "variants/geometry" in f:
         g = f["variants/geometry"]
         G = g[rows]
         moved = {_text(n): G[:, j] for j, n in enumerate(g.attrs["names"])}
-        if moved:
-            extra["geometry"] = moved
-    if solve["forces"]:
-        from ..mechanism import walker_from_dict
-        if operating is None:
-            operating = stored_operating(study["operating"], "its study")
-        walker = walker_from_dict(study.get("walker") or {}, "its study", "walker", base=mechanism.walker)
-        extra.update(forces=True, operating=operating, walker=walker, force_joints=list(solve["force_joints"]))
-    radii = crank if mechanism.crank is not None else None
-    return simulate_batch(mechanism, lengths, radii, int(solve["steps"]),
-                          vertices=list(solve["vertices"] if vertices is None else vertices),
-                          velocities=bool(solve["velocities"] or velocities), accelerations=bool(solve["accelerations"]),
-                          tolerance=float(solve["tolerance"]), method=str(solve["method"]), **extra)
+    return lengths, crank, moved
+
+
+def stored_mechanism(f: h5py.File) -> Mechanism:
+    """The nominal mechanism of an open results file, from the copy of its TOML stored in the file (without
+    the study's ``[build]``: :attr:`Results.mechanism` applies it)."""
+    from ..mechanism import parse_toml
+    return mechanism_from_dict(parse_toml(str(f.attrs["mechanism"]), "its stored mechanism"), "its stored mechanism")
 
 
 def _rows_of(batch, solve: dict, k: int) -> dict:
@@ -867,13 +845,6 @@ def _ranked_columns(by, weights, pareto) -> list[str]:
         from ..gait import DEFAULT_WEIGHTS
         return list(DEFAULT_WEIGHTS)
     return [str(by)]
-
-
-def _category_codes(codes: np.ndarray, order: list[int]) -> np.ndarray:
-    lut = np.full(256, -1, dtype=np.int64)
-    for i, c in enumerate(order):
-        lut[c & 0xFF] = i
-    return lut[codes.astype(np.int64) & 0xFF]
 
 
 def _text(s) -> str:

@@ -123,12 +123,11 @@ def variant_mechanism(results, variant) -> "Mechanism":
     variant's row holds (lengths, crank radius, and the coordinates the study moved: crank centre,
     ground pivots, body joints), through ``Mechanism.with_parameters``.
 
-    Its guess is the nominal's configuration at θ = 0, so it assembles on the nominal's branch, as
+    Its guess is the nominal's configuration at θ = 0 (assembled by the file's resolver,
+    :attr:`Results.resolver <explorer.store.Results.resolver>`), so it assembles on the nominal's branch, as
     the study's batch solve did.
     """
     from dataclasses import replace
-
-    from ..kernels import assemble
 
     v = check_variant(results, variant)
     nominal = results.mechanism
@@ -141,12 +140,18 @@ def variant_mechanism(results, variant) -> "Mechanism":
     if not all(math.isfinite(x) for x in coords):
         raise UserError(f"variant {v}: its coordinates are not all finite (status {row.get('status', '?')})")
     mech = nominal.with_parameters(values)
-    P0, fail = assemble(nominal)
+    P0, fail = _resolver_of(results).assemble(nominal)
     if fail is None:
         skip = set(nominal.fixed) | {nominal.driven}
         guess = {name: tuple(P0[i]) for i, name in enumerate(nominal.vertices) if name not in skip}
         mech = replace(mech, guess=guess)
     return mech
+
+
+def _resolver_of(results):
+    """The resolver of an open :class:`~explorer.store.Results` (the registered one for any other reader)."""
+    from ._resolver import registered_resolver
+    return getattr(results, "resolver", None) or registered_resolver()
 
 
 # -- the forces a variant's study stored (the build kit sizes its pins and shaft from them) --------------------

@@ -67,21 +67,16 @@ import h5py
 import numpy as np
 
 from ..errors import UserError
-from ..kernels import STATUS_NAMES, plan_for
 from ._chunks import ChunkFilter, write_rows
-from ._datasets import (SCALAR_FILTERS, SERIES, SERIES_FILTER_WORDS, SERIES_FILTERS, create_dataset, create_group,
-                        metric_attrs, now)
+from ._datasets import (FILE_STATUS_NAMES, SCALAR_FILTERS, SERIES, SERIES_FILTER_WORDS, SERIES_FILTERS, STATUS_NOT_RUN,
+                        VARIANT_DATA, Commit, create_dataset, create_group, metric_attrs, now, strings)
 from ._integrity import (DIGEST, RESTORE, digests, has_integrity, metadata_checksum, per_variant,
                          salvage, stamp, verify, warn_legacy)
 
-__all__ = ["SCALAR_FILTERS", "SERIES_FILTERS"]  # noqa: F822 (the rest is public by name)
+__all__ = ["SCALAR_FILTERS", "SERIES_FILTERS", "FILE_STATUS_NAMES", "STATUS_NOT_RUN"]  # noqa: F822 (the rest is public by name)
 
 FORMAT = "explorer-results"
 FORMAT_VERSION = 1
-#: Status code of a variant whose chunk has not been committed yet (incomplete files only).
-STATUS_NOT_RUN = -1
-#: Every status code that can appear in ``/status``: the kernels' codes plus ``-1: not-run``.
-FILE_STATUS_NAMES = {**{int(k): v for k, v in STATUS_NAMES.items()}, STATUS_NOT_RUN: "not-run"}
 #: Filters of the (N, steps, 2) datasets by the study's ``[output] compression`` (the default, blosc, chosen
 #: by measurement: see the module docstring), and of the small per-variant datasets: defined beside the
 #: dataset table, :mod:`explorer.store._datasets`.
@@ -140,10 +135,6 @@ def chunk_rows(n_variants: int, steps: int, n_series: int, target: int | None = 
     return max(1, min(rows, n_variants))
 
 
-def _strings(values) -> np.ndarray:
-    return np.array([str(v) for v in values], dtype=h5py.string_dtype())
-
-
 def _version() -> str:
     from .. import __version__
     return __version__
@@ -166,11 +157,8 @@ class ResultsWriter:
         self.velocities = "velocities" in f
         self.accelerations = "accelerations" in f
         # dataset handles, looked up once (h5py lookups cost ~0.1 ms each, per chunk)
-        self._scalars = [(f["variants/lengths"], "lengths"), (f["variants/crank"], "crank"), (f["status"], "status"),
-                         (f["fail_theta"], "fail_theta"), (f["fail_block"], "fail_block"),
-                         (f["iterations"], "iterations")]
-        if "fail_theta_end" in f:
-            self._scalars.append((f["fail_theta_end"], "fail_theta_end"))
+        # every per-variant dataset of the registry the file has (explorer.store._datasets.VARIANT_DATA)
+        self._scalars = [(f[spec.path], spec) for spec in VARIANT_DATA if spec.path in f]
         self._geometry = f["variants/geometry"] if "variants/geometry" in f else None
         # every stored series (explorer.store._datasets.SERIES): (dataset, its spec, its member name or None)
         self._series = [(f[s.group][m] if s.member else f[s.group], s, m if s.member else None)
@@ -221,7 +209,6 @@ class ResultsWriter:
             raise UserError(f"{path}: cannot create the results file: {write_error_reason(exc)} "
                             f"(set [output] path in {study.source} or pass -o)") from None
         try:
-            plan = plan_for(mech)
             f.attrs["format"] = FORMAT
             f.attrs["format_version"] = FORMAT_VERSION
             f.attrs["explorer_version"] = _version()
@@ -242,8 +229,7 @@ class ResultsWriter:
             f.attrs["n_variants"] = N
             f.attrs["steps"] = S
             f.attrs["series_filter"] = f"{study.compression}: {SERIES_FILTER_WORDS[study.compression]}"
-            moved = study.geometry_names
-            dims = {"N": N, "S": S, "links": len(mech.links), "k": len(moved), "chunks": n_chunks}
+            dims = {"N": N, "S": S, "links": len(mech.links), "k": len(study.geometry_names), "chunks": n_chunks}
 
             def make(name, **kw):  # every dataset from its row of the dataset table
                 return create_dataset(f, name, dims, rows=rows, series_rows=h, compression=study.compression, **kw)
@@ -255,32 +241,15 @@ class ResultsWriter:
                     "units": "s", "description": "time along the driver's path, t_k = T·k/(steps − 1)"})
 
             g = create_group(f, "variants", track_order=False)
-            make("variants/lengths", attrs={"links": _strings(mech.link_names),
-                                            "link_ends": _strings(f"{l.a}-{l.b}" for l in mech.links),
-                                            "nominal": mech.lengths})
-            make("variants/crank", attrs={
-                "nominal": float(mech.crank.radius) if mech.crank is not None else np.nan,
-                **({} if mech.crank is not None else
-                   {"description": "no crank: the mechanism is driven along a path (NaN)"})})
-            if moved:  # only a study that moves coordinates has the dataset (older files never do)
-                nominal = mech.parameters()
-                make("variants/geometry", attrs={"names": _strings(moved),
-                                                 "nominal": np.array([nominal[n] for n in moved], dtype=np.float64)})
-            g.attrs["perturbed"] = _strings(study.parameter_names)
+            g.attrs["perturbed"] = strings(study.parameter_names)
             for name, (values, description) in (columns or {}).items():
                 values = np.asarray(values)
                 if values.shape != (N,) or values.dtype.kind not in "iu":
                     raise ValueError(f"column {name!r}: expected ({N},) integers, got {values.dtype} {values.shape}")
                 make(f"variants/{name}", data=values, attrs={"description": description, "column": True})
-
-            codes = sorted(FILE_STATUS_NAMES)
-            make("status", attrs={"codes": np.array(codes, dtype=np.int8),
-                                  "names": _strings(FILE_STATUS_NAMES[c] for c in codes),
-                                  "mapping": json.dumps({str(c): FILE_STATUS_NAMES[c] for c in codes})})
-            make("fail_theta")
-            make("fail_theta_end")
-            make("fail_block", attrs={"vertex": _strings(mech.vertices[b.vertices[0]] for b in plan.blocks)})
-            make("iterations")
+            for spec in VARIANT_DATA:  # the per-variant datasets (explorer.store._datasets.VARIANT_DATA)
+                if spec.stored is None or spec.stored(study):
+                    make(spec.path, attrs=spec.attrs(study) if spec.attrs else None)
 
             for spec in SERIES:  # the series the scene asks for (none in a lean file: re-solved when read)
                 if lean or not spec.stored(study):
@@ -378,13 +347,9 @@ class ResultsWriter:
                 raise ValueError(f"chunk {i}: expected geometry of shape {shape}, got "
                                  f"{None if geometry is None else np.shape(geometry)}")
         f = self.f
-        values = {"lengths": lengths, "crank": crank, "status": batch.status, "fail_theta": batch.fail_theta,
-                  "fail_theta_end": batch.fail_theta_end, "fail_block": batch.fail_block,
-                  "iterations": batch.iterations}
-        for d, key in self._scalars:
-            d[a:b] = values[key]
-        if self._geometry is not None:
-            self._geometry[a:b] = geometry
+        commit = Commit(lengths, crank, batch, geometry, metrics)
+        for d, spec in self._scalars:
+            d[a:b] = spec.rows(commit)
         for (d, spec, name), chunk_filter in zip(self._series, self._filters):
             write_rows(d, a, b, spec.rows(batch, name), chunk_filter)
         g = f["metrics"]

@@ -14,12 +14,14 @@ its names are still importable from here for one release (:mod:`explorer._moved`
 atlas, the path polish and ``synthesize``, now :mod:`explorer.synthesis`'s.
 :mod:`explorer.study.runner` is the chunk runner's door for the rooms above study that solve designs of
 their own (the optimiser, synthesis): the solver, an optimiser's designs, the Dask plumbing, the output
-checks.
+checks. ``open_results`` opens a results file with explorer's re-solver (``resolve_series``, :data:`RESOLVER`,
+registered with :mod:`explorer.store` on import): store reads and writes files only, the solving is study's.
 """
 
 from ._cluster import dask_client, require_dask
 from ._dask import run_study_dask
 from ._objectives import ALGORITHMS, Optimize, optimize_from_dict
+from ._resolve import RESOLVER, open_results, resolve_series
 from ._run import RunSummary, Terminated, run_study
 from ._sample import (BLOCK, Sampler, apply_multipliers, apply_samples, saltelli_design, sample_variants,
                       study_sampler, study_variants)
@@ -49,4 +51,5 @@ __all__ = ["STUDY_KEYS", "dask_client", "require_dask", "ALGORITHMS", "Optimize"
            "saltelli_design", "sample_variants", "study_from_dict", "study_sampler",
            "study_variants", "variant_count",
            "Robustness", "YieldResult", "design_yield", "robustness_from_dict"]
-__all__ += ["DEFAULT_COPIES", "split_parameters", "Output", "Perturb", "Scene", "Solver"]
+__all__ += ["DEFAULT_COPIES", "split_parameters", "Output", "Perturb", "Scene", "Solver", "RESOLVER", "open_results",
+            "resolve_series"]
