@@ -146,3 +146,19 @@ def test_store_does_not_import_the_kernels():
                          capture_output=True, text=True, check=True)
     assert run.stdout.strip() == "[]", run.stdout
     assert FILE_STATUS_NAMES == {**{int(k): v for k, v in STATUS_NAMES.items()}, STATUS_NOT_RUN: "not-run"}
+
+
+def test_the_upper_floors_open_results_with_the_re_solver():
+    """Packages above study open results files through explorer.study.open_results (store's, with
+    explorer's re-solver), so store's by-name fallback (store._resolver.RESOLVER_HOME) serves only a
+    program that calls explorer.store.open_results itself."""
+    import ast
+    above = PIPELINE[PIPELINE.index("study") + 1:] + ("edit", "physics")
+    found = []
+    for pkg in above:
+        for f in sorted((ROOT / pkg).glob("*.py")):
+            for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.ImportFrom) and node.module in ("store", "explorer.store") and \
+                        any(a.name == "open_results" for a in node.names):
+                    found.append(f"{pkg}/{f.name}:{node.lineno}")
+    assert not found, found

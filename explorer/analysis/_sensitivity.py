@@ -85,7 +85,8 @@ _COLUMNS = ["output", "kind", "what", "parameter", "index", "value", "conf", "lo
 # -- the study's samples -------------------------------------------------------------------------------------
 def _read(results):
     """(frame, parameters, design, source name, stored metrics) of a results path, RunSummary or Results."""
-    from ..store import Results, open_results
+    from ..store import Results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     if isinstance(results, Results):
         return _from_results(results)
     try:

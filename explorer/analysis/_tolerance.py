@@ -115,7 +115,7 @@ def share_at(mechanism, spread: float, *, variants: int = 1000, parameters=None,
     """One evaluation: run the uniform study at ``spread`` into a temporary file and count. Returns
     {spread, share, se, count, n, nominal_ok, meets: None, perturbed} (n = variants − 1: the nominal is no
     sample). ``parameters`` as for :func:`tolerance`."""
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     from ..study import run_study
     from ..study import load_study
     mech_ref = _mechanism_ref(mechanism)

@@ -38,7 +38,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..errors import UserError
     from ..mechanism import load_mechanism
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     from ..view import MOVIE_FORMATS, animate
     from ._args import output_path
 

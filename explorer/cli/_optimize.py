@@ -89,7 +89,7 @@ def best_lines(summary) -> list[str]:
     import shlex
 
     from ..gait import SPEED, change_pct, filter_columns, metric, operating_line, results_si
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     from ._format import better, table
     from ._show import parameter_lines
 

@@ -43,7 +43,7 @@ def run(args) -> int:
 
     top = None if args.top is None else (args.top or None)  # 0 = every ranked design
     if args.top == 0:
-        from ..store import open_results
+        from ..study import open_results  # with explorer's re-solver (store only reads files)
         with open_results(args.results) as res:
             top = res.n_variants
     variants = args.variant
@@ -66,7 +66,7 @@ def run(args) -> int:
 def summary_lines(out) -> list[str]:
     """The table of checked designs, the lines of those skipped or failed, and the totals."""
     from ..physics._compare import verdict
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
 
     s = out["settings"]
     p = out["path"]

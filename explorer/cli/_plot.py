@@ -93,7 +93,7 @@ def _mode(args) -> str:
 
 def run(args) -> int:
     from ..errors import UserError
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     from ..view import FIGURE_FORMATS, plot_scatter, plot_sensitivity, plot_top, plot_velocity, save_figure
     from ._args import output_path
 

@@ -147,7 +147,7 @@ TORQUES_LINE = ("torques: peak_torque is the walker metric, quasi-static: the lo
 def run(args) -> int:
     from ..errors import UserError
     from ..gait import DEFAULT_WEIGHTS, DIRECTIONS, WALKER_METRICS, operating_line
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
 
     # machine formats carry everything unless --top is given; the table shows ten
     top = top_count(args.top, 0 if args.format in ("csv", "json") else 10)

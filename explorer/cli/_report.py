@@ -57,7 +57,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..errors import UserError
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     from ._args import output_path
     from ..view import write_report
     from .._extras import require

@@ -145,7 +145,7 @@ def index_table(indices, top: int | None) -> str:
 
 def run(args) -> int:
     from .._extras import require
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     from ..analysis import sensitivity, tolerance_summary
     from ..analysis import INDEX_NAMES
 

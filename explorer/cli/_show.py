@@ -154,7 +154,7 @@ def warn_ignored_metrics(res) -> None:
 
 def run(args) -> int:
     from ..gait import DEFAULT_WEIGHTS, METRICS, SPEED, metric, operating_line, verdict
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
 
     from ..errors import UserError
 

@@ -50,7 +50,7 @@ class Study:
     """
 
     def __init__(self, path):
-        from ..store import open_results
+        from ..study import open_results  # with explorer's re-solver (store only reads files)
 
         self.path = Path(path)
         if not is_results_file(self.path):

@@ -60,7 +60,7 @@ def _results(obj):
     from ..store import is_results
     if is_results(obj):
         return obj, False
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     return open_results(obj), True
 
 

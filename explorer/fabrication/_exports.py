@@ -132,7 +132,8 @@ def export_variant(target, variant: int | None, output, *, as_: str | None = Non
     built-in name or a .toml; ``variant`` None) in the format ``as_`` (else ``output``'s extension) to
     ``output``; returns the summary line. ``options``: the format's options (its :attr:`ExportFormat.options`;
     another format's is a one-line UserError)."""
-    from ..store import FILE_STATUS_NAMES, open_results
+    from ..store import FILE_STATUS_NAMES
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     from ._export import variant_design
 
     fmt = export_format(as_, output)

@@ -158,7 +158,8 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
     A KeyboardInterrupt (Ctrl-C, SIGTERM) keeps the designs already checked: they are written, then it
     is raised again, its message saying what was kept."""
     from .._extras import require
-    from ..store import OutputLock, check_updatable, open_results, update_metrics
+    from ..store import OutputLock, check_updatable, update_metrics
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
 
     mujoco = require("mujoco", "explorer physics")
     pitch, turns, workers = check_arguments(pitch, turns, workers, top, variants)

@@ -297,7 +297,7 @@ def synthesize(target, *, mechanism: str = "fourbar", timed: bool = False, close
                    "timed": bool(timed), "free_phase": bool(free_phase), "candidates": n_cand,
                    "rows": [], "timings": timings})
     timings["write"] = time.perf_counter() - t3
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     with open_results(path) as r:
         df = r.frame()
         pe = df.loc[df["status"].astype(str) != "not-run", "path_error"].to_numpy(dtype=np.float64)

@@ -749,7 +749,7 @@ def report_html(results, **kw) -> str:
 
 
 def _with_results(results, fn):
-    from ..store import open_results
+    from ..study import open_results  # with explorer's re-solver (store only reads files)
     if hasattr(results, "frame") and hasattr(results, "file"):
         return fn(results)
     with open_results(results) as res:
