@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from ..errors import UserError
+from ..errors import UserError, signals_held
 from ._model import Settings, build_model
 from ._simulate import PHYSICS_METRICS, PhysicsFailure, run_model
 
@@ -218,7 +218,6 @@ def physics_check(path, variants=None, top: int | None = None, pitch: str = "hel
         try:
             _run_jobs(jobs, workers, take, progress)
         except KeyboardInterrupt:
-            from ..errors import signals_held
             with signals_held():  # a second Ctrl-C must not cut this write
                 if checked or failed:
                     commit()
@@ -300,7 +299,6 @@ def _run_jobs(jobs, workers, take, progress: bool) -> None:
         import multiprocessing as mp
         ctx = mp.get_context("forkserver")  # workers forked from a clean server (no threads, no Numba state)
         ctx.set_forkserver_preload(["mujoco", "explorer.physics._simulate"])
-        from ..errors import signals_held
         # a Ctrl-C while the pool starts its workers (seconds on a loaded machine: the forkserver preloads
         # MuJoCo) is held until the pool is made, then stops it below: raised inside the constructor, it left
         # a worker being started, which then found the pool's semaphores gone (the command unlinks them as
