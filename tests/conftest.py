@@ -72,3 +72,46 @@ def pytest_collection_modifyitems(config, items):
     stale = {k for k in SLOW_ELSEWHERE - seen if k.split("::")[0] in files}
     if stale:
         raise pytest.UsageError(f"tests/conftest.py SLOW_ELSEWHERE names tests that do not exist: {sorted(stale)}")
+
+
+# EXPLORER_COMPILE_LOG=DIR: each test process writes DIR/compile-<pid>.json, the seconds Numba spent
+# compiling during each test (outermost compiles only: a function's callees compile inside it), to see
+# where the suite's time goes (`python tests/compile_report.py DIR` sums it).
+if os.environ.get("EXPLORER_COMPILE_LOG"):
+    import json  # noqa: E402
+    import time  # noqa: E402
+
+    from numba.core import event as _nb_event  # noqa: E402
+
+    class _CompileClock(_nb_event.Listener):
+        def __init__(self):
+            self.depth = 0
+            self.t0 = 0.0
+            self.current = "<collection>"
+            self.per_test: dict[str, float] = {}
+            self.count: dict[str, int] = {}
+
+        def on_start(self, event):
+            if self.depth == 0:
+                self.t0 = time.perf_counter()
+            self.depth += 1
+
+        def on_end(self, event):
+            self.depth -= 1
+            if self.depth == 0:
+                key = self.current
+                self.per_test[key] = self.per_test.get(key, 0.0) + time.perf_counter() - self.t0
+                self.count[key] = self.count.get(key, 0) + 1
+
+    _CLOCK = _CompileClock()
+    _nb_event.register("numba:compile", _CLOCK)
+
+    @pytest.hookimpl(tryfirst=True)
+    def pytest_runtest_setup(item):
+        _CLOCK.current = item.nodeid
+
+    def pytest_sessionfinish(session):
+        out = Path(os.environ["EXPLORER_COMPILE_LOG"])
+        out.mkdir(parents=True, exist_ok=True)
+        (out / f"compile-{os.getpid()}.json").write_text(json.dumps({"seconds": _CLOCK.per_test,
+                                                                      "compiles": _CLOCK.count}))
