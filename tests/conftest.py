@@ -90,10 +90,15 @@ if os.environ.get("EXPLORER_COMPILE_LOG"):
             self.current = "<collection>"
             self.per_test: dict[str, float] = {}
             self.count: dict[str, int] = {}
+            self.per_function: dict[str, float] = {}
+            self.name = ""
 
         def on_start(self, event):
             if self.depth == 0:
                 self.t0 = time.perf_counter()
+                disp = (event.data or {}).get("dispatcher")
+                fn = getattr(disp, "py_func", None)
+                self.name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', '?')}"
             self.depth += 1
 
         def on_end(self, event):
@@ -102,6 +107,7 @@ if os.environ.get("EXPLORER_COMPILE_LOG"):
                 key = self.current
                 self.per_test[key] = self.per_test.get(key, 0.0) + time.perf_counter() - self.t0
                 self.count[key] = self.count.get(key, 0) + 1
+                self.per_function[self.name] = self.per_function.get(self.name, 0.0) + time.perf_counter() - self.t0
 
     _CLOCK = _CompileClock()
     _nb_event.register("numba:compile", _CLOCK)
@@ -114,4 +120,5 @@ if os.environ.get("EXPLORER_COMPILE_LOG"):
         out = Path(os.environ["EXPLORER_COMPILE_LOG"])
         out.mkdir(parents=True, exist_ok=True)
         (out / f"compile-{os.getpid()}.json").write_text(json.dumps({"seconds": _CLOCK.per_test,
-                                                                      "compiles": _CLOCK.count}))
+                                                                      "compiles": _CLOCK.count,
+                                                                      "functions": _CLOCK.per_function}))

@@ -173,14 +173,15 @@ def _regimes(mech, b) -> dict:
 
 
 def test_kernel_choice():
-    """kernel="auto" takes the generated kernel where it applies, "general" never does, "generated"
-    where it does not apply is an error; an unknown choice is an error."""
+    """kernel="auto" takes the generated kernel where it applies and pays (a large job, or within
+    compiling_generated()), "general" never does, "generated" where it does not apply is an error; an
+    unknown choice is an error."""
     mech = explorer.load_mechanism("jansen")
     one = mech.lengths[None]
     _codegen._BY_TOPOLOGY.clear()
     explorer.simulate_batch(mech, one, None, 36, kernel="general")
     assert not _codegen._BY_TOPOLOGY
-    explorer.simulate_batch(mech, one, None, 36)
+    explorer.simulate_batch(mech, one, None, 36, job_configs=explorer.kernels.GENERATED_MIN_CONFIGS)
     assert len(_codegen._BY_TOPOLOGY) == 1
     with pytest.raises(explorer.UserError, match="kernel"):
         explorer.simulate_batch(mech, one, None, 36, kernel="fast")
@@ -188,21 +189,73 @@ def test_kernel_choice():
         explorer.simulate_batch(mech, one, None, 36, method="dense", kernel="generated")
 
 
+def _topology_cached(mech, **kw) -> bool:
+    """Whether _codegen.is_ready says the generated kernel of simulate_batch(mech, ..., **kw) is ready,
+    by catching the topology the call hands it."""
+    seen = []
+    real = _simulate.is_ready
+
+    def spy(topo, *args):
+        seen.append(real(topo, *args))
+        return seen[-1]
+
+    _simulate.is_ready = spy
+    try:
+        explorer.simulate_batch(mech, mech.lengths[None], None, 36, **kw)
+    finally:
+        _simulate.is_ready = real
+    return seen
+
+
+def test_auto_compiles_a_topology_only_when_the_job_pays_for_it(tmp_path, monkeypatch):
+    """A small job on a topology whose generated kernel is not compiled runs the general kernel (nothing
+    generated, nothing compiled for the topology); a job of GENERATED_MIN_CONFIGS configurations, or
+    any job within compiling_generated() (what ``explorer warm`` runs), generates and compiles it; from
+    then on, and in a fresh process through the on-disk cache, small jobs take it too. Same answers."""
+    from numba.core import config
+
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path))  # a cache of this test's own: nothing cached yet
+    mech = explorer.load_mechanism("hoeken")
+    L, crank = _batch(mech, 0.05, 5, seed=4)
+    _codegen._BY_TOPOLOGY.clear()
+    _codegen._LOADED.clear()
+    _codegen._NAMES.clear()
+    small = explorer.simulate_batch(mech, L, crank, 36, velocities=False)
+    assert not _codegen._BY_TOPOLOGY  # the general kernel
+    assert _topology_cached(mech, velocities=False) == [False]
+    with explorer.kernels.compiling_generated():
+        warm = explorer.simulate_batch(mech, L, crank, 36, velocities=False)
+    assert len(_codegen._BY_TOPOLOGY) == 1
+    np.testing.assert_array_equal(warm.paths[mech.foot], small.paths[mech.foot])
+    assert _topology_cached(mech, velocities=False) == [True]  # compiled in this process
+    # as a fresh process sees it: only the files in the cache folder
+    _codegen._BY_TOPOLOGY.clear()
+    _codegen._LOADED.clear()
+    assert _topology_cached(mech, velocities=False) == [True]
+    assert len(_codegen._BY_TOPOLOGY) == 1  # ... and the call took it
+    # another set of outputs is another kernel: not ready, and a large job compiles it
+    assert _topology_cached(mech, velocities=True) == [False]
+    big = explorer.kernels.GENERATED_MIN_CONFIGS
+    assert _topology_cached(mech, velocities=True, job_configs=big) == []  # a large job: no need to ask
+    assert len(_codegen._BY_TOPOLOGY) == 2
+
+
 def test_generated_kernel_is_used_for_dyad_and_body_plans_only(triad):
     mech = explorer.load_mechanism("jansen")
     L, crank = _batch(mech, 0.01, 4, seed=1)
     _codegen._BY_TOPOLOGY.clear()
-    explorer.simulate_batch(mech, L, crank, 36, velocities=False)
-    assert len(_codegen._BY_TOPOLOGY) == 1
-    explorer.simulate_batch(mech, L, crank, 36, velocities=False)  # memoised: not generated again
-    assert len(_codegen._BY_TOPOLOGY) == 1
-    explorer.simulate_batch(mech, L, crank, 36, velocities=True)   # storing velocities: its own kernel
-    assert len(_codegen._BY_TOPOLOGY) == 2
-    explorer.simulate_batch(mech, L, crank, 36, accelerations=True)  # accelerations: their own kernel
-    assert len(_codegen._BY_TOPOLOGY) == 3
-    explorer.simulate_batch(mech, L, crank, 36, method="dense")
-    explorer.simulate(triad, 36)  # a coupled (GENERAL) block: the general kernel
-    assert len(_codegen._BY_TOPOLOGY) == 3
+    with explorer.kernels.compiling_generated():
+        explorer.simulate_batch(mech, L, crank, 36, velocities=False)
+        assert len(_codegen._BY_TOPOLOGY) == 1
+        explorer.simulate_batch(mech, L, crank, 36, velocities=False)  # memoised: not generated again
+        assert len(_codegen._BY_TOPOLOGY) == 1
+        explorer.simulate_batch(mech, L, crank, 36, velocities=True)   # storing velocities: its own kernel
+        assert len(_codegen._BY_TOPOLOGY) == 2
+        explorer.simulate_batch(mech, L, crank, 36, accelerations=True)  # accelerations: their own kernel
+        assert len(_codegen._BY_TOPOLOGY) == 3
+        explorer.simulate_batch(mech, L, crank, 36, method="dense")
+        explorer.simulate(triad, 36)  # a coupled (GENERAL) block: the general kernel
+        assert len(_codegen._BY_TOPOLOGY) == 3
     folder = _codegen._folder()
     assert len(list(folder.glob("explorer_gen_*.py"))) >= 2
 
@@ -217,7 +270,8 @@ def test_threads_share_one_generated_kernel():
     _codegen._BY_TOPOLOGY.clear()
     _codegen._LOADED.clear()
     with ThreadPoolExecutor(4) as pool:
-        out = list(pool.map(lambda _: explorer.simulate_batch(mech, L, crank, 36, velocities=False), range(8)))
+        out = list(pool.map(lambda _: explorer.simulate_batch(mech, L, crank, 36, velocities=False, kernel="generated"),
+                            range(8)))
     assert len(_codegen._BY_TOPOLOGY) == 1 and len(_codegen._LOADED) == 1
     for b in out[1:]:
         np.testing.assert_array_equal(b.paths[mech.foot], out[0].paths[mech.foot])
@@ -237,7 +291,8 @@ def test_generated_source_names_every_block():
     old = sim.kernel_for
     sim.kernel_for = spy
     try:
-        explorer.simulate_batch(mech, mech.lengths[None], None, 36, vertices="all", velocities=False)
+        explorer.simulate_batch(mech, mech.lengths[None], None, 36, vertices="all", velocities=False,
+                                kernel="generated")
     finally:
         sim.kernel_for = old
     src = captured["src"]

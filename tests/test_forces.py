@@ -493,11 +493,10 @@ def test_batch_with_forces_fails_honestly():
     np.testing.assert_allclose(b.torque[i], one.torque, rtol=1e-9, atol=1e-9 * np.abs(one.torque).max())
 
 
-def test_forces_read_the_sweeps_own_rates(monkeypatch):
+def test_forces_read_the_sweeps_own_rates():
     """The forces effect runs in the sweep's kernel and reads its rates: with forces on, the positions,
     velocities and accelerations are the plain sweep's bit for bit; and the code generated per topology
     gives every force output of the table-driven kernel bit for bit."""
-    from explorer.testing import kernels_simulate as _simulate
 
     mech = load_mechanism(Path(__file__).parents[1] / "studies" / "mechanisms" / "jansen-plywood.toml")
     rng = np.random.default_rng(38)
@@ -509,14 +508,12 @@ def test_forces_read_the_sweeps_own_rates(monkeypatch):
     walker = Walker(legs=4, mirrored=(False, True, False, True), drag=0.1)
     for body in ("moving", "held"):
         fkw = dict(kw, forces=True, operating={"body": body}, walker=walker, force_joints=["2", "7"])
-        forced = simulate_batch(mech, lengths, crank, S, **fkw)
+        forced = simulate_batch(mech, lengths, crank, S, kernel="generated", **fkw)
         assert (forced.status == plain.status).all() and (plain.status == 0).sum() >= N // 2
         for group in ("paths", "velocities", "accelerations"):
             for v in mech.vertices:
                 np.testing.assert_array_equal(getattr(forced, group)[v], getattr(plain, group)[v], err_msg=group)
-        monkeypatch.setattr(_simulate, "GENERATED_MAX_BLOCKS", -1)  # the table-driven kernel
-        table = simulate_batch(mech, lengths, crank, S, **fkw)
-        monkeypatch.undo()
+        table = simulate_batch(mech, lengths, crank, S, kernel="general", **fkw)  # the table-driven kernel
         np.testing.assert_array_equal(table.torque, forced.torque)
         for j in ("2", "7"):
             np.testing.assert_array_equal(table.forces[j], forced.forces[j])

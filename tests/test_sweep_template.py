@@ -79,7 +79,8 @@ def _hoeken_topology(want_vel=True):
 
     _simulate.kernel_for = spy
     try:
-        explorer.simulate_batch(mech, mech.lengths[None], None, 12, vertices="all", velocities=want_vel)
+        explorer.simulate_batch(mech, mech.lengths[None], None, 12, vertices="all", velocities=want_vel,
+                                kernel="generated")
     finally:
         _simulate.kernel_for = real
     return captured["topo"]

@@ -9,7 +9,8 @@ from ._legs import contact_stroke, ground_contact, leg_feet, leg_samples  # noqa
 from ._rows import parallel_rows  # noqa: E402
 from ._simulate import check_dense  # noqa: E402
 from ._simulate import (DEFAULT_TOLERANCE, METHODS, TOLERANCE_RANGE, STATUS_NAMES, Batch, Cycle, Failure, assemble,  # noqa: E402
-                        branch_signs, plan_for, simulate, simulate_batch, vector_applies, warm_dyad)
+                        GENERATED_MIN_CONFIGS, branch_signs, compiling_generated, plan_for, simulate, simulate_batch,
+                        vector_applies, warm_dyad)
 from ._drive import LINEAR, QUINTIC, timing  # noqa: E402 - a prescribed driver's timing laws (explorer.wrist's too)
 from .._moved import moved  # noqa: E402
 
@@ -19,7 +20,7 @@ __getattr__ = moved(__name__, dict.fromkeys(
      "lock_distance", "orthonormality_defect", "project", "relative_angle", "track", "wrist_for", "wrist_path"),
     "explorer.wrist"))
 
-__all__ = ["check_dense", "lu_solve", "is_cached", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "branch_signs", "contact_stroke", "ground_contact", "leg_feet", "leg_samples",
+__all__ = ["check_dense", "lu_solve", "is_cached", "GENERATED_MIN_CONFIGS", "compiling_generated", "DEFAULT_TOLERANCE", "METHODS", "TOLERANCE_RANGE", "STATUS_NAMES", "Batch", "Cycle", "Failure", "assemble", "branch_signs", "contact_stroke", "ground_contact", "leg_feet", "leg_samples",
            "parallel_rows",
            "plan_for", "simulate", "simulate_batch", "vector_applies", "warm_dyad",
            "LINEAR", "QUINTIC", "timing"]

@@ -236,6 +236,30 @@ _BY_TOPOLOGY: dict = {}
 _LOCK = threading.Lock()  # threads of one process (a Dask worker's) generate and import a module once
 
 
+_NAMES: dict = {}  # topology key -> the generated module's name (its source rendered once per process)
+
+
+def is_ready(topo, want_vel: bool, want_acc: bool = False, forces: bool = False) -> bool:
+    """Whether the generated kernel for ``topo`` costs no compile now: compiled in this process, or its
+    module and Numba's index of it in the cache folder (written by an earlier run or ``explorer warm``).
+    Imports and writes nothing; arguments as :func:`source`."""
+    tkey = _topology_key(topo, want_vel, want_acc, forces)
+    kernel = _BY_TOPOLOGY.get(tkey)
+    if kernel is not None and kernel.signatures:
+        return True
+    name = _NAMES.get(tkey)
+    if name is None:
+        src = source(topo, want_vel, want_acc, forces)
+        key = hashlib.sha1(f"{KEY}\0{src}".encode()).hexdigest()[:20]  # as _load names it
+        name = _NAMES[tkey] = f"{GENERATED_PREFIX}{key}"
+    loaded = _LOADED.get(name[len(GENERATED_PREFIX):])
+    if loaded is not None and loaded.signatures:
+        return True
+    folders = [base / "generated" for base in cache_bases()]
+    folders.append(Path(tempfile.gettempdir()) / f"explorer-generated-{KEY}")  # _folder's last resort
+    return any((f / f"{name}.py").is_file() and any(f.glob(f"{name}.kernel-*.nbi")) for f in folders)
+
+
 def kernel_for(topo, want_vel: bool, want_acc: bool = False, forces: bool = False):
     """The generated kernel for ``topo`` (written and imported once per process; Numba compiles it on
     its first call or loads it from its cache); arguments as :func:`source`."""

@@ -66,6 +66,7 @@ def design_solver(study: Study, timer: dict | None = None, deferred: bool = Fals
     want_yield = wants_yield(study)
 
     clock = time.perf_counter
+    job = study.n_variants * study.steps  # the kernels weigh a per-topology compile against the whole study
 
     def solve(lengths, crank, geometry):
         t0 = clock()
@@ -76,7 +77,7 @@ def design_solver(study: Study, timer: dict | None = None, deferred: bool = Fals
             extra.update(forces=True, operating=study.operating, walker=study.walker, force_joints=study.force_joints)
         batch = simulate_batch(mech, lengths, radii, study.steps, vertices=vertices, velocities=velocities,
                                accelerations=study.accelerations, tolerance=study.tolerance, method=study.method,
-                               **extra)
+                               job_configs=job, **extra)
         if timer is not None:
             timer["solve"] = timer.get("solve", 0.0) + (clock() - t0)
         if deferred:

@@ -30,7 +30,7 @@ def warm_kernels(studies=(None,), mechanisms=(), steps: int = 360) -> dict:
     """
     from numba.core import event
 
-    from ..kernels import simulate_batch
+    from ..kernels import compiling_generated, simulate_batch
     from ..kernels._cache import cache_bases
     from ..mechanism import load_mechanism
     from ._run import run_study
@@ -47,7 +47,8 @@ def warm_kernels(studies=(None,), mechanisms=(), steps: int = 360) -> dict:
 
     t0, c0 = time.perf_counter(), time.process_time()
     items = []
-    with event.install_listener("numba:compile", _Count()):
+    # the generated kernels too, whatever the small runs' size: later runs find them cached
+    with event.install_listener("numba:compile", _Count()), compiling_generated():
         for st in studies:
             study = load_study(st)
             small = dataclasses.replace(study, variants=min(study.variants, WARM_VARIANTS))
