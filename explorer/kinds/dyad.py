@@ -346,27 +346,23 @@ def dyad_good(v, a, b, da2, db2, hi2, lo2, lim2, gap, X, Y, VX, VY, h, closed, g
     sample, for a design it flagged (where Newton may resume, ``_vector``): good_at[k] (S,) is cleared
     where sample k fails the assembly and fold test, good_to[k] where the step from sample k to k + 1
     (k = S − 1: to sample 0, ``closed``) fails the move limit or, when ``gap``, the gap bound; the
-    same arithmetic as dyad_vector's, so a sample it calls good is one the pass accepted. Branch-free
-    passes (vectorised), but for the gap bound's exact test where its cheap one cannot decide."""
+    same tests as dyad_vector's. Branch-free passes (vectorised), but for the gap bound's exact test."""
     S = X.shape[1]
     rs = VECTOR_FOLD * math.sqrt(da2 * db2)
     xa = X[a]
     ya = Y[a]
     xb = X[b]
     yb = Y[b]
-    for k in range(S):
-        gx = xb[k] - xa[k]
-        gy = yb[k] - ya[k]
-        d2 = gx * gx + gy * gy
-        c = 0.5 * (da2 - db2 + d2)
-        K = da2 * d2 - c * c
-        w = np.sqrt(K)
-        z = 1.0 / (d2 * w)
-        good_at[k] &= abs(K * z * d2) >= rs  # the pass's |det| = |y| d2, y = ±K z; NaN (no assembly) fails
     xv = X[v]
     yv = Y[v]
     uv = VX[v]
     wv = VY[v]
+    for k in range(S):
+        # the fold test on the placed vertex, det = cross(p − a, p − b) (the pass's, to rounding: a sample at
+        # the margin may go either way, and either is safe); NaN (no assembly) fails
+        ex = xv[k] - xa[k]
+        ey = yv[k] - ya[k]
+        good_at[k] &= abs(ex * (yv[k] - yb[k]) - ey * (xv[k] - xb[k])) >= rs
     for k in range(S - 1):
         mx = xv[k + 1] - xv[k] - h * uv[k]
         my = yv[k + 1] - yv[k] - h * wv[k]
