@@ -198,3 +198,33 @@ def test_a_design_that_cannot_assemble_is_resumed_and_reported_as_by_newton():
     for v in mech.vertices:
         np.testing.assert_allclose(a.paths[v], b.paths[v], rtol=0, atol=2 * TOL * L.max())
     assert a.iterations.sum() < 0.3 * b.iterations.sum(), (a.iterations, b.iterations)
+
+
+def test_a_resumed_configuration_that_does_not_solve_falls_back_to_the_whole_sweep(monkeypatch):
+    """Where Newton cannot solve the configuration it is to resume from (here spoiled to NaN on its way
+    to the sweep), the sweep goes the whole way from sample 0: the flagged designs' results are then
+    block Newton's bit for bit, and their iterations more than block Newton's (the failed resumes')."""
+    from explorer.testing import kernels_simulate
+
+    newton = kernels_simulate._newton
+
+    def spoiled(topo, kdrv, sg, des, *args):
+        assert (des.restart_at[:, 0] > 0).all()  # every flagged design here has a run to resume after
+        des.restart_pos[:] = np.nan
+        return newton(topo, kdrv, sg, des, *args)
+
+    monkeypatch.setattr(kernels_simulate, "_newton", spoiled)
+    mech = explorer.load_mechanism("fourbar")
+    L = np.tile(mech.lengths, (3, 1))
+    L[:, list(mech.link_names).index("coupler")] = 25.0
+    L[:, list(mech.link_names).index("rocker")] = [14.2, 14.5, 14.8]
+    kw = dict(vertices="all", velocities=True)
+    a = simulate_batch(mech, L, None, 120, method="auto", **kw)
+    monkeypatch.setattr(kernels_simulate, "_newton", newton)
+    b = simulate_batch(mech, L, None, 120, method="block", **kw)
+    assert (b.status == 1).all()
+    for x, y in ((a.status, b.status), (a.fail_block, b.fail_block), (a.fail_theta, b.fail_theta),
+                 (a.fail_theta_end, b.fail_theta_end), *((a.paths[v], b.paths[v]) for v in mech.vertices),
+                 *((a.velocities[v], b.velocities[v]) for v in mech.vertices)):
+        np.testing.assert_array_equal(x, y)
+    assert (a.iterations > b.iterations).all()
