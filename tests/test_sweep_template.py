@@ -132,8 +132,8 @@ def test_a_hole_inside_an_expression_is_refused(monkeypatch):
 
 def test_the_template_is_never_run():
     with pytest.raises(RuntimeError, match="rendered"):
-        _sweep_template.sweep(None, None, None, None, np.zeros((1, 2)), None, 0.0, 0.0, 1.0, 1.0, 1e-9,
-                              None, None, None)
+        _sweep_template.sweep(None, None, None, None, np.zeros((1, 2)), np.zeros(2, dtype=np.int64),
+                              np.zeros((0, 1, 2)), None, 0.0, 0.0, 1.0, 1.0, 1e-9, None, None, None)
 
 
 def test_the_hole_marker_answers_introspection_as_an_ordinary_object():

@@ -71,8 +71,8 @@ def batch_plain(topo, drv, opts, signs, designs, outs):
         out_vel = outs.vel[i]
         out_acc = outs.acc[i]
         status, fail_t, fail_end, fail_block, iters = run_sweep(
-            make_context(opts, topo, designs, i, known), topo, drv, opts, designs.start[i], signs, cx, cy, scale,
-            shortest, tol, out_pos, out_vel, out_acc)
+            make_context(opts, topo, designs, i, known), topo, drv, opts, designs.start[i], designs.restart_at[i],
+            designs.restart_pos[i], signs, cx, cy, scale, shortest, tol, out_pos, out_vel, out_acc)
         outs.status[i] = status
         outs.fail_t[i] = fail_t
         outs.fail_end[i] = fail_end
@@ -134,8 +134,8 @@ def batch_forces(topo, drv, opts, signs, fmodel, designs, outs, frows):
         out_vel = fs.vel
         out_acc = fs.acc
         status, fail_t, fail_end, fail_block, iters = run_sweep(
-            make_context(opts, topo, designs, i, known), topo, drv, opts, designs.start[i], signs, cx, cy, scale,
-            shortest, tol, out_pos, out_vel, out_acc)
+            make_context(opts, topo, designs, i, known), topo, drv, opts, designs.start[i], designs.restart_at[i],
+            designs.restart_pos[i], signs, cx, cy, scale, shortest, tol, out_pos, out_vel, out_acc)
         if status == STATUS_OK:
             design_forces(i, designs.table[i], topo, designs.uv[i], designs.slide[i], cx, cy, fmodel, frows, fs)
         # the requested rows of the scratch, as the plain sweep stores them

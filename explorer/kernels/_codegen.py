@@ -140,6 +140,11 @@ def scalar_dialect(topo, want_vel: bool, want_acc: bool = False) -> dict:
     return {
         # the state is loaded into scalars by the kernel before the sweep; d is the kernel's, one per batch
         "state": lambda args: [],
+        # where the first pass left off (``_vector``), and its configuration there made the state, at rest
+        "restart": lambda args: ["kf = designs.restart_at[i, 0]", "kb = designs.restart_at[i, 1]"],
+        "resume": lambda j: [ln for v in placed for ln in (
+            f"X{v} = designs.restart_pos[i, {j}, {v}, 0]", f"Y{v} = designs.restart_pos[i, {j}, {v}, 1]",
+            f"VX{v} = 0.0", f"VY{v} = 0.0", f"WX{v} = 0.0", f"WY{v} = 0.0", *acc(f"ZX{v} = 0.0", f"ZY{v} = 0.0"))],
         "place": place,
         # the step's one-pass loop: a failing block's 'break' leaves it
         # chk: checks as a plain bool; the template's loop of whole steps sets checks = True, a literal

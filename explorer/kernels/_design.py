@@ -79,7 +79,7 @@ def designs(mech: Mechanism, plan: Plan, lengths: np.ndarray, scale: np.ndarray,
                    np.ascontiguousarray(center), np.ascontiguousarray(scale, dtype=np.float64), tol,
                    np.ascontiguousarray(slide), np.ascontiguousarray(extra), np.zeros((N, 0), dtype=BLOCK_DTYPE),
                    np.zeros((N, 0, 2)),
-                   np.full(N, np.inf))
+                   np.full(N, np.inf), np.zeros((N, 2), dtype=np.int64), np.zeros((N, 0, 0, 2)))
 
 
 def slide_numbers(mech: Mechanism, plan: Plan, lengths: np.ndarray, points: list, col, N: int) -> np.ndarray:

@@ -75,6 +75,9 @@ Designs = namedtuple("Designs", [
     "start",      # (N, n_vertices, 2) float64, each design's start: assembled at the first sample on the
                   # nominal's branch by the closed form where it can be (``_batch.setup``)
     "shortest",   # (N,) float64, the scale of the sweep's closing check (``_batch.setup``)
+    "restart_at", # (N, 2) int64, the samples where the sweep resumes forward and backward (0: none): where the
+                  # vectorised first pass (``_vector``) left off, its samples before (after) solved exactly
+    "restart_pos",# (N, 2 or 0, n_vertices, 2) float64, the first pass's configurations at those samples
 ])
 
 Outputs = namedtuple("Outputs", [

@@ -132,15 +132,15 @@ def place_explicit(table, explicit, P1, V1, A1, want_acc):
     ('''
 
 @njit(cache=True, nogil=True)
-def vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed):
+def vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed, first):
     """The vectorised first pass over one design's blocks (``explorer.kernels._vector``): each block of
-    the block table ``tab`` in order over every sample at once by its kind's closed form on the side
+    the block table ``tab`` from block ``first`` on, in order, over every sample at once by its kind's closed form on the side
     ``signs[k]``, with its tangents, from the rows of X, Y (positions) and VX, VY (tangents),
     (n_vertices, S) each, into its own rows, then its checks between samples a step h apart
     (``closed``: the last and the first too). Q, M (S,), P, V (n_vertices, 2): scratch. Returns the
     first block that flags the design (leave it to Newton), or −1. Only for plans whose every kind has
     a vector form (``_vector.applies``)."""
-    for k in range(tab.shape[0]):
+    for k in range(first, tab.shape[0]):
         rec = tab[k]
 ''', 8, "vector", "closed", "    return -1\n"),
     ('''

@@ -591,6 +591,8 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
                             "sliders (no coupled blocks), positions and velocities (no accelerations or forces); "
                             "use method 'auto', which runs Newton where it does not apply")
         method = "vector" if fits else "block"
+    if method == "vector":  # where the first pass leaves each flagged design to Newton (``_vector.restart_points``)
+        des = des._replace(restart_at=np.zeros((N, 2), dtype=np.int64), restart_pos=np.zeros((N, 2, nv, 2)))
     if method == "closed":
         if velocities or accelerations or general:
             raise UserError("method 'closed': the closed form gives positions only, and only for plans of dyads and "

@@ -72,6 +72,15 @@ ARRAY = {
         "V_first = np.empty((nv, 2))",
         "A_first = np.empty((nv, 2))",
         "d = np.empty(6)"],
+    "restart": lambda args: [f"kf = {args}[0]", f"kb = {args}[1]"],
+    "resume": lambda j: [
+        "for m in range(moving.shape[0]):",
+        "    v = moving[m]",
+        "    for ax in range(2):",
+        f"        P0[v, ax] = restart_pos[{j}, v, ax]",
+        "        V0[v, ax] = 0.0",
+        "        Vp[v, ax] = 0.0",
+        "        A0[v, ax] = 0.0"],
     "place": _place,
     "step": lambda args: [
         "code, blk, it = step(ctx, signs, P0, V0, Vp, P1, V1, A1, h, hp, tol, maxit, want_acc, checks)",
@@ -178,8 +187,8 @@ def batch_array_dialect(forces: bool) -> dict:
         "batch_state": lambda args: state,
         "sweep": lambda args: [
             "status, fail_t, fail_end, fail_block, iters = run_sweep(",
-            "    make_context(opts, topo, designs, i, known), topo, drv, opts, designs.start[i], signs, cx, cy, scale,",
-            "    shortest, tol, out_pos, out_vel, out_acc)"],
+            "    make_context(opts, topo, designs, i, known), topo, drv, opts, designs.start[i], designs.restart_at[i],",
+            "    designs.restart_pos[i], signs, cx, cy, scale, shortest, tol, out_pos, out_vel, out_acc)"],
     }
 
 

@@ -16,14 +16,17 @@ from ._sweep_template import MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS, STATUS_
 step = None
 
 
-def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out_pos, out_vel, out_acc):
+def sweep(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, scale, shortest, tol, out_pos, out_vel,
+          out_acc):
     """Solve one design at every sample of its driver, writing the requested rows.
 
     ctx: the step's context (a block table, or a ``GenericContext``); topo, drv, opts: the
     ``_inputs`` Topology, Drive and Options. The driver's S samples are t_k = k·t_end/S (closed: a
     crank, t_end = 2π) or k·t_end/(S−1) (open: a path from 0 to t_end). P_init (n_vertices, 2):
     start of the first Newton solve (the design assembled on the nominal's branch where the closed form
-    can, ``_batch.setup``). signs (n_blocks,): the
+    can, ``_batch.setup``). restart_at (2,) int64, restart_pos (2 or 0, n_vertices, 2): where the
+    vectorised first pass (``_vector``) left off, forward and backward (0: nowhere), and its
+    configurations there (see below). signs (n_blocks,): the
     branch each block keeps. (cx, cy), scale: the design's crank centre and radius. shortest: its
     shortest dyad length; tol: Newton's stopping distance (model units).
     out_pos[k, j] = position of vertex topo.out_idx[j] at sample k, likewise out_vel (d/dparameter)
@@ -33,6 +36,13 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     One loop makes every move, so the step is inlined (and compiled) once: phase 0 solves sample 0
     (a zero step from P_init, checks off), phase 1 steps forward, and phase 2, after a crank cycle
     fails, steps backward from θ = 0 to the other end of the reachable range.
+
+    Resuming (method "auto"): where the first pass solved samples 0 … restart_at[0] exactly (closed-form
+    roots that passed its every check, already in the outputs), the forward sweep resumes at sample
+    restart_at[0] from restart_pos[0] (a zero move there, as at sample 0), and where it solved samples
+    restart_at[1] … S−1 and the step back to θ = 2π, the backward sweep resumes at restart_at[1]
+    from restart_pos[1]. Every failure is still found, located and reported by this sweep; should a
+    resumed configuration not solve, the sweep goes the whole way from sample 0 instead.
     """
     tip = topo.tip
     moving = topo.moving
@@ -52,6 +62,8 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     V_first = np.empty((nv, 2))
     A_first = np.empty((nv, 2))
     d = np.empty(6)
+    kf = restart_at[0]
+    kb = restart_at[1]
     kind = drv.kind
     prm = drv.prm
     T = drv.table
@@ -71,11 +83,17 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     hp = 0.0  # the last step taken (the predictor's curvature term needs it)
     phase = 0
     k = 0
+    kr = 0  # the sample a resume (phase 3) solves, and the phase it goes on in
+    then = 1
     while True:  # one move per pass, from parameter t0 to t1 (either direction)
         if phase == 0:
             t0 = 0.0
             t1 = 0.0
             row = 0
+        elif phase == 3:
+            t0 = kr * dt
+            t1 = t0
+            row = kr
         elif phase == 1:
             if k >= n_steps:
                 break
@@ -143,6 +161,34 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
         ok = code == 0
         tf = t + h  # where a failed move failed (t is the last parameter reached)
         sample = -1  # the sample this move reached, if it is to be stored
+        if phase == 3:
+            phase = then
+            if not ok:  # the resumed configuration did not solve: the whole way from sample 0 instead
+                for v in range(nv):
+                    for ax in range(2):
+                        P0[v, ax] = P_first[v, ax]
+                        V0[v, ax] = V_first[v, ax]
+                        Vp[v, ax] = V_first[v, ax]
+                        A0[v, ax] = A_first[v, ax]
+                hp = 0.0
+                k = 0 if then == 1 else S - 1
+                continue
+            sample = kr
+            if then == 1:
+                k = kr
+                reached = kr + 1
+            else:
+                k = kr - 1
+                back = kr
+            for j in range(out_idx.shape[0]):
+                v = out_idx[j]
+                for ax in range(2):
+                    out_pos[sample, j, ax] = P0[v, ax]
+                    if want_vel:
+                        out_vel[sample, j, ax] = V0[v, ax]
+                    if want_acc:
+                        out_acc[sample, j, ax] = A0[v, ax]
+            continue
         if not ok and phase < 2:
             status = status_of(code)
             fail_t = tf  # 0 when sample 0 itself fails
@@ -160,6 +206,17 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
             fail_end = fail_t
             phase = 2
             k = S - 1
+            if kb > reached:  # resume the backward sweep where the first pass left off
+                for m in range(moving.shape[0]):
+                    v = moving[m]
+                    for ax in range(2):
+                        P0[v, ax] = restart_pos[1, v, ax]
+                        V0[v, ax] = 0.0
+                        Vp[v, ax] = 0.0
+                        A0[v, ax] = 0.0
+                kr = kb
+                then = 2
+                phase = 3
             continue
         if phase == 0:
             for v in range(nv):
@@ -193,6 +250,18 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
                         out_vel[sample, j, ax] = V0[v, ax]
                     if want_acc:
                         out_acc[sample, j, ax] = A0[v, ax]
+        if sample == 0 and kf > 0:  # resume the forward sweep where the first pass left off
+            for m in range(moving.shape[0]):
+                v = moving[m]
+                for ax in range(2):
+                    P0[v, ax] = restart_pos[0, v, ax]
+                    V0[v, ax] = 0.0
+                    Vp[v, ax] = 0.0
+                    A0[v, ax] = 0.0
+            hp = 0.0
+            kr = kf
+            then = 1
+            phase = 3
     if status == STATUS_OK and closed:
         gap = 0.0
         for v in range(nv):

@@ -22,6 +22,8 @@ The holes:
 
 * ``d = hole.state(P_init)``: the dialect's state at the design's start, and ``d``, room for the
   driver's values at one parameter (6,);
+* ``kf, kb = hole.restart(restart_at)``: the samples where the sweep resumes forward and backward (0: none);
+* ``hole.resume(j)``: the state made the first pass's configuration ``restart_pos[j]``, at rest;
 * ``hole.place(X)``: the driven vertex's trial position and tangent (and second derivative) from
   the driver's unit values ``X`` (a row of the driver table, or ``d``): centre + scale · X;
 * ``code, blk, iters = hole.step(h, hp, checks, iters)``: every block placed at the trial driver
@@ -121,14 +123,17 @@ fs = None
 design_forces = None
 
 
-def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out_pos, out_vel, out_acc):
+def sweep(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, scale, shortest, tol, out_pos, out_vel,
+          out_acc):
     """Solve one design at every sample of its driver, writing the requested rows.
 
     ctx: the step's context (a block table, or a ``GenericContext``); topo, drv, opts: the
     ``_inputs`` Topology, Drive and Options. The driver's S samples are t_k = k·t_end/S (closed: a
     crank, t_end = 2π) or k·t_end/(S−1) (open: a path from 0 to t_end). P_init (n_vertices, 2):
     start of the first Newton solve (the design assembled on the nominal's branch where the closed form
-    can, ``_batch.setup``). signs (n_blocks,): the
+    can, ``_batch.setup``). restart_at (2,) int64, restart_pos (2 or 0, n_vertices, 2): where the
+    vectorised first pass (``_vector``) left off, forward and backward (0: nowhere), and its
+    configurations there (see below). signs (n_blocks,): the
     branch each block keeps. (cx, cy), scale: the design's crank centre and radius. shortest: its
     shortest dyad length; tol: Newton's stopping distance (model units).
     out_pos[k, j] = position of vertex topo.out_idx[j] at sample k, likewise out_vel (d/dparameter)
@@ -138,8 +143,16 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     One loop makes every move, so the step is inlined (and compiled) once: phase 0 solves sample 0
     (a zero step from P_init, checks off), phase 1 steps forward, and phase 2, after a crank cycle
     fails, steps backward from θ = 0 to the other end of the reachable range.
+
+    Resuming (method "auto"): where the first pass solved samples 0 … restart_at[0] exactly (closed-form
+    roots that passed its every check, already in the outputs), the forward sweep resumes at sample
+    restart_at[0] from restart_pos[0] (a zero move there, as at sample 0), and where it solved samples
+    restart_at[1] … S−1 and the step back to θ = 2π, the backward sweep resumes at restart_at[1]
+    from restart_pos[1]. Every failure is still found, located and reported by this sweep; should a
+    resumed configuration not solve, the sweep goes the whole way from sample 0 instead.
     """
     d = hole.state(P_init)
+    kf, kb = hole.restart(restart_at)
     kind = drv.kind
     prm = drv.prm
     T = drv.table
@@ -159,11 +172,17 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
     hp = 0.0  # the last step taken (the predictor's curvature term needs it)
     phase = 0
     k = 0
+    kr = 0  # the sample a resume (phase 3) solves, and the phase it goes on in
+    then = 1
     while True:  # one move per pass, from parameter t0 to t1 (either direction)
         if phase == 0:
             t0 = 0.0
             t1 = 0.0
             row = 0
+        elif phase == 3:
+            t0 = kr * dt
+            t1 = t0
+            row = kr
         elif phase == 1:
             if hole.whole_steps():
                 # The common case in a loop of its own: whole steps forward, each accepted at its first
@@ -236,6 +255,22 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
         ok = code == 0
         tf = t + h  # where a failed move failed (t is the last parameter reached)
         sample = -1  # the sample this move reached, if it is to be stored
+        if phase == 3:
+            phase = then
+            if not ok:  # the resumed configuration did not solve: the whole way from sample 0 instead
+                hole.restore_first()
+                hp = 0.0
+                k = 0 if then == 1 else S - 1
+                continue
+            sample = kr
+            if then == 1:
+                k = kr
+                reached = kr + 1
+            else:
+                k = kr - 1
+                back = kr
+            hole.store(sample)
+            continue
         if not ok and phase < 2:
             status = status_of(code)
             fail_t = tf  # 0 when sample 0 itself fails
@@ -248,6 +283,11 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
             fail_end = fail_t
             phase = 2
             k = S - 1
+            if kb > reached:  # resume the backward sweep where the first pass left off
+                hole.resume(1)
+                kr = kb
+                then = 2
+                phase = 3
             continue
         if phase == 0:
             hole.keep_first()
@@ -269,6 +309,12 @@ def sweep(ctx, topo, drv, opts, P_init, signs, cx, cy, scale, shortest, tol, out
             k -= 1
         if sample >= 0:
             hole.store(sample)
+        if sample == 0 and kf > 0:  # resume the forward sweep where the first pass left off
+            hole.resume(0)
+            hp = 0.0
+            kr = kf
+            then = 1
+            phase = 3
     if status == STATUS_OK and closed:
         gap = hole.closing_gap()
         if gap > max(1e-4 * shortest, 10.0 * tol):
@@ -372,6 +418,8 @@ BATCH_SECTIONS = ("plain", "forces")
 #: Each hole: (what its statement binds or "return", its arguments), None where they may vary.
 HOLES = {
     "state": ("d", "P_init"),
+    "restart": ("kf, kb", "restart_at"),
+    "resume": ("", None),
     "place": ("", None),
     "step": ("code, blk, iters", "h, hp, checks, iters"),
     "accept": ("", ""),

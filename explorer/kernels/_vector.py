@@ -15,6 +15,13 @@ only to within tol), every sample is on one branch and no fold or gap hides betw
 flagged design (and an invalid one) goes through the Newton sweep, which stays the reference and
 owns every failure report (status, angle, block).
 
+Newton need not redo what the pass solved: for a flagged design of dyads, body joints and geared cranks
+(:func:`restart_points`), the samples from the start up to the first that fails a check, and (a crank)
+those from the last failing one to the end and the step back to θ = 2π, are exact roots that passed
+every check; they are stored, and the sweep resumes forward and backward where they end
+(``Designs.restart_at``, ``restart_pos``; ``_sweep_template.sweep``), so a design that cannot
+assemble over part of the cycle costs the steps around its failures instead of its whole reachable range.
+
 Outputs are the sweep's: positions (and tangents) of ``topo.out_idx``, status OK, 0 iterations; a
 flagged row has status :data:`FLAGGED` and its failing block in ``fail_block`` until Newton replaces it.
 Coupled blocks (GENERAL) have no vector form: their plans keep Newton (``applies``).
@@ -23,7 +30,8 @@ Coupled blocks (GENERAL) have no vector form: their plans keep Newton (``applies
 import numpy as np
 from numba import njit
 
-from ..kinds import KINDS
+from ..kinds import KINDS, attach, dyad, gears
+from ..kinds.dyad import dyad_good
 from ._kinds_array import vector_blocks
 from ._sweep_template import STATUS_OK, valid_lengths
 
@@ -45,11 +53,60 @@ def applies(kinds, signs) -> bool:
 
 
 @njit(cache=True, nogil=True)
+def restart_points(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed, j, good_at, good_to):
+    """Where Newton may resume for a design the first pass flagged at block j (X, Y, VX, VY (n_vertices,
+    S): its rows, solved up to block j; the rest as for ``vector_blocks``; good_at, good_to (S,) bool:
+    scratch): (kf, kb), samples 0 … kf and kb … S−1 (and the step from S−1 back to 0) passed every
+    check of every block, 0 where there is no such run (or a block's kind does not tell its checks
+    sample by sample: sliders). The blocks after j are solved here too."""
+    k = j
+    while k >= 0:  # the blocks after the flagged one: their rows at the samples that pass are exact
+        k = vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed, k + 1)
+    S = X.shape[1]
+    good_at[:] = True
+    good_to[:] = True
+    for k in range(tab.shape[0]):
+        rec = tab[k]
+        if rec.kind == dyad.NUMBER:
+            dyad_good(rec.vertex, rec.a, rec.b, rec.da2, rec.db2, rec.hi2, rec.lo2, rec.lim2, rec.gap != 0, X, Y,
+                      VX, VY, h, closed, good_at, good_to)
+        elif rec.kind != attach.NUMBER and rec.kind != gears.NUMBER:  # their vector forms flag nothing
+            return 0, 0
+    if not good_at[0]:
+        return 0, 0
+    kf = 0
+    while kf + 1 < S and good_to[kf] and good_at[kf + 1]:
+        kf += 1
+    kb = 0
+    if closed and good_to[S - 1] and good_at[S - 1] and S - 1 > kf + 1:
+        kb = S - 1
+        while kb - 1 > kf + 1 and good_at[kb - 1] and good_to[kb - 1]:
+            kb -= 1
+    return kf, kb
+
+
+@njit(cache=True, nogil=True)
+def _store(outs, i, X, Y, VX, VY, out_idx, want_vel, lo, hi):
+    """Samples lo … hi−1 of the rows ``out_idx`` of X, Y (and VX, VY) into row i of the outputs."""
+    for o in range(out_idx.shape[0]):
+        w = out_idx[o]
+        for k in range(lo, hi):
+            outs.pos[i, k, o, 0] = X[w, k]
+            outs.pos[i, k, o, 1] = Y[w, k]
+        if want_vel:
+            for k in range(lo, hi):
+                outs.vel[i, k, o, 0] = VX[w, k]
+                outs.vel[i, k, o, 1] = VY[w, k]
+
+
+@njit(cache=True, nogil=True)
 def vector_batch_jit(topo, drv, want_vel, signs, designs, outs):
     """The first pass for every design (row) of ``designs`` (``_inputs.Designs``, set up by
     ``_batch.setup``), serially, writing ``outs`` (``_inputs.Outputs``) in place; the shared
     arguments first and the per-row ones last, for ``_rows.parallel_rows``. want_vel: write the
-    tangents (d/dparameter) of ``topo.out_idx``; signs (nb,): each block's branch."""
+    tangents (d/dparameter) of ``topo.out_idx``; signs (nb,): each block's branch. A flagged design's
+    ``designs.restart_at`` and ``restart_pos`` (n_vertices rows) say where Newton resumes
+    (:func:`restart_points`), and the samples before (after) are stored."""
     nv = designs.start.shape[1]
     T = drv.table
     S = T.shape[0]
@@ -62,6 +119,8 @@ def vector_batch_jit(topo, drv, want_vel, signs, designs, outs):
     M = np.empty(S)
     P = np.zeros((nv, 2))
     V = np.zeros((nv, 2))
+    good_at = np.empty(S, dtype=np.bool_)
+    good_to = np.empty(S, dtype=np.bool_)
     tip = topo.tip
     fixed = topo.fixed
     out_idx = topo.out_idx
@@ -69,6 +128,8 @@ def vector_batch_jit(topo, drv, want_vel, signs, designs, outs):
         outs.iters[i] = 0
         outs.fail_t[i] = np.nan
         outs.fail_end[i] = np.nan
+        designs.restart_at[i, 0] = 0
+        designs.restart_at[i, 1] = 0
         scale = designs.scale[i]
         if not valid_lengths(designs.dist[i], scale):
             outs.status[i] = FLAGGED  # Newton's batch reports it "invalid"
@@ -90,19 +151,23 @@ def vector_batch_jit(topo, drv, want_vel, signs, designs, outs):
             Y[tip, k] = cy + scale * T[k, 1]
             VX[tip, k] = scale * T[k, 2]
             VY[tip, k] = scale * T[k, 3]
-        j = vector_blocks(designs.table[i], signs, X, Y, VX, VY, Q, M, P, V, h, drv.closed)
+        tab = designs.table[i]
+        j = vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, drv.closed, 0)
         if j >= 0:
             outs.status[i] = FLAGGED
             outs.fail_block[i] = j
+            kf, kb = restart_points(tab, signs, X, Y, VX, VY, Q, M, P, V, h, drv.closed, j, good_at, good_to)
+            for r, s in ((0, kf), (1, kb)):
+                designs.restart_at[i, r] = s
+                if s > 0:
+                    for v in range(nv):
+                        designs.restart_pos[i, r, v, 0] = X[v, s]
+                        designs.restart_pos[i, r, v, 1] = Y[v, s]
+            if kf > 0:
+                _store(outs, i, X, Y, VX, VY, out_idx, want_vel, 0, kf + 1)
+            if kb > 0:
+                _store(outs, i, X, Y, VX, VY, out_idx, want_vel, kb, S)
             continue
         outs.status[i] = STATUS_OK
         outs.fail_block[i] = -1
-        for o in range(out_idx.shape[0]):
-            w = out_idx[o]
-            for k in range(S):
-                outs.pos[i, k, o, 0] = X[w, k]
-                outs.pos[i, k, o, 1] = Y[w, k]
-            if want_vel:
-                for k in range(S):
-                    outs.vel[i, k, o, 0] = VX[w, k]
-                    outs.vel[i, k, o, 1] = VY[w, k]
+        _store(outs, i, X, Y, VX, VY, out_idx, want_vel, 0, S)

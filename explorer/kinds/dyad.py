@@ -340,6 +340,50 @@ def dyad_vector(v, a, b, da2, db2, hi2, lo2, lim2, gap, sign, X, Y, VX, VY, Q, M
     return vector_gaps(Q, M, h, closed, hi2, lo2)
 
 
+@njit(cache=True, error_model="numpy")
+def dyad_good(v, a, b, da2, db2, hi2, lo2, lim2, gap, X, Y, VX, VY, h, closed, good_at, good_to):
+    """Where a dyad placed by :func:`dyad_vector` (same arguments) passes that pass's checks, sample by
+    sample, for a design it flagged (where Newton may resume, ``_vector``): good_at[k] (S,) is cleared
+    where sample k fails the assembly and fold test, good_to[k] where the step from sample k to k + 1
+    (k = S − 1: to sample 0, ``closed``) fails the move limit or, when ``gap``, the gap bound; the
+    same tests as dyad_vector's. Branch-free passes (vectorised), but for the gap bound's exact test."""
+    S = X.shape[1]
+    rs = VECTOR_FOLD * math.sqrt(da2 * db2)
+    xa = X[a]
+    ya = Y[a]
+    xb = X[b]
+    yb = Y[b]
+    xv = X[v]
+    yv = Y[v]
+    uv = VX[v]
+    wv = VY[v]
+    for k in range(S):
+        # the fold test on the placed vertex, det = cross(p − a, p − b) (the pass's, to rounding: a sample at
+        # the margin may go either way, and either is safe); NaN (no assembly) fails
+        ex = xv[k] - xa[k]
+        ey = yv[k] - ya[k]
+        good_at[k] &= abs(ex * (yv[k] - yb[k]) - ey * (xv[k] - xb[k])) >= rs
+    for k in range(S - 1):
+        mx = xv[k + 1] - xv[k] - h * uv[k]
+        my = yv[k + 1] - yv[k] - h * wv[k]
+        good_to[k] &= mx * mx + my * my <= lim2
+    if closed:
+        mx = xv[0] - xv[S - 1] - h * uv[S - 1]
+        my = yv[0] - yv[S - 1] - h * wv[S - 1]
+        good_to[S - 1] &= mx * mx + my * my <= lim2
+    if gap:
+        for k in range(S if closed else S - 1):
+            n = k + 1 if k + 1 < S else 0
+            gx = xb[k] - xa[k]
+            gy = yb[k] - ya[k]
+            ux = xb[n] - xa[n]
+            uy = yb[n] - ya[n]
+            m0 = 2.0 * (gx * (VX[b, k] - VX[a, k]) + gy * (VY[b, k] - VY[a, k]))
+            m1 = 2.0 * (ux * (VX[b, n] - VX[a, n]) + uy * (VY[b, n] - VY[a, n]))
+            if gap_suspect(gx * gx + gy * gy, m0, ux * ux + uy * uy, m1, h, hi2, lo2):
+                good_to[k] = False
+
+
 @njit(cache=True, forceinline=True)
 def dyad_acc(ex, ey, fx, fy, inv, vx, vy, vax, vay, vbx, vby, aax, aay, abx, aby):
     """The vertex's second derivative from its parents' (aa, ab) and the rates: the 2x2 system of the
