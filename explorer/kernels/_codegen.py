@@ -43,6 +43,9 @@ import textwrap
 import threading
 from pathlib import Path
 
+import numpy as np
+from numba import njit
+
 from ..kinds import KINDS
 from ._cache import GENERATED_PREFIX, KEY, cache_bases
 from ._sweep_template import indexed, render
@@ -52,6 +55,7 @@ _HEADER = '''\
 import numpy as np
 from numba import njit
 from explorer.kinds._common import SUSPECT
+from explorer.kernels._codegen import scalar_scratch, unreached_rows
 from explorer.kernels._drive import drive
 {imports}
 from explorer.kernels._sweep_template import (status_of, valid_lengths, MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS,
@@ -60,6 +64,28 @@ from explorer.kernels._sweep_template import (status_of, valid_lengths, MAX_FORC
 
 @njit(cache=True, nogil=True)
 '''
+
+
+@njit(cache=True, nogil=True)
+def scalar_scratch(nv):
+    """The generated kernel's scratch: room for the driver's values at one parameter (6,) and the
+    configuration at sample 0 (nv, 6): position, tangent, second derivative of each vertex."""
+    return np.empty(6), np.empty((nv, 6))
+
+
+@njit(cache=True, nogil=True)
+def unreached_rows(out_pos, out_vel, out_acc, k, want_vel, want_acc):
+    """Sample k's stored rows set to NaN (its velocities if ``want_vel``, accelerations if
+    ``want_acc``): the scalar form's ``unreached`` hole, shared by every generated kernel."""
+    for j in range(out_pos.shape[1]):
+        out_pos[k, j, 0] = np.nan
+        out_pos[k, j, 1] = np.nan
+        if want_vel:
+            out_vel[k, j, 0] = np.nan
+            out_vel[k, j, 1] = np.nan
+        if want_acc:
+            out_acc[k, j, 0] = np.nan
+            out_acc[k, j, 1] = np.nan
 
 
 def _blocks(topo) -> list[tuple]:
@@ -124,16 +150,6 @@ def scalar_dialect(topo, want_vel: bool, want_acc: bool = False) -> dict:
                 out += [f"out_acc[{sample}, {j}, 0] = ZX{v}", f"out_acc[{sample}, {j}, 1] = ZY{v}"]
         return out
 
-    def unreached(k):
-        out = []
-        for j in range(len(out_idx)):
-            out += [f"out_pos[{k}, {j}, 0] = np.nan", f"out_pos[{k}, {j}, 1] = np.nan"]
-            if want_vel:
-                out += [f"out_vel[{k}, {j}, 0] = np.nan", f"out_vel[{k}, {j}, 1] = np.nan"]
-            if want_acc:
-                out += [f"out_acc[{k}, {j}, 0] = np.nan", f"out_acc[{k}, {j}, 1] = np.nan"]
-        return out
-
     def acc(*lines):
         return list(lines) if want_acc else []
 
@@ -164,7 +180,9 @@ def scalar_dialect(topo, want_vel: bool, want_acc: bool = False) -> dict:
         "store": store,
         "closing_gap": lambda args: ["gap = 0.0"] + [f"gap = max(gap, abs(X{v} - F[{v}, 0]) + abs(Y{v} - F[{v}, 1]))"
                                                      for v in placed],
-        "unreached": unreached,
+        # a shared kernel (compiled once, cached), not rows of literal stores written per topology
+        # (opts' flags are the ones this code was written for, and not literals: one signature for all)
+        "unreached": lambda k: [f"unreached_rows(out_pos, out_vel, out_acc, {k}, opts.want_vel, opts.want_acc)"],
         # the five results stay in the names the sweep binds (status, fail_t, ...): the batch template reads them
         "result": lambda args: [],
     }
@@ -196,8 +214,10 @@ def source(topo, want_vel: bool, want_acc: bool = False, forces: bool = False) -
     for mod, names in blocks:
         init += mod.SCALAR["init"].format(**names).splitlines()
     sweep = textwrap.dedent(render(scalar_dialect(topo, want_vel, want_acc), SCALAR_SECTIONS, body_only=True))
-    state = ["maxit = opts.maxit", "d = np.empty(6)",
-             "F = np.empty((designs.start.shape[1], 6))  # the configuration at sample 0: closing check, backward sweep"]
+    # d: the driver's values; F: the configuration at sample 0 (closing check, backward sweep). Made by a
+    # shared kernel: np.empty's implementations would compile again in every process that compiles a
+    # generated kernel (0.3-0.5 CPU-s); a cached kernel's are loaded with it
+    state = ["maxit = opts.maxit", "d, F = scalar_scratch(designs.start.shape[1])"]
     if forces:
         state.append("fs = force_scratch(drv.table.shape[0], designs.start.shape[1], fmodel, topo)")
     batch = render({"batch_state": lambda args: state, "sweep": lambda args: init + sweep.splitlines()},
