@@ -54,6 +54,9 @@ def warm_kernels(studies=(None,), mechanisms=(), steps: int = 360) -> dict:
             small = dataclasses.replace(study, variants=min(study.variants, WARM_VARIANTS))
             with tempfile.TemporaryDirectory(prefix="explorer-warm-") as tmp:
                 run_study(small, output=Path(tmp) / "warm.h5", force=True, progress=False)
+            # the general kernel too (one for every topology): a single design or a small batch takes it
+            simulate_batch(study.mech, study.mech.lengths[None],
+                           None if study.mech.crank is None else [study.mech.crank.radius], 12, kernel="general")
             items.append(f"study {study.name}")
         for name in mechanisms:
             mech = load_mechanism(name)
