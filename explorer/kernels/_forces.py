@@ -225,6 +225,7 @@ ForceScratch = namedtuple("ForceScratch", [
     "vis_free", "vis_plain", "vis_mirr",  # (S,) bool
     "pk",                 # (K,) each incidence's running peak of its squared force
     "Gl",                 # (L, 2K) each leg's incidence forces at one base-leg sample
+    "link6", "linkg",     # (n_dist,) each link's mass / 6 and half its weight (the first n_links)
 ])
 
 
@@ -248,7 +249,8 @@ def force_scratch(S, nv, fm, topo):
                         np.full(nv, -1, dtype=np.int64), np.empty((m, m)), np.empty(m), np.empty((L, S)),
                         np.empty((L, S)), np.empty((L, S)), np.empty(S), np.empty(S, dtype=np.int64), np.empty(K),
                         np.empty(S, dtype=np.bool_), np.empty(S, dtype=np.bool_), np.empty(S, dtype=np.bool_),
-                        np.empty(K), np.empty((L, 2 * K)))
+                        np.empty(K), np.empty((L, 2 * K)), np.empty(topo.dist_a.shape[0]),
+                        np.empty(topo.dist_a.shape[0]))
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -379,6 +381,13 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     # x (3), along y (4); held, the load on the foot as a plain leg (1) and as a mirrored one (2) carries it
     Rc = fs.Rc
     Fc = fs.Fc
+    lam_d = fs.lam_d
+    link6 = fs.link6
+    linkg = fs.linkg
+    for e in range(nl):  # each link's inertia m/6 (on its ends: m/6·(2a + b), m/6·(a + 2b)) and half weight
+        me = fr.link_mass[i, e]
+        link6[e] = me / 6.0
+        linkg[e] = 0.5 * me * gravity
     for rhs in range(1, nrhs):
         for v in range(nv):
             Rc[rhs, v, 0] = 0.0
@@ -468,22 +477,28 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
                 Fu[0, kk, 0] = 0.0
                 Fu[0, kk, 1] = 0.0
             for e in range(nl):
-                me = fr.link_mass[i, e]
-                if me > 0.0:
+                if fr.link_mass[i, e] > 0.0:
                     a = dist_a[e]
                     b = dist_b[e]
-                    for ax in range(2):
-                        aa = A[u, a, ax] * s2
-                        ab = A[u, b, ax] * s2
-                        da = me / 6.0 * (2.0 * aa + ab)
-                        db = me / 6.0 * (aa + 2.0 * ab)
-                        if ax == 1:
-                            da += 0.5 * me * gravity
-                            db += 0.5 * me * gravity
-                        R[0, a, ax] += da
-                        R[0, b, ax] += db
-                        Fu[0, fm.dinc[e, 0], ax] -= da
-                        Fu[0, fm.dinc[e, 1], ax] -= db
+                    ia = fm.dinc[e, 0]
+                    ib = fm.dinc[e, 1]
+                    m6 = link6[e]
+                    aa = A[u, a, 0] * s2
+                    ab = A[u, b, 0] * s2
+                    da = m6 * (2.0 * aa + ab)
+                    db = m6 * (aa + 2.0 * ab)
+                    R[0, a, 0] += da
+                    R[0, b, 0] += db
+                    Fu[0, ia, 0] -= da
+                    Fu[0, ib, 0] -= db
+                    aa = A[u, a, 1] * s2
+                    ab = A[u, b, 1] * s2
+                    da = m6 * (2.0 * aa + ab) + linkg[e]
+                    db = m6 * (aa + 2.0 * ab) + linkg[e]
+                    R[0, a, 1] += da
+                    R[0, b, 1] += db
+                    Fu[0, ia, 1] -= da
+                    Fu[0, ib, 1] -= db
             for bi in range(nb):
                 mb = fm.body_mass[bi]
                 Jb = fr.body_J[i, bi]
@@ -507,23 +522,32 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
                     dpx = fpx - mb * gravity * wb
                     dpy = fpy + mb * gravity * (1.0 - ub)
                     _body_load(R, Fu, 0, p, q, fm.body_inc[bi, 0], fm.body_inc[bi, 1], dpx, dpy, dqx, dqy)
-        blk = reactions(table, topo, uv, sd, Pu, R, act, fs.lam_d, fs.lam_a, fs.lam_s, fs.loc, fs.M, fs.x)
+        blk = reactions(table, topo, uv, sd, Pu, R, act, lam_d, fs.lam_a, fs.lam_s, fs.loc, fs.M, fs.x)
         if blk >= 0:
             fr.code[i] = F_SINGULAR
             fr.sample[i] = u
             fr.block[i] = blk
             return
+        # every row's pull on its member's pins, (∂c/∂q_v)ᵀ λ, by its equation type, equation by equation
+        # (its numbers read once) for every right-hand side
+        for e in range(dist_a.shape[0]):
+            ia = fm.dinc[e, 0]
+            ib = fm.dinc[e, 1]
+            for rhs in range(nr):
+                if act[rhs]:
+                    eq_distance.pull(Pu, e, dist_a, dist_b, lam_d[rhs, e], Fu, rhs, ia, ib)
+        for t in range(topo.att_vpq.shape[0]):
+            for rhs in range(nr):
+                if act[rhs]:
+                    eq_attach.pull(t, uv, fs.lam_a[rhs, t, 0], fs.lam_a[rhs, t, 1], Fu, rhs, fm.ainc[t, 0],
+                                   fm.ainc[t, 1], fm.ainc[t, 2])
+        for s in range(topo.slide.shape[0]):  # a slider's guide pushes normal to its line, no friction
+            for rhs in range(nr):
+                if act[rhs]:
+                    eq_slide.pull(Pu, s, topo.slide, sd, fs.lam_s[rhs, s], Fu, rhs, fm.sinc)
         for rhs in range(nr):
             if not act[rhs]:
                 continue
-            # every row's pull on its member's pins, (∂c/∂q_v)ᵀ λ, by its equation type
-            for e in range(dist_a.shape[0]):
-                eq_distance.pull(Pu, e, dist_a, dist_b, fs.lam_d[rhs, e], Fu, rhs, fm.dinc[e, 0], fm.dinc[e, 1])
-            for t in range(topo.att_vpq.shape[0]):
-                eq_attach.pull(t, uv, fs.lam_a[rhs, t, 0], fs.lam_a[rhs, t, 1], Fu, rhs, fm.ainc[t, 0],
-                               fm.ainc[t, 1], fm.ainc[t, 2])
-            for s in range(topo.slide.shape[0]):  # a slider's guide pushes normal to its line, no friction
-                eq_slide.pull(Pu, s, topo.slide, sd, fs.lam_s[rhs, s], Fu, rhs, fm.sinc)
             Fu[rhs, fm.tip_inc, 0] += R[rhs, tip, 0]
             Fu[rhs, fm.tip_inc, 1] += R[rhs, tip, 1]
             bx = R[rhs, tip, 0]
@@ -563,7 +587,7 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     else:  # held: the frame still, the load on the contact foot
         first_bad = _held_legs(i, C, base, frac, sign, mirrored, fm.inc_vertex, fm.sel, Fi, tau, frame, nrhs, Fx, Fy,
                                grid, vis_free, vis_plain, vis_mirr, fr.torque, fr.fsel, fr.finc, fr.pin_peak, fr.shake,
-                               fr.body_acc, fr.ground, fs.fm)
+                               fr.body_acc, fr.ground, fs.fm, fs.pk)
     if first_bad >= 0:  # forces that overflowed: a near-singular sample
         fr.code[i] = F_NONFINITE
         fr.sample[i] = first_bad
@@ -579,10 +603,10 @@ def _peak(m, mag2):
 @njit(cache=True, nogil=True)
 def _finite(pk):
     """Whether every running peak is finite."""
-    z = 0.0
+    n = 0
     for kk in range(pk.shape[0]):
-        z += pk[kk] * 0.0
-    return z == 0.0
+        n += pk[kk] < math.inf
+    return n == pk.shape[0]
 
 
 @njit(cache=True, nogil=True)
@@ -601,7 +625,7 @@ def _pin_peaks(pk, inc_vertex, out):
 
 @njit(cache=True, nogil=True)
 def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, nrhs, Fx, Fy, grid, vis_free,
-               vis_plain, vis_mirr, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm):
+               vis_plain, vis_mirr, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm, pk):
     """The held walker of variant i (the frame still), read off the base leg's right-hand sides
     (inertia and weight; the load as a plain leg and as a mirrored leg carries it: Fi (S, 3, K, 2),
     tau (S, 3), frame (S, 3, 2)) at the samples each leg reads (contact legs C (S,); ``vis_*``: the
@@ -622,6 +646,8 @@ def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame
         pin_peak[i, v] = 0.0
     first_bad = -1
     if grid:  # each leg reads whole samples: every pin's peak over the states each sample is read in
+        for kk in range(K):
+            pk[kk] = 0.0
         for u in range(S):
             for st_ in range(3):
                 # the weights of right-hand sides 1 (loaded, plain) and 2 (loaded, mirrored)
@@ -640,22 +666,16 @@ def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame
                         continue
                     lx = 0.0
                     ly = 1.0
-                poison = 0.0  # 0, or NaN once a force is not finite (inf·0 and NaN·0 are NaN)
                 for kk in range(K):
                     fx = Fi[u, 0, kk, 0]
                     fy = Fi[u, 0, kk, 1]
                     if st_ > 0:
                         fx += lx * Fi[u, 1, kk, 0] + ly * Fi[u, 2, kk, 0]
                         fy += lx * Fi[u, 1, kk, 1] + ly * Fi[u, 2, kk, 1]
-                    mag2 = fx * fx + fy * fy  # squared: one square root per joint at the end
-                    poison += mag2 * 0.0
-                    v = inc_vertex[kk]
-                    if mag2 > pin_peak[i, v]:
-                        pin_peak[i, v] = mag2
-                if poison != 0.0 and first_bad < 0:
-                    first_bad = u
-        for v in range(nv):
-            pin_peak[i, v] = math.sqrt(pin_peak[i, v])
+                    pk[kk] = _peak(pk[kk], fx * fx + fy * fy)  # squared: one square root per joint at the end
+            if first_bad < 0 and not _finite(pk):  # a force not finite at this sample (the peaks keep it)
+                first_bad = u
+        _pin_peaks(pk, inc_vertex, pin_peak[i])
     shake = 0.0
     for k in range(S):
         ttot = 0.0
