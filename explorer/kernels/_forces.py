@@ -213,7 +213,8 @@ ForceScratch = namedtuple("ForceScratch", [
     "pos", "vel", "acc",  # (S, n_vertices, 2) the design's every vertex, stored by the sweep
     "Pu",                 # (n_vertices, 2) one sample's positions
     "R",                  # (nr, n_vertices, 2) the loads, one per right-hand side
-    "Fu",                 # (nr, K, 2) the incidence forces
+    "Rc", "Fc",           # (nr, n_vertices, 2), (nr, K, 2) the loads and incidence forces that are the same
+                          # at every sample (right-hand sides 1 …)
     "Fi", "tau", "frame",  # (S, nr, K, 2), (S, nr), (S, nr, 2) the base leg's, per sample and right-hand side
     "act",                # (nr,) bool, the right-hand sides solved at a sample
     "lam_d", "lam_a", "lam_s",  # (nr, n_dist), (nr, n_att, 2), (nr, n_slide) the multipliers
@@ -222,6 +223,9 @@ ForceScratch = namedtuple("ForceScratch", [
     "G", "C",             # (S,) the ground, the contact leg
     "fm",                 # (K,)
     "vis_free", "vis_plain", "vis_mirr",  # (S,) bool
+    "pk",                 # (K,) each incidence's running peak of its squared force
+    "Gl",                 # (L, 2K) each leg's incidence forces at one base-leg sample
+    "link6", "linkg",     # (n_dist,) each link's mass / 6 and half its weight (the first n_links)
 ])
 
 
@@ -238,12 +242,30 @@ def force_scratch(S, nv, fm, topo):
         m = max(m, 2 * (topo.gen_vptr[g + 1] - topo.gen_vptr[g]))
     L = fm.base.shape[0]
     return ForceScratch(np.empty((S, nv, 2)), np.empty((S, nv, 2)), np.empty((S, nv, 2)), np.empty((nv, 2)),
-                        np.zeros((nr, nv, 2)), np.zeros((nr, K, 2)), np.zeros((S, nr, K, 2)), np.zeros((S, nr)),
+                        np.zeros((nr, nv, 2)), np.zeros((nr, nv, 2)), np.zeros((nr, K, 2)), np.zeros((S, nr, K, 2)),
+                        np.zeros((S, nr)),
                         np.zeros((S, nr, 2)), np.zeros(nr, dtype=np.bool_), np.zeros((nr, topo.dist_a.shape[0])),
                         np.zeros((nr, topo.att_vpq.shape[0], 2)), np.zeros((nr, topo.slide.shape[0])),
                         np.full(nv, -1, dtype=np.int64), np.empty((m, m)), np.empty(m), np.empty((L, S)),
                         np.empty((L, S)), np.empty((L, S)), np.empty(S), np.empty(S, dtype=np.int64), np.empty(K),
-                        np.empty(S, dtype=np.bool_), np.empty(S, dtype=np.bool_), np.empty(S, dtype=np.bool_))
+                        np.empty(S, dtype=np.bool_), np.empty(S, dtype=np.bool_), np.empty(S, dtype=np.bool_),
+                        np.empty(K), np.empty((L, 2 * K)), np.empty(topo.dist_a.shape[0]),
+                        np.empty(topo.dist_a.shape[0]))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _reads(sg, b, k, S):
+    """The base-leg samples (u0, u0 + 1 mod S) that a leg (``_legs.leg_samples``: sign sg, base b) reads
+    at sample k: (sg·k + b) mod S, which lies in (−S, 2S), by a comparison instead of a division."""
+    u0 = sg * k + b
+    if u0 >= S:
+        u0 -= S
+    elif u0 < 0:
+        u0 += S
+    u1 = u0 + 1
+    if u1 == S:
+        u1 = 0
+    return u0, u1
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -292,7 +314,6 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     mirrored = fm.mirrored
     Pu = fs.Pu
     R = fs.R
-    Fu = fs.Fu
     Fi = fs.Fi
     tau = fs.tau
     frame = fs.frame
@@ -319,17 +340,6 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     for bi in range(nb):
         if fm.body_mass[bi] != 0.0:
             weightless = False
-    # -- a Jacobian singular at a sample: its reactions are unbounded -------------------------------------
-    for u in range(S):
-        for v in range(nv):
-            Pu[v, 0] = pos[u, v, 0]
-            Pu[v, 1] = pos[u, v, 1]
-        blk = singular(table, topo, uv, sd, Pu, fs.loc, fs.M, fs.x, SINGULAR_TOL)
-        if blk >= 0:
-            fr.code[i] = F_SINGULAR
-            fr.sample[i] = u
-            fr.block[i] = blk
-            return
     # -- which leg carries the load at each sample (the walker scene's contact convention) -----
     Y = fs.Y
     VX = fs.VX
@@ -354,28 +364,86 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
         vis_mirr[u] = False
     for k in range(S):
         for j in range(L):
-            u0 = (sign[j] * k + base[j]) % S
+            u0, u1 = _reads(sign[j], base[j], k, S)
             loaded = C[k] == j and nrhs >= 3
             for uu in range(2):
                 if uu == 1 and frac[j] == 0.0:
                     break
-                ux = (u0 + uu) % S
+                ux = u0 if uu == 0 else u1
                 if not loaded:
                     vis_free[ux] = True
                 elif mirrored[j]:
                     vis_mirr[ux] = True
                 else:
                     vis_plain[ux] = True
+    # -- the right-hand sides whose loads do not change with the sample, built once (Rc, Fc): moving, a
+    # unit acceleration of the body along x (1), along y (2), a unit force of the ground on the foot along
+    # x (3), along y (4); held, the load on the foot as a plain leg (1) and as a mirrored one (2) carries it
+    Rc = fs.Rc
+    Fc = fs.Fc
+    lam_d = fs.lam_d
+    link6 = fs.link6
+    linkg = fs.linkg
+    for e in range(nl):  # each link's inertia m/6 (on its ends: m/6·(2a + b), m/6·(a + 2b)) and half weight
+        me = fr.link_mass[i, e]
+        link6[e] = me / 6.0
+        linkg[e] = 0.5 * me * gravity
+    for rhs in range(1, nrhs):
+        for v in range(nv):
+            Rc[rhs, v, 0] = 0.0
+            Rc[rhs, v, 1] = 0.0
+        for kk in range(K):
+            Fc[rhs, kk, 0] = 0.0
+            Fc[rhs, kk, 1] = 0.0
+        if moving and rhs <= 2:  # a unit acceleration of the body along x (1) or y (2): in its
+            # frame every member's mass × it (the d'Alembert force of the frame's acceleration)
+            ax = rhs - 1
+            for e in range(nl):
+                me = fr.link_mass[i, e]
+                if me > 0.0:
+                    Rc[rhs, dist_a[e], ax] += 0.5 * me
+                    Rc[rhs, dist_b[e], ax] += 0.5 * me
+                    Fc[rhs, fm.dinc[e, 0], ax] -= 0.5 * me
+                    Fc[rhs, fm.dinc[e, 1], ax] -= 0.5 * me
+            for bi in range(nb):
+                mb = fm.body_mass[bi]
+                if mb > 0.0:  # a uniform acceleration a of the base pair: m·Āᵀa on q, m·a minus that on p
+                    p = fm.body_pq[bi, 0]
+                    q = fm.body_pq[bi, 1]
+                    ub = fr.body_cuv[i, bi, 0]
+                    wb = fr.body_cuv[i, bi, 1]
+                    fqx = mb * (ub if ax == 0 else wb)
+                    fqy = mb * (-wb if ax == 0 else ub)
+                    fpx = (mb if ax == 0 else 0.0) - fqx
+                    fpy = (mb if ax == 1 else 0.0) - fqy
+                    _body_load(Rc, Fc, rhs, p, q, fm.body_inc[bi, 0], fm.body_inc[bi, 1], fpx, fpy, fqx, fqy)
+        elif moving:  # a unit force of the ground on the foot along x (3) or y (4)
+            Rc[rhs, foot, rhs - 3] -= 1.0
+            Fc[rhs, fm.foot_inc, rhs - 3] += 1.0
+        else:  # the load on the foot from the ground, as a plain leg (1) or a mirrored one (2) carries it
+            ex = Fx if rhs == 1 else -Fx
+            Rc[rhs, foot, 0] -= ex
+            Rc[rhs, foot, 1] -= Fy
+            Fc[rhs, fm.foot_inc, 0] += ex
+            Fc[rhs, fm.foot_inc, 1] += Fy
     # -- the base leg at every sample: every right-hand side at once (each block's inverse taken once) --
     # held: inertia and weight, the load as a plain leg carries it, as a mirrored one does; moving:
     # inertia and weight, a unit acceleration of the body along x, along y, a unit force of the ground
-    # on the foot along x, along y
+    # on the foot along x, along y. The incidence forces are written in place, Fu = Fi[u].
     for u in range(S):
         tx = pos[u, tip, 0] - cx
         ty = pos[u, tip, 1] - cy
         for v in range(nv):
             Pu[v, 0] = pos[u, v, 0]
             Pu[v, 1] = pos[u, v, 1]
+        # a Jacobian singular at a sample: its reactions are unbounded
+        blk = singular(table, topo, uv, sd, Pu, fs.loc, fs.M, fs.x, SINGULAR_TOL)
+        if blk >= 0:
+            fr.code[i] = F_SINGULAR
+            fr.sample[i] = u
+            fr.block[i] = blk
+            return
+        Fu = Fi[u]
         copy21 = False
         for rhs in range(nr):
             act[rhs] = False
@@ -389,108 +457,97 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
                 frame[u, rhs, 0] = 0.0
                 frame[u, rhs, 1] = 0.0
                 for kk in range(K):
-                    Fi[u, rhs, kk, 0] = 0.0
-                    Fi[u, rhs, kk, 1] = 0.0
+                    Fu[rhs, kk, 0] = 0.0
+                    Fu[rhs, kk, 1] = 0.0
             else:
                 act[rhs] = True
-        for rhs in range(nr):
-            if not act[rhs]:
-                continue
+        for rhs in range(1, nr):
+            if act[rhs]:
+                for v in range(nv):
+                    R[rhs, v, 0] = Rc[rhs, v, 0]
+                    R[rhs, v, 1] = Rc[rhs, v, 1]
+                for kk in range(K):
+                    Fu[rhs, kk, 0] = Fc[rhs, kk, 0]
+                    Fu[rhs, kk, 1] = Fc[rhs, kk, 1]
+        if act[0]:  # inertia and weight
             for v in range(nv):
-                R[rhs, v, 0] = 0.0
-                R[rhs, v, 1] = 0.0
+                R[0, v, 0] = 0.0
+                R[0, v, 1] = 0.0
             for kk in range(K):
-                Fu[rhs, kk, 0] = 0.0
-                Fu[rhs, kk, 1] = 0.0
-            if rhs == 0:
-                for e in range(nl):
-                    me = fr.link_mass[i, e]
-                    if me > 0.0:
-                        a = dist_a[e]
-                        b = dist_b[e]
-                        for ax in range(2):
-                            aa = A[u, a, ax] * s2
-                            ab = A[u, b, ax] * s2
-                            da = me / 6.0 * (2.0 * aa + ab)
-                            db = me / 6.0 * (aa + 2.0 * ab)
-                            if ax == 1:
-                                da += 0.5 * me * gravity
-                                db += 0.5 * me * gravity
-                            R[0, a, ax] += da
-                            R[0, b, ax] += db
-                            Fu[0, fm.dinc[e, 0], ax] -= da
-                            Fu[0, fm.dinc[e, 1], ax] -= db
-                for bi in range(nb):
-                    mb = fm.body_mass[bi]
-                    Jb = fr.body_J[i, bi]
-                    if mb > 0.0 or Jb > 0.0:
-                        p = fm.body_pq[bi, 0]
-                        q = fm.body_pq[bi, 1]
-                        ub = fr.body_cuv[i, bi, 0]
-                        wb = fr.body_cuv[i, bi, 1]
-                        apx = A[u, p, 0] * s2
-                        apy = A[u, p, 1] * s2
-                        agx = A[u, q, 0] * s2 - apx
-                        agy = A[u, q, 1] * s2 - apy
-                        aGx = apx + ub * agx - wb * agy
-                        aGy = apy + ub * agy + wb * agx
-                        fqx = mb * (ub * apx + wb * apy) + Jb * agx
-                        fqy = mb * (-wb * apx + ub * apy) + Jb * agy
-                        fpx = mb * aGx - fqx
-                        fpy = mb * aGy - fqy
-                        dqx = fqx + mb * gravity * wb
-                        dqy = fqy + mb * gravity * ub
-                        dpx = fpx - mb * gravity * wb
-                        dpy = fpy + mb * gravity * (1.0 - ub)
-                        _body_load(R, Fu, 0, p, q, fm.body_inc[bi, 0], fm.body_inc[bi, 1], dpx, dpy, dqx, dqy)
-            elif moving and rhs <= 2:  # a unit acceleration of the body along x (1) or y (2): in its
-                # frame every member's mass × it (the d'Alembert force of the frame's acceleration)
-                ax = rhs - 1
-                for e in range(nl):
-                    me = fr.link_mass[i, e]
-                    if me > 0.0:
-                        R[rhs, dist_a[e], ax] += 0.5 * me
-                        R[rhs, dist_b[e], ax] += 0.5 * me
-                        Fu[rhs, fm.dinc[e, 0], ax] -= 0.5 * me
-                        Fu[rhs, fm.dinc[e, 1], ax] -= 0.5 * me
-                for bi in range(nb):
-                    mb = fm.body_mass[bi]
-                    if mb > 0.0:  # a uniform acceleration a of the base pair: m·Āᵀa on q, m·a minus that on p
-                        p = fm.body_pq[bi, 0]
-                        q = fm.body_pq[bi, 1]
-                        ub = fr.body_cuv[i, bi, 0]
-                        wb = fr.body_cuv[i, bi, 1]
-                        fqx = mb * (ub if ax == 0 else wb)
-                        fqy = mb * (-wb if ax == 0 else ub)
-                        fpx = (mb if ax == 0 else 0.0) - fqx
-                        fpy = (mb if ax == 1 else 0.0) - fqy
-                        _body_load(R, Fu, rhs, p, q, fm.body_inc[bi, 0], fm.body_inc[bi, 1], fpx, fpy, fqx, fqy)
-            elif moving:  # a unit force of the ground on the foot along x (3) or y (4)
-                R[rhs, foot, rhs - 3] -= 1.0
-                Fu[rhs, fm.foot_inc, rhs - 3] += 1.0
-            else:  # the load on the foot from the ground, as a plain leg (1) or a mirrored one (2) carries it
-                ex = Fx if rhs == 1 else -Fx
-                R[rhs, foot, 0] -= ex
-                R[rhs, foot, 1] -= Fy
-                Fu[rhs, fm.foot_inc, 0] += ex
-                Fu[rhs, fm.foot_inc, 1] += Fy
-        blk = reactions(table, topo, uv, sd, Pu, R, act, fs.lam_d, fs.lam_a, fs.lam_s, fs.loc, fs.M, fs.x)
+                Fu[0, kk, 0] = 0.0
+                Fu[0, kk, 1] = 0.0
+            for e in range(nl):
+                if fr.link_mass[i, e] > 0.0:
+                    a = dist_a[e]
+                    b = dist_b[e]
+                    ia = fm.dinc[e, 0]
+                    ib = fm.dinc[e, 1]
+                    m6 = link6[e]
+                    aa = A[u, a, 0] * s2
+                    ab = A[u, b, 0] * s2
+                    da = m6 * (2.0 * aa + ab)
+                    db = m6 * (aa + 2.0 * ab)
+                    R[0, a, 0] += da
+                    R[0, b, 0] += db
+                    Fu[0, ia, 0] -= da
+                    Fu[0, ib, 0] -= db
+                    aa = A[u, a, 1] * s2
+                    ab = A[u, b, 1] * s2
+                    da = m6 * (2.0 * aa + ab) + linkg[e]
+                    db = m6 * (aa + 2.0 * ab) + linkg[e]
+                    R[0, a, 1] += da
+                    R[0, b, 1] += db
+                    Fu[0, ia, 1] -= da
+                    Fu[0, ib, 1] -= db
+            for bi in range(nb):
+                mb = fm.body_mass[bi]
+                Jb = fr.body_J[i, bi]
+                if mb > 0.0 or Jb > 0.0:
+                    p = fm.body_pq[bi, 0]
+                    q = fm.body_pq[bi, 1]
+                    ub = fr.body_cuv[i, bi, 0]
+                    wb = fr.body_cuv[i, bi, 1]
+                    apx = A[u, p, 0] * s2
+                    apy = A[u, p, 1] * s2
+                    agx = A[u, q, 0] * s2 - apx
+                    agy = A[u, q, 1] * s2 - apy
+                    aGx = apx + ub * agx - wb * agy
+                    aGy = apy + ub * agy + wb * agx
+                    fqx = mb * (ub * apx + wb * apy) + Jb * agx
+                    fqy = mb * (-wb * apx + ub * apy) + Jb * agy
+                    fpx = mb * aGx - fqx
+                    fpy = mb * aGy - fqy
+                    dqx = fqx + mb * gravity * wb
+                    dqy = fqy + mb * gravity * ub
+                    dpx = fpx - mb * gravity * wb
+                    dpy = fpy + mb * gravity * (1.0 - ub)
+                    _body_load(R, Fu, 0, p, q, fm.body_inc[bi, 0], fm.body_inc[bi, 1], dpx, dpy, dqx, dqy)
+        blk = reactions(table, topo, uv, sd, Pu, R, act, lam_d, fs.lam_a, fs.lam_s, fs.loc, fs.M, fs.x)
         if blk >= 0:
             fr.code[i] = F_SINGULAR
             fr.sample[i] = u
             fr.block[i] = blk
             return
+        # every row's pull on its member's pins, (∂c/∂q_v)ᵀ λ, by its equation type, equation by equation
+        # (its numbers read once) for every right-hand side
+        for e in range(dist_a.shape[0]):
+            ia = fm.dinc[e, 0]
+            ib = fm.dinc[e, 1]
+            for rhs in range(nr):
+                if act[rhs]:
+                    eq_distance.pull(Pu, e, dist_a, dist_b, lam_d[rhs, e], Fu, rhs, ia, ib)
+        for t in range(topo.att_vpq.shape[0]):
+            for rhs in range(nr):
+                if act[rhs]:
+                    eq_attach.pull(t, uv, fs.lam_a[rhs, t, 0], fs.lam_a[rhs, t, 1], Fu, rhs, fm.ainc[t, 0],
+                                   fm.ainc[t, 1], fm.ainc[t, 2])
+        for s in range(topo.slide.shape[0]):  # a slider's guide pushes normal to its line, no friction
+            for rhs in range(nr):
+                if act[rhs]:
+                    eq_slide.pull(Pu, s, topo.slide, sd, fs.lam_s[rhs, s], Fu, rhs, fm.sinc)
         for rhs in range(nr):
             if not act[rhs]:
                 continue
-            # every row's pull on its member's pins, (∂c/∂q_v)ᵀ λ, by its equation type
-            for e in range(dist_a.shape[0]):
-                eq_distance.pull(Pu, e, dist_a, dist_b, fs.lam_d[rhs, e], Fu, rhs, fm.dinc[e, 0], fm.dinc[e, 1])
-            for t in range(topo.att_vpq.shape[0]):
-                eq_attach.pull(t, uv, fs.lam_a[rhs, t, 0], fs.lam_a[rhs, t, 1], Fu, rhs, fm.ainc[t, 0],
-                               fm.ainc[t, 1], fm.ainc[t, 2])
-            for s in range(topo.slide.shape[0]):  # a slider's guide pushes normal to its line, no friction
-                eq_slide.pull(Pu, s, topo.slide, sd, fs.lam_s[rhs, s], Fu, rhs, fm.sinc)
             Fu[rhs, fm.tip_inc, 0] += R[rhs, tip, 0]
             Fu[rhs, fm.tip_inc, 1] += R[rhs, tip, 1]
             bx = R[rhs, tip, 0]
@@ -514,9 +571,6 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
                 Fu[rhs, fm.fixed_inc[f], 1] += R[rhs, fm.fixed[f], 1]
                 frame[u, rhs, 0] -= R[rhs, fm.fixed[f], 0]
                 frame[u, rhs, 1] -= R[rhs, fm.fixed[f], 1]
-            for kk in range(K):
-                Fi[u, rhs, kk, 0] = Fu[rhs, kk, 0]
-                Fi[u, rhs, kk, 1] = Fu[rhs, kk, 1]
         if copy21:
             tau[u, 2] = tau[u, 1]
             frame[u, 2, 0] = frame[u, 1, 0]
@@ -529,19 +583,49 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     if moving:  # the body moves with the contact foot: every leg at every angle, its ground force
         first_bad = _moving_legs(i, A, C, foot, base, frac, sign, mirrored, fm.inc_vertex, fm.sel, Fi, tau, frame, s2,
                                  fm.load_mass, gravity, walk * fm.drag * weight, fr.torque, fr.fsel, fr.finc,
-                                 fr.pin_peak, fr.shake, fr.body_acc, fr.ground, fs.fm)
+                                 fr.pin_peak, fr.shake, fr.body_acc, fr.ground, fs.fm, fs.pk, fs.Gl)
     else:  # held: the frame still, the load on the contact foot
         first_bad = _held_legs(i, C, base, frac, sign, mirrored, fm.inc_vertex, fm.sel, Fi, tau, frame, nrhs, Fx, Fy,
                                grid, vis_free, vis_plain, vis_mirr, fr.torque, fr.fsel, fr.finc, fr.pin_peak, fr.shake,
-                               fr.body_acc, fr.ground, fs.fm)
+                               fr.body_acc, fr.ground, fs.fm, fs.pk)
     if first_bad >= 0:  # forces that overflowed: a near-singular sample
         fr.code[i] = F_NONFINITE
         fr.sample[i] = first_bad
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _peak(m, mag2):
+    """The running peak ``m`` of a squared force after ``mag2``: the larger, NaN once either is NaN (so
+    that a non-finite force is seen at the end of its sample, whatever the legs after it read)."""
+    return mag2 if m == m and not (mag2 <= m) else m
+
+
+@njit(cache=True, nogil=True)
+def _finite(pk):
+    """Whether every running peak is finite."""
+    n = 0
+    for kk in range(pk.shape[0]):
+        n += pk[kk] < math.inf
+    return n == pk.shape[0]
+
+
+@njit(cache=True, nogil=True)
+def _pin_peaks(pk, inc_vertex, out):
+    """Each vertex's peak reaction out (n_vertices,), N: the square root of the largest squared peak pk
+    (K,) of its incidences (0 for a vertex without one)."""
+    for v in range(out.shape[0]):
+        out[v] = 0.0
+    for kk in range(pk.shape[0]):
+        v = inc_vertex[kk]
+        if not (pk[kk] <= out[v]):
+            out[v] = pk[kk]
+    for v in range(out.shape[0]):
+        out[v] = math.sqrt(out[v])
+
+
 @njit(cache=True, nogil=True)
 def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, nrhs, Fx, Fy, grid, vis_free,
-               vis_plain, vis_mirr, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm):
+               vis_plain, vis_mirr, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm, pk):
     """The held walker of variant i (the frame still), read off the base leg's right-hand sides
     (inertia and weight; the load as a plain leg and as a mirrored leg carries it: Fi (S, 3, K, 2),
     tau (S, 3), frame (S, 3, 2)) at the samples each leg reads (contact legs C (S,); ``vis_*``: the
@@ -562,6 +646,8 @@ def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame
         pin_peak[i, v] = 0.0
     first_bad = -1
     if grid:  # each leg reads whole samples: every pin's peak over the states each sample is read in
+        for kk in range(K):
+            pk[kk] = 0.0
         for u in range(S):
             for st_ in range(3):
                 # the weights of right-hand sides 1 (loaded, plain) and 2 (loaded, mirrored)
@@ -580,22 +666,16 @@ def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame
                         continue
                     lx = 0.0
                     ly = 1.0
-                poison = 0.0  # 0, or NaN once a force is not finite (inf·0 and NaN·0 are NaN)
                 for kk in range(K):
                     fx = Fi[u, 0, kk, 0]
                     fy = Fi[u, 0, kk, 1]
                     if st_ > 0:
                         fx += lx * Fi[u, 1, kk, 0] + ly * Fi[u, 2, kk, 0]
                         fy += lx * Fi[u, 1, kk, 1] + ly * Fi[u, 2, kk, 1]
-                    mag2 = fx * fx + fy * fy  # squared: one square root per joint at the end
-                    poison += mag2 * 0.0
-                    v = inc_vertex[kk]
-                    if mag2 > pin_peak[i, v]:
-                        pin_peak[i, v] = mag2
-                if poison != 0.0 and first_bad < 0:
-                    first_bad = u
-        for v in range(nv):
-            pin_peak[i, v] = math.sqrt(pin_peak[i, v])
+                    pk[kk] = _peak(pk[kk], fx * fx + fy * fy)  # squared: one square root per joint at the end
+            if first_bad < 0 and not _finite(pk):  # a force not finite at this sample (the peaks keep it)
+                first_bad = u
+        _pin_peaks(pk, inc_vertex, pin_peak[i])
     shake = 0.0
     for k in range(S):
         ttot = 0.0
@@ -603,8 +683,7 @@ def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame
         fry = 0.0
         for j in range(L):
             f = frac[j]
-            u0 = (sign[j] * k + base[j]) % S
-            u1 = (u0 + 1) % S
+            u0, u1 = _reads(sign[j], base[j], k, S)
             w0 = 1.0 - f
             lx = 0.0
             ly = 0.0
@@ -671,7 +750,7 @@ def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame
 
 @njit(cache=True, nogil=True)
 def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, s2, load_mass, gravity,
-                 drag_force, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm):
+                 drag_force, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm, pk, G):
     """The moving-body walker of variant i, read off the base leg's five right-hand sides (inertia and
     weight; a unit body acceleration along x, y; a unit ground force on the foot along x, y: Fi (S, 5,
     K, 2), tau (S, 5), frame (S, 5, 2)) and its accelerations A (S, nv, 2) per radian², contact legs
@@ -682,19 +761,81 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
     body under a unit foot force is that force (the leg is in equilibrium), so G = m_b·(a_b − g) −
     drag − Σ_legs (their force on the body with no ground force); then every leg with a_b (and G on the
     contact leg) in its own frame. Writes torque[i], pin_peak[i], shake_peak[i], fsel[i] / finc[i]
-    (leg 0), body_acc[i] (m/s²) and ground[i] (N); returns the first sample with a non-finite force or −1."""
+    (leg 0), body_acc[i] (m/s²) and ground[i] (N); returns the first sample with a non-finite force or −1.
+
+    Where every leg reads whole samples, the pins' peaks are taken base-leg sample by sample
+    (:func:`_moving_peaks`) after the walk; a non-finite force there has the walk taken again, sample
+    by sample with every leg's pins, for the sample it appears at. pk (K,), G (L, 2K): scratch."""
+    grid = True
+    for j in range(frac.shape[0]):
+        if frac[j] != 0.0:
+            grid = False
+    first_bad = _moving_walk(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, s2, load_mass,
+                             gravity, drag_force, torque, fsel, finc, shake_peak, body_acc, ground, fm, pk, not grid)
+    if grid:
+        _moving_peaks(C, base, sign, mirrored, Fi, body_acc[i], ground[i], pk, G)
+        if not _finite(pk):
+            first_bad = _moving_walk(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, s2,
+                                     load_mass, gravity, drag_force, torque, fsel, finc, shake_peak, body_acc, ground,
+                                     fm, pk, True)
+    _pin_peaks(pk, inc_vertex, pin_peak[i])
+    return first_bad
+
+
+@njit(cache=True, nogil=True)
+def _moving_peaks(C, base, sign, mirrored, Fi, body_acc, ground, pk, G):
+    """Every incidence's largest squared force over the legs and the turn, pk (K,), the legs reading
+    whole samples: base-leg sample u by sample, each leg j at the crank sample k it reads u at, with
+    that sample's body acceleration body_acc[k] (S, 2) and, on the contact leg (C (S,)), the ground's
+    force ground[k] (S, 2), as :func:`_moving_walk` combines them (the same arithmetic; the peaks, a
+    maximum, do not depend on the order). G (L, 2K): scratch, each leg's forces at u."""
+    S = C.shape[0]
+    L = base.shape[0]
+    K = pk.shape[0]
+    Ff = Fi.reshape((S, Fi.shape[1], 2 * K))
+    for kk in range(K):
+        pk[kk] = 0.0
+    for u in range(S):
+        F0 = Ff[u, 0]
+        F1 = Ff[u, 1]
+        F2 = Ff[u, 2]
+        F3 = Ff[u, 3]
+        F4 = Ff[u, 4]
+        for j in range(L):
+            k, _ = _reads(sign[j], -sign[j] * base[j], u, S)  # u = sign·k + base (mod S)
+            mir = -1.0 if mirrored[j] else 1.0
+            c1 = mir * body_acc[k, 0]
+            c2 = body_acc[k, 1]
+            g = G[j]
+            for q in range(2 * K):
+                g[q] = F0[q] + c1 * F1[q] + c2 * F2[q]
+            if C[k] == j:  # the ground pushes the contact leg's foot only
+                c3 = mir * ground[k, 0]
+                c4 = ground[k, 1]
+                for q in range(2 * K):
+                    g[q] += c3 * F3[q] + c4 * F4[q]
+            for kk in range(K):
+                pk[kk] = _peak(pk[kk], g[2 * kk] * g[2 * kk] + g[2 * kk + 1] * g[2 * kk + 1])
+
+
+@njit(cache=True, nogil=True)
+def _moving_walk(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, s2, load_mass, gravity,
+                 drag_force, torque, fsel, finc, shake_peak, body_acc, ground, fm, pk, peaks):
+    """:func:`_moving_legs`' walk, crank sample by sample: the body's acceleration, the ground's force,
+    the torque, the shaking force and leg 0's reactions (``fsel``, ``finc``), and with ``peaks`` every
+    leg's pins' running peaks pk (K,) (squared). Returns the first sample with a non-finite force or −1."""
     S = C.shape[0]
     L = base.shape[0]
     K = inc_vertex.shape[0]
-    for v in range(pin_peak.shape[1]):
-        pin_peak[i, v] = 0.0
+    for kk in range(K):
+        pk[kk] = 0.0
+    lean = sel.shape[0] == 0 and finc.shape[1] == 0  # leg 0's reactions not stored
     first_bad = -1
     shake = 0.0
     for k in range(S):
         c = C[k]
         f = frac[c]
-        u0 = (sign[c] * k + base[c]) % S
-        u1 = (u0 + 1) % S
+        u0, u1 = _reads(sign[c], base[c], k, S)
         ax = (1.0 - f) * A[u0, foot, 0]
         ay = (1.0 - f) * A[u0, foot, 1]
         if f != 0.0:
@@ -707,8 +848,7 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
         sy = 0.0
         for j in range(L):
             f = frac[j]
-            u0 = (sign[j] * k + base[j]) % S
-            u1 = (u0 + 1) % S
+            u0, u1 = _reads(sign[j], base[j], k, S)
             lx = -abx if mirrored[j] else abx
             fjx = (1.0 - f) * (frame[u0, 0, 0] + lx * frame[u0, 1, 0] + aby * frame[u0, 2, 0])
             fjy = (1.0 - f) * (frame[u0, 0, 1] + lx * frame[u0, 1, 1] + aby * frame[u0, 2, 1])
@@ -729,8 +869,7 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
         for j in range(L):
             f = frac[j]
             w0 = 1.0 - f
-            u0 = (sign[j] * k + base[j]) % S
-            u1 = (u0 + 1) % S
+            u0, u1 = _reads(sign[j], base[j], k, S)
             mir = -1.0 if mirrored[j] else 1.0
             c1 = mir * abx
             c2 = aby
@@ -750,6 +889,8 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
             ttot += mir * tj
             frx += mir * fjx
             fry += fjy
+            if not peaks and (lean or j != 0):  # the peaks come later (_moving_peaks)
+                continue
             for kk in range(K):
                 fx = Fi[u0, 0, kk, 0] + c1 * Fi[u0, 1, kk, 0] + c2 * Fi[u0, 2, kk, 0]
                 fy = Fi[u0, 0, kk, 1] + c1 * Fi[u0, 1, kk, 1] + c2 * Fi[u0, 2, kk, 1]
@@ -766,10 +907,7 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
                     fy = w0 * fy + f * gy_
                 mag2 = fx * fx + fy * fy  # squared: one square root per joint at the end
                 v = inc_vertex[kk]
-                if not (mag2 <= pin_peak[i, v]):
-                    pin_peak[i, v] = mag2
-                    if first_bad < 0 and not math.isfinite(mag2):
-                        first_bad = k
+                pk[kk] = _peak(pk[kk], mag2)
                 if j == 0:
                     mag = math.sqrt(mag2)
                     fm[kk] = mag
@@ -786,14 +924,12 @@ def _moving_legs(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
                                 fsel[i, k, s_, 0] = mir * fx
                                 fsel[i, k, s_, 1] = fy
         torque[i, k] = ttot
-        if not math.isfinite(ttot) and first_bad < 0:
+        if first_bad < 0 and not (math.isfinite(ttot) and _finite(pk)):
             first_bad = k
         sh = math.sqrt(frx * frx + fry * fry)
         if not (sh <= shake):
             shake = sh
     shake_peak[i] = shake
-    for v in range(pin_peak.shape[1]):
-        pin_peak[i, v] = math.sqrt(pin_peak[i, v])
     if first_bad < 0 and not math.isfinite(shake):
         first_bad = 0
     return first_bad
@@ -808,8 +944,15 @@ def _specialise(fn, name: str, **bind):
     return njit(cache=True, nogil=True)(copy)
 
 
+def _inlined(fn):
+    """The kinds' forces function ``fn`` compiled into its caller: called once per sample, a call passes
+    (and counts references to) every array of the lowered plan, which cost more than its arithmetic."""
+    return njit(nogil=True, inline="always")(fn.py_func)
+
+
 #: the forces effect of one design, for plans without coupled blocks and for any plan
-design_forces_fast = _specialise(_design_forces, "fast", singular=singular_closed, reactions=reactions_closed)
+design_forces_fast = _specialise(_design_forces, "fast", singular=_inlined(singular_closed),
+                                 reactions=_inlined(reactions_closed))
 design_forces_any = _specialise(_design_forces, "any", singular=singular_any, reactions=reactions_any)
 
 
