@@ -345,14 +345,22 @@ class Results:
             df["buildable"], df["screen"] = screened[0], screened[1]
         return df
 
-    def frame_rows(self, variants) -> "pd.DataFrame":
+    def frame_rows(self, variants, columns=None) -> "pd.DataFrame":
         """The rows of :meth:`frame` of ``variants`` (a variant, or any sequence of them: any order, repeats
         allowed), in that order, indexed by variant: the same columns, dtypes and values as those rows of the
         whole frame, read without it (only the blocks of rows that hold them:
-        :func:`explorer.store._blocks.frame_rows`). UserError for a variant outside 0 … N−1."""
+        :func:`explorer.store._blocks.frame_rows`). UserError for a variant outside 0 … N−1. ``columns``: only
+        these frame columns, in this order (default: every column)."""
         from ._blocks import frame_rows
         empty = np.size(variants) == 0  # [] reads as float: no rows
-        return frame_rows(self, np.empty(0, dtype=np.int64) if empty else self._indices(variants))
+        return frame_rows(self, np.empty(0, dtype=np.int64) if empty else self._indices(variants), columns)
+
+    def frame_blocks(self):
+        """:meth:`frame` in consecutive blocks of rows (:data:`explorer.store._blocks.READ_BLOCK`, ~16k rows
+        each), in variant order, each indexed by its variant numbers and typed as the whole frame: for a pass
+        over every variant of a large file without holding its whole frame."""
+        from ._blocks import blocks
+        return blocks(self)
 
     def select(self, where: str | None = None, include_failed: bool = False, include_screened: bool = False,
                columns=None) -> "pd.DataFrame":

@@ -146,21 +146,98 @@ class Report:
 
 
 # -- the data ----------------------------------------------------------------------------------------
-def _ranked_ok(df):
-    """Positions (into ``df``) of the ok rows in report order: the buildable ones as ``explorer rank``
-    orders them (default score), then the screened-out ones by the same score; by variant where the
-    default score's metrics are not stored (then the second value is False)."""
-    from ..gait import ok_mask
-    ok = np.flatnonzero(ok_mask(df))
-    if not all(m in df.columns for m in DEFAULT_WEIGHTS):
-        return ok, False
-    pos = df.index.get_indexer(rank(df, top=None).index)
-    if "buildable" in df.columns:
-        screened = df[ok_mask(df) & ~df["buildable"].to_numpy(dtype=bool)]
-        if len(screened):
-            pos = np.r_[pos, df.index.get_indexer(rank(screened, top=None, include_screened=True).index)]
+@dataclass
+class _Scan:
+    """What the report needs of every variant, gathered in one pass over the frame in blocks of rows
+    (:func:`_scan`). ok : (n_ok,) int64, the ok variants in variant order; finite : {metric: whether any ok
+    variant has a finite value}; kept : (N,) bool, the variants ``where`` keeps (None without a filter);
+    ranked : {"buildable", "screened"}: the ok variants that pass the buildability screen and those it
+    removes, each a frame of ``variant`` and the default score's metrics (only where every one of them is
+    stored), else (n,) int64 variant numbers; counts : {reason: variants} in :func:`reason_masks`' order;
+    first : {reason: its first ``listed`` variant numbers}."""
+
+    n_ok: int
+    ok: np.ndarray
+    finite: dict
+    kept: np.ndarray | None
+    ranked: dict
+    counts: dict
+    first: dict
+
+
+def _scan(res, head, stored, where, by_score: bool, listed: int = REASON_LIST) -> _Scan:
+    """One pass over ``res``'s frame in blocks of rows (``Results.frame_blocks``): the ok variants, which
+    metrics any ok variant has a finite value of, the filter ``where``, the rows the ranking ranks (only its
+    columns) and the counts by reason (:func:`reason_masks` of each block, added; each reason's first
+    variants kept). ``head``: some rows of the frame, typed whole (its columns)."""
+    import pandas as pd
+
+    from ..gait import evaluate_filter, ok_mask
+    N = int(res.n_variants)
+    screen = res.screen
+    cols = ["variant", *DEFAULT_WEIGHTS] if by_score else ["variant"]
+    parts = {k: {c: [] for c in cols} for k in ("buildable", "screened")}
+    ok_parts = []
+    finite = dict.fromkeys(stored, False)
+    kept = np.zeros(N, dtype=bool) if where is not None else None
+    counts = {k: 0 for k in reason_masks(head.iloc[:0], screen)}  # the reasons every frame lists, first
+    first: dict = {}
+    for df in res.frame_blocks():
+        ok = ok_mask(df)
+        variants = df["variant"].to_numpy(dtype=np.int64)
+        ok_parts.append(variants[ok])
+        for m in stored:
+            if not finite[m]:
+                finite[m] = bool(np.isfinite(df[m].to_numpy(dtype=np.float64)[ok]).any())
+        if kept is not None:
+            kept[variants] = evaluate_filter(df, where)
+        for key, mask in reason_masks(df, screen).items():
+            counts[key] = counts.get(key, 0) + int(mask.sum())
+            got = first.setdefault(key, [])
+            if len(got) < listed:
+                got.extend(int(v) for v in variants[mask][:listed - len(got)])
+        b = df["buildable"].to_numpy(dtype=bool) if "buildable" in df.columns else np.ones(len(df), dtype=bool)
+        for k, m in (("buildable", ok & b), ("screened", ok & ~b)):
+            for c in cols:
+                parts[k][c].append(df[c].to_numpy()[m].copy())
+        del df
+    # the screen's checks in their own order (a check first met in a later block too), then the failures
+    # in the order the variants first meet them, as reason_masks lists them for the whole frame
+    checks = [f"screened out: {c.name}" for c in CHECKS]
+    base = [k for k in ("ok, buildable", "screened out (any check)") if k in counts]
+    keys = base + [k for k in checks if k in counts] + [k for k in counts if k not in base and k not in checks]
+    counts = {k: counts[k] for k in keys}
+    ranked = {}
+    for k, got in parts.items():
+        joined = {c: (np.concatenate(got.pop(c)) if got[c] else head[c].to_numpy()[:0]) for c in list(got)}
+        ranked[k] = pd.DataFrame(joined, copy=False) if by_score else joined["variant"]
+        del joined
+    ok_v = np.concatenate(ok_parts) if ok_parts else np.zeros(0, dtype=np.int64)
+    return _Scan(n_ok=len(ok_v), ok=ok_v, finite=finite, kept=kept, ranked=ranked, counts=counts,
+                 first={k: first.get(k, []) for k in counts})
+
+
+def _ranked_ok(scan: _Scan, by_score: bool):
+    """(the ok variants in report order: the buildable ones as ``explorer rank`` orders them (default
+    score), then the screened-out ones by the same score (over them), then whatever the ranking leaves out,
+    by variant; the ranking of the buildable ones: (variants, their scores, their places) in rank order).
+    Where the default score's metrics are not all stored: every ok variant by variant, and the buildable
+    ones by variant (no scores)."""
+    ok = scan.ok
+    if not by_score:
+        b = scan.ranked["buildable"]
+        return ok, (b, np.full(len(b), np.nan), np.arange(1, len(b) + 1))
+    got = rank(scan.ranked.pop("buildable"), top=None)  # only ok rows that pass the screen: rank's own filter
+    ranked = (got["variant"].to_numpy(dtype=np.int64), got["score"].to_numpy(dtype=np.float64),
+              got["rank"].to_numpy(dtype=np.int64))
+    del got
+    pos = ranked[0]
+    screened = scan.ranked.pop("screened")
+    if len(screened):
+        pos = np.r_[pos, rank(screened, top=None)["variant"].to_numpy(dtype=np.int64)]
+    del screened
     rest = np.setdiff1d(ok, pos)  # whatever rank() leaves out (it ranks NaN scores last) comes last, by variant
-    return np.r_[pos, rest].astype(np.int64), True
+    return np.r_[pos, rest].astype(np.int64), ranked
 
 
 def reason_masks(df, screen) -> dict:
@@ -338,16 +415,15 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     points = _check_count("points", points, 3)
     reason_paths = _check_count("reason_paths", reason_paths, 0)
     pc_lines = _check_count("pc_lines", pc_lines, 1)
-    df = res.frame()
-    N = len(df)
+    head = res.frame_rows([0] if res.n_variants else [])  # the frame's columns (the nominal's row), typed whole
+    N = int(res.n_variants)
     mech = res.mechanism
     ref = res.check_variant(vs)
     ref_label = "nominal" if ref == 0 else f"reference (variant {ref})"
-    si = results_si(res, df, units)  # --units si: every figure shown in SI; the ranking stays the stored values'
-    dv = df if si is None else si.frame
-    params = [p for p in res.perturbed if p in df.columns]
-    stored = [m for m in METRICS if m in df.columns] + [m for m in res.metric_names
-                                                          if m not in METRICS and m in df.columns]
+    si = results_si(res, head.iloc[:0], units)  # --units si: every figure shown in SI; the ranking stays the stored values'
+    params = [p for p in res.perturbed if p in head.columns]
+    stored = [m for m in METRICS if m in head.columns] + [m for m in res.metric_names
+                                                            if m not in METRICS and m in head.columns]
     if metrics is not None:
         names = [s.strip() for s in metrics.split(",") if s.strip()] if isinstance(metrics, str) else list(metrics)
         unknown = [m for m in names if m not in stored]
@@ -355,9 +431,12 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
             raise UserError(f"{res.filename}: metric {unknown[0]!r} is not stored "
                             f"(stored: {', '.join(stored) or 'none'})")
         stored = list(dict.fromkeys(names))
-    ok = ok_mask(df)
-    n_ok = int(ok.sum())
-    dropped = [m for m in stored if not np.isfinite(df.loc[ok, m].to_numpy(dtype=np.float64)).any()]
+    if where is not None:
+        evaluate_filter(head, where)  # a bad filter fails before any block is read
+    by_score = all(m in head.columns for m in DEFAULT_WEIGHTS)
+    scan = _scan(res, head, stored, where, by_score, max(REASON_LIST, reason_paths))
+    n_ok = scan.n_ok
+    dropped = [m for m in stored if not scan.finite[m]]
     # the physics check covers a shortlist (NaN elsewhere): its own panel, not axes every line would leave
     physics = [m for m in stored if m not in dropped and BY_NAME.get(m) is not None and BY_NAME[m].group == "physics"]
     mets = [m for m in stored if m not in dropped and m not in physics]
@@ -371,9 +450,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         meta = BY_NAME.get(key)
         return _unit_text(meta.unit) if meta else "model units"
 
-    order, by_score = _ranked_ok(df)
+    order, ranked = _ranked_ok(scan, by_score)
     if where is not None:  # the views hold the ok designs the filter keeps, in the same order
-        order = order[evaluate_filter(df, where)[order]]
+        order = order[scan.kept[order]]
     n_kept = len(order)
     if n_kept == 0 and where is not None:
         raise UserError(f"{res.filename}: --where {where!r} keeps none of the {n_ok:,} ok designs: nothing to show")
@@ -383,9 +462,19 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         pick = np.sort(rng.choice(n_kept, size=max_designs, replace=False))
         order = order[pick]
     n = len(order)
-    rows = df.iloc[order]
-    shown_rows = dv.iloc[order]  # the same rows in the units shown
-    variant = rows["variant"].to_numpy(dtype=np.int64) if "variant" in rows.columns else order.astype(np.int64)
+    # the rows in the views, only the columns they show (order: variant numbers, the frame's positions)
+    wanted = ["variant", "generation", *params, *(m for m in mets if m != SPEED), "buildable"]
+    wanted += ["crank"] if si is not None else []
+    rows = res.frame_rows(order, columns=[c for c in dict.fromkeys(wanted) if c in head.columns])
+    def in_units(variants):
+        """The frame rows of ``variants`` in the units shown."""
+        got = res.frame_rows(variants)
+        return got if si is None else si.apply(got).frame
+
+    shown_rows = rows if si is None else si.apply(rows).frame  # the same rows in the units shown
+    ref_row = res.frame_rows([ref])
+    ref_shown = ref_row if si is None else si.apply(ref_row).frame
+    variant = rows["variant"].to_numpy(dtype=np.int64)
     buildable = rows["buildable"].to_numpy(dtype=bool) if "buildable" in rows.columns else np.ones(n, dtype=bool)
     rank_col = (pick + 1) if sampled else np.arange(1, n + 1)  # place among every ok design
 
@@ -410,13 +499,13 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     table = []
     dims = []
 
-    ref_ok = bool(ok_mask(df.iloc[[ref]])[0])
+    ref_ok = bool(ok_mask(ref_row)[0])
 
     def add(key, label, kind, values, unit="", description="", direction=None, **extra):
         table.append(_f32(values))
         dims.append(dict(label=label, values=[], **extra))
         meta = BY_NAME.get(key)
-        r0 = float(dv[key].iloc[ref]) if key in dv.columns and kind in ("parameter", "metric") else math.nan
+        r0 = float(ref_shown[key].iloc[0]) if key in ref_shown.columns and kind in ("parameter", "metric") else math.nan
         columns.append({"key": key, "label": label, "kind": kind, "dim": len(dims) - 1,
                         "unit": unit_of(key) if meta or kind == "parameter" else unit,
                         "direction": meta.direction if meta else direction,
@@ -502,23 +591,22 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     sc.update_yaxes(showgrid=True, gridcolor="#e5e5e5", zeroline=False, linecolor="#444", mirror=True)
 
     # -- foot paths ------------------------------------------------------------------------------------------
-    masks = reason_masks(df, res.screen)
-    counts = {k: int(v.sum()) for k, v in masks.items()}
+    counts = scan.counts
     has_paths = bool(res.vertices)
     n_paths = min(paths, n) if has_paths else 0
     path_variants = [int(v) for v in variant[:n_paths]]
     nominal_path = None
     reasons = []
-    for key, m in masks.items():
+    for key, count in counts.items():
         if key == "ok, buildable":
             continue
-        vs = df.loc[m, "variant"].to_numpy(dtype=np.int64) if "variant" in df.columns else np.flatnonzero(m)
+        vs = scan.first[key]
         kind, _, what = key.partition(": ")
         text = (_CHECK_TEXT.get(what, "") if kind == "screened out" else
                 _STATUS_TEXT.get(what, "") if kind == "failed" else
                 _STATUS_TEXT["not-run"] if key == "not run yet" else
                 "fails at least one check of the buildability screen (each is counted below)")
-        entry = {"key": key, "count": int(m.sum()), "text": text, "variants": [int(v) for v in vs[:REASON_LIST]],
+        entry = {"key": key, "count": count, "text": text, "variants": [int(v) for v in vs[:REASON_LIST]],
                  "paths": [], "path_variants": []}
         if has_paths:
             take = [int(v) for v in vs[:reason_paths]]
@@ -622,11 +710,11 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         yield_note = (f"yield: the share of copies, {rb.describe()}, that turn and pass the buildability screen "
                       f"(binomial standard error √(p(1 − p)/{rb.copies}): ±{math.sqrt(0.25 / rb.copies):.3f} at "
                       f"most).")
-    vs_section = _vs_section(df, dv, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys}, by_score,
-                             None if si is None else {c: si.units[c] for c in si.converted}, yield_note)
+    vs_section = _vs_section(ranked, in_units, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys},
+                             by_score, None if si is None else {c: si.units[c] for c in si.converted}, yield_note)
     if physics:  # the designs `explorer physics` checked, beside their kinematic figures
         from ..physics._compare import report_panel
-        vs_section += report_panel(res, df)
+        vs_section += report_panel(res, res.frame_rows)
     units_note = ""
     if si is not None:
         units_note = "<p class='note' id='units-note'>" + html.escape(
@@ -656,34 +744,30 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     return page, rep
 
 
-def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dict, by_score: bool,
+def _vs_section(ranked, rows_of, ref: int, ref_label: str, ref_ok: bool, keys, units: dict, by_score: bool,
                 verdict_units: dict | None = None, yield_note: str = "") -> str:
     """The table of the best-ranked buildable designs against the reference (as ``explorer rank --change``
-    prints it): for each metric of ``keys`` its value (``dv``: the units shown) and the change against the
+    prints it): for each metric of ``keys`` its value (in the units shown) and the change against the
     reference's in %, the reference last, marked with its own place; then the walker score of both and a
     verdict of the best design against the reference (as ``explorer show``; its values followed by
-    ``verdict_units``' unit where it names one)."""
-    from ..gait import ok_mask
+    ``verdict_units``' unit where it names one). ``ranked``: (variants, scores, places) of the buildable
+    designs in rank order (:func:`_ranked_ok`); ``rows_of(variants)``: their frame rows in the units shown."""
     esc = html.escape
-    if by_score:
-        scored = rank(df, top=None)
-        pos = df.index.get_indexer(scored.index)
-        score, places = scored["score"].to_numpy(dtype=np.float64), scored["rank"].to_numpy(dtype=np.int64)
-    else:  # the default score's metrics are not stored: the buildable designs in variant order
-        keep = ok_mask(df) & (df["buildable"].to_numpy(dtype=bool) if "buildable" in df.columns else True)
-        pos = np.flatnonzero(keep)
-        score, places = np.full(len(pos), np.nan), np.arange(1, len(pos) + 1)
+    pos, score, places = ranked
     if not keys:
         return ""
-    r0 = {k: float(dv[k].iloc[ref]) if ref_ok else math.nan for k in keys}
+    top = [int(v) for v in pos[:VS_ROWS]]
+    shown = rows_of(top + [ref])  # the rows of the table, the reference's last
+    ref_row = shown.iloc[-1]
+    r0 = {k: float(ref_row[k]) if ref_ok else math.nan for k in keys}
     head = ("<tr><th>rank</th><th>variant</th>" + ("<th class='num'>score</th>" if by_score else "")
             + "".join(f"<th class='num'>{esc(k)} [{esc(units.get(k) or '')}]</th><th class='num'>Δ %</th>"
                       for k in keys) + "</tr>")
 
-    def cells(i) -> str:
+    def cells(row) -> str:
         out = []
         for k in keys:
-            x = float(dv[k].iloc[i])
+            x = float(row[k])
             d = change_pct(x, r0[k])
             out.append(f"<td class='num' data-key='{esc(k, quote=True)}' data-value='{x!r}' data-change='{d!r}'>"
                        f"{'-' if not math.isfinite(x) else format(x, '.5g')}</td>"
@@ -691,16 +775,15 @@ def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dic
         return "".join(out)
 
     body = []
-    for j in range(min(VS_ROWS, len(pos))):
-        i = int(pos[j])
+    for j, v in enumerate(top):
         sc = f"<td class='num'>{score[j]:.3f}</td>" if by_score else ""
-        body.append(f"<tr class='vs' data-variant='{int(df['variant'].iloc[i])}'><td>{int(places[j])}</td>"
-                    f"<td>{int(df['variant'].iloc[i])}</td>{sc}{cells(i)}</tr>")
+        body.append(f"<tr class='vs' data-variant='{v}'><td>{int(places[j])}</td>"
+                    f"<td>{v}</td>{sc}{cells(shown.iloc[j])}</tr>")
     at = np.flatnonzero(pos == ref)
     place = f"{int(places[at[0]])}" if len(at) else "-"
     sc = (f"<td class='num'>{score[at[0]]:.3f}</td>" if len(at) else "<td class='num'>-</td>") if by_score else ""
     body.append(f"<tr class='ref' data-variant='{ref}' data-place='{place}'><td>{esc(ref_label)}: {place}</td>"
-                f"<td>{ref}</td>{sc}{cells(ref)}</tr>")
+                f"<td>{ref}</td>{sc}{cells(ref_row)}</tr>")
     pool = f"{len(pos):,} buildable designs"
     lines = []
     if by_score:
@@ -708,9 +791,8 @@ def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dic
                      else f"the {ref_label} is not ranked (failed or screened out)")
         lines.append(f"Ranked by the walker score ({', '.join(DEFAULT_WEIGHTS)}; 1 = best); {ref_score}.")
     if len(pos) and ref_ok and int(pos[0]) != ref:
-        best = int(pos[0])
-        lines.append(f"Design #1 (variant {int(df['variant'].iloc[best])}): "
-                     + verdict(dv.iloc[best], dv.iloc[ref], ref_label, keys, verdict_units) + ".")
+        lines.append(f"Design #1 (variant {int(pos[0])}): "
+                     + verdict(shown.iloc[0], ref_row, ref_label, keys, verdict_units) + ".")
     elif not ref_ok:
         lines.append(f"The {ref_label} failed: it has no metrics to compare with.")
     notes = "".join(f"<p class='note' id='{'vs-score' if t.startswith('Ranked') else 'vs-verdict'}'>{esc(t)}</p>"
