@@ -152,8 +152,8 @@ class _Scan:
     (:func:`_scan`). ok : (n_ok,) int64, the ok variants in variant order; finite : {metric: whether any ok
     variant has a finite value}; kept : (N,) bool, the variants ``where`` keeps (None without a filter);
     ranked : {"buildable", "screened"}: the ok variants that pass the buildability screen and those it
-    removes, each a frame of ``variant`` and the default score's metrics (only where every one of them is
-    stored), else (n,) int64 variant numbers; counts : {reason: variants} in :func:`reason_masks`' order;
+    removes, each ((n,) int64 variant numbers in variant order, a frame of the default score's metrics of
+    those rows, indexed 0 … n − 1, or None where not every one of them is stored); counts : {reason: variants} in :func:`reason_masks`' order;
     first : {reason: its first ``listed`` variant numbers}."""
 
     n_ok: int
@@ -176,8 +176,12 @@ def _scan(res, head, stored, where, by_score: bool, listed: int = REASON_LIST) -
     N = int(res.n_variants)
     screen = res.screen
     cols = ["variant", *DEFAULT_WEIGHTS] if by_score else ["variant"]
-    parts = {k: {c: [] for c in cols} for k in ("buildable", "screened")}
-    ok_parts = []
+    # the ok rows' ranked columns, written in place: the buildable rows from the front, the screened-out
+    # ones from the back (no list of blocks joined afterwards: the memory of these columns, once)
+    n_ok = int(res.status_counts().get("ok", 0))
+    held = {c: np.empty(n_ok, dtype=head[c].dtype if c in head.columns else np.float64) for c in cols}
+    ok_v = np.empty(n_ok, dtype=np.int64)
+    lo, hi, filled = 0, n_ok, 0  # held[:lo]: buildable (lo counts up); held[hi:]: screened out (hi counts down)
     finite = dict.fromkeys(stored, False)
     kept = np.zeros(N, dtype=bool) if where is not None else None
     counts = {k: 0 for k in reason_masks(head.iloc[:0], screen)}  # the reasons every frame lists, first
@@ -185,7 +189,11 @@ def _scan(res, head, stored, where, by_score: bool, listed: int = REASON_LIST) -
     for df in res.frame_blocks():
         ok = ok_mask(df)
         variants = df["variant"].to_numpy(dtype=np.int64)
-        ok_parts.append(variants[ok])
+        k = int(ok.sum())
+        if filled + k > n_ok:
+            raise RuntimeError(f"{res.filename}: more ok rows in the frame than ok status codes ({n_ok:,})")
+        ok_v[filled:filled + k] = variants[ok]
+        filled += k
         for m in stored:
             if not finite[m]:
                 finite[m] = bool(np.isfinite(df[m].to_numpy(dtype=np.float64)[ok]).any())
@@ -197,23 +205,29 @@ def _scan(res, head, stored, where, by_score: bool, listed: int = REASON_LIST) -
             if len(got) < listed:
                 got.extend(int(v) for v in variants[mask][:listed - len(got)])
         b = df["buildable"].to_numpy(dtype=bool) if "buildable" in df.columns else np.ones(len(df), dtype=bool)
-        for k, m in (("buildable", ok & b), ("screened", ok & ~b)):
-            for c in cols:
-                parts[k][c].append(df[c].to_numpy()[m].copy())
+        kb, ks = int((ok & b).sum()), int((ok & ~b).sum())
+        for c in cols:
+            x = df[c].to_numpy()
+            held[c][lo:lo + kb] = x[ok & b]
+            held[c][hi - ks:hi] = x[ok & ~b]
+        lo, hi = lo + kb, hi - ks
         del df
+    if filled != n_ok:
+        raise RuntimeError(f"{res.filename}: {filled:,} ok rows in the frame, {n_ok:,} ok status codes")
     # the screen's checks in their own order (a check first met in a later block too), then the failures
     # in the order the variants first meet them, as reason_masks lists them for the whole frame
     checks = [f"screened out: {c.name}" for c in CHECKS]
     base = [k for k in ("ok, buildable", "screened out (any check)") if k in counts]
     keys = base + [k for k in checks if k in counts] + [k for k in counts if k not in base and k not in checks]
     counts = {k: counts[k] for k in keys}
+    back = np.argsort(held["variant"][hi:], kind="stable")  # the screened-out blocks came in back to front
     ranked = {}
-    for k, got in parts.items():
-        joined = {c: (np.concatenate(got.pop(c)) if got[c] else head[c].to_numpy()[:0]) for c in list(got)}
-        ranked[k] = pd.DataFrame(joined, copy=False) if by_score else joined["variant"]
-        del joined
-    ok_v = np.concatenate(ok_parts) if ok_parts else np.zeros(0, dtype=np.int64)
-    return _Scan(n_ok=len(ok_v), ok=ok_v, finite=finite, kept=kept, ranked=ranked, counts=counts,
+    for k, part in (("buildable", slice(0, lo)), ("screened", slice(hi, n_ok))):
+        joined = {c: (v[part] if k == "buildable" else v[part][back]) for c, v in held.items()}
+        # the ranked metrics without the variant numbers: rank() breaks ties by row, here in variant order too
+        ranked[k] = (joined.pop("variant"), pd.DataFrame(joined, copy=False) if by_score else None)
+    del held, joined
+    return _Scan(n_ok=n_ok, ok=ok_v, finite=finite, kept=kept, ranked=ranked, counts=counts,
                  first={k: first.get(k, []) for k in counts})
 
 
@@ -225,16 +239,18 @@ def _ranked_ok(scan: _Scan, by_score: bool):
     ones by variant (no scores)."""
     ok = scan.ok
     if not by_score:
-        b = scan.ranked["buildable"]
+        b = scan.ranked["buildable"][0]
         return ok, (b, np.full(len(b), np.nan), np.arange(1, len(b) + 1))
-    got = rank(scan.ranked.pop("buildable"), top=None)  # only ok rows that pass the screen: rank's own filter
-    ranked = (got["variant"].to_numpy(dtype=np.int64), got["score"].to_numpy(dtype=np.float64),
+    variants, frame = scan.ranked.pop("buildable")  # the ok rows that pass the screen: rank()'s own filter
+    got = rank(frame, top=None)
+    del frame
+    ranked = (variants[got.index.to_numpy()], got["score"].to_numpy(dtype=np.float64),
               got["rank"].to_numpy(dtype=np.int64))
     del got
     pos = ranked[0]
-    screened = scan.ranked.pop("screened")
+    variants, screened = scan.ranked.pop("screened")
     if len(screened):
-        pos = np.r_[pos, rank(screened, top=None)["variant"].to_numpy(dtype=np.int64)]
+        pos = np.r_[pos, variants[rank(screened, top=None).index.to_numpy()]]
     del screened
     rest = np.setdiff1d(ok, pos)  # whatever rank() leaves out (it ranks NaN scores last) comes last, by variant
     return np.r_[pos, rest].astype(np.int64), ranked
@@ -273,7 +289,9 @@ def _f32(a) -> np.ndarray:
 
 
 def _b64(a: np.ndarray) -> str:
-    return base64.b64encode(np.ascontiguousarray(a).astype(a.dtype.newbyteorder("<")).tobytes()).decode("ascii")
+    """Base64 of ``a``'s little-endian bytes (no copy of a contiguous little-endian array)."""
+    a = np.ascontiguousarray(a).astype(a.dtype.newbyteorder("<"), copy=False)
+    return base64.b64encode(a.reshape(-1).view(np.uint8)).decode("ascii")
 
 
 def read_foot_paths(res, variants, points: int = DEFAULT_POINTS, vertex: str | None = None) -> np.ndarray:
@@ -655,7 +673,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         "n_variants": N, "n_ok": n_ok, "n_kept": n_kept, "where": where, "n_designs": n, "sampled": bool(sampled), "seed": int(seed),
         "max_designs": max_designs, "columns": columns, "x": sx, "y": sy, "metrics": mets, "params": params,
         "by_score": by_score, "variant": _b64(variant.astype(np.int32)),
-        "table": _b64(np.concatenate(table) if table else np.zeros(0, np.float32)),
+        "table": _b64(_joined(table)),
         "pc_order": _b64(pc_order), "pc_lines": min(pc_lines, n), "pc_lines_software": min(PC_LINES_SOFTWARE, n), "shown": shown, "n_paths": n_paths,
         "points": npts, "paths": blob, "scale": scale, "nominal_path": nominal_path, "reasons": reasons,
         "nominal": nominal_values, "foot": vname, "dropped": dropped, "closed": mech.crank is not None,
@@ -726,6 +744,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     options = "".join(f"<option value='{html.escape(m)}'>{html.escape(_axis_label(m))}</option>" for m in mets)
     fig_scripts = "\n".join(
         f"<script type='application/json' id='fig-{k}'>{_script_safe(v)}</script>" for k, v in fig_json.items())
+    data_json = _script_safe(json.dumps(data))
+    data = table = None  # the page's columns live on in data_json alone
     page = _TEMPLATE.format(
         title=html.escape(page_title), plotlyjs=get_plotlyjs(), css=_CSS, js=_JS,
         heading=html.escape(f"{name} — {mech.name}"),
@@ -735,11 +755,12 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         pool=(f"the ok ones: {n_ok:,} of {N:,} variants" if where is None else
               html.escape(f"the ok ones where {where}: {n_kept:,} of the {n_ok:,} ok, {N:,} variants")), sample_note=where_note + sample_note + dropped_note + units_note + off_note,
         order_note=order_note, options=options, reason_table=tables, axes_rows=axes_rows, no_scatter=no_scatter,
-        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data=_script_safe(json.dumps(data)),
+        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data=data_json,
         figs=fig_scripts, results=html.escape(str(res.filename)), foot=html.escape(str(vname or "-")),
         vs_section=vs_section, ref_label=html.escape(ref_label), pc_width=PC_AXIS_WIDTH * len(dims) + 100,
         points=npts)
-    rep = Report(path=None, bytes=len(page.encode("utf-8")), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
+    del data_json
+    rep = Report(path=None, bytes=_utf8_size(page), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
                  n_paths=n_paths, parameters=params, metrics=mets, counts=counts, where=where, n_kept=n_kept)
     return page, rep
 
@@ -806,6 +827,34 @@ def _vs_section(ranked, rows_of, ref: int, ref_label: str, ref_ok: bool, keys, u
             f"compares one design metric by metric.</p><table id='vs'>{head}{''.join(body)}</table>{notes}</div>")
 
 
+#: Characters of the page encoded at a time (a 25 MB page is not copied whole to count or write its bytes).
+TEXT_PIECE = 1 << 20
+
+
+def _utf8_size(text: str) -> int:
+    """The size of ``text`` in UTF-8, in bytes, encoded :data:`TEXT_PIECE` characters at a time."""
+    return sum(len(text[i:i + TEXT_PIECE].encode("utf-8")) for i in range(0, len(text), TEXT_PIECE))
+
+
+def _write_text(path, text: str) -> None:
+    """``path.write_text(text, encoding="utf-8")``, :data:`TEXT_PIECE` characters at a time."""
+    with open(path, "w", encoding="utf-8") as fh:
+        for i in range(0, len(text), TEXT_PIECE):
+            fh.write(text[i:i + TEXT_PIECE])
+
+
+def _joined(parts: list) -> np.ndarray:
+    """The float32 arrays ``parts`` end to end, each let go of (the list emptied) once it is copied."""
+    out = np.empty(sum(len(p) for p in parts), dtype=np.float32)
+    i = 0
+    parts.reverse()
+    while parts:
+        p = parts.pop()
+        out[i:i + len(p)] = p
+        i += len(p)
+    return out
+
+
 def _script_safe(text: str) -> str:
     """JSON text that can sit inside a <script> element (no "</script>", no "<!--")."""
     return text.replace("</", "<\\/").replace("<!--", "<\\!--")
@@ -870,7 +919,7 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
         res, metrics=metrics, max_designs=max_designs, paths=paths, shown=shown, points=points,
         reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines, vs=vs, units=units,
         where=where))
-    write_replacing(out, lambda tmp: tmp.write_text(page, encoding="utf-8"))
+    write_replacing(out, lambda tmp: _write_text(tmp, page))
     rep.path = out
     rep.bytes = out.stat().st_size
     return rep
