@@ -416,7 +416,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
                  shown: int = DEFAULT_SHOWN, points: int = DEFAULT_POINTS, reason_paths: int = DEFAULT_REASON_PATHS,
                  seed: int = 0, x: str | None = None, y: str | None = None, title: str | None = None,
                  pc_lines: int = DEFAULT_PC_LINES, vs: int = 0, units: str = "model", where: str | None = None):
-    """(html text, :class:`Report` with path None) of an open results file; see :func:`write_report`."""
+    """(the page, a :class:`_Page` (``.text()``: the HTML; ``.write(path)``), :class:`Report` with path None) of an
+    open results file; see :func:`write_report`."""
     from .._extras import require
     require("plotly", "explorer report")
     import plotly.graph_objects as go
@@ -565,6 +566,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         ticktext=["screened out", "yes"], description="passes the buildability screen (yes) or is screened out")
     add("pick", "scatter pick", "flag", np.ones(n), range=[0, 1], tickvals=[0, 1], ticktext=["out", "in"],
         description="inside the box or lasso drawn in the scatter (all in while none is drawn)")
+    del rows, shown_rows, order  # the views' rows live on in the table alone
     # the parallel coordinates draw at most pc_lines designs: the first of a seeded random order of the rows
     # (any prefix of it is a uniform sample: the page may draw fewer); brushes count every design
     pc_order = np.random.default_rng(seed + 1).permutation(n)[:pc_lines].astype(np.int32)
@@ -673,7 +675,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         "n_variants": N, "n_ok": n_ok, "n_kept": n_kept, "where": where, "n_designs": n, "sampled": bool(sampled), "seed": int(seed),
         "max_designs": max_designs, "columns": columns, "x": sx, "y": sy, "metrics": mets, "params": params,
         "by_score": by_score, "variant": _b64(variant.astype(np.int32)),
-        "table": _b64(_joined(table)),
+        "table": "",  # its base64 goes in as the page is written (_Page), never whole in memory
         "pc_order": _b64(pc_order), "pc_lines": min(pc_lines, n), "pc_lines_software": min(PC_LINES_SOFTWARE, n), "shown": shown, "n_paths": n_paths,
         "points": npts, "paths": blob, "scale": scale, "nominal_path": nominal_path, "reasons": reasons,
         "nominal": nominal_values, "foot": vname, "dropped": dropped, "closed": mech.crank is not None,
@@ -744,8 +746,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     options = "".join(f"<option value='{html.escape(m)}'>{html.escape(_axis_label(m))}</option>" for m in mets)
     fig_scripts = "\n".join(
         f"<script type='application/json' id='fig-{k}'>{_script_safe(v)}</script>" for k, v in fig_json.items())
+    table = _joined(table)
     data_json = _script_safe(json.dumps(data))
-    data = table = None  # the page's columns live on in data_json alone
+    data = None
     page = _TEMPLATE.format(
         title=html.escape(page_title), plotlyjs=get_plotlyjs(), css=_CSS, js=_JS,
         heading=html.escape(f"{name} — {mech.name}"),
@@ -755,12 +758,13 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         pool=(f"the ok ones: {n_ok:,} of {N:,} variants" if where is None else
               html.escape(f"the ok ones where {where}: {n_kept:,} of the {n_ok:,} ok, {N:,} variants")), sample_note=where_note + sample_note + dropped_note + units_note + off_note,
         order_note=order_note, options=options, reason_table=tables, axes_rows=axes_rows, no_scatter=no_scatter,
-        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data=data_json,
+        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data="\x00",
         figs=fig_scripts, results=html.escape(str(res.filename)), foot=html.escape(str(vname or "-")),
         vs_section=vs_section, ref_label=html.escape(ref_label), pc_width=PC_AXIS_WIDTH * len(dims) + 100,
         points=npts)
-    del data_json
-    rep = Report(path=None, bytes=_utf8_size(page), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
+    page = _Page.around(page, data_json, table)
+    data_json = table = None
+    rep = Report(path=None, bytes=page.size(), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
                  n_paths=n_paths, parameters=params, metrics=mets, counts=counts, where=where, n_kept=n_kept)
     return page, rep
 
@@ -836,13 +840,6 @@ def _utf8_size(text: str) -> int:
     return sum(len(text[i:i + TEXT_PIECE].encode("utf-8")) for i in range(0, len(text), TEXT_PIECE))
 
 
-def _write_text(path, text: str) -> None:
-    """``path.write_text(text, encoding="utf-8")``, :data:`TEXT_PIECE` characters at a time."""
-    with open(path, "w", encoding="utf-8") as fh:
-        for i in range(0, len(text), TEXT_PIECE):
-            fh.write(text[i:i + TEXT_PIECE])
-
-
 def _joined(parts: list) -> np.ndarray:
     """The float32 arrays ``parts`` end to end, each let go of (the list emptied) once it is copied."""
     out = np.empty(sum(len(p) for p in parts), dtype=np.float32)
@@ -853,6 +850,62 @@ def _joined(parts: list) -> np.ndarray:
         out[i:i + len(p)] = p
         i += len(p)
     return out
+
+
+def _b64_pieces(a: np.ndarray):
+    """The base64 text of ``a``'s bytes (:func:`_b64`) in pieces of about :data:`TEXT_PIECE` characters (each
+    piece encodes a whole number of 3-byte groups, so the pieces end to end are the base64 of the whole)."""
+    raw = np.ascontiguousarray(a).reshape(-1).view(np.uint8)
+    step = 3 * (TEXT_PIECE // 4)
+    for i in range(0, len(raw), step):
+        yield base64.b64encode(raw[i:i + step]).decode("ascii")
+
+
+@dataclass
+class _Page:
+    """The report page as the text before the views' table, the table (float32, little-endian; base64 in the
+    page) and the text after it: written a piece at a time (:meth:`write`), so that the table's base64 (a
+    third larger than the table) is never held whole."""
+
+    head: str
+    table: np.ndarray
+    tail: str
+
+    #: The template's slot of the page's data (the JSON of the views), filled with a NUL (:data:`DATA`) first:
+    #: no text of the page can hold it (JSON escapes a NUL, html.escape the quotes and brackets).
+    DATA = "\x00"
+    SLOT = 'id="report-data">' + DATA + "</script>"
+    #: The table's (empty) entry in that JSON: JSON escapes the quotes of any text, so only the entry reads so.
+    TABLE = '"table": ""'
+
+    @classmethod
+    def around(cls, page: str, data_json: str, table: np.ndarray) -> "_Page":
+        """The page of ``page`` (the template's text, :data:`DATA` in its data slot), ``data_json`` (the data,
+        :data:`TABLE` where the table's base64 goes) and ``table``."""
+        head, slot, tail = page.partition(cls.SLOT)
+        before, mark, after = data_json.partition(cls.TABLE)
+        if not slot or not mark:
+            raise RuntimeError("report: the page's template has no data slot, or the data no table entry")
+        table = np.ascontiguousarray(table).astype(table.dtype.newbyteorder("<"), copy=False)
+        return cls(head + slot[:-len(cls.DATA + "</script>")] + before + cls.TABLE[:-1], table,
+                   cls.TABLE[-1:] + after + slot[-len("</script>"):] + tail)
+
+    def size(self) -> int:
+        """The page's size in UTF-8, bytes."""
+        return _utf8_size(self.head) + 4 * -(-self.table.nbytes // 3) + _utf8_size(self.tail)
+
+    def text(self) -> str:
+        """The whole page as one string."""
+        return self.head + "".join(_b64_pieces(self.table)) + self.tail
+
+    def write(self, path) -> None:
+        """Write the page to ``path`` (UTF-8), a piece at a time."""
+        with open(path, "w", encoding="utf-8") as fh:
+            for text in (self.head, None, self.tail):
+                pieces = _b64_pieces(self.table) if text is None else (
+                    text[i:i + TEXT_PIECE] for i in range(0, len(text), TEXT_PIECE))
+                for piece in pieces:
+                    fh.write(piece)
 
 
 def _script_safe(text: str) -> str:
@@ -876,7 +929,7 @@ def _reason_table(reasons, counts, N) -> str:
 def report_html(results, **kw) -> str:
     """The report page of ``results`` (an open results file or a path) as one HTML string (keyword
     arguments as :func:`write_report`)."""
-    return _with_results(results, lambda res: build_report(res, **kw)[0])
+    return _with_results(results, lambda res: build_report(res, **kw)[0].text())
 
 
 def _with_results(results, fn):
@@ -919,7 +972,7 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
         res, metrics=metrics, max_designs=max_designs, paths=paths, shown=shown, points=points,
         reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines, vs=vs, units=units,
         where=where))
-    write_replacing(out, lambda tmp: _write_text(tmp, page))
+    write_replacing(out, page.write)
     rep.path = out
     rep.bytes = out.stat().st_size
     return rep
