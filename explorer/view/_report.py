@@ -61,8 +61,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .._memory import release
 from ..errors import UserError
-from ..gait import BY_NAME, CHECKS, DEFAULT_WEIGHTS, SCREEN_INPUTS, METRICS, SPEED, change_pct, operating_line, rank, results_si, verdict
+from ..gait import (BY_NAME, CHECKS, DEFAULT_WEIGHTS, SCREEN_INPUTS, METRICS, SPEED, change_pct, operating_line, rank_order,
+                    results_si, verdict)
 
 #: Above this many ok designs the linked views show a seeded uniform sample of them.
 DEFAULT_MAX_DESIGNS = 100_000
@@ -242,15 +244,13 @@ def _ranked_ok(scan: _Scan, by_score: bool):
         b = scan.ranked["buildable"][0]
         return ok, (b, np.full(len(b), np.nan), np.arange(1, len(b) + 1))
     variants, frame = scan.ranked.pop("buildable")  # the ok rows that pass the screen: rank()'s own filter
-    got = rank(frame, top=None)
+    at, score = rank_order(frame)  # rank(frame, top=None) without its rows: positions (the frame's index)
     del frame
-    ranked = (variants[got.index.to_numpy()], got["score"].to_numpy(dtype=np.float64),
-              got["rank"].to_numpy(dtype=np.int64))
-    del got
+    ranked = (variants[at], score, np.arange(1, len(at) + 1))
     pos = ranked[0]
     variants, screened = scan.ranked.pop("screened")
     if len(screened):
-        pos = np.r_[pos, variants[rank(screened, top=None).index.to_numpy()]]
+        pos = np.r_[pos, variants[rank_order(screened)[0]]]
     del screened
     rest = np.setdiff1d(ok, pos)  # whatever rank() leaves out (it ranks NaN scores last) comes last, by variant
     return np.r_[pos, rest].astype(np.int64), ranked
@@ -470,6 +470,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         return _unit_text(meta.unit) if meta else "model units"
 
     order, ranked = _ranked_ok(scan, by_score)
+    release()  # the ranked columns' memory, back to the system before the views' rows are read
     if where is not None:  # the views hold the ok designs the filter keeps, in the same order
         order = order[scan.kept[order]]
     n_kept = len(order)
@@ -481,10 +482,52 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         pick = np.sort(rng.choice(n_kept, size=max_designs, replace=False))
         order = order[pick]
     n = len(order)
+    # -- foot paths: read first, while little else is held (a lean file re-solves them) ------------------------
+    counts = scan.counts
+    has_paths = bool(res.vertices)
+    n_paths = min(paths, n) if has_paths else 0
+    path_variants = [int(v) for v in order[:n_paths]]
+    nominal_path = None
+    reasons = []
+    for key, count in counts.items():
+        if key == "ok, buildable":
+            continue
+        vs = scan.first[key]
+        kind, _, what = key.partition(": ")
+        text = (_CHECK_TEXT.get(what, "") if kind == "screened out" else
+                _STATUS_TEXT.get(what, "") if kind == "failed" else
+                _STATUS_TEXT["not-run"] if key == "not run yet" else
+                "fails at least one check of the buildability screen (each is counted below)")
+        entry = {"key": key, "count": count, "text": text, "variants": [int(v) for v in vs[:REASON_LIST]],
+                 "paths": [], "path_variants": []}
+        if has_paths:
+            take = [int(v) for v in vs[:reason_paths]]
+            entry["paths"] = list(range(len(path_variants), len(path_variants) + len(take)))
+            entry["path_variants"] = take
+            path_variants += take
+        reasons.append(entry)
+    if has_paths:
+        nominal_path = len(path_variants)
+        path_variants.append(ref)
+    vname = None
+    blob, path_scale, npts = "", [0.0, 0.0, 1.0, 1.0], 0
+    if has_paths:
+        vname = mech.foot if mech.foot in res.vertices else res.vertices[0]
+        P = read_foot_paths(res, path_variants, points, vname)
+        if si is not None:
+            P = P * (si.operating.unit * 1000.0)  # mm
+        npts = P.shape[1]
+        q, path_scale = _quantize(P)
+        blob = _b64(q)
+    release()  # what re-solving the paths let go of
     # the rows in the views, only the columns they show (order: variant numbers, the frame's positions)
     wanted = ["variant", "generation", *params, *(m for m in mets if m != SPEED), "buildable"]
     wanted += ["crank"] if si is not None else []
-    rows = res.frame_rows(order, columns=[c for c in dict.fromkeys(wanted) if c in head.columns])
+    by_variant = np.sort(order)  # read in variant order (no copy to put them in view order), then taken column by column
+    rows = res.frame_rows(by_variant, columns=[c for c in dict.fromkeys(wanted) if c in head.columns])
+    release()
+    at = np.searchsorted(by_variant, order)  # a column's values [at]: in view order
+    del by_variant
     def in_units(variants):
         """The frame rows of ``variants`` in the units shown."""
         got = res.frame_rows(variants)
@@ -493,8 +536,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     shown_rows = rows if si is None else si.apply(rows).frame  # the same rows in the units shown
     ref_row = res.frame_rows([ref])
     ref_shown = ref_row if si is None else si.apply(ref_row).frame
-    variant = rows["variant"].to_numpy(dtype=np.int64)
-    buildable = rows["buildable"].to_numpy(dtype=bool) if "buildable" in rows.columns else np.ones(n, dtype=bool)
+    variant = order
+    buildable = rows["buildable"].to_numpy(dtype=bool)[at] if "buildable" in rows.columns else np.ones(n, dtype=bool)
     rank_col = (pick + 1) if sampled else np.arange(1, n + 1)  # place among every ok design
 
     # -- x, y of the scatter -----------------------------------------------------------------------------
@@ -515,13 +558,14 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
 
     # -- the table of the views: one float32 column per axis, rows in rank order --------------------------
     columns = []
-    table = []
+    # the axes: rank, generation (an optimisation's), the parameters, the metrics, buildable and scatter pick
+    table = np.empty((3 + ("generation" in rows.columns) + len(params) + len(mets), n), dtype=np.float32)
     dims = []
 
     ref_ok = bool(ok_mask(ref_row)[0])
 
     def add(key, label, kind, values, unit="", description="", direction=None, **extra):
-        table.append(_f32(values))
+        table[len(dims)] = _f32(values)
         dims.append(dict(label=label, values=[], **extra))
         meta = BY_NAME.get(key)
         r0 = float(ref_shown[key].iloc[0]) if key in ref_shown.columns and kind in ("parameter", "metric") else math.nan
@@ -533,17 +577,17 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
 
     add("rank", "rank", "rank", rank_col, description="place in the ranking (1 = best; see above)")
     if "generation" in rows.columns:  # an optimisation (explorer optimize): when each design was tried
-        add("generation", "generation", "generation", rows["generation"].to_numpy(dtype=np.float64),
+        add("generation", "generation", "generation", rows["generation"].to_numpy(dtype=np.float64)[at],
             description="the generation of the optimisation that tried the design (0 = the first)")
     for p in params:
         kind = mech.parameter_kind(p)
-        add(p, p, "parameter", shown_rows[p].to_numpy(dtype=np.float64),
-            tickformat=_range_format(shown_rows[p].to_numpy(dtype=np.float64)),
+        vals = shown_rows[p].to_numpy(dtype=np.float64)[at]
+        add(p, p, "parameter", vals, tickformat=_range_format(vals),
             description=("crank radius" if p == "crank" else f"length of link {p}" if kind == "length"
                          else f"coordinate {p}"))
     off_scale = []  # (metric, designs beyond the buildable range, the farthest value): the page says so
     for m in mets:
-        vals = shown_rows[m].to_numpy(dtype=np.float64)
+        vals = shown_rows[m].to_numpy(dtype=np.float64)[at]
         # the screen's own inputs keep their whole span: it shows why designs were screened out
         scale = None if m in SCREEN_INPUTS else axis_scale(vals, buildable)
         extra = dict(tickformat=_range_format(vals if scale is None else np.asarray(scale["range"])))
@@ -566,7 +610,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         ticktext=["screened out", "yes"], description="passes the buildability screen (yes) or is screened out")
     add("pick", "scatter pick", "flag", np.ones(n), range=[0, 1], tickvals=[0, 1], ticktext=["out", "in"],
         description="inside the box or lasso drawn in the scatter (all in while none is drawn)")
-    del rows, shown_rows, order  # the views' rows live on in the table alone
+    del rows, shown_rows, at  # the views' rows live on in the table alone
+    release()
     # the parallel coordinates draw at most pc_lines designs: the first of a seeded random order of the rows
     # (any prefix of it is a uniform sample: the page may draw fewer); brushes count every design
     pc_order = np.random.default_rng(seed + 1).permutation(n)[:pc_lines].astype(np.int32)
@@ -611,42 +656,6 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     sc.update_yaxes(showgrid=True, gridcolor="#e5e5e5", zeroline=False, linecolor="#444", mirror=True)
 
     # -- foot paths ------------------------------------------------------------------------------------------
-    counts = scan.counts
-    has_paths = bool(res.vertices)
-    n_paths = min(paths, n) if has_paths else 0
-    path_variants = [int(v) for v in variant[:n_paths]]
-    nominal_path = None
-    reasons = []
-    for key, count in counts.items():
-        if key == "ok, buildable":
-            continue
-        vs = scan.first[key]
-        kind, _, what = key.partition(": ")
-        text = (_CHECK_TEXT.get(what, "") if kind == "screened out" else
-                _STATUS_TEXT.get(what, "") if kind == "failed" else
-                _STATUS_TEXT["not-run"] if key == "not run yet" else
-                "fails at least one check of the buildability screen (each is counted below)")
-        entry = {"key": key, "count": count, "text": text, "variants": [int(v) for v in vs[:REASON_LIST]],
-                 "paths": [], "path_variants": []}
-        if has_paths:
-            take = [int(v) for v in vs[:reason_paths]]
-            entry["paths"] = list(range(len(path_variants), len(path_variants) + len(take)))
-            entry["path_variants"] = take
-            path_variants += take
-        reasons.append(entry)
-    if has_paths:
-        nominal_path = len(path_variants)
-        path_variants.append(ref)
-    vname = None
-    blob, scale, npts = "", [0.0, 0.0, 1.0, 1.0], 0
-    if has_paths:
-        vname = mech.foot if mech.foot in res.vertices else res.vertices[0]
-        P = read_foot_paths(res, path_variants, points, vname)
-        if si is not None:
-            P = P * (si.operating.unit * 1000.0)  # mm
-        npts = P.shape[1]
-        q, scale = _quantize(P)
-        blob = _b64(q)
     nom_xy = P[nominal_path] if has_paths else np.zeros((0, 2))
     loop = has_paths and mech.crank is not None and np.isfinite(nom_xy).all()  # a path driver's path is no loop
     closed = np.vstack([nom_xy, nom_xy[:1]]) if loop else nom_xy
@@ -677,7 +686,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         "by_score": by_score, "variant": _b64(variant.astype(np.int32)),
         "table": "",  # its base64 goes in as the page is written (_Page), never whole in memory
         "pc_order": _b64(pc_order), "pc_lines": min(pc_lines, n), "pc_lines_software": min(PC_LINES_SOFTWARE, n), "shown": shown, "n_paths": n_paths,
-        "points": npts, "paths": blob, "scale": scale, "nominal_path": nominal_path, "reasons": reasons,
+        "points": npts, "paths": blob, "scale": path_scale, "nominal_path": nominal_path, "reasons": reasons,
         "nominal": nominal_values, "foot": vname, "dropped": dropped, "closed": mech.crank is not None,
         "reference": {"variant": ref, "label": ref_label, "ok": ref_ok,
                       "place": (str(int(rank_col[np.flatnonzero(variant == ref)[0]])) if (variant == ref).any() else "-")}, "units": "si" if si is not None else "model",
@@ -746,11 +755,13 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     options = "".join(f"<option value='{html.escape(m)}'>{html.escape(_axis_label(m))}</option>" for m in mets)
     fig_scripts = "\n".join(
         f"<script type='application/json' id='fig-{k}'>{_script_safe(v)}</script>" for k, v in fig_json.items())
-    table = _joined(table)
+    if len(dims) != len(table):
+        raise RuntimeError(f"report: {len(dims)} axes for a table of {len(table)}")
+    table = table.reshape(-1)  # column after column
     data_json = _script_safe(json.dumps(data))
     data = None
-    page = _TEMPLATE.format(
-        title=html.escape(page_title), plotlyjs=get_plotlyjs(), css=_CSS, js=_JS,
+    page = _Page.of(_TEMPLATE, get_plotlyjs(), data_json, table, dict(
+        title=html.escape(page_title), css=_CSS, js=_JS,
         heading=html.escape(f"{name} — {mech.name}"),
         meta=html.escape(f"{res.filename} · {N:,} variants × {res.steps} steps · {n_ok:,} ok · explorer {__version__} "
                          f"· {created}"),
@@ -758,11 +769,10 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         pool=(f"the ok ones: {n_ok:,} of {N:,} variants" if where is None else
               html.escape(f"the ok ones where {where}: {n_kept:,} of the {n_ok:,} ok, {N:,} variants")), sample_note=where_note + sample_note + dropped_note + units_note + off_note,
         order_note=order_note, options=options, reason_table=tables, axes_rows=axes_rows, no_scatter=no_scatter,
-        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data="\x00",
+        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown,
         figs=fig_scripts, results=html.escape(str(res.filename)), foot=html.escape(str(vname or "-")),
         vs_section=vs_section, ref_label=html.escape(ref_label), pc_width=PC_AXIS_WIDTH * len(dims) + 100,
-        points=npts)
-    page = _Page.around(page, data_json, table)
+        points=npts))
     data_json = table = None
     rep = Report(path=None, bytes=page.size(), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
                  n_paths=n_paths, parameters=params, metrics=mets, counts=counts, where=where, n_kept=n_kept)
@@ -840,18 +850,6 @@ def _utf8_size(text: str) -> int:
     return sum(len(text[i:i + TEXT_PIECE].encode("utf-8")) for i in range(0, len(text), TEXT_PIECE))
 
 
-def _joined(parts: list) -> np.ndarray:
-    """The float32 arrays ``parts`` end to end, each let go of (the list emptied) once it is copied."""
-    out = np.empty(sum(len(p) for p in parts), dtype=np.float32)
-    i = 0
-    parts.reverse()
-    while parts:
-        p = parts.pop()
-        out[i:i + len(p)] = p
-        i += len(p)
-    return out
-
-
 def _b64_pieces(a: np.ndarray):
     """The base64 text of ``a``'s bytes (:func:`_b64`) in pieces of about :data:`TEXT_PIECE` characters (each
     piece encodes a whole number of 3-byte groups, so the pieces end to end are the base64 of the whole)."""
@@ -863,49 +861,51 @@ def _b64_pieces(a: np.ndarray):
 
 @dataclass
 class _Page:
-    """The report page as the text before the views' table, the table (float32, little-endian; base64 in the
-    page) and the text after it: written a piece at a time (:meth:`write`), so that the table's base64 (a
-    third larger than the table) is never held whole."""
+    """The report page as its pieces: text, or an array whose bytes the page holds in base64 (the views'
+    table). Written a piece at a time (:meth:`write`), so that neither the whole page nor the table's base64
+    (a third larger than the table) is ever held, nor plotly.js (4.8 MB) copied."""
 
-    head: str
-    table: np.ndarray
-    tail: str
+    pieces: list
 
-    #: The template's slot of the page's data (the JSON of the views), filled with a NUL (:data:`DATA`) first:
-    #: no text of the page can hold it (JSON escapes a NUL, html.escape the quotes and brackets).
-    DATA = "\x00"
-    SLOT = 'id="report-data">' + DATA + "</script>"
-    #: The table's (empty) entry in that JSON: JSON escapes the quotes of any text, so only the entry reads so.
+    #: The table's (empty) entry in the page's data (JSON): JSON escapes the quotes of any text, so only the
+    #: entry itself reads so.
     TABLE = '"table": ""'
 
     @classmethod
-    def around(cls, page: str, data_json: str, table: np.ndarray) -> "_Page":
-        """The page of ``page`` (the template's text, :data:`DATA` in its data slot), ``data_json`` (the data,
-        :data:`TABLE` where the table's base64 goes) and ``table``."""
-        head, slot, tail = page.partition(cls.SLOT)
+    def of(cls, template: str, plotlyjs: str, data_json: str, table: np.ndarray, fields: dict) -> "_Page":
+        """The page of ``template`` (a str.format text with one ``{plotlyjs}`` and, after it, one ``{data}``)
+        with ``fields``, plotly.js, the data (``data_json``: :data:`TABLE` where the table's base64 goes)
+        and ``table``."""
+        start, rest = template.split("{plotlyjs}")
+        middle, end = rest.split("{data}")
         before, mark, after = data_json.partition(cls.TABLE)
-        if not slot or not mark:
-            raise RuntimeError("report: the page's template has no data slot, or the data no table entry")
+        if not mark:
+            raise RuntimeError("report: the page's data has no table entry")
         table = np.ascontiguousarray(table).astype(table.dtype.newbyteorder("<"), copy=False)
-        return cls(head + slot[:-len(cls.DATA + "</script>")] + before + cls.TABLE[:-1], table,
-                   cls.TABLE[-1:] + after + slot[-len("</script>"):] + tail)
+        return cls([start.format(**fields), plotlyjs, middle.format(**fields) + before + mark[:-1], table,
+                    mark[-1:] + after + end.format(**fields)])
+
+    @staticmethod
+    def _parts(piece):
+        """A piece as text of about :data:`TEXT_PIECE` characters at a time."""
+        if isinstance(piece, np.ndarray):
+            return _b64_pieces(piece)
+        return (piece[i:i + TEXT_PIECE] for i in range(0, len(piece), TEXT_PIECE))
 
     def size(self) -> int:
         """The page's size in UTF-8, bytes."""
-        return _utf8_size(self.head) + 4 * -(-self.table.nbytes // 3) + _utf8_size(self.tail)
+        return sum(4 * -(-p.nbytes // 3) if isinstance(p, np.ndarray) else _utf8_size(p) for p in self.pieces)
 
     def text(self) -> str:
         """The whole page as one string."""
-        return self.head + "".join(_b64_pieces(self.table)) + self.tail
+        return "".join(part for p in self.pieces for part in self._parts(p))
 
     def write(self, path) -> None:
         """Write the page to ``path`` (UTF-8), a piece at a time."""
         with open(path, "w", encoding="utf-8") as fh:
-            for text in (self.head, None, self.tail):
-                pieces = _b64_pieces(self.table) if text is None else (
-                    text[i:i + TEXT_PIECE] for i in range(0, len(text), TEXT_PIECE))
-                for piece in pieces:
-                    fh.write(piece)
+            for p in self.pieces:
+                for part in self._parts(p):
+                    fh.write(part)
 
 
 def _script_safe(text: str) -> str:
