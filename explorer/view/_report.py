@@ -256,6 +256,16 @@ def _ranked_ok(scan: _Scan, by_score: bool):
     return np.r_[pos, rest].astype(np.int64), ranked
 
 
+def _best(ranked, ref: int):
+    """What the table against the reference needs of the buildable designs' ranking ``ranked`` (variants,
+    scores, places in rank order: :func:`_ranked_ok`): (the first :data:`VS_ROWS` variants, their scores,
+    their places; how many are ranked; the reference's (place, score), None where it is not ranked)."""
+    pos, score, places = ranked
+    at = np.flatnonzero(pos == ref)
+    return (pos[:VS_ROWS].copy(), score[:VS_ROWS].copy(), places[:VS_ROWS].copy(), len(pos),
+            (int(places[at[0]]), float(score[at[0]])) if len(at) else None)
+
+
 def reason_masks(df, screen) -> dict:
     """{reason: (n,) bool} over the rows of a results frame: "ok, buildable", "screened out (any
     check)", "screened out: CHECK" per applied check of the buildability screen (a row may fail
@@ -470,6 +480,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         return _unit_text(meta.unit) if meta else "model units"
 
     order, ranked = _ranked_ok(scan, by_score)
+    best = _best(ranked, ref)
+    del ranked
+    scan.ok = scan.ranked = None  # what the rest needs of the pass: the counts, the first variants, the filter
     release()  # the ranked columns' memory, back to the system before the views' rows are read
     if where is not None:  # the views hold the ok designs the filter keeps, in the same order
         order = order[scan.kept[order]]
@@ -739,7 +752,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         yield_note = (f"yield: the share of copies, {rb.describe()}, that turn and pass the buildability screen "
                       f"(binomial standard error √(p(1 − p)/{rb.copies}): ±{math.sqrt(0.25 / rb.copies):.3f} at "
                       f"most).")
-    vs_section = _vs_section(ranked, in_units, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys},
+    vs_section = _vs_section(best, in_units, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys},
                              by_score, None if si is None else {c: si.units[c] for c in si.converted}, yield_note)
     if physics:  # the designs `explorer physics` checked, beside their kinematic figures
         from ..physics._compare import report_panel
@@ -779,19 +792,19 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     return page, rep
 
 
-def _vs_section(ranked, rows_of, ref: int, ref_label: str, ref_ok: bool, keys, units: dict, by_score: bool,
+def _vs_section(best, rows_of, ref: int, ref_label: str, ref_ok: bool, keys, units: dict, by_score: bool,
                 verdict_units: dict | None = None, yield_note: str = "") -> str:
     """The table of the best-ranked buildable designs against the reference (as ``explorer rank --change``
     prints it): for each metric of ``keys`` its value (in the units shown) and the change against the
     reference's in %, the reference last, marked with its own place; then the walker score of both and a
     verdict of the best design against the reference (as ``explorer show``; its values followed by
-    ``verdict_units``' unit where it names one). ``ranked``: (variants, scores, places) of the buildable
-    designs in rank order (:func:`_ranked_ok`); ``rows_of(variants)``: their frame rows in the units shown."""
+    ``verdict_units``' unit where it names one). ``best``: the buildable designs' ranking as :func:`_best`
+    keeps it; ``rows_of(variants)``: their frame rows in the units shown."""
     esc = html.escape
-    pos, score, places = ranked
+    pos, score, places, n_pool, ref_at = best
     if not keys:
         return ""
-    top = [int(v) for v in pos[:VS_ROWS]]
+    top = [int(v) for v in pos]
     shown = rows_of(top + [ref])  # the rows of the table, the reference's last
     ref_row = shown.iloc[-1]
     r0 = {k: float(ref_row[k]) if ref_ok else math.nan for k in keys}
@@ -814,18 +827,17 @@ def _vs_section(ranked, rows_of, ref: int, ref_label: str, ref_ok: bool, keys, u
         sc = f"<td class='num'>{score[j]:.3f}</td>" if by_score else ""
         body.append(f"<tr class='vs' data-variant='{v}'><td>{int(places[j])}</td>"
                     f"<td>{v}</td>{sc}{cells(shown.iloc[j])}</tr>")
-    at = np.flatnonzero(pos == ref)
-    place = f"{int(places[at[0]])}" if len(at) else "-"
-    sc = (f"<td class='num'>{score[at[0]]:.3f}</td>" if len(at) else "<td class='num'>-</td>") if by_score else ""
+    place = f"{ref_at[0]}" if ref_at else "-"
+    sc = (f"<td class='num'>{ref_at[1]:.3f}</td>" if ref_at else "<td class='num'>-</td>") if by_score else ""
     body.append(f"<tr class='ref' data-variant='{ref}' data-place='{place}'><td>{esc(ref_label)}: {place}</td>"
                 f"<td>{ref}</td>{sc}{cells(ref_row)}</tr>")
-    pool = f"{len(pos):,} buildable designs"
+    pool = f"{n_pool:,} buildable designs"
     lines = []
     if by_score:
-        ref_score = (f"the {ref_label}'s walker score is {score[at[0]]:.3f}, rank {place} of {pool}" if len(at)
+        ref_score = (f"the {ref_label}'s walker score is {ref_at[1]:.3f}, rank {place} of {pool}" if ref_at
                      else f"the {ref_label} is not ranked (failed or screened out)")
         lines.append(f"Ranked by the walker score ({', '.join(DEFAULT_WEIGHTS)}; 1 = best); {ref_score}.")
-    if len(pos) and ref_ok and int(pos[0]) != ref:
+    if n_pool and ref_ok and int(pos[0]) != ref:
         lines.append(f"Design #1 (variant {int(pos[0])}): "
                      + verdict(shown.iloc[0], ref_row, ref_label, keys, verdict_units) + ".")
     elif not ref_ok:
@@ -835,7 +847,7 @@ def _vs_section(ranked, rows_of, ref: int, ref_label: str, ref_ok: bool, keys, u
     if yield_note:
         notes += f"<p class='note' id='vs-yield'>{esc(yield_note)}</p>"
     return (f"<div class='panel' id='vs-panel'><h2>The best designs against the {esc(ref_label)}</h2>"
-            f"<p class='note'>The {min(VS_ROWS, len(pos))} best-ranked of the {pool}, each metric with its change "
+            f"<p class='note'>The {len(pos)} best-ranked of the {pool}, each metric with its change "
             f"against the {esc(ref_label)} in % of its value (Δ % = 100·(value − reference)/|reference|); the last row "
             f"is the {esc(ref_label)} with its place in the ranking. <code>explorer show RESULTS --variant V --vs {ref}</code> "
             f"compares one design metric by metric.</p><table id='vs'>{head}{''.join(body)}</table>{notes}</div>")
