@@ -6,6 +6,10 @@ page must hold what the whole frame gives, computed here plainly with pandas and
 then the screened-out ones by their own score), the seeded sample and the filter, every axis' values, the
 counts by reason and each reason's first variants, the table against the reference (its rows, places,
 scores and values). And the report never reads the whole frame.
+
+``plot --scatter`` above ``SCATTER_POINTS`` points (patched small here) draws each cloud as a density: the
+cells' counts add up to the designs pandas counts, each design in the cell its values fall in, the Pareto
+front is the brute-force one, and the figure says so.
 """
 
 from __future__ import annotations
@@ -187,3 +191,40 @@ def test_report_never_reads_the_whole_frame(path, tmp_path, monkeypatch):
     monkeypatch.setattr(Results, "frame", frame)
     rep = write_report(path, tmp_path / "r.html", units="model", where="travel > 0")
     assert rep.n_designs > 0
+
+
+def test_scatter_above_its_points_is_a_density(path, frame, monkeypatch):
+    from matplotlib.image import AxesImage
+
+    from explorer.view import _plots, plot_scatter
+    df = frame
+    ok = (df["status"].astype(str) == "ok") & np.isfinite(df["travel"]) & np.isfinite(df["bob"])
+    buildable, screened = df[ok & df["buildable"]], df[ok & ~df["buildable"]]
+    monkeypatch.setattr(_plots, "SCATTER_POINTS", 20)
+    monkeypatch.setattr(_plots, "DENSITY_ROWS", 7)  # the points counted a few at a time
+    monkeypatch.setattr(blocks, "READ_BLOCK", BLOCK)
+    with open_results(path) as r:
+        fig = plot_scatter(r, "travel", "bob")
+    ax = fig.axes[0]
+    images = [a for a in ax.get_children() if isinstance(a, AxesImage)]
+    assert len(images) == 2  # the screened-out designs (grey), then the buildable ones (blue)
+    x0, x1, y0, y1 = images[0].get_extent()
+    for image, part in zip(images, (screened, buildable)):
+        counts = np.ma.filled(image.get_array(), 0)  # (rows: y, columns: x), origin lower
+        assert counts.sum() == len(part)
+        ny, nx = counts.shape
+        ix = np.minimum(((part["travel"] - x0) / (x1 - x0) * nx).astype(int), nx - 1)
+        iy = np.minimum(((part["bob"] - y0) / (y1 - y0) * ny).astype(int), ny - 1)
+        plain = np.zeros_like(counts)
+        np.add.at(plain, (iy.to_numpy(), ix.to_numpy()), 1)
+        np.testing.assert_array_equal(counts, plain)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert f"buildable variants ({len(buildable):,}; designs per cell)" in labels
+    assert f"screened out as unbuildable ({len(screened):,}; designs per cell)" in labels
+    assert "drawn as densities" in ax.get_title()
+    # the front: the buildable designs no other buildable design beats in both (brute force)
+    t, b = buildable["travel"].to_numpy(), buildable["bob"].to_numpy()
+    beaten = ((t[None, :] >= t[:, None]) & (b[None, :] <= b[:, None])
+              & ((t[None, :] > t[:, None]) | (b[None, :] < b[:, None]))).any(axis=1)
+    line = next(ln for ln in ax.get_lines() if ln.get_label().startswith("Pareto"))
+    assert sorted(line.get_xdata()) == sorted(t[~beaten])
