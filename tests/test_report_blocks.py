@@ -228,3 +228,18 @@ def test_scatter_above_its_points_is_a_density(path, frame, monkeypatch):
               & ((t[None, :] > t[:, None]) | (b[None, :] < b[:, None]))).any(axis=1)
     line = next(ln for ln in ax.get_lines() if ln.get_label().startswith("Pareto"))
     assert sorted(line.get_xdata()) == sorted(t[~beaten])
+
+
+def test_read_once_hands_re_solved_series_back_unkept(path, capsys):
+    """The report re-solves its 2,000 foot paths inside ``Results.read_once()``: they are not kept, so a later
+    read solves them again (and says so), giving the same positions; outside it they are kept."""
+    v = [5, 9, 40, 41]
+    with open_results(path) as r:
+        with r.read_once():
+            once = r.path(v, "7")
+        assert "re-solved variants 5, 9, 40, 41" in capsys.readouterr().err
+        again = r.path(v, "7")
+        assert "re-solved variants 5, 9, 40, 41" in capsys.readouterr().err  # not kept: solved again
+        np.testing.assert_array_equal(once, again)
+        r.path(v, "7")
+        assert "re-solved" not in capsys.readouterr().err  # kept this time

@@ -323,8 +323,9 @@ def read_foot_paths(res, variants, points: int = DEFAULT_POINTS, vertex: str | N
     out = np.full((len(variants), len(keep), 2), np.nan)
     if not len(variants):
         return out
-    if lean:
-        return np.asarray(res.path(variants, vname), dtype=np.float64)[:, keep]
+    if lean:  # re-solved once, not kept: the page holds the downsampled paths
+        with res.read_once():
+            return np.asarray(res.path(variants, vname), dtype=np.float64)[:, keep]
     rows = ds.chunks[0] if ds.chunks else 4096
     order = np.argsort(variants, kind="stable")
     sv = variants[order]
@@ -541,6 +542,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     release()
     at = np.searchsorted(by_variant, order)  # a column's values [at]: in view order
     del by_variant
+
     def in_units(variants):
         """The frame rows of ``variants`` in the units shown."""
         got = res.frame_rows(variants)
@@ -668,7 +670,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     sc.update_xaxes(showgrid=True, gridcolor="#e5e5e5", zeroline=False, linecolor="#444", mirror=True)
     sc.update_yaxes(showgrid=True, gridcolor="#e5e5e5", zeroline=False, linecolor="#444", mirror=True)
 
-    # -- foot paths ------------------------------------------------------------------------------------------
+    # -- the foot paths' figure (their data: read above) ------------------------------------------------------
     nom_xy = P[nominal_path] if has_paths else np.zeros((0, 2))
     loop = has_paths and mech.crank is not None and np.isfinite(nom_xy).all()  # a path driver's path is no loop
     closed = np.vstack([nom_xy, nom_xy[:1]]) if loop else nom_xy
