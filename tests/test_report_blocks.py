@@ -196,7 +196,8 @@ def test_report_never_reads_the_whole_frame(path, tmp_path, monkeypatch):
 def test_scatter_above_its_points_is_a_density(path, frame, monkeypatch):
     from matplotlib.image import AxesImage
 
-    from explorer.view import _plots, plot_scatter
+    from explorer.view import plot_scatter
+    _plots = testing.view_plots  # explorer.view._plots
     df = frame
     ok = (df["status"].astype(str) == "ok") & np.isfinite(df["travel"]) & np.isfinite(df["bob"])
     buildable, screened = df[ok & df["buildable"]], df[ok & ~df["buildable"]]
