@@ -64,6 +64,7 @@ _HOMES = {
     "parallel_rows": (".kernels._rows", "parallel_rows"),
     "check_integrity": (".store._integrity", "check"),
     "store_blocks": (".store._blocks", None),
+    "view_plots": (".view._plots", None),  # SCATTER_POINTS, DENSITY_ROWS: patched small in tests
     "series_groups": (".store._integrity", "series_groups"),
     "stamp": (".store._integrity", "stamp"),
     "OutputLock": (".store._lock", "OutputLock"),

@@ -156,12 +156,12 @@ def _costs(df: pd.DataFrame, cols: list[str], directions: dict[str, str]) -> np.
     return cost
 
 
-def _finish(df: pd.DataFrame, order: np.ndarray, top, score: np.ndarray | None = None) -> pd.DataFrame:
+def _finish(df: pd.DataFrame, order: np.ndarray, score: np.ndarray | None = None, top=None) -> pd.DataFrame:
     """The rows ``order`` (positions in ``df``) of ``df``, the first ``top`` only, with ``rank`` first (and
     ``score``, one value per row of ``df``, last)."""
     if top is not None:
         order = order[:top]  # only the rows returned are copied
-    out = df.iloc[order].copy()
+    out = df.take(order)  # a new frame, copied once (not df.iloc[order].copy(): twice at its peak)
     out.insert(0, "rank", np.arange(1, len(out) + 1, dtype=np.int64))
     if score is not None:
         out["score"] = score[order]
@@ -172,19 +172,25 @@ def _finish(df: pd.DataFrame, order: np.ndarray, top, score: np.ndarray | None =
 SCORE_ROWS = 1 << 16
 
 
-def _score(cost: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """The weighted score (n,) of the (n, k) costs (smaller is better) with weights (k,): each column
-    min-max normalised over the rows (1 = best; a constant column gives 1), Σ w s / Σ w; NaN where a cost
-    is. Row by row arithmetic, in blocks of :data:`SCORE_ROWS` rows (the same bits as all rows at once)."""
-    n = len(cost)
+def _score(df: pd.DataFrame, cols: list[str], directions: dict[str, str], w: np.ndarray) -> np.ndarray:
+    """The weighted score (n,) of ``df``'s rows over ``cols`` with weights (k,): each column's cost (smaller
+    is better, :func:`_costs`) min-max normalised over the rows (1 = best; a constant column gives 1), Σ w s /
+    Σ w; NaN where a cost is. Row by row arithmetic on the costs of :data:`SCORE_ROWS` rows at a time (the
+    same bits as all rows at once; no (n, k) array of every cost: its memory on a million-row frame)."""
+    n = len(df)
     score = np.empty(n, dtype=np.float64)
     with np.errstate(all="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
-        lo = np.nanmin(cost, axis=0) if n else np.zeros(cost.shape[1])
-        hi = np.nanmax(cost, axis=0) if n else np.zeros(cost.shape[1])
+        if n:  # each column's least and greatest cost, NaN for an all-NaN column (as nanmin over every row)
+            lo = hi = np.full(len(cols), np.nan)
+            for a in range(0, n, SCORE_ROWS):
+                c = _costs(df.iloc[a:a + SCORE_ROWS], cols, directions)
+                lo, hi = np.fmin(lo, np.nanmin(c, axis=0)), np.fmax(hi, np.nanmax(c, axis=0))
+        else:
+            lo = hi = np.zeros(len(cols))
         span = hi - lo
         for a in range(0, n, SCORE_ROWS):
-            c = cost[a:a + SCORE_ROWS]
+            c = _costs(df.iloc[a:a + SCORE_ROWS], cols, directions)
             s = np.where(span > 0, (hi - c) / np.where(span > 0, span, 1.0), 1.0)
             s[np.isnan(c)] = np.nan
             part = (s * w).sum(axis=1) / w.sum()
@@ -275,6 +281,26 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
     if not isinstance(df, pd.DataFrame):
         raise UserError(f"rank: expected a pandas DataFrame, got {type(df).__name__}")
     top = _check_top(top)
+    return _finish(*_ranking(df, by, where, ascending, weights, pareto, include_failed, include_screened), top=top)
+
+
+def rank_order(df: pd.DataFrame, by=None, where: str | None = None, ascending=None,
+               weights: Mapping[str, float] | None = None, pareto=None, include_failed: bool = False,
+               include_screened: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """The ranking :func:`rank` gives (every row, ``top=None``; the same arguments) without its rows:
+    (the index labels of the ranked rows, best first; their ``score`` where the ranking is a weighted score,
+    else None). No ranked row is copied: on a million-row frame only these arrays are made."""
+    import pandas as pd
+
+    if not isinstance(df, pd.DataFrame):
+        raise UserError(f"rank: expected a pandas DataFrame, got {type(df).__name__}")
+    sub, order, score = _ranking(df, by, where, ascending, weights, pareto, include_failed, include_screened)
+    return sub.index.to_numpy()[order], (None if score is None else score[order])
+
+
+def _ranking(df, by, where, ascending, weights, pareto, include_failed, include_screened):
+    """(the rows ranked: ``df`` filtered, or its Pareto front; their order, positions in them, best first;
+    their scores in row order, or None): :func:`rank` before its rows are taken."""
     if by is None and weights is None and pareto is None:
         weights, _ = default_weights(df.columns)
     if pareto is not None and weights is not None:
@@ -289,7 +315,7 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
         front = sub[pareto_front(sub, cols, dirs)]
         cost = _costs(front, cols, dirs)
         keys = [_tiebreak(front)] + [cost[:, j] for j in range(len(cols) - 1, -1, -1)]
-        return _finish(front, np.lexsort(keys), top)
+        return front, np.lexsort(keys), None
     if weights is not None:
         if not isinstance(weights, Mapping) or not weights:
             raise UserError("weights: expected a non-empty dict metric -> weight")
@@ -306,9 +332,9 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
         used = w > 0  # a zero weight neither counts nor turns a row's score NaN
         cols, w = [c for c, u in zip(cols, used) if u], w[used]
         sub = select(df, where, include_failed, include_screened)
-        score = _score(_costs(sub, cols, dirs), w)  # costs: smaller is better
+        score = _score(sub, cols, dirs, w)
         key = np.where(np.isnan(score), np.inf, -score)
-        return _finish(sub, np.lexsort([_tiebreak(sub), key]), top, score)
+        return sub, np.lexsort([_tiebreak(sub), key]), score
     # one metric
     if isinstance(ascending, Mapping):
         raise UserError("ascending: with by= pass True/False (or None for the natural direction)")
@@ -317,4 +343,4 @@ def rank(df: pd.DataFrame, by=None, top: int | None = 10, where: str | None = No
     sub = select(df, where, include_failed, include_screened)
     cost = _costs(sub, [col], {col: d})[:, 0]
     key = np.where(np.isnan(cost), np.inf, cost)
-    return _finish(sub, np.lexsort([_tiebreak(sub), np.isnan(cost), key]), top)
+    return sub, np.lexsort([_tiebreak(sub), np.isnan(cost), key]), None

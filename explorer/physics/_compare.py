@@ -133,9 +133,10 @@ def rank_note(full, keys) -> str | None:
             f"are NaN, not checked, and rank last)")
 
 
-def report_panel(res, df) -> str:
-    """The report's panel of the designs the physics check covered (``res`` an open results file, ``df`` its
-    frame): one row per design, its physics figures beside the kinematic ones and the verdict (HTML)."""
+def report_panel(res, rows_of) -> str:
+    """The report's panel of the designs the physics check covered (``res`` an open results file, ``rows_of``
+    its ``frame_rows``: the frame rows of some variants, indexed by variant): one row per design, its physics
+    figures beside the kinematic ones and the verdict (HTML)."""
     import html
 
     from ._check import stored_physics
@@ -152,15 +153,14 @@ def report_panel(res, df) -> str:
             "<th class='num'>torque peak [N·m]</th><th class='num'>forces model</th><th class='num'>torque rms [N·m]</th>"
             "<th class='num'>impact [N]</th><th>verdict</th></tr>")
     body = []
-    for key in sorted(marks, key=int):
-        v = int(key)
-        if not 0 <= v < len(df):
-            continue
-        row = df.iloc[v]
+    checked = [(int(k), k) for k in sorted(marks, key=int) if 0 <= int(k) < int(res.n_variants)]
+    rows = rows_of([v for v, key in checked if marks[key] == "ok"])  # only the rows shown are read
+    for v, key in checked:
         if marks[key] != "ok":
             body.append(f"<tr class='physics' data-variant='{v}'><td>{v}</td>" + "<td class='num'>-</td>" * 12
                         + f"<td>{esc(marks[key])}</td></tr>")
             continue
+        row = rows.loc[v]
 
         def num(x, fmt):
             return format(x, fmt) if math.isfinite(x) else "-"

@@ -58,27 +58,45 @@ def as_whole(results, df: pd.DataFrame) -> pd.DataFrame:
     return df.astype({c: text for c in cols})
 
 
-def frame_rows(results, variants) -> pd.DataFrame:
+def frame_rows(results, variants, columns=None) -> pd.DataFrame:
     """The rows of ``results.frame()`` of ``variants`` (any sequence of variant numbers, any order, repeats
     allowed), in that order, indexed by variant: the same columns, dtypes and values as those rows of the
     whole frame, read block by block (only the blocks that hold one of them, each from its first to its
-    last wanted row)."""
+    last wanted row). ``columns``: only these frame columns, in this order (default: every column); each
+    block keeps only them, so many rows cost the memory of those columns (numbers and flags only: written
+    in place, block after block, with no blocks joined at the end)."""
     import pandas as pd
     idx = np.asarray(variants, dtype=np.int64).reshape(-1)
     uniq = np.unique(idx)
     size = READ_BLOCK
     parts = []
+    held = None  # {column: (len(uniq),) array} where every column asked for is a number or a flag
     i = 0
     while i < len(uniq):
         a = int(uniq[i])
         j = int(np.searchsorted(uniq, a + size, side="left"))  # the wanted rows in [a, a + size)
         b = int(uniq[j - 1]) + 1
         part = results.frame(rows=(a, b))
-        parts.append(part if b - a == j - i else part.loc[uniq[i:j]])
+        if columns is not None:
+            part = part[list(columns)]
+            if held is None and i == 0 and all(part[c].dtype.kind in "biuf" for c in part.columns):
+                held = {c: np.empty(len(uniq), dtype=part[c].dtype) for c in part.columns}
+        if held is not None:
+            for c in part.columns:
+                held[c][i:j] = part[c].to_numpy()[uniq[i:j] - a]
+        else:
+            parts.append(part if b - a == j - i else part.loc[uniq[i:j]])
         i = j
+        del part
+    if held is not None:
+        df = pd.DataFrame(held, index=pd.Index(uniq, dtype=np.int64), copy=False)
+        del held
+        return df if len(uniq) == len(idx) and np.array_equal(uniq, idx) else df.loc[idx]
     if not parts:
-        return as_whole(results, results.frame(rows=(0, 0)))
+        empty = results.frame(rows=(0, 0))
+        return as_whole(results, empty if columns is None else empty[list(columns)])
     df = as_whole(results, parts[0] if len(parts) == 1 else pd.concat(parts))
+    del parts
     return df if len(uniq) == len(idx) and np.array_equal(uniq, idx) else df.loc[idx]
 
 

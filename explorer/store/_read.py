@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import json
 import os
 from pathlib import Path
@@ -222,6 +224,7 @@ class Results:
         self.lean = lean_file(f)
         self._solve = json.loads(self.attrs["series_solve"]) if self.lean else None
         self._cache: dict = {}  # a lean file's re-solved series: {variant: {(group, vertex): (steps, 2)}}
+        self._keep_solved = True  # False inside read_once()
         if self.lean:
             self.vertices = tuple(self._solve["stored"])
         else:
@@ -345,14 +348,22 @@ class Results:
             df["buildable"], df["screen"] = screened[0], screened[1]
         return df
 
-    def frame_rows(self, variants) -> "pd.DataFrame":
+    def frame_rows(self, variants, columns=None) -> "pd.DataFrame":
         """The rows of :meth:`frame` of ``variants`` (a variant, or any sequence of them: any order, repeats
         allowed), in that order, indexed by variant: the same columns, dtypes and values as those rows of the
         whole frame, read without it (only the blocks of rows that hold them:
-        :func:`explorer.store._blocks.frame_rows`). UserError for a variant outside 0 … N−1."""
+        :func:`explorer.store._blocks.frame_rows`). UserError for a variant outside 0 … N−1. ``columns``: only
+        these frame columns, in this order (default: every column)."""
         from ._blocks import frame_rows
         empty = np.size(variants) == 0  # [] reads as float: no rows
-        return frame_rows(self, np.empty(0, dtype=np.int64) if empty else self._indices(variants))
+        return frame_rows(self, np.empty(0, dtype=np.int64) if empty else self._indices(variants), columns)
+
+    def frame_blocks(self):
+        """:meth:`frame` in consecutive blocks of rows (:data:`explorer.store._blocks.READ_BLOCK`, ~16k rows
+        each), in variant order, each indexed by its variant numbers and typed as the whole frame: for a pass
+        over every variant of a large file without holding its whole frame."""
+        from ._blocks import blocks
+        return blocks(self)
 
     def select(self, where: str | None = None, include_failed: bool = False, include_screened: bool = False,
                columns=None) -> "pd.DataFrame":
@@ -595,6 +606,18 @@ class Results:
     #: Most re-solved series bytes a lean file's :class:`Results` keeps (older variants are dropped first).
     CACHE_BYTES = 64 << 20
 
+    @contextlib.contextmanager
+    def read_once(self):
+        """``with results.read_once(): ...``: a lean file's series re-solved inside are handed back and not
+        kept for later reads (those already kept still serve): for a large read made once, such as the
+        report's 2,000 foot paths, whose kept series (every re-solved series of those designs) would
+        otherwise stay in memory to the end."""
+        keep, self._keep_solved = getattr(self, "_keep_solved", True), False
+        try:
+            yield self
+        finally:
+            self._keep_solved = keep
+
     def _resolved(self, idx: np.ndarray, group, vertex) -> np.ndarray | None:
         """Series ``group``/``vertex`` of variants ``idx`` (in that order, repeats allowed) of a lean file:
         those not solved yet are re-solved, in chunks of :data:`RESOLVE_ROWS` designs, saying so in one line
@@ -604,7 +627,7 @@ class Results:
         per = self.steps * 16 * (len(self._solve["vertices"]) * (1 + self._solve["velocities"]
                                                                   + self._solve["accelerations"])
                                  + len(self._solve["force_joints"])) + self.steps * 8
-        keep = len(uniq) * per <= self.CACHE_BYTES  # a big read is solved and handed back, not kept
+        keep = getattr(self, "_keep_solved", True) and len(uniq) * per <= self.CACHE_BYTES  # a big read: not kept
         got = {}
         if todo.size:
             import sys

@@ -266,12 +266,17 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
     mech = results.mechanism
     fig = new_figure(figsize, dpi)
     ax = fig.add_subplot()
-    if len(out):
-        ax.scatter(out[x], out[y], s=6, color="0.6", alpha=0.5, lw=0, rasterized=len(out) > 2000,
-                   label=f"screened out as unbuildable ({len(out):,})", zorder=1)
     label = "ok variants" if include_screened or "buildable" not in df.columns else "buildable variants"
-    ax.scatter(ok[x], ok[y], s=7, color="tab:blue", alpha=0.45, lw=0, rasterized=len(ok) > 2000,
-               label=f"{label} ({len(ok):,})", zorder=2)
+    dense = len(ok) + len(out) > SCATTER_POINTS
+    note = ""
+    if dense:  # every point would cost time and memory to draw and hide the others: designs per cell instead
+        note = "\n" + _density(fig, ax, ok, out, x, y, label)
+    else:
+        if len(out):
+            ax.scatter(out[x], out[y], s=6, color="0.6", alpha=0.5, lw=0, rasterized=len(out) > 2000,
+                       label=f"screened out as unbuildable ({len(out):,})", zorder=1)
+        ax.scatter(ok[x], ok[y], s=7, color="tab:blue", alpha=0.45, lw=0, rasterized=len(ok) > 2000,
+                   label=f"{label} ({len(ok):,})", zorder=2)
     front = ok[pareto_front(ok, [x, y], directions)] if len(ok) else ok
     if len(front):
         f = front.sort_values([x, y])
@@ -290,8 +295,66 @@ def plot_scatter(results, x: str, y: str, *, where: str | None = None, direction
             h.set_sizes([36.0])
             h.set_alpha(0.9)
     filt = f", where {where}" if where else ""
-    style_axes(ax, f"{mech.name}: {y} against {x}, {len(ok) + len(out):,} ok of {n:,} variants{filt}")
+    style_axes(ax, f"{mech.name}: {y} against {x}, {len(ok) + len(out):,} ok of {n:,} variants{filt}{note}")
     return fig
+
+
+#: Above this many points :func:`plot_scatter` draws each cloud as a density (designs per cell of a grid over
+#: the axes, a log colour scale) rather than one dot per design, and says so in the figure.
+SCATTER_POINTS = 100_000
+#: Cells of that grid across the x axis (the y axis: as many per inch of the axes).
+DENSITY_CELLS = 240
+#: Points counted into the grid at a time (its temporaries stay small on a million points).
+DENSITY_ROWS = 1 << 16
+
+
+def _counts(frame: pd.DataFrame, x: str, y: str, xe: np.ndarray, ye: np.ndarray) -> np.ndarray:
+    """(len(xe) − 1, len(ye) − 1) counts of ``frame``'s (x, y) points per cell of the edges, a block at a time."""
+    h = np.zeros((len(xe) - 1, len(ye) - 1))
+    xs, ys = frame[x].to_numpy(dtype=np.float64), frame[y].to_numpy(dtype=np.float64)
+    for a in range(0, len(xs), DENSITY_ROWS):
+        h += np.histogram2d(xs[a:a + DENSITY_ROWS], ys[a:a + DENSITY_ROWS], bins=(xe, ye))[0]
+    return h
+
+
+def _density(fig, ax, ok: pd.DataFrame, out: pd.DataFrame, x: str, y: str, label: str) -> str:
+    """The screened-out (grey) and the ``label`` (blue) designs of :func:`plot_scatter` as densities: each a
+    log-scaled image of its designs per cell of one grid over the axes (empty cells clear; the blue over the
+    grey, a little transparent), a colour bar of the blue ones' counts and the legend's entries; returns the
+    line that says so, for the title."""
+    from matplotlib import colormaps
+    from matplotlib.colors import ListedColormap, LogNorm
+
+    both = [f for f in (ok, out) if len(f)]
+    lo = np.array([min(float(f[c].min()) for f in both) for c in (x, y)])
+    hi = np.array([max(float(f[c].max()) for f in both) for c in (x, y)])
+    pad = np.where(hi > lo, 0.03 * (hi - lo), np.maximum(np.abs(lo) * 0.01, 1e-9))  # a margin, as a scatter has
+    lo, hi = lo - pad, hi + pad
+    w, h = ax.get_position().width * fig.get_figwidth(), ax.get_position().height * fig.get_figheight()
+    xe = np.linspace(lo[0], hi[0], DENSITY_CELLS + 1)
+    ye = np.linspace(lo[1], hi[1], max(8, round(DENSITY_CELLS * h / w)) + 1)
+    extent = (lo[0], hi[0], lo[1], hi[1])
+    layers = (("screened out as unbuildable", out, "Greys", (0.3, 0.75), 1, 1.0),
+              (label, ok, "Blues", (0.35, 1.0), 2, 0.85))
+    shown = None
+    for name, frame, cmap, (c0, c1), z, alpha in layers:
+        if not len(frame):
+            continue
+        counts = _counts(frame, x, y, xe, ye)
+        colours = ListedColormap(colormaps[cmap](np.linspace(c0, c1, 256)))
+        image = ax.imshow(np.ma.masked_equal(counts.T, 0), origin="lower", extent=extent, aspect="auto",
+                          interpolation="nearest", cmap=colours, norm=LogNorm(vmin=1, vmax=max(counts.max(), 2)),
+                          alpha=alpha, zorder=z)
+        ax.fill([], [], color=colours(0.6), label=f"{name} ({len(frame):,}; designs per cell)")  # its legend entry
+        shown = image if frame is ok else shown
+    if shown is not None:
+        bar = fig.colorbar(shown, ax=ax, pad=0.02, fraction=0.04, aspect=30)
+        bar.set_label(f"{label} per cell (log scale)", fontsize=TICK_SIZE)
+        bar.ax.tick_params(labelsize=TICK_SIZE)
+    ax.set_xlim(extent[0], extent[1])
+    ax.set_ylim(extent[2], extent[3])
+    return (f"drawn as densities: designs per cell of a {len(xe) - 1}×{len(ye) - 1} grid "
+            f"(over {SCATTER_POINTS:,} points)")
 
 
 def _front_directions(x: str, y: str, directions=None) -> str:

@@ -61,8 +61,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .._memory import release
 from ..errors import UserError
-from ..gait import BY_NAME, CHECKS, DEFAULT_WEIGHTS, SCREEN_INPUTS, METRICS, SPEED, change_pct, operating_line, rank, results_si, verdict
+from ..gait import (BY_NAME, CHECKS, DEFAULT_WEIGHTS, SCREEN_INPUTS, METRICS, SPEED, change_pct, operating_line, rank_order,
+                    results_si, verdict)
 
 #: Above this many ok designs the linked views show a seeded uniform sample of them.
 DEFAULT_MAX_DESIGNS = 100_000
@@ -146,21 +148,122 @@ class Report:
 
 
 # -- the data ----------------------------------------------------------------------------------------
-def _ranked_ok(df):
-    """Positions (into ``df``) of the ok rows in report order: the buildable ones as ``explorer rank``
-    orders them (default score), then the screened-out ones by the same score; by variant where the
-    default score's metrics are not stored (then the second value is False)."""
-    from ..gait import ok_mask
-    ok = np.flatnonzero(ok_mask(df))
-    if not all(m in df.columns for m in DEFAULT_WEIGHTS):
-        return ok, False
-    pos = df.index.get_indexer(rank(df, top=None).index)
-    if "buildable" in df.columns:
-        screened = df[ok_mask(df) & ~df["buildable"].to_numpy(dtype=bool)]
-        if len(screened):
-            pos = np.r_[pos, df.index.get_indexer(rank(screened, top=None, include_screened=True).index)]
+@dataclass
+class _Scan:
+    """What the report needs of every variant, gathered in one pass over the frame in blocks of rows
+    (:func:`_scan`). ok : (n_ok,) int64, the ok variants in variant order; finite : {metric: whether any ok
+    variant has a finite value}; kept : (N,) bool, the variants ``where`` keeps (None without a filter);
+    ranked : {"buildable", "screened"}: the ok variants that pass the buildability screen and those it
+    removes, each ((n,) int64 variant numbers in variant order, a frame of the default score's metrics of
+    those rows, indexed 0 … n − 1, or None where not every one of them is stored); counts : {reason: variants} in :func:`reason_masks`' order;
+    first : {reason: its first ``listed`` variant numbers}."""
+
+    n_ok: int
+    ok: np.ndarray
+    finite: dict
+    kept: np.ndarray | None
+    ranked: dict
+    counts: dict
+    first: dict
+
+
+def _scan(res, head, stored, where, by_score: bool, listed: int = REASON_LIST) -> _Scan:
+    """One pass over ``res``'s frame in blocks of rows (``Results.frame_blocks``): the ok variants, which
+    metrics any ok variant has a finite value of, the filter ``where``, the rows the ranking ranks (only its
+    columns) and the counts by reason (:func:`reason_masks` of each block, added; each reason's first
+    variants kept). ``head``: some rows of the frame, typed whole (its columns)."""
+    import pandas as pd
+
+    from ..gait import evaluate_filter, ok_mask
+    N = int(res.n_variants)
+    screen = res.screen
+    cols = ["variant", *DEFAULT_WEIGHTS] if by_score else ["variant"]
+    # the ok rows' ranked columns, written in place: the buildable rows from the front, the screened-out
+    # ones from the back (no list of blocks joined afterwards: the memory of these columns, once)
+    n_ok = int(res.status_counts().get("ok", 0))
+    held = {c: np.empty(n_ok, dtype=head[c].dtype if c in head.columns else np.float64) for c in cols}
+    ok_v = np.empty(n_ok, dtype=np.int64)
+    lo, hi, filled = 0, n_ok, 0  # held[:lo]: buildable (lo counts up); held[hi:]: screened out (hi counts down)
+    finite = dict.fromkeys(stored, False)
+    kept = np.zeros(N, dtype=bool) if where is not None else None
+    counts = {k: 0 for k in reason_masks(head.iloc[:0], screen)}  # the reasons every frame lists, first
+    first: dict = {}
+    for df in res.frame_blocks():
+        ok = ok_mask(df)
+        variants = df["variant"].to_numpy(dtype=np.int64)
+        k = int(ok.sum())
+        if filled + k > n_ok:
+            raise RuntimeError(f"{res.filename}: more ok rows in the frame than ok status codes ({n_ok:,})")
+        ok_v[filled:filled + k] = variants[ok]
+        filled += k
+        for m in stored:
+            if not finite[m]:
+                finite[m] = bool(np.isfinite(df[m].to_numpy(dtype=np.float64)[ok]).any())
+        if kept is not None:
+            kept[variants] = evaluate_filter(df, where)
+        for key, mask in reason_masks(df, screen).items():
+            counts[key] = counts.get(key, 0) + int(mask.sum())
+            got = first.setdefault(key, [])
+            if len(got) < listed:
+                got.extend(int(v) for v in variants[mask][:listed - len(got)])
+        b = df["buildable"].to_numpy(dtype=bool) if "buildable" in df.columns else np.ones(len(df), dtype=bool)
+        kb, ks = int((ok & b).sum()), int((ok & ~b).sum())
+        for c in cols:
+            x = df[c].to_numpy()
+            held[c][lo:lo + kb] = x[ok & b]
+            held[c][hi - ks:hi] = x[ok & ~b]
+        lo, hi = lo + kb, hi - ks
+        del df
+    if filled != n_ok:
+        raise RuntimeError(f"{res.filename}: {filled:,} ok rows in the frame, {n_ok:,} ok status codes")
+    # the screen's checks in their own order (a check first met in a later block too), then the failures
+    # in the order the variants first meet them, as reason_masks lists them for the whole frame
+    checks = [f"screened out: {c.name}" for c in CHECKS]
+    base = [k for k in ("ok, buildable", "screened out (any check)") if k in counts]
+    keys = base + [k for k in checks if k in counts] + [k for k in counts if k not in base and k not in checks]
+    counts = {k: counts[k] for k in keys}
+    back = np.argsort(held["variant"][hi:], kind="stable")  # the screened-out blocks came in back to front
+    ranked = {}
+    for k, part in (("buildable", slice(0, lo)), ("screened", slice(hi, n_ok))):
+        joined = {c: (v[part] if k == "buildable" else v[part][back]) for c, v in held.items()}
+        # the ranked metrics without the variant numbers: rank() breaks ties by row, here in variant order too
+        ranked[k] = (joined.pop("variant"), pd.DataFrame(joined, copy=False) if by_score else None)
+    del held, joined
+    return _Scan(n_ok=n_ok, ok=ok_v, finite=finite, kept=kept, ranked=ranked, counts=counts,
+                 first={k: first.get(k, []) for k in counts})
+
+
+def _ranked_ok(scan: _Scan, by_score: bool):
+    """(the ok variants in report order: the buildable ones as ``explorer rank`` orders them (default
+    score), then the screened-out ones by the same score (over them), then whatever the ranking leaves out,
+    by variant; the ranking of the buildable ones: (variants, their scores, their places) in rank order).
+    Where the default score's metrics are not all stored: every ok variant by variant, and the buildable
+    ones by variant (no scores)."""
+    ok = scan.ok
+    if not by_score:
+        b = scan.ranked["buildable"][0]
+        return ok, (b, np.full(len(b), np.nan), np.arange(1, len(b) + 1))
+    variants, frame = scan.ranked.pop("buildable")  # the ok rows that pass the screen: rank()'s own filter
+    at, score = rank_order(frame)  # rank(frame, top=None) without its rows: positions (the frame's index)
+    del frame
+    ranked = (variants[at], score, np.arange(1, len(at) + 1))
+    pos = ranked[0]
+    variants, screened = scan.ranked.pop("screened")
+    if len(screened):
+        pos = np.r_[pos, variants[rank_order(screened)[0]]]
+    del screened
     rest = np.setdiff1d(ok, pos)  # whatever rank() leaves out (it ranks NaN scores last) comes last, by variant
-    return np.r_[pos, rest].astype(np.int64), True
+    return np.r_[pos, rest].astype(np.int64), ranked
+
+
+def _best(ranked, ref: int):
+    """What the table against the reference needs of the buildable designs' ranking ``ranked`` (variants,
+    scores, places in rank order: :func:`_ranked_ok`): (the first :data:`VS_ROWS` variants, their scores,
+    their places; how many are ranked; the reference's (place, score), None where it is not ranked)."""
+    pos, score, places = ranked
+    at = np.flatnonzero(pos == ref)
+    return (pos[:VS_ROWS].copy(), score[:VS_ROWS].copy(), places[:VS_ROWS].copy(), len(pos),
+            (int(places[at[0]]), float(score[at[0]])) if len(at) else None)
 
 
 def reason_masks(df, screen) -> dict:
@@ -196,7 +299,9 @@ def _f32(a) -> np.ndarray:
 
 
 def _b64(a: np.ndarray) -> str:
-    return base64.b64encode(np.ascontiguousarray(a).astype(a.dtype.newbyteorder("<")).tobytes()).decode("ascii")
+    """Base64 of ``a``'s little-endian bytes (no copy of a contiguous little-endian array)."""
+    a = np.ascontiguousarray(a).astype(a.dtype.newbyteorder("<"), copy=False)
+    return base64.b64encode(a.reshape(-1).view(np.uint8)).decode("ascii")
 
 
 def read_foot_paths(res, variants, points: int = DEFAULT_POINTS, vertex: str | None = None) -> np.ndarray:
@@ -218,8 +323,9 @@ def read_foot_paths(res, variants, points: int = DEFAULT_POINTS, vertex: str | N
     out = np.full((len(variants), len(keep), 2), np.nan)
     if not len(variants):
         return out
-    if lean:
-        return np.asarray(res.path(variants, vname), dtype=np.float64)[:, keep]
+    if lean:  # re-solved once, not kept: the page holds the downsampled paths
+        with res.read_once():
+            return np.asarray(res.path(variants, vname), dtype=np.float64)[:, keep]
     rows = ds.chunks[0] if ds.chunks else 4096
     order = np.argsort(variants, kind="stable")
     sv = variants[order]
@@ -321,7 +427,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
                  shown: int = DEFAULT_SHOWN, points: int = DEFAULT_POINTS, reason_paths: int = DEFAULT_REASON_PATHS,
                  seed: int = 0, x: str | None = None, y: str | None = None, title: str | None = None,
                  pc_lines: int = DEFAULT_PC_LINES, vs: int = 0, units: str = "model", where: str | None = None):
-    """(html text, :class:`Report` with path None) of an open results file; see :func:`write_report`."""
+    """(the page, a :class:`_Page` (``.text()``: the HTML; ``.write(path)``), :class:`Report` with path None) of an
+    open results file; see :func:`write_report`."""
     from .._extras import require
     require("plotly", "explorer report")
     import plotly.graph_objects as go
@@ -338,16 +445,15 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     points = _check_count("points", points, 3)
     reason_paths = _check_count("reason_paths", reason_paths, 0)
     pc_lines = _check_count("pc_lines", pc_lines, 1)
-    df = res.frame()
-    N = len(df)
+    head = res.frame_rows([0] if res.n_variants else [])  # the frame's columns (the nominal's row), typed whole
+    N = int(res.n_variants)
     mech = res.mechanism
     ref = res.check_variant(vs)
     ref_label = "nominal" if ref == 0 else f"reference (variant {ref})"
-    si = results_si(res, df, units)  # --units si: every figure shown in SI; the ranking stays the stored values'
-    dv = df if si is None else si.frame
-    params = [p for p in res.perturbed if p in df.columns]
-    stored = [m for m in METRICS if m in df.columns] + [m for m in res.metric_names
-                                                          if m not in METRICS and m in df.columns]
+    si = results_si(res, head.iloc[:0], units)  # --units si: every figure shown in SI; the ranking stays the stored values'
+    params = [p for p in res.perturbed if p in head.columns]
+    stored = [m for m in METRICS if m in head.columns] + [m for m in res.metric_names
+                                                            if m not in METRICS and m in head.columns]
     if metrics is not None:
         names = [s.strip() for s in metrics.split(",") if s.strip()] if isinstance(metrics, str) else list(metrics)
         unknown = [m for m in names if m not in stored]
@@ -355,9 +461,12 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
             raise UserError(f"{res.filename}: metric {unknown[0]!r} is not stored "
                             f"(stored: {', '.join(stored) or 'none'})")
         stored = list(dict.fromkeys(names))
-    ok = ok_mask(df)
-    n_ok = int(ok.sum())
-    dropped = [m for m in stored if not np.isfinite(df.loc[ok, m].to_numpy(dtype=np.float64)).any()]
+    if where is not None:
+        evaluate_filter(head, where)  # a bad filter fails before any block is read
+    by_score = all(m in head.columns for m in DEFAULT_WEIGHTS)
+    scan = _scan(res, head, stored, where, by_score, max(REASON_LIST, reason_paths))
+    n_ok = scan.n_ok
+    dropped = [m for m in stored if not scan.finite[m]]
     # the physics check covers a shortlist (NaN elsewhere): its own panel, not axes every line would leave
     physics = [m for m in stored if m not in dropped and BY_NAME.get(m) is not None and BY_NAME[m].group == "physics"]
     mets = [m for m in stored if m not in dropped and m not in physics]
@@ -371,9 +480,13 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         meta = BY_NAME.get(key)
         return _unit_text(meta.unit) if meta else "model units"
 
-    order, by_score = _ranked_ok(df)
+    order, ranked = _ranked_ok(scan, by_score)
+    best = _best(ranked, ref)
+    del ranked
+    scan.ok = scan.ranked = None  # what the rest needs of the pass: the counts, the first variants, the filter
+    release()  # the ranked columns' memory, back to the system before the views' rows are read
     if where is not None:  # the views hold the ok designs the filter keeps, in the same order
-        order = order[evaluate_filter(df, where)[order]]
+        order = order[scan.kept[order]]
     n_kept = len(order)
     if n_kept == 0 and where is not None:
         raise UserError(f"{res.filename}: --where {where!r} keeps none of the {n_ok:,} ok designs: nothing to show")
@@ -383,10 +496,63 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         pick = np.sort(rng.choice(n_kept, size=max_designs, replace=False))
         order = order[pick]
     n = len(order)
-    rows = df.iloc[order]
-    shown_rows = dv.iloc[order]  # the same rows in the units shown
-    variant = rows["variant"].to_numpy(dtype=np.int64) if "variant" in rows.columns else order.astype(np.int64)
-    buildable = rows["buildable"].to_numpy(dtype=bool) if "buildable" in rows.columns else np.ones(n, dtype=bool)
+    # -- foot paths: read first, while little else is held (a lean file re-solves them) ------------------------
+    counts = scan.counts
+    has_paths = bool(res.vertices)
+    n_paths = min(paths, n) if has_paths else 0
+    path_variants = [int(v) for v in order[:n_paths]]
+    nominal_path = None
+    reasons = []
+    for key, count in counts.items():
+        if key == "ok, buildable":
+            continue
+        vs = scan.first[key]
+        kind, _, what = key.partition(": ")
+        text = (_CHECK_TEXT.get(what, "") if kind == "screened out" else
+                _STATUS_TEXT.get(what, "") if kind == "failed" else
+                _STATUS_TEXT["not-run"] if key == "not run yet" else
+                "fails at least one check of the buildability screen (each is counted below)")
+        entry = {"key": key, "count": count, "text": text, "variants": [int(v) for v in vs[:REASON_LIST]],
+                 "paths": [], "path_variants": []}
+        if has_paths:
+            take = [int(v) for v in vs[:reason_paths]]
+            entry["paths"] = list(range(len(path_variants), len(path_variants) + len(take)))
+            entry["path_variants"] = take
+            path_variants += take
+        reasons.append(entry)
+    if has_paths:
+        nominal_path = len(path_variants)
+        path_variants.append(ref)
+    vname = None
+    blob, path_scale, npts = "", [0.0, 0.0, 1.0, 1.0], 0
+    if has_paths:
+        vname = mech.foot if mech.foot in res.vertices else res.vertices[0]
+        P = read_foot_paths(res, path_variants, points, vname)
+        if si is not None:
+            P = P * (si.operating.unit * 1000.0)  # mm
+        npts = P.shape[1]
+        q, path_scale = _quantize(P)
+        blob = _b64(q)
+    release()  # what re-solving the paths let go of
+    # the rows in the views, only the columns they show (order: variant numbers, the frame's positions)
+    wanted = ["variant", "generation", *params, *(m for m in mets if m != SPEED), "buildable"]
+    wanted += ["crank"] if si is not None else []
+    by_variant = np.sort(order)  # read in variant order (no copy to put them in view order), then taken column by column
+    rows = res.frame_rows(by_variant, columns=[c for c in dict.fromkeys(wanted) if c in head.columns])
+    release()
+    at = np.searchsorted(by_variant, order)  # a column's values [at]: in view order
+    del by_variant
+
+    def in_units(variants):
+        """The frame rows of ``variants`` in the units shown."""
+        got = res.frame_rows(variants)
+        return got if si is None else si.apply(got).frame
+
+    shown_rows = rows if si is None else si.apply(rows).frame  # the same rows in the units shown
+    ref_row = res.frame_rows([ref])
+    ref_shown = ref_row if si is None else si.apply(ref_row).frame
+    variant = order
+    buildable = rows["buildable"].to_numpy(dtype=bool)[at] if "buildable" in rows.columns else np.ones(n, dtype=bool)
     rank_col = (pick + 1) if sampled else np.arange(1, n + 1)  # place among every ok design
 
     # -- x, y of the scatter -----------------------------------------------------------------------------
@@ -407,16 +573,17 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
 
     # -- the table of the views: one float32 column per axis, rows in rank order --------------------------
     columns = []
-    table = []
+    # the axes: rank, generation (an optimisation's), the parameters, the metrics, buildable and scatter pick
+    table = np.empty((3 + ("generation" in rows.columns) + len(params) + len(mets), n), dtype=np.float32)
     dims = []
 
-    ref_ok = bool(ok_mask(df.iloc[[ref]])[0])
+    ref_ok = bool(ok_mask(ref_row)[0])
 
     def add(key, label, kind, values, unit="", description="", direction=None, **extra):
-        table.append(_f32(values))
+        table[len(dims)] = _f32(values)
         dims.append(dict(label=label, values=[], **extra))
         meta = BY_NAME.get(key)
-        r0 = float(dv[key].iloc[ref]) if key in dv.columns and kind in ("parameter", "metric") else math.nan
+        r0 = float(ref_shown[key].iloc[0]) if key in ref_shown.columns and kind in ("parameter", "metric") else math.nan
         columns.append({"key": key, "label": label, "kind": kind, "dim": len(dims) - 1,
                         "unit": unit_of(key) if meta or kind == "parameter" else unit,
                         "direction": meta.direction if meta else direction,
@@ -425,17 +592,17 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
 
     add("rank", "rank", "rank", rank_col, description="place in the ranking (1 = best; see above)")
     if "generation" in rows.columns:  # an optimisation (explorer optimize): when each design was tried
-        add("generation", "generation", "generation", rows["generation"].to_numpy(dtype=np.float64),
+        add("generation", "generation", "generation", rows["generation"].to_numpy(dtype=np.float64)[at],
             description="the generation of the optimisation that tried the design (0 = the first)")
     for p in params:
         kind = mech.parameter_kind(p)
-        add(p, p, "parameter", shown_rows[p].to_numpy(dtype=np.float64),
-            tickformat=_range_format(shown_rows[p].to_numpy(dtype=np.float64)),
+        vals = shown_rows[p].to_numpy(dtype=np.float64)[at]
+        add(p, p, "parameter", vals, tickformat=_range_format(vals),
             description=("crank radius" if p == "crank" else f"length of link {p}" if kind == "length"
                          else f"coordinate {p}"))
     off_scale = []  # (metric, designs beyond the buildable range, the farthest value): the page says so
     for m in mets:
-        vals = shown_rows[m].to_numpy(dtype=np.float64)
+        vals = shown_rows[m].to_numpy(dtype=np.float64)[at]
         # the screen's own inputs keep their whole span: it shows why designs were screened out
         scale = None if m in SCREEN_INPUTS else axis_scale(vals, buildable)
         extra = dict(tickformat=_range_format(vals if scale is None else np.asarray(scale["range"])))
@@ -458,6 +625,8 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         ticktext=["screened out", "yes"], description="passes the buildability screen (yes) or is screened out")
     add("pick", "scatter pick", "flag", np.ones(n), range=[0, 1], tickvals=[0, 1], ticktext=["out", "in"],
         description="inside the box or lasso drawn in the scatter (all in while none is drawn)")
+    del rows, shown_rows, at  # the views' rows live on in the table alone
+    release()
     # the parallel coordinates draw at most pc_lines designs: the first of a seeded random order of the rows
     # (any prefix of it is a uniform sample: the page may draw fewer); brushes count every design
     pc_order = np.random.default_rng(seed + 1).permutation(n)[:pc_lines].astype(np.int32)
@@ -501,44 +670,7 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     sc.update_xaxes(showgrid=True, gridcolor="#e5e5e5", zeroline=False, linecolor="#444", mirror=True)
     sc.update_yaxes(showgrid=True, gridcolor="#e5e5e5", zeroline=False, linecolor="#444", mirror=True)
 
-    # -- foot paths ------------------------------------------------------------------------------------------
-    masks = reason_masks(df, res.screen)
-    counts = {k: int(v.sum()) for k, v in masks.items()}
-    has_paths = bool(res.vertices)
-    n_paths = min(paths, n) if has_paths else 0
-    path_variants = [int(v) for v in variant[:n_paths]]
-    nominal_path = None
-    reasons = []
-    for key, m in masks.items():
-        if key == "ok, buildable":
-            continue
-        vs = df.loc[m, "variant"].to_numpy(dtype=np.int64) if "variant" in df.columns else np.flatnonzero(m)
-        kind, _, what = key.partition(": ")
-        text = (_CHECK_TEXT.get(what, "") if kind == "screened out" else
-                _STATUS_TEXT.get(what, "") if kind == "failed" else
-                _STATUS_TEXT["not-run"] if key == "not run yet" else
-                "fails at least one check of the buildability screen (each is counted below)")
-        entry = {"key": key, "count": int(m.sum()), "text": text, "variants": [int(v) for v in vs[:REASON_LIST]],
-                 "paths": [], "path_variants": []}
-        if has_paths:
-            take = [int(v) for v in vs[:reason_paths]]
-            entry["paths"] = list(range(len(path_variants), len(path_variants) + len(take)))
-            entry["path_variants"] = take
-            path_variants += take
-        reasons.append(entry)
-    if has_paths:
-        nominal_path = len(path_variants)
-        path_variants.append(ref)
-    vname = None
-    blob, scale, npts = "", [0.0, 0.0, 1.0, 1.0], 0
-    if has_paths:
-        vname = mech.foot if mech.foot in res.vertices else res.vertices[0]
-        P = read_foot_paths(res, path_variants, points, vname)
-        if si is not None:
-            P = P * (si.operating.unit * 1000.0)  # mm
-        npts = P.shape[1]
-        q, scale = _quantize(P)
-        blob = _b64(q)
+    # -- the foot paths' figure (their data: read above) ------------------------------------------------------
     nom_xy = P[nominal_path] if has_paths else np.zeros((0, 2))
     loop = has_paths and mech.crank is not None and np.isfinite(nom_xy).all()  # a path driver's path is no loop
     closed = np.vstack([nom_xy, nom_xy[:1]]) if loop else nom_xy
@@ -567,9 +699,9 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         "n_variants": N, "n_ok": n_ok, "n_kept": n_kept, "where": where, "n_designs": n, "sampled": bool(sampled), "seed": int(seed),
         "max_designs": max_designs, "columns": columns, "x": sx, "y": sy, "metrics": mets, "params": params,
         "by_score": by_score, "variant": _b64(variant.astype(np.int32)),
-        "table": _b64(np.concatenate(table) if table else np.zeros(0, np.float32)),
+        "table": "",  # its base64 goes in as the page is written (_Page), never whole in memory
         "pc_order": _b64(pc_order), "pc_lines": min(pc_lines, n), "pc_lines_software": min(PC_LINES_SOFTWARE, n), "shown": shown, "n_paths": n_paths,
-        "points": npts, "paths": blob, "scale": scale, "nominal_path": nominal_path, "reasons": reasons,
+        "points": npts, "paths": blob, "scale": path_scale, "nominal_path": nominal_path, "reasons": reasons,
         "nominal": nominal_values, "foot": vname, "dropped": dropped, "closed": mech.crank is not None,
         "reference": {"variant": ref, "label": ref_label, "ok": ref_ok,
                       "place": (str(int(rank_col[np.flatnonzero(variant == ref)[0]])) if (variant == ref).any() else "-")}, "units": "si" if si is not None else "model",
@@ -622,11 +754,11 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         yield_note = (f"yield: the share of copies, {rb.describe()}, that turn and pass the buildability screen "
                       f"(binomial standard error √(p(1 − p)/{rb.copies}): ±{math.sqrt(0.25 / rb.copies):.3f} at "
                       f"most).")
-    vs_section = _vs_section(df, dv, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys}, by_score,
-                             None if si is None else {c: si.units[c] for c in si.converted}, yield_note)
+    vs_section = _vs_section(best, in_units, ref, ref_label, ref_ok, keys, {k: col_of[k]["unit"] for k in keys},
+                             by_score, None if si is None else {c: si.units[c] for c in si.converted}, yield_note)
     if physics:  # the designs `explorer physics` checked, beside their kinematic figures
         from ..physics._compare import report_panel
-        vs_section += report_panel(res, df)
+        vs_section += report_panel(res, res.frame_rows)
     units_note = ""
     if si is not None:
         units_note = "<p class='note' id='units-note'>" + html.escape(
@@ -638,8 +770,13 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
     options = "".join(f"<option value='{html.escape(m)}'>{html.escape(_axis_label(m))}</option>" for m in mets)
     fig_scripts = "\n".join(
         f"<script type='application/json' id='fig-{k}'>{_script_safe(v)}</script>" for k, v in fig_json.items())
-    page = _TEMPLATE.format(
-        title=html.escape(page_title), plotlyjs=get_plotlyjs(), css=_CSS, js=_JS,
+    if len(dims) != len(table):
+        raise RuntimeError(f"report: {len(dims)} axes for a table of {len(table)}")
+    table = table.reshape(-1)  # column after column
+    data_json = _script_safe(json.dumps(data))
+    data = None
+    page = _Page.of(_TEMPLATE, get_plotlyjs(), data_json, table, dict(
+        title=html.escape(page_title), css=_CSS, js=_JS,
         heading=html.escape(f"{name} — {mech.name}"),
         meta=html.escape(f"{res.filename} · {N:,} variants × {res.steps} steps · {n_ok:,} ok · explorer {__version__} "
                          f"· {created}"),
@@ -647,43 +784,40 @@ def build_report(res, *, metrics=None, max_designs: int = DEFAULT_MAX_DESIGNS, p
         pool=(f"the ok ones: {n_ok:,} of {N:,} variants" if where is None else
               html.escape(f"the ok ones where {where}: {n_kept:,} of the {n_ok:,} ok, {N:,} variants")), sample_note=where_note + sample_note + dropped_note + units_note + off_note,
         order_note=order_note, options=options, reason_table=tables, axes_rows=axes_rows, no_scatter=no_scatter,
-        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown, data=_script_safe(json.dumps(data)),
+        no_paths=no_paths, n_paths=f"{n_paths:,}", shown=shown,
         figs=fig_scripts, results=html.escape(str(res.filename)), foot=html.escape(str(vname or "-")),
         vs_section=vs_section, ref_label=html.escape(ref_label), pc_width=PC_AXIS_WIDTH * len(dims) + 100,
-        points=npts)
-    rep = Report(path=None, bytes=len(page.encode("utf-8")), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
+        points=npts))
+    data_json = table = None
+    rep = Report(path=None, bytes=page.size(), n_variants=N, n_ok=n_ok, n_designs=n, sampled=sampled,
                  n_paths=n_paths, parameters=params, metrics=mets, counts=counts, where=where, n_kept=n_kept)
     return page, rep
 
 
-def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dict, by_score: bool,
+def _vs_section(best, rows_of, ref: int, ref_label: str, ref_ok: bool, keys, units: dict, by_score: bool,
                 verdict_units: dict | None = None, yield_note: str = "") -> str:
     """The table of the best-ranked buildable designs against the reference (as ``explorer rank --change``
-    prints it): for each metric of ``keys`` its value (``dv``: the units shown) and the change against the
+    prints it): for each metric of ``keys`` its value (in the units shown) and the change against the
     reference's in %, the reference last, marked with its own place; then the walker score of both and a
     verdict of the best design against the reference (as ``explorer show``; its values followed by
-    ``verdict_units``' unit where it names one)."""
-    from ..gait import ok_mask
+    ``verdict_units``' unit where it names one). ``best``: the buildable designs' ranking as :func:`_best`
+    keeps it; ``rows_of(variants)``: their frame rows in the units shown."""
     esc = html.escape
-    if by_score:
-        scored = rank(df, top=None)
-        pos = df.index.get_indexer(scored.index)
-        score, places = scored["score"].to_numpy(dtype=np.float64), scored["rank"].to_numpy(dtype=np.int64)
-    else:  # the default score's metrics are not stored: the buildable designs in variant order
-        keep = ok_mask(df) & (df["buildable"].to_numpy(dtype=bool) if "buildable" in df.columns else True)
-        pos = np.flatnonzero(keep)
-        score, places = np.full(len(pos), np.nan), np.arange(1, len(pos) + 1)
+    pos, score, places, n_pool, ref_at = best
     if not keys:
         return ""
-    r0 = {k: float(dv[k].iloc[ref]) if ref_ok else math.nan for k in keys}
+    top = [int(v) for v in pos]
+    shown = rows_of(top + [ref])  # the rows of the table, the reference's last
+    ref_row = shown.iloc[-1]
+    r0 = {k: float(ref_row[k]) if ref_ok else math.nan for k in keys}
     head = ("<tr><th>rank</th><th>variant</th>" + ("<th class='num'>score</th>" if by_score else "")
             + "".join(f"<th class='num'>{esc(k)} [{esc(units.get(k) or '')}]</th><th class='num'>Δ %</th>"
                       for k in keys) + "</tr>")
 
-    def cells(i) -> str:
+    def cells(row) -> str:
         out = []
         for k in keys:
-            x = float(dv[k].iloc[i])
+            x = float(row[k])
             d = change_pct(x, r0[k])
             out.append(f"<td class='num' data-key='{esc(k, quote=True)}' data-value='{x!r}' data-change='{d!r}'>"
                        f"{'-' if not math.isfinite(x) else format(x, '.5g')}</td>"
@@ -691,26 +825,23 @@ def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dic
         return "".join(out)
 
     body = []
-    for j in range(min(VS_ROWS, len(pos))):
-        i = int(pos[j])
+    for j, v in enumerate(top):
         sc = f"<td class='num'>{score[j]:.3f}</td>" if by_score else ""
-        body.append(f"<tr class='vs' data-variant='{int(df['variant'].iloc[i])}'><td>{int(places[j])}</td>"
-                    f"<td>{int(df['variant'].iloc[i])}</td>{sc}{cells(i)}</tr>")
-    at = np.flatnonzero(pos == ref)
-    place = f"{int(places[at[0]])}" if len(at) else "-"
-    sc = (f"<td class='num'>{score[at[0]]:.3f}</td>" if len(at) else "<td class='num'>-</td>") if by_score else ""
+        body.append(f"<tr class='vs' data-variant='{v}'><td>{int(places[j])}</td>"
+                    f"<td>{v}</td>{sc}{cells(shown.iloc[j])}</tr>")
+    place = f"{ref_at[0]}" if ref_at else "-"
+    sc = (f"<td class='num'>{ref_at[1]:.3f}</td>" if ref_at else "<td class='num'>-</td>") if by_score else ""
     body.append(f"<tr class='ref' data-variant='{ref}' data-place='{place}'><td>{esc(ref_label)}: {place}</td>"
-                f"<td>{ref}</td>{sc}{cells(ref)}</tr>")
-    pool = f"{len(pos):,} buildable designs"
+                f"<td>{ref}</td>{sc}{cells(ref_row)}</tr>")
+    pool = f"{n_pool:,} buildable designs"
     lines = []
     if by_score:
-        ref_score = (f"the {ref_label}'s walker score is {score[at[0]]:.3f}, rank {place} of {pool}" if len(at)
+        ref_score = (f"the {ref_label}'s walker score is {ref_at[1]:.3f}, rank {place} of {pool}" if ref_at
                      else f"the {ref_label} is not ranked (failed or screened out)")
         lines.append(f"Ranked by the walker score ({', '.join(DEFAULT_WEIGHTS)}; 1 = best); {ref_score}.")
-    if len(pos) and ref_ok and int(pos[0]) != ref:
-        best = int(pos[0])
-        lines.append(f"Design #1 (variant {int(df['variant'].iloc[best])}): "
-                     + verdict(dv.iloc[best], dv.iloc[ref], ref_label, keys, verdict_units) + ".")
+    if n_pool and ref_ok and int(pos[0]) != ref:
+        lines.append(f"Design #1 (variant {int(pos[0])}): "
+                     + verdict(shown.iloc[0], ref_row, ref_label, keys, verdict_units) + ".")
     elif not ref_ok:
         lines.append(f"The {ref_label} failed: it has no metrics to compare with.")
     notes = "".join(f"<p class='note' id='{'vs-score' if t.startswith('Ranked') else 'vs-verdict'}'>{esc(t)}</p>"
@@ -718,10 +849,77 @@ def _vs_section(df, dv, ref: int, ref_label: str, ref_ok: bool, keys, units: dic
     if yield_note:
         notes += f"<p class='note' id='vs-yield'>{esc(yield_note)}</p>"
     return (f"<div class='panel' id='vs-panel'><h2>The best designs against the {esc(ref_label)}</h2>"
-            f"<p class='note'>The {min(VS_ROWS, len(pos))} best-ranked of the {pool}, each metric with its change "
+            f"<p class='note'>The {len(pos)} best-ranked of the {pool}, each metric with its change "
             f"against the {esc(ref_label)} in % of its value (Δ % = 100·(value − reference)/|reference|); the last row "
             f"is the {esc(ref_label)} with its place in the ranking. <code>explorer show RESULTS --variant V --vs {ref}</code> "
             f"compares one design metric by metric.</p><table id='vs'>{head}{''.join(body)}</table>{notes}</div>")
+
+
+#: Characters of the page encoded at a time (a 25 MB page is not copied whole to count or write its bytes).
+TEXT_PIECE = 1 << 20
+
+
+def _utf8_size(text: str) -> int:
+    """The size of ``text`` in UTF-8, in bytes, encoded :data:`TEXT_PIECE` characters at a time."""
+    return sum(len(text[i:i + TEXT_PIECE].encode("utf-8")) for i in range(0, len(text), TEXT_PIECE))
+
+
+def _b64_pieces(a: np.ndarray):
+    """The base64 text of ``a``'s bytes (:func:`_b64`) in pieces of about :data:`TEXT_PIECE` characters (each
+    piece encodes a whole number of 3-byte groups, so the pieces end to end are the base64 of the whole)."""
+    raw = np.ascontiguousarray(a).reshape(-1).view(np.uint8)
+    step = 3 * (TEXT_PIECE // 4)
+    for i in range(0, len(raw), step):
+        yield base64.b64encode(raw[i:i + step]).decode("ascii")
+
+
+@dataclass
+class _Page:
+    """The report page as its pieces: text, or an array whose bytes the page holds in base64 (the views'
+    table). Written a piece at a time (:meth:`write`), so that neither the whole page nor the table's base64
+    (a third larger than the table) is ever held, nor plotly.js (4.8 MB) copied."""
+
+    pieces: list
+
+    #: The table's (empty) entry in the page's data (JSON): JSON escapes the quotes of any text, so only the
+    #: entry itself reads so.
+    TABLE = '"table": ""'
+
+    @classmethod
+    def of(cls, template: str, plotlyjs: str, data_json: str, table: np.ndarray, fields: dict) -> "_Page":
+        """The page of ``template`` (a str.format text with one ``{plotlyjs}`` and, after it, one ``{data}``)
+        with ``fields``, plotly.js, the data (``data_json``: :data:`TABLE` where the table's base64 goes)
+        and ``table``."""
+        start, rest = template.split("{plotlyjs}")
+        middle, end = rest.split("{data}")
+        before, mark, after = data_json.partition(cls.TABLE)
+        if not mark:
+            raise RuntimeError("report: the page's data has no table entry")
+        table = np.ascontiguousarray(table).astype(table.dtype.newbyteorder("<"), copy=False)
+        return cls([start.format(**fields), plotlyjs, middle.format(**fields) + before + mark[:-1], table,
+                    mark[-1:] + after + end.format(**fields)])
+
+    @staticmethod
+    def _parts(piece):
+        """A piece as text of about :data:`TEXT_PIECE` characters at a time."""
+        if isinstance(piece, np.ndarray):
+            return _b64_pieces(piece)
+        return (piece[i:i + TEXT_PIECE] for i in range(0, len(piece), TEXT_PIECE))
+
+    def size(self) -> int:
+        """The page's size in UTF-8, bytes."""
+        return sum(4 * -(-p.nbytes // 3) if isinstance(p, np.ndarray) else _utf8_size(p) for p in self.pieces)
+
+    def text(self) -> str:
+        """The whole page as one string."""
+        return "".join(part for p in self.pieces for part in self._parts(p))
+
+    def write(self, path) -> None:
+        """Write the page to ``path`` (UTF-8), a piece at a time."""
+        with open(path, "w", encoding="utf-8") as fh:
+            for p in self.pieces:
+                for part in self._parts(p):
+                    fh.write(part)
 
 
 def _script_safe(text: str) -> str:
@@ -745,7 +943,7 @@ def _reason_table(reasons, counts, N) -> str:
 def report_html(results, **kw) -> str:
     """The report page of ``results`` (an open results file or a path) as one HTML string (keyword
     arguments as :func:`write_report`)."""
-    return _with_results(results, lambda res: build_report(res, **kw)[0])
+    return _with_results(results, lambda res: build_report(res, **kw)[0].text())
 
 
 def _with_results(results, fn):
@@ -788,7 +986,7 @@ def write_report(results, path, *, force: bool = False, metrics=None, max_design
         res, metrics=metrics, max_designs=max_designs, paths=paths, shown=shown, points=points,
         reason_paths=reason_paths, seed=seed, x=x, y=y, title=title, pc_lines=pc_lines, vs=vs, units=units,
         where=where))
-    write_replacing(out, lambda tmp: tmp.write_text(page, encoding="utf-8"))
+    write_replacing(out, page.write)
     rep.path = out
     rep.bytes = out.stat().st_size
     return rep
