@@ -157,3 +157,43 @@ def test_a_copied_cache_serves_the_generated_kernels_without_compiling(tmp_path)
     n_copy, gen_copy = out.stdout.split()
     assert gen_copy.startswith(str(copy))
     assert int(n_copy) == 0, f"{n_copy} kernels compiled again from a copied cache"
+
+
+_AFTER_WARM = r'''
+import sys
+from pathlib import Path
+from numba.core import event
+import explorer
+from explorer.study import load_study, run_study
+
+compiled = []
+class Count(event.Listener):
+    def on_start(self, ev):
+        compiled.append(str(getattr(ev.data.get("dispatcher"), "py_func", ev.data.get("dispatcher"))))
+    def on_end(self, ev):
+        pass
+with event.install_listener("numba:compile", Count()):
+    run_study(load_study(None), output=Path(sys.argv[1]), force=True, progress=False)  # 10,000 x 360: generated
+    mech = explorer.load_mechanism("jansen")
+    assert explorer.simulate(mech, 360).ok                                      # one design: the general kernel
+    b = explorer.simulate_batch(mech, mech.lengths[None].repeat(50, 0), None, 90)  # a small batch: the same
+    assert (b.status == 0).all()
+print(len(compiled), sorted(set(compiled)))
+'''
+
+
+@pytest.mark.slow
+def test_explorer_warm_leaves_nothing_to_compile(tmp_path):
+    """``explorer warm`` (the default study) on an empty cache, then a fresh process that runs the default
+    study (whose 3.6 million configurations take the generated kernel), solves one design and a small
+    batch (the general kernel): nothing compiles there."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    out = subprocess.run([sys.executable, "-m", "explorer.cli", "warm"], capture_output=True, text=True, env=env,
+                         timeout=900)
+    assert out.returncode == 0, out.stderr
+    assert " kernels compiled" in out.stdout and int(out.stdout.split(" kernels compiled")[0].split()[-1]) > 0
+    out = subprocess.run([sys.executable, "-c", _AFTER_WARM, str(tmp_path / "r.h5")], capture_output=True, text=True,
+                         env=env, timeout=900)
+    assert out.returncode == 0, out.stderr
+    n, names = out.stdout.split(" ", 1)
+    assert int(n) == 0, f"compiled after explorer warm: {names}"
