@@ -237,18 +237,29 @@ _LOADED: dict = {}
 
 
 def _folder() -> Path:
-    """Where generated modules are written: ``generated/`` in the keyed kernel cache folder."""
-    for base in cache_bases():
-        folder = base / "generated"
+    """Where generated modules are written: ``generated/`` in the keyed kernel cache folder, the first of
+    :func:`_folders` that can be written."""
+    *preferred, last_resort = _folders()
+    for folder in preferred:
         try:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError:
             continue
         if os.access(folder, os.W_OK):
             return folder
-    folder = Path(tempfile.gettempdir()) / f"explorer-generated-{KEY}"
-    folder.mkdir(parents=True, exist_ok=True)
-    return folder
+    last_resort.mkdir(parents=True, exist_ok=True)
+    return last_resort
+
+
+def _folders() -> list[Path]:
+    """Where generated modules may live, in order of preference (the last a temporary folder)."""
+    return [base / "generated" for base in cache_bases()] + [Path(tempfile.gettempdir()) / f"explorer-generated-{KEY}"]
+
+
+def _key_of(src: str) -> str:
+    """The generated module's key (its name is GENERATED_PREFIX + key): a hash of explorer's kernel code
+    and the module's source."""
+    return hashlib.sha1(f"{KEY}\0{src}".encode()).hexdigest()[:20]
 
 
 def _topology_key(topo, want_vel: bool, want_acc: bool, forces: bool) -> tuple:
@@ -274,15 +285,11 @@ def is_ready(topo, want_vel: bool, want_acc: bool = False, forces: bool = False)
         return True
     name = _NAMES.get(tkey)
     if name is None:
-        src = source(topo, want_vel, want_acc, forces)
-        key = hashlib.sha1(f"{KEY}\0{src}".encode()).hexdigest()[:20]  # as _load names it
-        name = _NAMES[tkey] = f"{GENERATED_PREFIX}{key}"
+        name = _NAMES[tkey] = f"{GENERATED_PREFIX}{_key_of(source(topo, want_vel, want_acc, forces))}"
     loaded = _LOADED.get(name[len(GENERATED_PREFIX):])
     if loaded is not None and loaded.signatures:
         return True
-    folders = [base / "generated" for base in cache_bases()]
-    folders.append(Path(tempfile.gettempdir()) / f"explorer-generated-{KEY}")  # _folder's last resort
-    return any((f / f"{name}.py").is_file() and any(f.glob(f"{name}.kernel-*.nbi")) for f in folders)
+    return any((f / f"{name}.py").is_file() and any(f.glob(f"{name}.kernel-*.nbi")) for f in _folders())
 
 
 def kernel_for(topo, want_vel: bool, want_acc: bool = False, forces: bool = False):
@@ -302,7 +309,7 @@ def _load(tkey, topo, want_vel: bool, want_acc: bool, forces: bool):
     if tkey in _BY_TOPOLOGY:
         return _BY_TOPOLOGY[tkey]
     src = source(topo, want_vel, want_acc, forces)
-    key = hashlib.sha1(f"{KEY}\0{src}".encode()).hexdigest()[:20]
+    key = _key_of(src)
     if key in _LOADED:
         _BY_TOPOLOGY[tkey] = _LOADED[key]
         return _LOADED[key]

@@ -567,9 +567,9 @@ def _run(mech, plan, des, steps, out_idx, velocities, accelerations, method, max
     call (every vertex solved with its rates into per-design scratch; the rows of ``out_idx`` stored).
     ``job_configs``: the configurations of the whole job this call is part of (kernel "auto" weighs a
     generated kernel's compile against it; at least this call's)."""
-    job_configs = max(int(job_configs), des.scale.shape[0] * steps)
     drv = _drive_for(mech.crank or mech.path, steps)
     N = des.scale.shape[0]
+    job_configs = max(int(job_configs), N * steps)
     k = len(out_idx)
     outs = Outputs(np.empty((N, steps, k, 2)), np.empty((N, steps if velocities else 0, k, 2)),
                    np.empty((N, steps if accelerations else 0, k, 2)), np.empty(N, dtype=np.int8), np.empty(N),
