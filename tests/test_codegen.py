@@ -185,6 +185,9 @@ def test_kernel_choice():
     assert len(_codegen._BY_TOPOLOGY) == 1
     with pytest.raises(explorer.UserError, match="kernel"):
         explorer.simulate_batch(mech, one, None, 36, kernel="fast")
+    for bad in ("lots", -1, 2.5, True):
+        with pytest.raises(explorer.UserError, match="job_configs"):
+            explorer.simulate_batch(mech, one, None, 36, job_configs=bad)
     with pytest.raises(explorer.UserError, match="generated"):
         explorer.simulate_batch(mech, one, None, 36, method="dense", kernel="generated")
 

@@ -751,6 +751,8 @@ def simulate_batch(mech: Mechanism, lengths, crank=None, steps: int = 360, *, ge
             mech.vertex_index(j)
     if kernel not in KERNELS:
         raise UserError(f"kernel: expected one of {', '.join(KERNELS)}, got {kernel!r}")
+    if isinstance(job_configs, bool) or not isinstance(job_configs, (int, np.integer)) or job_configs < 0:
+        raise UserError(f"job_configs: expected a number of configurations (an integer >= 0), got {job_configs!r}")
     velocities = _default_velocities(velocities, method)
     lengths, crank, geometry = _by_name(mech, lengths, crank, geometry)
     lengths = np.asarray(lengths, dtype=np.float64)
