@@ -208,6 +208,9 @@ class ResultsWriter:
         except (OSError, ValueError) as exc:
             raise UserError(f"{path}: cannot create the results file: {write_error_reason(exc)} "
                             f"(set [output] path in {study.source} or pass -o)") from None
+        except BaseException:  # a signal while h5py opens it (HDF5 has created the file by then): no leftover
+            tmp.unlink(missing_ok=True)
+            raise
         try:
             f.attrs["format"] = FORMAT
             f.attrs["format_version"] = FORMAT_VERSION
