@@ -43,9 +43,10 @@ def test_every_kind_has_its_parts():
 
 
 def test_no_kernel_dispatches_on_a_kind_by_hand():
-    # a block's kind compared with a number or a kind's name (the driver's kind, ``_drive``, is another thing)
+    # a block's kind compared with a number, a kind's name or a kind module's NUMBER (the driver's kind,
+    # ``_drive``, is another thing)
     pattern = re.compile(r"(\.kind|blk_kind|kind\[\w+\]|\bkind(_r)?)\s*[!=]=\s*(\d|DYAD|ATTACH|SLIDE|GENERAL|GEARS)\b"
-                         r"|[!=]=\s*(DYAD|ATTACH|SLIDE|GENERAL|GEARS)\b")
+                         r"|[!=]=\s*(DYAD|ATTACH|SLIDE|GENERAL|GEARS|\w+\.NUMBER)\b")
     found = []
     for path in sorted(KERNELS.glob("*.py")):
         if path.name in ("_kinds_array.py", "_drive.py"):

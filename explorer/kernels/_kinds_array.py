@@ -9,7 +9,7 @@ from numba import njit
 
 from explorer.kinds._common import MAX_MOVE, OK, SIGN, SUSPECT, frame_point, gap_suspect
 from explorer.kinds.attach import attach_vector
-from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, dyad_vector, place_dyad
+from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_good, dyad_sign, dyad_vector, place_dyad
 from explorer.kinds.eq_slide import slide_row
 from explorer.kinds.gears import gear_place, gear_vector
 from explorer.kinds.general import general_reactions, general_sign, general_solve
@@ -357,6 +357,27 @@ def vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed, first):
         elif rec.kind == 4:  # GEARS
             gear_vector(rec.vertex, rec.a, rec.ccx, rec.ccy, rec.gx, rec.gy, rec.gr, rec.gn, rec.gph, X, Y, VX, VY)
     return -1
+
+
+@njit(cache=True, nogil=True)
+def vector_good(tab, X, Y, VX, VY, h, closed, good_at, good_to):
+    """Where a design the first pass flagged passes its blocks' checks, sample by sample (``_vector.
+    restart_points``): each block of ``tab`` by its kind's ``good`` snippet clears good_at[k] (S,) where
+    sample k fails a check and good_to[k] where the step from sample k to k + 1 does (X, Y, VX, VY
+    (n_vertices, S): its rows, as ``vector_blocks`` left them). Returns False where a block's kind does
+    not tell its checks sample by sample (no ``good`` snippet: Newton then solves the whole sweep)."""
+    for k in range(tab.shape[0]):
+        rec = tab[k]
+        if rec.kind == 0:  # DYAD
+            dyad_good(rec.vertex, rec.a, rec.b, rec.da2, rec.db2, rec.hi2, rec.lo2, rec.lim2, rec.gap != 0, X, Y, VX, VY, h, closed,
+                      good_at, good_to)
+        elif rec.kind == 1:  # ATTACH
+            pass  # its vector form flags nothing
+        elif rec.kind == 4:  # GEARS
+            pass  # its vector form flags nothing
+        else:
+            return False
+    return True
 
 
 @njit(cache=True, nogil=True)

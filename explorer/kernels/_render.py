@@ -146,6 +146,18 @@ def vector_blocks(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed, first):
     ('''
 
 @njit(cache=True, nogil=True)
+def vector_good(tab, X, Y, VX, VY, h, closed, good_at, good_to):
+    """Where a design the first pass flagged passes its blocks' checks, sample by sample (``_vector.
+    restart_points``): each block of ``tab`` by its kind's ``good`` snippet clears good_at[k] (S,) where
+    sample k fails a check and good_to[k] where the step from sample k to k + 1 does (X, Y, VX, VY
+    (n_vertices, S): its rows, as ``vector_blocks`` left them). Returns False where a block's kind does
+    not tell its checks sample by sample (no ``good`` snippet: Newton then solves the whole sweep)."""
+    for k in range(tab.shape[0]):
+        rec = tab[k]
+''', 8, "good", "closed", "        else:\n            return False\n    return True\n"),
+    ('''
+
+@njit(cache=True, nogil=True)
 def singular_{which}(table, topo, uv, sd, P, loc, M, x, tol):
     """The forces effect's check at positions P: the first block whose Jacobian is singular (for a
     dyad or a slider, |det| ≤ tol × the sum of its terms' sizes), or −1."""

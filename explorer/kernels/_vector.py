@@ -30,9 +30,8 @@ Coupled blocks (GENERAL) have no vector form: their plans keep Newton (``applies
 import numpy as np
 from numba import njit
 
-from ..kinds import KINDS, attach, dyad, gears
-from ..kinds.dyad import dyad_good
-from ._kinds_array import vector_blocks
+from ..kinds import KINDS
+from ._kinds_array import vector_blocks, vector_good
 from ._sweep_template import STATUS_OK, valid_lengths
 
 #: Status of a row the first pass leaves to Newton (never stored: Newton overwrites it).
@@ -65,13 +64,8 @@ def restart_points(tab, signs, X, Y, VX, VY, Q, M, P, V, h, closed, j, good_at, 
     S = X.shape[1]
     good_at[:] = True
     good_to[:] = True
-    for k in range(tab.shape[0]):
-        rec = tab[k]
-        if rec.kind == dyad.NUMBER:
-            dyad_good(rec.vertex, rec.a, rec.b, rec.da2, rec.db2, rec.hi2, rec.lo2, rec.lim2, rec.gap != 0, X, Y,
-                      VX, VY, h, closed, good_at, good_to)
-        elif rec.kind != attach.NUMBER and rec.kind != gears.NUMBER:  # their vector forms flag nothing
-            return 0, 0
+    if not vector_good(tab, X, Y, VX, VY, h, closed, good_at, good_to):  # each kind's ``good`` snippet
+        return 0, 0
     if not good_at[0]:
         return 0, 0
     kf = 0

@@ -17,7 +17,9 @@ has one *kind*, which decides how the kernels place its vertices. A kind is one 
 * the code the generator writes for it: ``ARRAY`` snippets, rendered into the table-driven kernels
   (``explorer/kernels/_kinds_array.py``, committed, re-rendered by ``explorer.kernels._render``; among
   them ``vector``, the kind over every sample at once with its checks, for the vectorised first pass of
-  method "auto", ``explorer.kernels._vector``: a kind without it sends its plans to Newton), and
+  method "auto", ``explorer.kernels._vector``: a kind without it sends its plans to Newton; and ``good``, where
+  those checks pass sample by sample, for Newton to resume a design the pass flagged: a kind without it
+  leaves such a design's whole sweep to Newton), and
   ``SCALAR`` snippets, rendered into the code generated per topology (``explorer.kernels._codegen``;
   None: plans with it run the table-driven kernels);
 * ``START``: how a design's start places it ("sign": by its closed form on the nominal's branch,

@@ -108,6 +108,7 @@ if want_acc:
     "vector": """\
 attach_vector(rec.vertex, rec.a, rec.b, rec.u, rec.v, X, Y, VX, VY)
 """,
+    "good": "pass  # its vector form flags nothing\n",
     "sign": "",   # no branch: 0
     "singular": "",  # never singular
     # the forces effect: its two rows' multipliers are the load on the joint; Aᵀλ goes to q, λ − Aᵀλ to p

@@ -402,7 +402,7 @@ def dyad_acc(ex, ey, fx, fy, inv, vx, vy, vax, vay, vbx, vby, aax, aay, abx, aby
 #: j`` where it cannot), ``step`` (the sweep's step; ``return code, k, iters`` on trouble), ``check``
 #: (the dense method's per-block check), ``sign`` (its branch sign into out[k]).
 ARRAY = {
-    "imports": "from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_sign, dyad_vector, place_dyad",
+    "imports": "from explorer.kinds.dyad import FOLD_SIN, dyad_acc, dyad_fill, dyad_good, dyad_sign, dyad_vector, place_dyad",
     "fill": """\
 v = row[0]
 a = row[1]
@@ -484,6 +484,12 @@ if checks:
 if dyad_vector(rec.vertex, rec.a, rec.b, rec.da2, rec.db2, rec.hi2, rec.lo2, rec.lim2, rec.gap != 0, signs[k],
                X, Y, VX, VY, Q, M, h, closed):
     return k
+""",
+    # where that pass's checks pass, sample by sample (``_vector.restart_points``: where Newton may resume a
+    # design the pass flagged); a kind without it keeps the whole sweep for Newton, "pass": it flags nothing
+    "good": """\
+dyad_good(rec.vertex, rec.a, rec.b, rec.da2, rec.db2, rec.hi2, rec.lo2, rec.lim2, rec.gap != 0, X, Y, VX, VY, h, closed,
+          good_at, good_to)
 """,
     # the forces effect: a Jacobian too near singular for its reactions (|det| relative to its terms)
     "singular": """\

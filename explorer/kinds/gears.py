@@ -161,6 +161,7 @@ if want_acc:
     "vector": """\
 gear_vector(rec.vertex, rec.a, rec.ccx, rec.ccy, rec.gx, rec.gy, rec.gr, rec.gn, rec.gph, X, Y, VX, VY)
 """,
+    "good": "pass  # its vector form flags nothing\n",
 }
 
 SCALAR = {
