@@ -52,6 +52,7 @@ def signals_held():
     def hold(signum, frame):
         pending.append(signum)
 
+    hold.passes_on = True  # what it holds goes to the handler it replaced (``cli._send_again`` may send here)
     for sig in old:
         signal.signal(sig, hold)
     try:
@@ -59,10 +60,12 @@ def signals_held():
     finally:
         for sig, handler in old.items():
             signal.signal(sig, handler)
-    # an interrupt raised in the handled code takes precedence; one held here is not lost silently: it
-    # goes to the handler it was held from (which may ignore it: the command stopping already), or is
-    # raised where that handler is the system's default
-    if pending and sys.exc_info()[0] is None:
+    # an interrupt raised in the handled code takes precedence (it skips this), and so does one being
+    # handled around the block (a cleanup after Ctrl-C); one held here is not lost silently: it goes to
+    # the handler it was held from (which may ignore it: the command stopping already), or is raised
+    # where that handler is the system's default. (Any other exception being handled around the block
+    # does not drop it: a block run inside ``except OSError:`` would lose a SIGTERM for good.)
+    if pending and not isinstance(sys.exc_info()[1], KeyboardInterrupt):
         sig = signal.SIGTERM if signal.SIGTERM in pending else signal.SIGINT
         handler = old[sig]
         if handler == signal.SIG_IGN:

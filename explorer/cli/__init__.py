@@ -274,7 +274,11 @@ def _send_again(signum: int) -> None:
 
     def send():
         time.sleep(0.01)
-        if signal.getsignal(signum) is handler:  # still the command's (not restored, not ignored)
+        # still the command's (not restored, not ignored), or held over a block that must not be cut
+        # (``errors.signals_held``: it passes the signal on to the command's handler when the block
+        # ends; skipping the send there would lose the signal for good, the run finishing with exit 0)
+        now = signal.getsignal(signum)
+        if now is handler or getattr(now, "passes_on", False):
             os.kill(os.getpid(), signum)
 
     threading.Thread(target=send, daemon=True).start()
