@@ -474,3 +474,65 @@ def test_a_signal_sent_again_while_held_is_not_lost():
     finally:
         cli._Stop.handler, cli._Stop.stopping = saved
         signal.signal(signal.SIGTERM, old)
+
+
+def _as_the_command():
+    """Install the command's own signal handlers (``cli._catch_signals(True)``) in this process for a
+    test; returns what to restore."""
+    from explorer import cli
+    saved = ({s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)},
+             {k: getattr(cli._Stop, k) for k in ("stopping", "handler", "signal", "deferred_at", "raised")})
+    cli._catch_signals(True)
+    return saved
+
+
+def _restore(saved):
+    from explorer import cli
+    handlers, stop = saved
+    cli._Stop.raised = None  # every watcher stands down
+    for k, v in stop.items():
+        setattr(cli._Stop, k, v)
+    for s, h in handlers.items():
+        signal.signal(s, h)
+
+
+def _swallow_one(sig, handled=False):
+    """The command's handler raises the interrupt inside code that catches everything (a library's bare
+    ``except:``)."""
+    from explorer import cli
+    try:
+        os.kill(os.getpid(), sig)
+        time.sleep(2)  # the interrupt lands here
+        raise AssertionError("the signal was not delivered")
+    except BaseException as exc:  # noqa: BLE001 - what a library may do
+        assert isinstance(exc, KeyboardInterrupt), exc
+        if handled:
+            cli._interrupt_handled()
+
+
+@pytest.mark.parametrize("sig,kind", [(signal.SIGTERM, "Terminated"), (signal.SIGINT, "Interrupted")])
+def test_an_interrupt_swallowed_on_its_way_is_raised_again(sig, kind):
+    """An interrupt the command's handler raised that something catches and drops (a bare ``except:`` in
+    a library) is not lost: the signal is sent again (``cli._watch``) and its interrupt raised where the
+    code is then. (The command ignores further signals once it has raised one, so a swallowed interrupt
+    used to leave the run to finish with exit 0, as a clean-clone CI run once saw.)"""
+    saved = _as_the_command()
+    try:
+        _swallow_one(sig)
+        deadline = time.time() + 20
+        with pytest.raises(KeyboardInterrupt) as info:
+            while time.time() < deadline:
+                time.sleep(0.01)
+        assert type(info.value).__name__ == kind
+    finally:
+        _restore(saved)
+
+
+def test_an_interrupt_a_verb_stops_on_is_not_raised_again():
+    """The editor stops on Ctrl-C or SIGTERM by design (``cli._interrupt_handled``): nothing is sent again."""
+    saved = _as_the_command()
+    try:
+        _swallow_one(signal.SIGTERM, handled=True)
+        time.sleep(1.5)  # several of the watcher's looks (cli.WATCH_S)
+    finally:
+        _restore(saved)

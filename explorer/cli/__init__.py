@@ -27,6 +27,7 @@ import signal
 import sys
 import threading
 import time
+import weakref
 
 from .._early import COMMAND as _COMMAND  # the command catches signals from explorer's first instruction
 from .._early import EARLY as _EARLY  # (explorer/_early.py): those that came before main, held here
@@ -93,11 +94,15 @@ class _Stop:
     #: an import was first put off
     signal = None
     deferred_at = None
+    #: a weak reference to the interrupt the handler raised last, while :func:`_watch` watches it
+    raised = None
 
 
 #: Longest a signal that lands in an import waits for the import to finish, s: after it the interrupt is
 #: raised inside the import (the command is stopping: a module left half made is not used again).
 IMPORT_GRACE_S = 0.5
+#: How often the command looks whether the interrupt its handler raised is still on its way, s.
+WATCH_S = 0.2
 
 
 def _catch_signals(command: bool):
@@ -123,7 +128,9 @@ def _catch_signals(command: bool):
                     return
             _Stop.stopping = True
             _Stop.signal = signum
-        raise Terminated() if signum == signal.SIGTERM else (Interrupted() if command else KeyboardInterrupt())
+            raise _watch(Terminated() if signum == signal.SIGTERM else Interrupted(), signum)  # (no local
+            # refers to it: the traceback's frame of this handler would keep it alive)
+        raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
     _Stop.handler = stop
     previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, stop)}
@@ -268,9 +275,39 @@ def _unraisable(unraisable) -> None:
     _quiet_failed_writes(unraisable)
 
 
+def _watch(exc: BaseException, signum: int) -> BaseException:
+    """Send ``signum`` again if the interrupt ``exc`` the command's handler raised is swallowed on its way
+    to ``main``: code that catches every exception (a bare ``except:`` in a library, C code that clears
+    the error it was handed) would otherwise lose it for good, the further signals being ignored and the
+    run going on to finish with exit 0. While the interrupt travels (raised, re-raised, or the context of
+    the one-line message raised in its place) something refers to it; once nothing does, a thread that
+    looks every :data:`WATCH_S` sends the signal again. A verb that stops on an interrupt by design (the
+    editor's server) says so with :func:`_interrupt_handled`. (One dropped inside a reference cycle is
+    seen when Python's garbage collector frees it.) Returns ``exc``, to raise."""
+    ref = weakref.ref(exc)
+    _Stop.raised = ref
+
+    def watch():
+        while _Stop.raised is ref:
+            time.sleep(WATCH_S)
+            if _Stop.raised is ref and ref() is None:
+                _send_again(signum)
+                return
+
+    threading.Thread(target=watch, daemon=True, name="explorer-stop-watch").start()
+    return exc
+
+
+def _interrupt_handled() -> None:
+    """The interrupt the command's handler raised was caught on purpose (the verb stops on it): not
+    sent again (:func:`_watch`)."""
+    _Stop.raised = None
+
+
 def _send_again(signum: int) -> None:
     handler = _Stop.handler
     _Stop.stopping = False
+    _Stop.raised = None  # what is sent now is watched when it is raised
 
     def send():
         time.sleep(0.01)

@@ -55,7 +55,8 @@ def run(args) -> int:
     print(f"explorer edit: kernels ready in {time.perf_counter() - t:.1f} s", file=sys.stderr, flush=True)
     try:
         serve(session, args.host, args.port, open_browser=args.browser)  # until Ctrl-C (or SIGTERM)
-    except KeyboardInterrupt:
-        pass
+    except KeyboardInterrupt:  # how the editor stops (Ctrl-C or SIGTERM): not an error
+        from . import _interrupt_handled
+        _interrupt_handled()
     print("explorer edit: stopped", file=sys.stderr)
     return 0
