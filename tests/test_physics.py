@@ -443,3 +443,36 @@ def test_report_lists_the_checked_designs_in_a_browser(results, tmp_path, capsys
     labels = drv.execute_script("return document.getElementById('parcoords').data[0].dimensions.map("
                                 "function (d) { return d.label; });")
     assert labels and not [x for x in labels if x.startswith("physics")]
+
+
+@pytest.mark.slow
+def test_ctrl_c_while_the_worker_pool_starts_stops_every_worker(monkeypatch):
+    """A Ctrl-C that lands while the physics check's worker pool is being made (deterministically: sent from
+    inside the pool's constructor) is held until the pool exists, then stops it: the interrupt is raised,
+    the pool is terminated and none of its workers lives on (raised inside the constructor, it used to
+    leave a worker being started that printed a traceback after the command's one line)."""
+    import multiprocessing.context as mpc
+
+    from explorer.physics import _check
+
+    made = []
+    original = mpc.BaseContext.Pool
+
+    def pool_with_a_ctrl_c(self, *args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)  # lands here, while the pool is made
+        time.sleep(0.05)
+        made.append(original(self, *args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(mpc.BaseContext, "Pool", pool_with_a_ctrl_c)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's Ctrl-C, whatever the runner set
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            _check._run_jobs([0, 1], 2, lambda *got: pytest.fail("no design may run"), False)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert len(made) == 1, "the pool was not made (the interrupt cut its constructor)"
+    pool = made[0]
+    workers = list(pool._pool)
+    assert len(workers) == 2
+    assert not any(w.is_alive() for w in workers)
