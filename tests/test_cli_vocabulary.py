@@ -202,6 +202,47 @@ def test_show_format_prints_the_metric_table(small, capsys):
         assert code == 2 and out == "" and err.count("\n") == 1 and all(w in err for w in words), err
 
 
+def test_show_format_prints_the_parameter_table(small, capsys):
+    """show --format csv|json --table parameters: one row per design parameter, its value read from the
+    file's /variants datasets with h5py (link lengths and crank radius, and their nominal), the change and
+    its % computed here."""
+    import io
+
+    import h5py
+    import pandas as pd
+
+    import explorer
+    with explorer.open_results(small) as res:
+        mech, perturbed, nominal = res.mechanism, set(res.perturbed), res.nominal
+    v = 3
+    code, out, err = cli(capsys, "show", small, "--variant", v, "--format", "json", "--table", "parameters")
+    assert code == 0 and err == "", err
+    rows = json.loads(out)
+    assert [r["parameter"] for r in rows] == list(mech.parameters())
+    with h5py.File(small, "r") as f:
+        ds = f["variants/lengths"]
+        stored = dict(zip([str(n) for n in ds.attrs["links"]], ds[v].tolist()))
+        noms = dict(zip([str(n) for n in ds.attrs["links"]], ds.attrs["nominal"].tolist()))
+        stored["crank"], noms["crank"] = float(f["variants/crank"][v]), float(f["variants/crank"].attrs["nominal"])
+    assert any(r["perturbed"] for r in rows) and len(stored) == len(mech.links) + 1
+    for r in rows:
+        nom = float(nominal.get(r["parameter"], mech.parameters()[r["parameter"]]))
+        assert r["nominal"] == nom and r["perturbed"] == (r["parameter"] in perturbed)
+        if r["parameter"] in stored:
+            assert r["nominal"] == noms[r["parameter"]]
+            assert r["value"] == stored[r["parameter"]] and r["kind"] == "length" and r["unit"] == "model"
+            assert r["change"] == r["value"] - nom
+            assert r["change_pct"] == pytest.approx(100.0 * (r["value"] - nom) / nom, rel=1e-12)
+    code, out_csv, err = cli(capsys, "show", small, "--variant", v, "--format", "csv", "--table", "parameters")
+    table = pd.read_csv(io.StringIO(out_csv))
+    assert code == 0 and list(table.columns) == ["parameter", "label", "kind", "value", "nominal", "change",
+                                                 "change_pct", "pct_of", "unit", "perturbed"]
+    assert table["value"].tolist() == [r["value"] for r in rows]
+    # --table goes with a machine format: one line, exit 2
+    code, out, err = cli(capsys, "show", small, "--variant", v, "--table", "parameters")
+    assert code == 2 and out == "" and err.count("\n") == 1 and "--format csv or json" in err, err
+
+
 def test_plot_units_si(small, tmp_path, capsys):
     """plot --units si: the foot paths in mm (x 1000 x [operating] unit) and the scatter's axes in SI."""
     import explorer

@@ -12,7 +12,7 @@ from ._args import (add_format, add_include_screened, add_old_positional_variant
 from ._rank import add_yield_arguments, check_yield_arguments, yields
 from ._format import better, results_si, table
 
-__all__ = ["chosen_variant", "parameter_lines", "parse_variant", "register", "run"]
+__all__ = ["chosen_variant", "parameter_lines", "parameter_records", "parse_variant", "register", "run"]
 
 
 def register(sub) -> None:
@@ -27,7 +27,8 @@ def register(sub) -> None:
                     "rank), the walker score and its rank, a verdict against the reference, its status "
                     "(for a failed variant: the crank angle and vertex where it failed) and whether it passes the "
                     "buildability screen (and if not, why). Variant 0 is the nominal. --format csv or json prints "
-                    "the metric table alone, one row per metric, to stdout.",
+                    "one table alone to stdout: the metric table, one row per metric, or with --table "
+                    "parameters the design parameters, one row per parameter.",
         epilog="examples: explorer show R.h5 --variant 3; explorer show R.h5 --variant 3 --vs 7 --format csv > v3.csv")
     p.add_argument("results", metavar="RESULTS", help="results file (.h5) written by `explorer run`")
     add_variant(p, "the variant to show, 0 to N-1 (0 = the nominal design)")
@@ -37,9 +38,17 @@ def register(sub) -> None:
     add_include_screened(p, "rank among every ok variant, as `explorer rank --include-screened` (default: among "
                             "the buildable ones, as `explorer rank`)")
     add_units(p)
-    add_format(p, what="csv and json: the metric table alone, one row per metric (metric, value, reference, change, "
-                       "change_pct, unit, rank, ranked_among), numbers unrounded, to stdout")
+    add_format(p, what="csv and json: one table alone (--table), numbers unrounded, to stdout")
+    p.add_argument("--table", choices=TABLES, default=None,
+                   help="with --format csv|json, the table printed: metrics (default; one row per metric: metric, "
+                        "value, reference, change, change_pct, unit, rank, ranked_among) or parameters (one row per "
+                        "design parameter: parameter, label, kind, value, nominal, change, change_pct, pct_of, unit, "
+                        "perturbed; against the nominal design, in model units or mm with --units si)")
     p.set_defaults(func=run)
+
+
+#: The tables ``show --format csv|json`` prints (``--table``).
+TABLES = ("metrics", "parameters")
 
 
 def slider_labels(mech) -> dict[str, str]:
@@ -56,40 +65,59 @@ def slider_labels(mech) -> dict[str, str]:
     return out
 
 
-def parameter_lines(mech, design: dict, nominal: dict, perturbed, mm_per_unit: float | None = None) -> list[str]:
-    """The table of every design parameter of ``mech`` (``Mechanism.parameters`` order): the variant's
-    value (``design``, :meth:`Results.design`), the nominal (``nominal``, else the mechanism's), the
-    change, and the change in % of the nominal (a length) or of the mechanism's size (a coordinate,
-    whose own value is no scale). Values in model units, or in mm with ``mm_per_unit`` (mm per model
-    unit: ``--units si``)."""
+def parameter_records(mech, design: dict, nominal: dict, perturbed, mm_per_unit: float | None = None) -> list[dict]:
+    """Every design parameter of ``mech`` (``Mechanism.parameters`` order) as one record: ``parameter``
+    (its name), ``label`` (how the table says it), ``kind`` ("length", "coordinate", or "direction": a
+    ground line's, which counts only by its angle), the variant's ``value`` (``design``,
+    :meth:`Results.design`), the ``nominal`` (``nominal``, else the mechanism's), the ``change``,
+    ``change_pct`` (% of the nominal for a length, of the mechanism's size for a coordinate, whose own
+    value is no scale; None for a direction or a zero nominal), ``pct_of`` ("nominal", "size" or None),
+    ``unit`` ("model", "mm" with ``mm_per_unit``, mm per model unit, or "" for a direction) and
+    ``perturbed`` (False: the study kept it fixed)."""
     k = 1.0 if mm_per_unit is None else float(mm_per_unit)
-    unit = "" if mm_per_unit is None else " [mm]"
     size = mech.size
     pivots = {f"{v}.{a}" for v in mech.fixed for a in "xy"}
     sliders = slider_labels(mech)
-    rows = [("parameter", "value" + unit, "nominal" + unit, "change" + unit, "change %")]
+    out = []
     for p, mech_nominal in mech.parameters().items():
         nom = float(nominal.get(p, mech_nominal))
         val = float(design.get(p, nom))
         d = val - nom
+        kk, unit = k, ("model" if mm_per_unit is None else "mm")
         if mech.parameter_kind(p) == "length":
-            pct = f"{100.0 * d / nom:+.3f} %" if nom else "-"
+            kind, pct, of = "length", (100.0 * d / nom if nom else None), "nominal"
             label = p if p == "crank" else f"link {p}"
+        elif p in sliders and p.endswith((".dx", ".dy")):  # a direction: no unit, never in mm, no % of size
+            kind, pct, of, kk, unit = "direction", None, None, 1.0, ""
+            label = sliders[p]
         else:
-            # a ground line's direction counts only by its angle: no % of the mechanism's size
-            pct = "-" if p in sliders and p.endswith((".dx", ".dy")) else f"{100.0 * d / size:+.3f} % of size"
+            kind, pct, of = "coordinate", 100.0 * d / size, "size"
             label = (f"pivot {p}" if p in pivots else sliders[p] if p in sliders
                      else p if p in ("crank.x", "crank.y") else f"joint {p}")
-        if p not in perturbed:
-            label += " (fixed)"
-        kk = k
-        if pct == "-" and p in sliders:  # a direction: no unit, never in mm
-            kk = 1.0
-            label += " (no unit)" if unit else ""
-        rows.append((label, f"{val * kk:.4f}", f"{nom * kk:.4f}", f"{d * kk:+.4f}", pct))
+        out.append({"parameter": p, "label": label, "kind": kind, "value": val * kk, "nominal": nom * kk,
+                    "change": d * kk, "change_pct": pct, "pct_of": of if pct is not None else None, "unit": unit,
+                    "perturbed": p in perturbed})
+    return out
+
+
+def parameter_lines(mech, design: dict, nominal: dict, perturbed, mm_per_unit: float | None = None) -> list[str]:
+    """The table of every design parameter of ``mech`` (:func:`parameter_records`, the same arguments): the
+    variant's value, the nominal, the change, and the change in % of the nominal (a length) or of the
+    mechanism's size (a coordinate). Values in model units, or in mm with ``mm_per_unit`` (mm per model
+    unit: ``--units si``)."""
+    unit = "" if mm_per_unit is None else " [mm]"
+    rows = [("parameter", "value" + unit, "nominal" + unit, "change" + unit, "change %")]
+    for r in parameter_records(mech, design, nominal, perturbed, mm_per_unit):
+        pct = ("-" if r["change_pct"] is None else
+               f"{r['change_pct']:+.3f} %" + (" of size" if r["pct_of"] == "size" else ""))
+        label = r["label"] + ("" if r["perturbed"] else " (fixed)")
+        if r["kind"] == "direction" and unit:
+            label += " (no unit)"
+        rows.append((label, f"{r['value']:.4f}", f"{r['nominal']:.4f}", f"{r['change']:+.4f}", pct))
     out = table(rows, (False, True, True, True, True))
     if any(mech.parameter_kind(p) == "coordinate" for p in mech.parameters()):
-        out.append(f"(a coordinate's change is in % of the mechanism's size, {size * k:g}{' mm' if unit else ''}: "
+        k = 1.0 if mm_per_unit is None else float(mm_per_unit)
+        out.append(f"(a coordinate's change is in % of the mechanism's size, {mech.size * k:g}{' mm' if unit else ''}: "
                    f"its longest link or body span)")
     return out
 
@@ -160,6 +188,10 @@ def run(args) -> int:
 
     chosen = chosen_variant(args, "show", "explorer show RESULTS --variant N")
     machine = getattr(args, "format", "table") != "table"
+    which = getattr(args, "table", None)
+    if which is not None and not machine:
+        raise UserError(f"show: --table {which} chooses the table --format csv or json prints; the text format "
+                        f"(--format table) shows every table")
     if machine and args.yield_tol is not None:
         raise UserError(f"show: --format {args.format} prints the metric table alone; --yield's lines are not part of "
                         f"it (use --format table, or `explorer rank --yield --format {args.format}`)")
@@ -214,6 +246,11 @@ def run(args) -> int:
         lines.append(f"status: failed ({status}){at}{vert}")
 
     # -- design parameters -------------------------------------------------------------------------------
+    if machine and which == "parameters":
+        _print_table(parameter_records(mech, design, nominal, perturbed,
+                                       None if si is None else si.operating.unit * 1000.0), args.format,
+                     text=("parameter", "label", "kind", "pct_of", "unit"), flags=("perturbed",))
+        return 0
     lines.append("")
     lines += parameter_lines(mech, design, nominal, perturbed,
                              None if si is None else si.operating.unit * 1000.0)
@@ -321,11 +358,18 @@ def run(args) -> int:
 
 def _print_records(records: list[dict], fmt: str) -> None:
     """The metric table of ``show --format csv|json`` on stdout (None: an empty CSV cell, JSON null)."""
+    # whole numbers stay whole (object columns): an empty cell (null) where a metric is unranked
+    _print_table(records, fmt, text=("metric", "unit", "rank", "ranked_among"))
+
+
+def _print_table(records: list[dict], fmt: str, text=(), flags=()) -> None:
+    """``records`` (dicts with the same keys, in column order) as CSV or JSON on stdout: the columns
+    ``text`` as they are (None: an empty CSV cell, JSON null), ``flags`` as booleans, the others as
+    floats."""
     import pandas as pd
     from ._format import json_records
-    columns = ["metric", "value", "reference", "change", "change_pct", "unit", "rank", "ranked_among"]
-    # whole numbers stay whole (object columns): an empty cell (null) where a metric is unranked
-    df = pd.DataFrame({c: pd.Series([r[c] for r in records], dtype=object if c in ("rank", "ranked_among", "metric", "unit")
+    columns = list(records[0]) if records else []
+    df = pd.DataFrame({c: pd.Series([r[c] for r in records], dtype=object if c in text else bool if c in flags
                                     else "float64") for c in columns})
     sys.stdout.write(df.to_csv(index=False) if fmt == "csv" else json_records(df) + "\n")
 
