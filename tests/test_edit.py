@@ -501,6 +501,40 @@ def test_svg_dxf_and_kit_saves(client):
     assert r.status_code == 409  # a kit's files are not replaced without asking either
 
 
+def test_the_save_menu_is_the_export_registry(client):
+    """The editor saves in every export format that takes a design alone (explorer.fabrication.EXPORTS with
+    needs_results False), read live: a format registered there is offered on the page and written by its
+    own writer; one that needs a results file (csv) is not offered; handoff is the editor's own."""
+    from explorer.fabrication import EXPORTS, ExportFormat, register_export
+    c, session, folder = client
+    offered = c.get("/api/session", headers={"Host": "127.0.0.1:8765"}).get_json()["save_formats"]
+    assert list(offered)[0] == "toml" and list(offered)[-1] == "handoff"
+    assert set(offered) == {n for n, f in EXPORTS.items() if not f.needs_results} | {"handoff"}
+    assert "csv" in EXPORTS and "csv" not in offered
+
+    def write_json(job):
+        job.out.write_text(json.dumps({"source": job.source, "links": {k.name: k.length for k in job.mechanism.links}}))
+        return f"wrote {job.out}"
+
+    register_export(ExportFormat("toyjson", ".toyjson", "the design as toy JSON", write_json, needs_results=False))
+    try:
+        offered = c.get("/api/session", headers={"Host": "127.0.0.1:8765"}).get_json()["save_formats"]
+        assert offered["toyjson"] == "the design as toy JSON"
+        data = design_data(session.reference)
+        r = _post(c, "/api/save", {"design": data, "path": "leg.toyjson", "format": "toyjson"})
+        assert r.status_code == 200, r.get_json()
+        assert r.get_json()["written"] == [str(folder / "leg.toyjson")]
+        got = json.loads((folder / "leg.toyjson").read_text())
+        assert got["links"] == {k.name: k.length for k in session.reference.links}
+        assert got["source"].startswith("explorer edit")
+        r = _post(c, "/api/save", {"design": data, "path": "leg.toyjson", "format": "toyjson"})
+        assert r.status_code == 409  # the one output policy, for a format the editor never heard of too
+    finally:
+        del EXPORTS["toyjson"]
+    r = _post(c, "/api/save", {"design": design_data(session.reference), "path": "t.csv", "format": "csv"})
+    assert r.status_code == 400 and "expected one of" in r.get_json()["error"]
+
+
 @pytest.mark.slow
 def test_the_command_serves_until_interrupted(tmp_path):
     """`explorer edit fourbar --no-browser --port 0`: prints its address on 127.0.0.1, answers GET

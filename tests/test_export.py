@@ -480,3 +480,20 @@ def test_help(capsys):
         main(["export", "--help"])
     out = capsys.readouterr().out
     assert exc.value.code == 0 and "20 % of" in out and "%%" not in out and "--force" in out
+
+
+def test_a_mechanism_exports_as_a_design_file_and_a_cut_sheet(tmp_path, capsys):
+    """svg, dxf and toml take a design alone (a built-in or a .toml), as the kit does: the toml reads back as
+    the same design; csv (a variant's stored trajectories) still needs a results file, said in one line."""
+    from explorer import load_mechanism
+    from explorer.cli import main
+    assert main(["export", "jansen", "--as", "toml", "-o", str(tmp_path / "j.toml")]) == 0
+    assert load_mechanism(tmp_path / "j.toml").parameters() == load_mechanism("jansen").parameters()
+    assert "Exported by explorer" in (tmp_path / "j.toml").read_text().splitlines()[0]
+    assert main(["export", str(tmp_path / "j.toml"), "-o", str(tmp_path / "j.svg")]) == 0
+    assert (tmp_path / "j.svg").read_text().startswith("<?xml")
+    out = capsys.readouterr().out
+    assert "design 'jansen'" in out and "variant None" not in out
+    assert main(["export", "jansen", "--as", "csv", "-o", str(tmp_path / "j.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not a results file" in err and not (tmp_path / "j.csv").exists()

@@ -10,6 +10,7 @@ def register(sub) -> None:
     from ..fabrication import EXPORTS
     from ._args import add_old, add_old_positional_variant, add_output, add_variant
 
+    alone = ", ".join(n for n, f in EXPORTS.items() if not f.needs_results)  # the formats that take a design alone
     p = sub.add_parser(
         "export", help="export one variant: its parts for a laser cutter (SVG, DXF), its trajectories (CSV), or "
                        "its design as a mechanism file (TOML)",
@@ -29,13 +30,13 @@ def register(sub) -> None:
                     "crankshaft sized from the forces of the parts cut, spacers, bushings, standoffs, the motor), "
                     "assembly.pdf, README.txt (scale, material, the worst clearance, the command); the size and "
                     "the material come from the design's [build] table, else a 30 mm crank (--crank-mm or --scale) "
-                    "and 3 mm plywood; RESULTS may then also be a mechanism (a built-in name or a .toml) with no "
-                    "VARIANT. "
+                    f"and 3 mm plywood. {alone} also take a design alone: RESULTS may then be a "
+                    "mechanism (a built-in name or a .toml) with no VARIANT. "
                     "An existing PATH (or a kit's file in DIR) is never replaced without --force; missing folders "
                     "are created.")
     p.add_argument("results", metavar="RESULTS",
-                   help="results file (.h5) written by `explorer run`; with --as kit also a mechanism (built-in "
-                        "name or .toml)")
+                   help=f"results file (.h5) written by `explorer run`; for {alone} also a "
+                        "mechanism (built-in name or .toml)")
     add_variant(p, "the variant of RESULTS to export, 0 to N-1 (0 = the nominal design)")
     add_old_positional_variant(p)
     p.add_argument("--as", dest="fmt", choices=tuple(EXPORTS), default=None, metavar="FORMAT",

@@ -15,6 +15,7 @@ import math
 import os
 import threading
 import time
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -25,10 +26,35 @@ from ._design import CRANK_CENTRE, design_data, drag, parse_design, set_paramete
 from ._solve import encode, solve_design
 from ._study import Study, is_results_file, yield_data
 
-#: Save formats: what each writes.
-SAVE_FORMATS = {"toml": "the design as a mechanism file", "svg": "its parts laid out for cutting (mm)",
-                "dxf": "its parts as DXF (mm; the cad extra)", "kit": "a build kit folder (cut sheets, BOM, README)",
-                "handoff": "a design file, an optimize study over it and its foot path as a target CSV"}
+#: The editor's own save format, beside the export formats that take a design alone.
+HANDOFF = "a design file, an optimize study over it and its foot path as a target CSV"
+
+
+class _SaveFormats(Mapping):
+    """{format: what it writes} of a save: every export format that writes a design alone
+    (``explorer.fabrication.EXPORTS`` whose ``needs_results`` is False, the mechanism file first: the
+    page's default), read live, so that a format registered there is offered here; then ``handoff``."""
+
+    def _all(self) -> dict:
+        from ..fabrication import EXPORTS
+        names = sorted((n for n, f in EXPORTS.items() if not f.needs_results), key=lambda n: n != "toml")
+        return {**{n: EXPORTS[n].help for n in names}, "handoff": HANDOFF}
+
+    def __getitem__(self, name):
+        return self._all()[name]
+
+    def __iter__(self):
+        return iter(self._all())
+
+    def __len__(self):
+        return len(self._all())
+
+    def __repr__(self):
+        return repr(self._all())
+
+
+#: Save formats: what each writes (a live view of the export registry, and ``handoff``).
+SAVE_FORMATS: Mapping[str, str] = _SaveFormats()
 #: Most copies the page may ask the yield of.
 MAX_YIELD_COPIES = 4096
 
@@ -87,7 +113,7 @@ class EditSession:
                 "reference": ref, "current": self.payload(self.current) if self.current is not self.reference else ref,
                 "metrics": {m.name: {"unit": m.unit, "direction": m.direction, "group": m.group,
                                      "description": m.description} for m in TABLE},
-                "builtins": list(builtin_mechanisms()), "folder": str(self.folder), "save_formats": SAVE_FORMATS,
+                "builtins": list(builtin_mechanisms()), "folder": str(self.folder), "save_formats": dict(SAVE_FORMATS),
                 "crank_centre": CRANK_CENTRE, "study": self.study_summary() if self.study is not None else None,
                 "screen": self.screen.as_dict() if self.screen is not None else None}
 
@@ -225,10 +251,12 @@ class EditSession:
     def save(self, data, path, fmt="toml", force=False, check=False) -> dict:
         """POST /api/save: write the design by the one output policy (an existing file is replaced only
         with ``force``, which the page asks the user for; never a link, a folder or a device). ``fmt``:
-        one of :data:`SAVE_FORMATS`. Returns {"written": [paths]}; with ``check``, writes nothing and
-        returns {"exists": [the paths it would replace]}."""
+        one of :data:`SAVE_FORMATS`: an export format (``explorer.fabrication.export_design``, what
+        ``explorer export`` writes) or ``handoff``. Returns {"written": [paths]} (and an export's
+        "summary" line, a handoff's "commands"); with ``check``, writes nothing and returns {"exists":
+        [the paths it would replace]}."""
         from .._files import output_path
-        from ..fabrication import build_kit, export_dxf, export_svg, export_toml, write_kit
+        from ..fabrication import export_design, export_toml
 
         mech = self.parse(data)
         if fmt not in SAVE_FORMATS:
@@ -237,16 +265,10 @@ class EditSession:
         p = self._resolve(path)
         if check is True:
             return {"exists": [str(f) for f in _targets(p, fmt) if os.path.lexists(f)]}
-        if fmt == "toml":
-            return {"written": [str(export_toml(mech, p, force=force, header=_header(mech)))]}
-        if fmt == "svg":
-            return {"written": [str(export_svg(mech, p, force=force))]}
-        if fmt == "dxf":
-            return {"written": [str(export_dxf(mech, p, force=force))]}
-        if fmt == "kit":
+        if fmt != "handoff":  # an export format (explorer.fabrication): what `explorer export` writes
             with self.lock:
-                kit = build_kit(mech, source=f"explorer edit ({mech.name})")
-            return {"written": [str(x) for x in write_kit(kit, p, force=force)]}
+                summary = export_design(mech, fmt, p, source=f"explorer edit ({mech.name})", force=force)
+            return {"written": [str(f) for f in _targets(p, fmt)], "summary": summary}
         # handoff: the design, an optimize study that starts from it, and its foot path as a target
         files = dict(zip(("design", "study", "target"), _targets(p, fmt)))
         for f in files.values():
@@ -267,12 +289,13 @@ class EditSession:
 
 
 def _targets(p: Path, fmt: str) -> list[Path]:
-    """The paths a save writes (a kit: the files already in its folder)."""
+    """The paths a save writes (a format that writes a folder, the kit: the files in it)."""
+    from ..fabrication import EXPORTS
     if fmt == "handoff":
         stem = p.with_suffix("") if p.suffix == ".toml" else p
         return [stem.with_name(stem.name + ".toml"), stem.with_name(stem.name + "-optimize.toml"),
                 stem.with_name(stem.name + "-foot.csv")]
-    if fmt == "kit":
+    if EXPORTS[fmt].extension is None:
         return sorted(p.iterdir()) if p.is_dir() else [p]
     return [p]
 

@@ -24,12 +24,13 @@ release.
 
 from ._export import (Sheet, cut_sheet, export_csv, export_dxf, export_svg, export_toml, mechanism_toml,
                       trajectory_frame, variant_design)
-from ._exports import EXPORT_FORMATS, EXPORTS, ExportFormat, ExportJob, export_format, export_variant, register_export
+from ._exports import (EXPORT_FORMATS, EXPORTS, ExportFormat, ExportJob, export_design, export_format, export_variant,
+                       register_export)
 from ._kit import (MOTOR_SHAFT, Kit, KitLeg, KitPart, KitPin, Material, Placement, build_kit, design_yield_note,
                    kit_data, pin_diameter, shaft_diameter, write_kit)
 from ._kit_chassis import motor_pattern
 
-__all__ = ["EXPORTS", "EXPORT_FORMATS", "ExportFormat", "ExportJob", "export_format", "export_variant",
+__all__ = ["EXPORTS", "EXPORT_FORMATS", "ExportFormat", "ExportJob", "export_design", "export_format", "export_variant",
            "register_export", "Sheet", "cut_sheet", "export_csv", "export_dxf", "export_svg", "export_toml",
            "mechanism_toml", "trajectory_frame", "variant_design", "MOTOR_SHAFT", "Kit", "KitLeg", "KitPart",
            "KitPin", "Material", "Placement", "build_kit", "design_yield_note", "kit_data", "pin_diameter",

@@ -167,8 +167,27 @@ def export_variant(target, variant: int | None, output, *, as_: str | None = Non
     from ..mechanism import load_mechanism
     mech = load_mechanism(target)
     source = f"mechanism {target}" + (f" ({mech.source})" if mech.source and mech.source != str(target) else "")
+    return _write_design(fmt, mech, source, out, force, dict(options or {}), command, target)
+
+
+def export_design(mech, name: str, output, *, source: str, force: bool = False, options: dict | None = None) -> str:
+    """Write the design ``mech`` (a :class:`~explorer.mechanism.Mechanism`, no results file) in the export
+    format ``name`` (one whose ``needs_results`` is False) to ``output``, by the one output policy (an
+    existing file replaced only with ``force``); ``source`` says where the design comes from, in words (a
+    toml's header, a kit's README). Returns the format's summary line. What ``explorer edit`` saves."""
+    if name not in EXPORTS or EXPORTS[name].needs_results:
+        raise UserError(f"format: expected one of {', '.join(n for n, f in EXPORTS.items() if not f.needs_results)}, "
+                        f"got {name!r}")
+    out = Path(os.fspath(output))
+    fmt = EXPORTS[name]
+    _check_output(fmt, out, force, None)
+    return _write_design(fmt, mech, source, out, force, dict(options or {}), "", mech.name)
+
+
+def _write_design(fmt: ExportFormat, mech, source: str, out: Path, force: bool, options: dict, command: str,
+                  target) -> str:
     _check_crank(fmt, mech, target)
-    return fmt.write(ExportJob(None, None, mech, "ok", source, out, force, dict(options or {}), command))
+    return fmt.write(ExportJob(None, None, mech, "ok", source, out, force, options, command))
 
 
 def _is_results_file(path) -> bool:
@@ -183,8 +202,9 @@ def _is_results_file(path) -> bool:
 
 def _check_output(fmt: ExportFormat, out: Path, force: bool, target) -> None:
     from .._files import output_path
+    protect = [target] if target is not None else []
     if fmt.extension is not None:
-        output_path(out, force, protect=[target])
+        output_path(out, force, protect=protect)
         return
     if not str(out).strip():
         raise UserError(f"-o: expected a folder name, got {str(out)!r}")
@@ -194,7 +214,7 @@ def _check_output(fmt: ExportFormat, out: Path, force: bool, target) -> None:
         from ._kit import KIT_FILES
         for name in KIT_FILES:
             if os.path.lexists(out / name):
-                output_path(out / name, force, protect=[target])
+                output_path(out / name, force, protect=protect)
 
 
 def _check_crank(fmt: ExportFormat, mech, target) -> None:
@@ -217,7 +237,7 @@ def _sheet_writer(kind: str):
         sheet = cut_sheet(job.mechanism, **opts)
         path = (export_svg if kind == "svg" else export_dxf)(job.mechanism, job.out, force=job.force, **opts)
         W, H = sheet.size
-        return (f"wrote {os.fspath(path)}: {len(sheet.parts)} parts of variant {job.variant} on a {W:.1f} × {H:.1f} "
+        return (f"wrote {os.fspath(path)}: {len(sheet.parts)} parts of {_what(job)} on a {W:.1f} × {H:.1f} "
                 f"mm sheet (1 model unit = {sheet.scale:g} mm; parts {sheet.width:.3g} mm wide, holes "
                 f"{sheet.hole:.3g} mm){job.note}")
     return write
@@ -233,15 +253,21 @@ def _write_csv(job: ExportJob) -> str:
             f"({', '.join(cols[:5])}{', …' if len(cols) > 5 else ''})")
 
 
+def _what(job: ExportJob) -> str:
+    """What is exported, in words: "variant N", or a design without results "design NAME"."""
+    return f"variant {job.variant}" if job.results is not None else f"design {job.mechanism.name!r}"
+
+
 def _write_toml(job: ExportJob) -> str:
     from .. import __version__
     from ._export import export_toml
     mech = job.mechanism
-    header = (f"Exported by explorer {__version__}: variant {job.variant} of {job.results.filename} (status "
-              f"{job.status}).\nRead it with explorer.load_mechanism(PATH), or run a study on it ([study] mechanism = "
-              f"PATH).")
+    whence = (f"variant {job.variant} of {job.results.filename} (status {job.status})" if job.results is not None
+              else job.source)
+    header = (f"Exported by explorer {__version__}: {whence}.\nRead it with explorer.load_mechanism(PATH), or run a "
+              f"study on it ([study] mechanism = PATH).")
     path = export_toml(mech, job.out, force=job.force, header=header)
-    return (f"wrote {os.fspath(path)}: variant {job.variant} as mechanism {mech.name!r} ({len(mech.parameters())} "
+    return (f"wrote {os.fspath(path)}: {_what(job)} as mechanism {mech.name!r} ({len(mech.parameters())} "
             f"design parameters){job.note}")
 
 
@@ -336,11 +362,11 @@ def _write_kit(job: ExportJob) -> str:
 
 
 register_export(ExportFormat("svg", ".svg", "the design's parts laid out for a laser cutter (mm; 1 model unit = "
-                             "--scale mm)", _sheet_writer("svg"), SHEET_OPTIONS))
+                             "--scale mm)", _sheet_writer("svg"), SHEET_OPTIONS, needs_results=False))
 register_export(ExportFormat("dxf", ".dxf", "the same parts as DXF (layers CUT and LABELS)", _sheet_writer("dxf"),
-                             SHEET_OPTIONS))
+                             SHEET_OPTIONS, needs_results=False))
 register_export(ExportFormat("csv", ".csv", "the variant's stored trajectories, one row per sample", _write_csv))
 register_export(ExportFormat("toml", ".toml", "the design as a mechanism file (explorer run, load_mechanism)",
-                             _write_toml))
+                             _write_toml, needs_results=False))
 register_export(ExportFormat("kit", None, "a build kit folder: cut sheets, kit.json, bill of materials, assembly.pdf, "
                              "README.txt", _write_kit, KIT_OPTIONS, needs_results=False, needs_crank=True))
