@@ -115,6 +115,7 @@ _HOMES = {
     "store_lock": (".store._lock", None),
     "verb_modules": (".cli", "_verb_modules"),
     "cli_physics": (".cli._physics", None),
+    "run_physics_jobs": (".physics._check", "_run_jobs"),
     # -- added for the tests' imports --------------------------------------------------------------------
     "N_CURVE": (".synthesis._curves", "N_CURVE"),
     "angles_at_arc": (".synthesis._curves", "angles_at_arc"),

@@ -453,7 +453,7 @@ def test_ctrl_c_while_the_worker_pool_starts_stops_every_worker(monkeypatch):
     leave a worker being started that printed a traceback after the command's one line)."""
     import multiprocessing.context as mpc
 
-    from explorer.physics import _check
+    from explorer.testing import run_physics_jobs
 
     made = []
     original = mpc.BaseContext.Pool
@@ -468,7 +468,7 @@ def test_ctrl_c_while_the_worker_pool_starts_stops_every_worker(monkeypatch):
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's Ctrl-C, whatever the runner set
     try:
         with pytest.raises(KeyboardInterrupt):
-            _check._run_jobs([0, 1], 2, lambda *got: pytest.fail("no design may run"), False)
+            run_physics_jobs([0, 1], 2, lambda *got: pytest.fail("no design may run"), False)
     finally:
         signal.signal(signal.SIGINT, previous)
     assert len(made) == 1, "the pool was not made (the interrupt cut its constructor)"
