@@ -149,6 +149,7 @@ _HOMES = {
     "kernels_render": (".kernels._render", None),
     "BLOCK_DTYPE": (".kernels._inputs", "BLOCK_DTYPE"),
     "kernels_batch_array": (".kernels._batch_array", None),
+    "kernels_forces": (".kernels._forces", None),
 }
 
 __all__ = list(_HOMES)

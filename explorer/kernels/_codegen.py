@@ -20,11 +20,14 @@ template (``_sweep_template.sweep``, the sweep's one source) inline, both render
 scalar dialect (:func:`scalar_dialect`), the kinds' table-driven step written out block by block: the
 same continuation, refinement, backward sweep after a failure, checks and failure reports, the same
 arithmetic in the same order, plus the template's loop of whole steps (which the array form drops).
-With forces, each ok design's forces effect follows its sweep in the same loop
-(``_forces.design_forces_fast``). Its results are the table-driven kernel's bit for bit
+With forces, each ok design's forces effect follows its sweep in the same loop, its base leg (loads,
+multipliers and member forces at every sample) generated for the topology and its members too
+(``_forces_scalar``, rendered from the kinds' ``forces_geometry`` and ``reactions`` snippets and the
+equation types' ``PULL_SCALAR``; written only into a forces kernel's module, compiled as its own
+function). Its results are the table-driven kernel's bit for bit
 (tests/test_codegen.py checks positions, velocities, accelerations, statuses, failure angles and
-blocks and iteration counts on thousands of variants of every built-in leg; tests/test_forces.py the
-forces); it is only faster. Plans with a kind without a scalar form (coupled blocks, sliders) and the
+blocks and iteration counts on thousands of variants of every built-in leg; tests/test_forces_scalar.py
+the forces); it is only faster. Plans with a kind without a scalar form (coupled blocks, sliders) and the
 dense method keep the table-driven kernels.
 
 The module is written once per topology into the keyed kernel cache folder (``generated/`` under
@@ -48,6 +51,7 @@ from numba import njit
 
 from ..kinds import KINDS
 from ._cache import GENERATED_PREFIX, KEY, cache_bases
+from ._forces_scalar import base_leg_source, force_key, scalar_forces
 from ._sweep_template import indexed, render
 
 _HEADER = '''\
@@ -197,7 +201,9 @@ def source(topo, want_vel: bool, want_acc: bool = False, forces: bool = False) -
     ``want_vel``, velocities (``want_acc``: accelerations) of ``topo.out_idx``: the batch template
     (``_sweep_template.batch``) with the sweep template inline, both rendered in the scalar dialect, each
     design's numbers loaded into scalars before its sweep. ``forces``: the forces effect's kernel (every
-    vertex with its rates into scratch, ``_forces.design_forces_fast``)."""
+    vertex with its rates into scratch, then the forces effect of the design): given the forces' shared
+    inputs (``_forces.ForceModel``), with the base leg generated for this topology and its members
+    (``_forces_scalar``) where its kinds allow; True, or kinds without it: ``_forces.design_forces_fast``."""
     blocks = _blocks(topo)
     out_idx = [int(v) for v in topo.out_idx]
     placed, used = _placed_used(topo, blocks, out_idx)
@@ -228,9 +234,16 @@ def source(topo, want_vel: bool, want_acc: bool = False, forces: bool = False) -
         batch = batch.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
                               "def kernel(topo, drv, opts, signs, designs, outs):", 1)
     imports = {ln for mod, _ in blocks for ln in mod.SCALAR["imports"].splitlines() if ln.strip()}
-    if forces:
+    tail = ""
+    if forces and not isinstance(forces, bool) and scalar_forces(topo):
+        # the base leg generated for this topology and these members (``_forces_scalar``), its own entry point
+        name, leg = base_leg_source(topo, forces)
+        imports.add("from explorer.kernels._forces import SINGULAR_TOL, active, copy_21, design_forces_with, "
+                    "force_scratch")
+        tail = f"\n\n{leg}\n\ndesign_forces = design_forces_with(base_leg, {name!r})\n"
+    elif forces:
         imports.add("from explorer.kernels._forces import design_forces_fast as design_forces, force_scratch")
-    return _HEADER.replace("{imports}", "\n".join(sorted(imports))) + batch
+    return _HEADER.replace("{imports}", "\n".join(sorted(imports))) + batch + tail
 
 
 _LOADED: dict = {}
@@ -262,10 +275,11 @@ def _key_of(src: str) -> str:
     return hashlib.sha1(f"{KEY}\0{src}".encode()).hexdigest()[:20]
 
 
-def _topology_key(topo, want_vel: bool, want_acc: bool, forces: bool) -> tuple:
+def _topology_key(topo, want_vel: bool, want_acc: bool, forces) -> tuple:
     """What the generated source depends on, cheaply (a simulate call must not regenerate it)."""
+    members = () if isinstance(forces, bool) or not forces else force_key(forces)
     return (topo.kind.tobytes(), topo.blk.tobytes(), topo.att_vpq.tobytes(), int(topo.tip), topo.out_idx.tobytes(),
-            bool(want_vel), bool(want_acc), bool(forces))
+            bool(want_vel), bool(want_acc), bool(forces), members)
 
 
 _BY_TOPOLOGY: dict = {}
@@ -275,7 +289,7 @@ _LOCK = threading.Lock()  # threads of one process (a Dask worker's) generate an
 _NAMES: dict = {}  # topology key -> the generated module's name (its source rendered once per process)
 
 
-def is_ready(topo, want_vel: bool, want_acc: bool = False, forces: bool = False) -> bool:
+def is_ready(topo, want_vel: bool, want_acc: bool = False, forces=False) -> bool:
     """Whether the generated kernel for ``topo`` costs no compile now: compiled in this process, or its
     module and Numba's index of it in the cache folder (written by an earlier run or ``explorer warm``).
     Imports and writes nothing; arguments as :func:`source`."""
@@ -292,7 +306,7 @@ def is_ready(topo, want_vel: bool, want_acc: bool = False, forces: bool = False)
     return any((f / f"{name}.py").is_file() and any(f.glob(f"{name}.kernel-*.nbi")) for f in _folders())
 
 
-def kernel_for(topo, want_vel: bool, want_acc: bool = False, forces: bool = False):
+def kernel_for(topo, want_vel: bool, want_acc: bool = False, forces=False):
     """The generated kernel for ``topo`` (written and imported once per process; Numba compiles it on
     its first call or loads it from its cache); arguments as :func:`source`."""
     tkey = _topology_key(topo, want_vel, want_acc, forces)
@@ -303,7 +317,7 @@ def kernel_for(topo, want_vel: bool, want_acc: bool = False, forces: bool = Fals
         return _load(tkey, topo, want_vel, want_acc, forces)
 
 
-def _load(tkey, topo, want_vel: bool, want_acc: bool, forces: bool):
+def _load(tkey, topo, want_vel: bool, want_acc: bool, forces):
     """kernel_for's slow path, under its lock: generate the source, write it if the cache folder does
     not hold it yet, import it."""
     if tkey in _BY_TOPOLOGY:

@@ -92,6 +92,8 @@ from ._legs import contact_stroke, ground_contact, leg_feet, leg_samples
 # so that plans without coupled blocks compile without the general block's solver.
 singular = None
 reactions = None
+#: the base leg at every sample (:func:`_base_leg` specialised, or code generated per topology)
+base_leg = None
 
 #: force-effect status codes written to ``code`` (0 ok); the caller turns them into statuses
 F_OK, F_SINGULAR, F_NONFINITE = 0, 1, 2
@@ -282,6 +284,82 @@ def _body_load(R, Fu, r, p, q, ip, iq, dpx, dpy, dqx, dqy):
     Fu[r, iq, 1] -= dqy
 
 
+@njit(cache=True, nogil=True, inline="always")
+def active(u, Fu, fs, nrhs, moving, Fx, weightless):
+    """Which right-hand sides the base leg's sample u solves (``fs.act``): only what some leg reads (the
+    others' torque, frame force and incidence forces (Fu (nr, K, 2): ``fs.Fi[u]``) set to zero); returns whether right-hand side 2 is right-hand side 1's copy (held, no drag,
+    read loaded by a plain and a mirrored leg)."""
+    tau = fs.tau
+    frame = fs.frame
+    act = fs.act
+    K = Fu.shape[1]
+    copy21 = False
+    for rhs in range(act.shape[0]):
+        act[rhs] = False
+    for rhs in range(nrhs):
+        if not moving and rhs == 2 and fs.vis_plain[u] and fs.vis_mirr[u] and Fx == 0.0:  # the same load either way
+            copy21 = True
+        elif (not moving and ((rhs == 1 and not fs.vis_plain[u]) or (rhs == 2 and not fs.vis_mirr[u]))) or \
+                (rhs >= 3 and not (fs.vis_plain[u] or fs.vis_mirr[u])) or \
+                (moving and rhs <= 2 and rhs >= 1 and weightless):  # only what some leg reads: zeros
+            tau[u, rhs] = 0.0
+            frame[u, rhs, 0] = 0.0
+            frame[u, rhs, 1] = 0.0
+            for kk in range(K):
+                Fu[rhs, kk, 0] = 0.0
+                Fu[rhs, kk, 1] = 0.0
+        else:
+            act[rhs] = True
+    return copy21
+
+
+@njit(cache=True, nogil=True, inline="always")
+def copy_21(u, Fu, fs):
+    """Right-hand side 2 of the base leg's sample u made a copy of right-hand side 1 (see :func:`active`;
+    Fu: its incidence forces)."""
+    tau = fs.tau
+    frame = fs.frame
+    tau[u, 2] = tau[u, 1]
+    frame[u, 2, 0] = frame[u, 1, 0]
+    frame[u, 2, 1] = frame[u, 1, 1]
+    for kk in range(Fu.shape[1]):
+        Fu[2, kk, 0] = Fu[1, kk, 0]
+        Fu[2, kk, 1] = Fu[1, kk, 1]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _held_peaks(u, Fu, fs):
+    """The held walker's running peaks fs.pk (K,) (squared) after the base leg's sample u (Fu (nr, K, 2)) in
+    each state some leg reads it in (free, carrying as a plain leg, as a mirrored one: ``fs.vis_*``).
+    Returns whether every peak is still finite."""
+    pk = fs.pk
+    for st_ in range(3):
+        # the weights of right-hand sides 1 (loaded, plain) and 2 (loaded, mirrored)
+        if st_ == 0:
+            if not fs.vis_free[u]:
+                continue
+            lx = 0.0
+            ly = 0.0
+        elif st_ == 1:
+            if not fs.vis_plain[u]:
+                continue
+            lx = 1.0
+            ly = 0.0
+        else:
+            if not fs.vis_mirr[u]:
+                continue
+            lx = 0.0
+            ly = 1.0
+        for kk in range(pk.shape[0]):
+            fx = Fu[0, kk, 0]
+            fy = Fu[0, kk, 1]
+            if st_ > 0:
+                fx += lx * Fu[1, kk, 0] + ly * Fu[2, kk, 0]
+                fy += lx * Fu[1, kk, 1] + ly * Fu[2, kk, 1]
+            pk[kk] = _peak(pk[kk], fx * fx + fy * fy)  # squared: one square root per joint at the end
+    return _finite(pk)
+
+
 def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     """The forces effect of design i (an ok sweep, every vertex's samples in fs.pos, fs.vel, fs.acc:
     (S, n_vertices, 2), per radian and per radian²): the walker's motor torque, every pin's peak
@@ -291,8 +369,25 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     centre; fm: :class:`ForceModel`; fs: :class:`ForceScratch`. Its code is F_SINGULAR (with the
     sample and block) where a block's Jacobian is singular at a sample, F_NONFINITE where forces
     overflow."""
+    nrhs, Fx, Fy, walk, weightless, grid = _forces_setup(i, fm, fr, fs, topo)
+    blk, u = base_leg(i, table, topo, uv, sd, cx, cy, fm, fr, fs, nrhs, Fx, weightless)
+    if blk >= 0:  # a Jacobian singular at sample u: its reactions are unbounded
+        fr.code[i] = F_SINGULAR
+        fr.sample[i] = u
+        fr.block[i] = blk
+        return
+    _forces_legs(i, fm, fr, fs, nrhs, Fx, Fy, walk, grid)
+
+
+@njit(cache=True, nogil=True)
+def _forces_setup(i, fm, fr, fs, topo):
+    """:func:`_design_forces` before the base leg's samples: design i's travel, the contact leg at every
+    sample, the samples some leg reads while carrying the load (``fs.vis_*``), each link's m/6 and half
+    weight (``fs.link6``, ``fs.linkg``) and the right-hand sides whose loads do not change with the sample
+    (``fs.Rc``, ``fs.Fc``). Returns (nrhs: the right-hand sides solved, Fx, Fy: the load on the foot as a
+    plain leg carries it (held), walk: the walking direction ±1 or 0, weightless: no member has mass,
+    grid: every leg reads whole samples)."""
     pos = fs.pos
-    A = fs.acc
     S = pos.shape[0]
     nv = pos.shape[1]
     K = fm.inc_vertex.shape[0]
@@ -301,27 +396,17 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     L = fm.base.shape[0]
     dist_a = topo.dist_a
     dist_b = topo.dist_b
-    tip = topo.tip
     foot = fm.foot
     moving = fm.moving
     weight = fm.weight
     gravity = fm.gravity
-    unit = fm.unit
-    omega = fm.omega
     base = fm.base
     frac = fm.frac
     sign = fm.sign
     mirrored = fm.mirrored
-    Pu = fs.Pu
-    R = fs.R
-    Fi = fs.Fi
-    tau = fs.tau
-    frame = fs.frame
-    act = fs.act
     vis_free = fs.vis_free
     vis_plain = fs.vis_plain
     vis_mirr = fs.vis_mirr
-    nr = R.shape[0]
     fr.code[i] = F_OK
     fr.sample[i] = -1
     fr.block[i] = -1
@@ -330,7 +415,6 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
         if frac[j] != 0.0:
             grid = False
     d = 2.0 * math.pi / S
-    s2 = unit * omega * omega  # per radian² of crank, model units → m/s²
     nrhs = 5 if moving else 3 if weight > 0.0 else 1
     mc = fr.crank_mass[i]
     weightless = mc == 0.0  # no member has mass: a body acceleration loads nothing (moving)
@@ -381,7 +465,6 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
     # x (3), along y (4); held, the load on the foot as a plain leg (1) and as a mirrored one (2) carries it
     Rc = fs.Rc
     Fc = fs.Fc
-    lam_d = fs.lam_d
     link6 = fs.link6
     linkg = fs.linkg
     for e in range(nl):  # each link's inertia m/6 (on its ends: m/6·(2a + b), m/6·(a + 2b)) and half weight
@@ -426,6 +509,43 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
             Rc[rhs, foot, 1] -= Fy
             Fc[rhs, fm.foot_inc, 0] += ex
             Fc[rhs, fm.foot_inc, 1] += Fy
+    return nrhs, Fx, Fy, walk, weightless, grid
+
+
+def _base_leg(i, table, topo, uv, sd, cx, cy, fm, fr, fs, nrhs, Fx, weightless):
+    """The base leg of design i at every sample, table-driven (any plan; the kinds' forces code bound as
+    ``singular`` and ``reactions``): every right-hand side's incidence forces ``fs.Fi``, torque ``fs.tau``
+    and frame force ``fs.frame`` (S, nr, ...) from the sweep's positions and accelerations (``fs.pos``,
+    ``fs.acc``), the loads of :func:`_forces_setup`. Returns (block, sample) of the first singular
+    Jacobian, or (−1, −1). The code generated per topology (``_forces_scalar``) does the same in scalars."""
+    pos = fs.pos
+    A = fs.acc
+    S = pos.shape[0]
+    nv = pos.shape[1]
+    K = fm.inc_vertex.shape[0]
+    nl = fr.link_mass.shape[1]
+    nb = fm.body_pq.shape[0]
+    dist_a = topo.dist_a
+    dist_b = topo.dist_b
+    tip = topo.tip
+    moving = fm.moving
+    gravity = fm.gravity
+    unit = fm.unit
+    omega = fm.omega
+    Pu = fs.Pu
+    R = fs.R
+    Fi = fs.Fi
+    tau = fs.tau
+    frame = fs.frame
+    act = fs.act
+    nr = R.shape[0]
+    Rc = fs.Rc
+    Fc = fs.Fc
+    lam_d = fs.lam_d
+    link6 = fs.link6
+    linkg = fs.linkg
+    s2 = unit * omega * omega
+    mc = fr.crank_mass[i]
     # -- the base leg at every sample: every right-hand side at once (each block's inverse taken once) --
     # held: inertia and weight, the load as a plain leg carries it, as a mirrored one does; moving:
     # inertia and weight, a unit acceleration of the body along x, along y, a unit force of the ground
@@ -439,28 +559,9 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
         # a Jacobian singular at a sample: its reactions are unbounded
         blk = singular(table, topo, uv, sd, Pu, fs.loc, fs.M, fs.x, SINGULAR_TOL)
         if blk >= 0:
-            fr.code[i] = F_SINGULAR
-            fr.sample[i] = u
-            fr.block[i] = blk
-            return
+            return blk, u
         Fu = Fi[u]
-        copy21 = False
-        for rhs in range(nr):
-            act[rhs] = False
-        for rhs in range(nrhs):
-            if not moving and rhs == 2 and vis_plain[u] and vis_mirr[u] and Fx == 0.0:  # the same load either way
-                copy21 = True
-            elif (not moving and ((rhs == 1 and not vis_plain[u]) or (rhs == 2 and not vis_mirr[u]))) or \
-                    (rhs >= 3 and not (vis_plain[u] or vis_mirr[u])) or \
-                    (moving and rhs <= 2 and rhs >= 1 and weightless):  # only what some leg reads: zeros
-                tau[u, rhs] = 0.0
-                frame[u, rhs, 0] = 0.0
-                frame[u, rhs, 1] = 0.0
-                for kk in range(K):
-                    Fu[rhs, kk, 0] = 0.0
-                    Fu[rhs, kk, 1] = 0.0
-            else:
-                act[rhs] = True
+        copy21 = active(u, Fu, fs, nrhs, moving, Fx, weightless)
         for rhs in range(1, nr):
             if act[rhs]:
                 for v in range(nv):
@@ -524,10 +625,7 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
                     _body_load(R, Fu, 0, p, q, fm.body_inc[bi, 0], fm.body_inc[bi, 1], dpx, dpy, dqx, dqy)
         blk = reactions(table, topo, uv, sd, Pu, R, act, lam_d, fs.lam_a, fs.lam_s, fs.loc, fs.M, fs.x)
         if blk >= 0:
-            fr.code[i] = F_SINGULAR
-            fr.sample[i] = u
-            fr.block[i] = blk
-            return
+            return blk, u
         # every row's pull on its member's pins, (∂c/∂q_v)ᵀ λ, by its equation type, equation by equation
         # (its numbers read once) for every right-hand side
         for e in range(dist_a.shape[0]):
@@ -572,22 +670,36 @@ def _design_forces(i, table, topo, uv, sd, cx, cy, fm, fr, fs):
                 frame[u, rhs, 0] -= R[rhs, fm.fixed[f], 0]
                 frame[u, rhs, 1] -= R[rhs, fm.fixed[f], 1]
         if copy21:
-            tau[u, 2] = tau[u, 1]
-            frame[u, 2, 0] = frame[u, 1, 0]
-            frame[u, 2, 1] = frame[u, 1, 1]
-            for kk in range(K):
-                Fi[u, 2, kk, 0] = Fi[u, 1, kk, 0]
-                Fi[u, 2, kk, 1] = Fi[u, 1, kk, 1]
+            copy_21(u, Fu, fs)
+    return -1, -1
+
+
+@njit(cache=True, nogil=True)
+def _forces_legs(i, fm, fr, fs, nrhs, Fx, Fy, walk, grid):
+    """:func:`_design_forces` after the base leg's samples: every leg at every crank angle read off them
+    (``_moving_legs`` or ``_held_legs``), into row i of ``fr``; arguments as :func:`_forces_setup` returns."""
+    S = fs.pos.shape[0]
+    C = fs.C
+    Fi = fs.Fi
+    tau = fs.tau
+    frame = fs.frame
+    base = fm.base
+    frac = fm.frac
+    sign = fm.sign
+    mirrored = fm.mirrored
+    gravity = fm.gravity
+    weight = fm.weight
+    s2 = fm.unit * fm.omega * fm.omega  # per radian² of crank, model units → m/s²
     for k in range(S):
         fr.contact[i, k] = C[k]
-    if moving:  # the body moves with the contact foot: every leg at every angle, its ground force
-        first_bad = _moving_legs(i, A, C, foot, base, frac, sign, mirrored, fm.inc_vertex, fm.sel, Fi, tau, frame, s2,
+    if fm.moving:  # the body moves with the contact foot: every leg at every angle, its ground force
+        first_bad = _moving_legs(i, fs.acc, C, fm.foot, base, frac, sign, mirrored, fm.inc_vertex, fm.sel, Fi, tau, frame, s2,
                                  fm.load_mass, gravity, walk * fm.drag * weight, fr.torque, fr.fsel, fr.finc,
                                  fr.pin_peak, fr.shake, fr.body_acc, fr.ground, fs.fm, fs.pk, fs.Gl)
     else:  # held: the frame still, the load on the contact foot
         first_bad = _held_legs(i, C, base, frac, sign, mirrored, fm.inc_vertex, fm.sel, Fi, tau, frame, nrhs, Fx, Fy,
-                               grid, vis_free, vis_plain, vis_mirr, fr.torque, fr.fsel, fr.finc, fr.pin_peak, fr.shake,
-                               fr.body_acc, fr.ground, fs.fm, fs.pk)
+                               grid, fr.torque, fr.fsel, fr.finc, fr.pin_peak, fr.shake, fr.body_acc, fr.ground, fs.fm,
+                               fs)
     if first_bad >= 0:  # forces that overflowed: a near-singular sample
         fr.code[i] = F_NONFINITE
         fr.sample[i] = first_bad
@@ -624,14 +736,15 @@ def _pin_peaks(pk, inc_vertex, out):
 
 
 @njit(cache=True, nogil=True)
-def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, nrhs, Fx, Fy, grid, vis_free,
-               vis_plain, vis_mirr, torque, fsel, finc, pin_peak, shake_peak, body_acc, ground, fm, pk):
+def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, nrhs, Fx, Fy, grid, torque, fsel,
+               finc, pin_peak, shake_peak, body_acc, ground, fm, fs):
     """The held walker of variant i (the frame still), read off the base leg's right-hand sides
     (inertia and weight; the load as a plain leg and as a mirrored leg carries it: Fi (S, 3, K, 2),
     tau (S, 3), frame (S, 3, 2)) at the samples each leg reads (contact legs C (S,); ``vis_*``: the
     states each sample is read in; ``grid``: every leg reads whole samples). Writes torque[i],
     pin_peak[i], shake_peak[i], fsel[i] / finc[i] (leg 0), body_acc[i] (zero) and ground[i] (the
-    load's weight and drag, (Fx, Fy)); returns the first sample with a non-finite force or −1."""
+    load's weight and drag, (Fx, Fy)); returns the first sample with a non-finite force or −1. fs: the
+    :class:`ForceScratch` (its states each sample is read in, ``vis_*``, and the peaks' scratch ``pk``)."""
     S = C.shape[0]
     L = base.shape[0]
     K = inc_vertex.shape[0]
@@ -647,35 +760,11 @@ def _held_legs(i, C, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame
     first_bad = -1
     if grid:  # each leg reads whole samples: every pin's peak over the states each sample is read in
         for kk in range(K):
-            pk[kk] = 0.0
+            fs.pk[kk] = 0.0
         for u in range(S):
-            for st_ in range(3):
-                # the weights of right-hand sides 1 (loaded, plain) and 2 (loaded, mirrored)
-                if st_ == 0:
-                    if not vis_free[u]:
-                        continue
-                    lx = 0.0
-                    ly = 0.0
-                elif st_ == 1:
-                    if not vis_plain[u]:
-                        continue
-                    lx = 1.0
-                    ly = 0.0
-                else:
-                    if not vis_mirr[u]:
-                        continue
-                    lx = 0.0
-                    ly = 1.0
-                for kk in range(K):
-                    fx = Fi[u, 0, kk, 0]
-                    fy = Fi[u, 0, kk, 1]
-                    if st_ > 0:
-                        fx += lx * Fi[u, 1, kk, 0] + ly * Fi[u, 2, kk, 0]
-                        fy += lx * Fi[u, 1, kk, 1] + ly * Fi[u, 2, kk, 1]
-                    pk[kk] = _peak(pk[kk], fx * fx + fy * fy)  # squared: one square root per joint at the end
-            if first_bad < 0 and not _finite(pk):  # a force not finite at this sample (the peaks keep it)
+            if not _held_peaks(u, Fi[u], fs) and first_bad < 0:  # a force not finite here (the peaks keep it)
                 first_bad = u
-        _pin_peaks(pk, inc_vertex, pin_peak[i])
+        _pin_peaks(fs.pk, inc_vertex, pin_peak[i])
     shake = 0.0
     for k in range(S):
         ttot = 0.0
@@ -818,6 +907,24 @@ def _moving_peaks(C, base, sign, mirrored, Fi, body_acc, ground, pk, G):
                 pk[kk] = _peak(pk[kk], g[2 * kk] * g[2 * kk] + g[2 * kk + 1] * g[2 * kk + 1])
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _body_acc(k, C, A, foot, base, frac, sign, mirrored, s2):
+    """The walker body's acceleration (x, y) at crank sample k, m/s²: −ω²·d²p_c/dθ² (s2 = ω²·unit) of
+    the contact foot p_c (contact legs C (S,); a mirrored leg's x reflected), A (S, nv, 2) per radian²."""
+    S = C.shape[0]
+    c = C[k]
+    f = frac[c]
+    u0, u1 = _reads(sign[c], base[c], k, S)
+    ax = (1.0 - f) * A[u0, foot, 0]
+    ay = (1.0 - f) * A[u0, foot, 1]
+    if f != 0.0:
+        ax += f * A[u1, foot, 0]
+        ay += f * A[u1, foot, 1]
+    abx = s2 * ax if mirrored[c] else -s2 * ax
+    aby = -s2 * ay
+    return abx, aby
+
+
 @njit(cache=True, nogil=True)
 def _moving_walk(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi, tau, frame, s2, load_mass, gravity,
                  drag_force, torque, fsel, finc, shake_peak, body_acc, ground, fm, pk, peaks):
@@ -834,15 +941,7 @@ def _moving_walk(i, A, C, foot, base, frac, sign, mirrored, inc_vertex, sel, Fi,
     shake = 0.0
     for k in range(S):
         c = C[k]
-        f = frac[c]
-        u0, u1 = _reads(sign[c], base[c], k, S)
-        ax = (1.0 - f) * A[u0, foot, 0]
-        ay = (1.0 - f) * A[u0, foot, 1]
-        if f != 0.0:
-            ax += f * A[u1, foot, 0]
-            ay += f * A[u1, foot, 1]
-        abx = s2 * ax if mirrored[c] else -s2 * ax
-        aby = -s2 * ay
+        abx, aby = _body_acc(k, C, A, foot, base, frac, sign, mirrored, s2)
         # the legs' force on the body with no ground force, and from it the ground's force on the foot
         sx = 0.0
         sy = 0.0
@@ -951,9 +1050,17 @@ def _inlined(fn):
 
 
 #: the forces effect of one design, for plans without coupled blocks and for any plan
-design_forces_fast = _specialise(_design_forces, "fast", singular=_inlined(singular_closed),
-                                 reactions=_inlined(reactions_closed))
-design_forces_any = _specialise(_design_forces, "any", singular=singular_any, reactions=reactions_any)
+base_leg_fast = _specialise(_base_leg, "fast", singular=_inlined(singular_closed), reactions=_inlined(reactions_closed))
+base_leg_any = _specialise(_base_leg, "any", singular=singular_any, reactions=reactions_any)
+design_forces_fast = _specialise(_design_forces, "fast", base_leg=base_leg_fast)
+design_forces_any = _specialise(_design_forces, "any", base_leg=base_leg_any)
+
+
+def design_forces_with(base_leg, name: str):
+    """The forces effect of one design with ``base_leg`` (a per-topology generated one, ``_forces_scalar``)
+    in place of the table-driven :func:`_base_leg`; ``name`` (unique per generated function) names the
+    jitted copy, so that its cache entry is its own."""
+    return _specialise(_design_forces, name, base_leg=base_leg)
 
 
 # -- the wrapper ------------------------------------------------------------------------------------

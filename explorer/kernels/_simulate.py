@@ -553,8 +553,9 @@ def compiling_generated():
         _GENERATE_ALWAYS[0] -= 1
 
 
-def _generated_pays(topo, opts, forces: bool, job_configs: int) -> bool:
-    """Kernel "auto"'s choice (see :data:`GENERATED_MIN_CONFIGS`)."""
+def _generated_pays(topo, opts, forces, job_configs: int) -> bool:
+    """Kernel "auto"'s choice (see :data:`GENERATED_MIN_CONFIGS`); forces: False, or the forces' shared
+    inputs (``_forces.ForceModel``: the generated kernel depends on its members)."""
     return (_GENERATE_ALWAYS[0] > 0 or job_configs >= GENERATED_MIN_CONFIGS
             or is_ready(topo, opts.want_vel, opts.want_acc, forces))
 
@@ -632,9 +633,10 @@ def _newton(topo, kdrv, sg, des, outs, method, max_iterations, velocities, accel
         fn = generic_batch_jit if forces is None else generic_forces_jit
     elif kernel != "general" and supported(topo, opts) and (
             kernel == "generated" or (topo.kind.shape[0] <= GENERATED_MAX_BLOCKS
-                                      and _generated_pays(topo, opts, forces is not None, job_configs))):
+                                      and _generated_pays(topo, opts, False if forces is None else forces[0],
+                                                          job_configs))):
         # this plan's code, generated (the same results)
-        fn = kernel_for(topo, opts.want_vel, opts.want_acc, forces is not None)
+        fn = kernel_for(topo, opts.want_vel, opts.want_acc, False if forces is None else forces[0])
     else:
         fn = fast_batch_jit if forces is None else fast_forces_jit
     if forces is None:

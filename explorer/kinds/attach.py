@@ -150,4 +150,22 @@ vx{v}, vy{v} = frame_point(u_{k}, w_{k}, vx{p}, vy{p}, vx{q}, vy{q})
 zx{v}, zy{v} = frame_point(u_{k}, w_{k}, zx{p}, zy{p}, zx{q}, zy{q})
 """,
     "imports": "from explorer.kinds._common import frame_point",
+    # the forces effect's code generated per topology (``explorer.kernels._forces_scalar``): never
+    # singular; for right-hand side {r} its two rows' multipliers are the load on the joint, Aᵀλ goes to
+    # q and λ − Aᵀλ to p (the table-driven ``reactions`` snippet's arithmetic, in scalars)
+    "forces_init": """\
+fu_{k} = table[{k}].u
+fw_{k} = table[{k}].v
+""",
+    "forces_geometry": "",
+    "reactions": """\
+lamx{r}_{eq} = R{r}_{v}x
+lamy{r}_{eq} = R{r}_{v}y
+atx = fu_{k} * R{r}_{v}x + fw_{k} * R{r}_{v}y  # Aᵀ λ with A = [[u, −w], [w, u]]
+aty = -fw_{k} * R{r}_{v}x + fu_{k} * R{r}_{v}y
+R{r}_{p}x += R{r}_{v}x - atx
+R{r}_{p}y += R{r}_{v}y - aty
+R{r}_{q}x += atx
+R{r}_{q}y += aty
+""",
 }

@@ -568,4 +568,31 @@ if code != 0:
 zx{v}, zy{v} = dyad_acc(_ex, _ey, _fx, _fy, _inv, vx{v}, vy{v}, vx{a}, vy{a}, vx{b}, vy{b}, zx{a}, zy{a}, zx{b}, zy{b})
 """,
     "imports": "from explorer.kinds.dyad import dyad_acc, place_dyad",
+    # the forces effect's code generated per topology (``explorer.kernels._forces_scalar``): at each sample
+    # (positions X{v}, Y{v}), in plan order, the 2x2 Jacobian's columns and inverse, and its singularity
+    # check (``return`` the block and the sample); then, in reverse plan order for each right-hand side
+    # {r}, the multipliers of its two distance rows from the loads R{r}_{v}x, R{r}_{v}y passed to its
+    # parents (the table-driven ``reactions`` and ``singular`` snippets' arithmetic, in scalars)
+    "forces_init": "",
+    "forces_geometry": """\
+# block {k}: dyad {v} from {a} and {b}
+c1x_{k} = X{v} - X{a}
+c1y_{k} = Y{v} - Y{a}
+c2x_{k} = X{v} - X{b}
+c2y_{k} = Y{v} - Y{b}
+det_{k} = c1x_{k} * c2y_{k} - c1y_{k} * c2x_{k}
+if not (abs(det_{k}) > tol * (abs(c1x_{k} * c2y_{k}) + abs(c1y_{k} * c2x_{k}))):
+    return {k}, u
+inv_{k} = 1.0 / det_{k}
+""",
+    "reactions": """\
+l1 = (R{r}_{v}x * c2y_{k} - R{r}_{v}y * c2x_{k}) * inv_{k}
+l2 = (c1x_{k} * R{r}_{v}y - c1y_{k} * R{r}_{v}x) * inv_{k}
+lam{r}_{eq_a} = 0.5 * l1  # the distance row's gradient is 2(v − a): its multiplier is half
+lam{r}_{eq_b} = 0.5 * l2
+R{r}_{a}x += c1x_{k} * l1
+R{r}_{a}y += c1y_{k} * l1
+R{r}_{b}x += c2x_{k} * l2
+R{r}_{b}y += c2y_{k} * l2
+""",
 }

@@ -100,6 +100,22 @@ def rates_rhs(R, t, ax, att_vpq, uv, loc):
     return val
 
 
+#: :func:`pull` as the forces code generated per topology writes it (``explorer.kernels._forces_scalar``):
+#: equation {t} (its numbers ut_{t}, wt_{t}: ``Designs.uv``), its multiplier (lamx{r}_{t}, lamy{r}_{t})
+#: for right-hand side {r}, into the incidence forces F{r}_{ij}, F{r}_{ip}, F{r}_{iq} (x, y). The same
+#: arithmetic.
+PULL_SCALAR = """\
+atx = ut_{t} * lamx{r}_{t} + wt_{t} * lamy{r}_{t}
+aty = -wt_{t} * lamx{r}_{t} + ut_{t} * lamy{r}_{t}
+F{r}_{ij}x += lamx{r}_{t}
+F{r}_{ij}y += lamy{r}_{t}
+F{r}_{ip}x -= lamx{r}_{t} - atx
+F{r}_{ip}y -= lamy{r}_{t} - aty
+F{r}_{iq}x -= atx
+F{r}_{iq}y -= aty
+"""
+
+
 @njit(cache=True, inline="always")
 def pull(t, uv, lx, ly, F, r, inc_j, inc_p, inc_q):
     """Add the pull of multiplier (lx, ly) of attach equation t on its three pins to the incidence

@@ -96,6 +96,19 @@ def rates_rhs(P, V, R, e, dist_a, dist_b, loc, accel):
     return val
 
 
+#: :func:`pull` as the forces code generated per topology writes it (``explorer.kernels._forces_scalar``):
+#: equation {e} from {a} to {b}, its multiplier lam{r}_{e} for right-hand side {r}, into the incidence
+#: forces F{r}_{ia}x/y (vertex a) and F{r}_{ib}x/y (vertex b); positions X{v}, Y{v}. The same arithmetic.
+PULL_SCALAR = """\
+dx = 2.0 * (X{b} - X{a}) * lam{r}_{e}
+dy = 2.0 * (Y{b} - Y{a}) * lam{r}_{e}
+F{r}_{ib}x += dx
+F{r}_{ib}y += dy
+F{r}_{ia}x -= dx
+F{r}_{ia}y -= dy
+"""
+
+
 @njit(cache=True, inline="always")
 def pull(P, e, dist_a, dist_b, lam, F, r, inc_a, inc_b):
     """Add the pull of multiplier ``lam`` of equation e on its two pins, (∂r/∂p)ᵀλ, to the incidence
