@@ -302,8 +302,9 @@ def test_generated_source_names_every_block():
     compile(src, "generated", "exec")
     for k, blk in enumerate(plan.blocks):
         assert f"# block {k}:" in src
-    # one call per dyad in the loop of whole steps and one in the loop that refines
-    assert src.count("place_dyad(") == 2 * sum(b.kind == 0 for b in plan.blocks)
+    # one call per dyad, in the loop of whole steps (the rest of the sweep is the shared resumable form)
+    assert src.count("place_dyad(") == sum(b.kind == 0 for b in plan.blocks)
+    assert "fast_sweep_resumable(" in src
     assert "vel[sample" not in src
 
 

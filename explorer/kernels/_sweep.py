@@ -30,7 +30,7 @@ from numba import njit
 
 from ._kinds_array import fast_step
 from ._step import generic_step
-from ._sweep_array import sweep
+from ._sweep_array import sweep, sweep_resumable
 from ._sweep_template import (MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS, STATUS_ASSEMBLY, STATUS_BRANCH,
                               STATUS_INVALID, STATUS_NOCONV, STATUS_OK, indexed, render, status_of)
 
@@ -130,10 +130,74 @@ ARRAY = {
         "        if want_acc:",
         f"            out_acc[{k}, j, ax] = np.nan"],
     "result": lambda args: [f"return {args}"],
+    "reenter": lambda args: [],
 }
+# the loop of whole steps' own holes: the same state (never rendered here: the section is dropped)
+ARRAY |= {"fast_enter": lambda args: [], "fast_place": ARRAY["place"], "fast_step": ARRAY["step"],
+          "fast_accept": ARRAY["accept"], "fast_store": ARRAY["store"], "fast_leave": lambda args: []}
 #: The array form drops the loop of whole steps: inlining the step at a second call site costs
 #: seconds of compile time, and the general loop takes those steps the same way.
 ARRAY_SECTIONS = {"whole_steps": False}
+
+# The sweep's own variables that live across the loop of whole steps, in the resumable form's int64
+# and float64 slots (``si``, ``sf``; si[0]: 0 a design's first call, 1 a call after the loop of whole
+# steps); the loop's inputs the caller reads beside them.
+_SAVED_INT = ("status", "fail_block", "iters", "reached", "back", "phase", "k", "kr", "then")
+_SAVED_FLOAT = ("hp", "fail_t", "fail_end")
+#: (slot of si or sf, name) of what the caller's loop of whole steps reads and (the first four) writes back
+RESUME_SLOTS = (("si", 3, "iters"), ("si", 4, "reached"), ("si", 7, "k"), ("sf", 0, "hp"), ("si", 10, "n_steps"),
+                ("si", 11, "S"), ("sf", 3, "dt"), ("sf", 4, "dmin"))
+
+
+def _save(flag: int) -> list[str]:
+    return ([f"si[0] = {flag}"] + [f"si[{j + 1}] = {n}" for j, n in enumerate(_SAVED_INT)]
+            + [f"sf[{j}] = {n}" for j, n in enumerate(_SAVED_FLOAT)]
+            + ["si[10] = n_steps", "si[11] = S", "sf[3] = dt", "sf[4] = dmin"])
+
+
+#: The resumable array form (``sweep_resumable``): the array form, its state made by the caller, which
+#: takes the loop of whole steps itself: where the template enters that loop, this form saves its
+#: variables in ``si``, ``sf`` and returns (1, ...); called again (si[0] == 1) it restores them and
+#: goes on after the loop. Its other returns are (0, the five results). A generated kernel
+#: (``_codegen``) calls it, compiled once for every topology, and writes only the loop of whole steps
+#: itself, in scalars.
+RESUMABLE = dict(ARRAY) | {
+    "state": lambda args: [
+        "tip = topo.tip",
+        "moving = topo.moving",
+        "out_idx = topo.out_idx",
+        "maxit = opts.maxit",
+        "want_vel = opts.want_vel",
+        "want_acc = opts.want_acc",
+        "nv = P_init.shape[0]",
+        "resumed = si[0] != 0",
+        "if not resumed:",
+        "    for v in range(nv):",
+        "        for ax in range(2):",
+        "            P0[v, ax] = P_init[v, ax]",
+        "            P1[v, ax] = P_init[v, ax]",
+        "            V0[v, ax] = 0.0",
+        "            V1[v, ax] = 0.0",
+        "            Vp[v, ax] = 0.0",
+        "            A0[v, ax] = 0.0",
+        "            A1[v, ax] = 0.0"],
+    "reenter": lambda args: ["if resumed:"] + [f"    {n} = si[{j + 1}]" for j, n in enumerate(_SAVED_INT)]
+                            + [f"    {n} = sf[{j}]" for j, n in enumerate(_SAVED_FLOAT)],
+    "result": lambda args: [f"return 0, {args}"],
+}
+RESUMABLE_SECTIONS = {"whole_steps": lambda: [
+    "if resumed:  # the caller has just taken the whole steps",
+    "    resumed = False",
+    "else:",
+    *("    " + ln for ln in _save(1)),
+    "    return 1, status, fail_t, fail_end, fail_block, iters"]}
+_RESUMABLE_DEF = ("def sweep_resumable(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, scale, "
+                  "shortest, tol,\n                    out_pos, out_vel, out_acc, P0, V0, Vp, A0, P1, V1, A1, P_first, "
+                  "V_first, A_first, d, si, sf):\n    \"\"\"The sweep (:func:`sweep`, the same arguments first) that "
+                  "leaves the loop of whole steps to its caller\n    (``_sweep.RESUMABLE``); the state in the "
+                  "arrays after ``out_acc`` (each (n_vertices, 2)), d (6,), si\n    (12,) int64, sf (5,) float64. "
+                  "Returns (1, ...) where the caller takes the whole steps, else (0,\n    status, fail_t, fail_end, "
+                  "fail_block, iters).\n    \"\"\"\n")
 
 _ARRAY_MODULE = Path(__file__).with_name("_sweep_array.py")
 _ARRAY_HEADER = '''"""The sweep's array form: rendered from ``_sweep_template`` by ``_sweep.array_module_source``; do not edit.
@@ -158,8 +222,10 @@ step = None
 
 
 def array_module_source() -> str:
-    """The text of ``_sweep_array.py``: the template rendered in the array dialect."""
-    return _ARRAY_HEADER + render(ARRAY, ARRAY_SECTIONS)
+    """The text of ``_sweep_array.py``: the template rendered in the array dialect, and in its
+    resumable form (:data:`RESUMABLE`)."""
+    return (_ARRAY_HEADER + render(ARRAY, ARRAY_SECTIONS) + "\n\n" + _RESUMABLE_DEF
+            + render(RESUMABLE, RESUMABLE_SECTIONS, body_only=True))
 
 
 def write_array_module() -> Path:
@@ -229,18 +295,20 @@ def batch_module_source() -> str:
     return out
 
 
-def _specialise(step_fn, name: str):
-    """Jit a copy of :func:`sweep` whose global ``step`` is ``step_fn``, inlined at the sweep's one call
+def _specialise(step_fn, name: str, fn=sweep):
+    """Jit a copy of :func:`sweep` (or ``fn``) whose global ``step`` is ``step_fn``, inlined at the sweep's one call
     site, where it runs millions of times. (Inlining through an intermediate inlined function, as an
     earlier version did, made Numba copy the step's IR twice: seconds of compile time.)"""
-    env = dict(sweep.__globals__, step=step_fn)
-    copy = types.FunctionType(sweep.__code__, env, sweep.__name__, sweep.__defaults__, sweep.__closure__)
+    env = dict(fn.__globals__, step=step_fn)
+    copy = types.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
     copy.__qualname__ = f"sweep_{name}"
-    copy.__doc__ = sweep.__doc__
-    return njit(cache=True)(copy)
+    copy.__doc__ = fn.__doc__
+    return njit(cache=True, nogil=True)(copy) if fn is not sweep else njit(cache=True)(copy)
 
 
 #: :func:`sweep` with the fast step (no coupled blocks); its context is the design's block table (``_batch.setup``).
 fast_sweep = _specialise(fast_step, "fast")
 #: :func:`sweep` with the generic block / dense step; its context comes from ``_step.generic_context``.
 generic_sweep = _specialise(generic_step, "generic")
+#: :func:`sweep_resumable` with the fast step: what the generated kernels call (``_codegen``).
+fast_sweep_resumable = _specialise(fast_step, "fast_resumable", sweep_resumable)

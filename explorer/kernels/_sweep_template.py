@@ -38,10 +38,17 @@ The holes:
 * ``gap = hole.closing_gap()``: the largest |Δx| + |Δy| between the state and the configuration at sample 0;
 * ``hole.unreached(k)``: sample k's rows set to NaN;
 * ``return hole.result(status, fail_t, fail_end, fail_block, iters)``: the design's outcome;
+* ``hole.reenter()``: before the loop of moves, the sweep's own variables set (a dialect whose sweep
+  leaves off at the loop of whole steps and is called again there restores them here);
 * section ``whole_steps``: whole forward steps in a loop of their own, each accepted at its first try
   (the scalar form's fast path; the array form drops it: inlining the step twice there costs seconds
   of compile time). The first step that needs more leaves that loop untaken and is taken by the
-  general loop, whole and then halved, so the results are the same bit for bit.
+  general loop, whole and then halved, so the results are the same bit for bit. Its own holes let a
+  dialect keep the state differently in that loop: ``hole.fast_enter()`` and ``hole.fast_leave()``
+  before and after it (the state loaded into the loop's form, and written back), and
+  ``fast_place``, ``fast_step``, ``fast_accept``, ``fast_store``: ``place``, ``step``, ``accept``,
+  ``store`` in that loop. (The generated kernels keep their state in scalars in this loop alone, and
+  in arrays, through code shared by every topology, elsewhere: ``_codegen``.)
 
 Constants and :func:`status_of` live here, beside the template that uses them (``_sweep``
 re-exports them: the status codes are public).
@@ -174,6 +181,7 @@ def sweep(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, 
     k = 0
     kr = 0  # the sample a resume (phase 3) solves, and the phase it goes on in
     then = 1
+    hole.reenter()
     while True:  # one move per pass, from parameter t0 to t1 (either direction)
         if phase == 0:
             t0 = 0.0
@@ -188,25 +196,27 @@ def sweep(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, 
                 # The common case in a loop of its own: whole steps forward, each accepted at its first
                 # try. The first step that needs more (refinement, or a failure) leaves it untaken and
                 # is taken below, whole and then halved, as every other step is.
+                hole.fast_enter()
                 while k < n_steps:
                     h = (k + 1) * dt - k * dt
                     if not abs(h) > 1.5 * dmin:
                         break
                     checks = True
                     row = k + 1 if k + 1 < S else 0
-                    hole.place(T[row])
+                    hole.fast_place(T[row])
                     iters_before = iters
-                    code, blk, iters = hole.step(h, hp, checks, iters)
+                    code, blk, iters = hole.fast_step(h, hp, checks, iters)
                     if code != 0:
                         iters = iters_before
                         break
-                    hole.accept()
+                    hole.fast_accept()
                     hp = h
                     if k + 1 < S:
                         sample = k + 1
                         reached = k + 2
-                        hole.store(sample)
+                        hole.fast_store(sample)
                     k += 1
+                hole.fast_leave()
             if k >= n_steps:
                 break
             # the last step of a crank cycle returns to θ = 2π, whose driver values are sample 0's
@@ -429,6 +439,13 @@ HOLES = {
     "closing_gap": ("gap", ""),
     "unreached": ("", "k"),
     "result": ("return", "status, fail_t, fail_end, fail_block, iters"),
+    "reenter": ("", ""),
+    "fast_enter": ("", ""),
+    "fast_place": ("", None),
+    "fast_step": ("code, blk, iters", "h, hp, checks, iters"),
+    "fast_accept": ("", ""),
+    "fast_store": ("", "sample"),
+    "fast_leave": ("", ""),
 }
 #: Sections a dialect keeps or drops.
 SECTIONS = ("whole_steps",)
@@ -457,13 +474,15 @@ def indexed(x: str, i: int) -> str:
     return f"{m.group(1)}[{m.group(2)}, {i}]" if m else f"{x}[{i}]"
 
 
-def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int = 0, template: str = "sweep") -> str:
+def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int = 0, template: str = "sweep",
+           only: str | None = None) -> str:
     """The template with every hole filled: ``holes[name](args)`` gives a hole's lines (a list of
     str, indented relative to the hole; ``args`` the argument text), ``sections[name]`` whether a
-    section's body is kept. ``body_only``: the function's statements without its def line and
-    docstring (for inlining into a kernel). Every line moves right by ``indent`` spaces. ``template``:
-    "sweep" (:func:`sweep`, :data:`HOLES`, :data:`SECTIONS`) or "batch" (:func:`batch`,
-    :data:`BATCH_HOLES`, :data:`BATCH_SECTIONS`)."""
+    section's body is kept, or a function giving the lines that replace the whole section (indented
+    relative to its ``if``). ``body_only``: the function's statements without its def line and
+    docstring (for inlining into a kernel). ``only``: the body of that section alone (at indentation 0).
+    Every line moves right by ``indent`` spaces. ``template``: "sweep" (:func:`sweep`, :data:`HOLES`,
+    :data:`SECTIONS`) or "batch" (:func:`batch`, :data:`BATCH_HOLES`, :data:`BATCH_SECTIONS`)."""
     if template == "sweep":
         (lines, first), table, known = _template(), HOLES, SECTIONS
     else:
@@ -471,6 +490,7 @@ def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int 
     out: list[str] = []
     drop_below = None  # inside a dropped section: lines indented deeper than this
     dedent = []  # kept sections' indentation levels: their bodies move left by 4
+    within = None  # with ``only``: that section's indentation while inside it
     for n, line in enumerate(lines):
         if body_only and n < first:
             continue
@@ -482,6 +502,8 @@ def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int 
                 drop_below = None
             while dedent and ind <= dedent[-1]:
                 dedent.pop()
+            if within is not None and ind <= within:
+                within = None
         elif drop_below is not None:
             continue
         m = _SECTION.match(line)
@@ -489,11 +511,23 @@ def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int 
             name = m.group("name")
             if name not in known:
                 raise ValueError(f"{template} template: unknown section {name!r}")
+            if only is not None:
+                if name == only:
+                    within = ind
+                    continue
+            elif callable(sections[name]):
+                out += [" " * (ind + indent - 4 * len(dedent)) + ln if ln.strip() else "" for ln in sections[name]()]
+                drop_below = ind
+                continue
             if sections[name]:
                 dedent.append(ind)
             else:
                 drop_below = ind
             continue
+        if only is not None:
+            if within is None:
+                continue
+            ind -= within + 4  # the section's body at indentation 0
         shift = indent - 4 * len(dedent)
         m = _HOLE.match(line)
         if m:
