@@ -24,7 +24,7 @@ from ._forces import design_forces_any, design_forces_fast
 from ._kinds_array import block_table, place_closed
 from ._rows import parallel_rows
 from ._step import generic_context
-from ._sweep import fast_sweep, generic_sweep
+from ._sweep import fast_sweep, fast_sweep_resumable, generic_sweep
 from ._sweep_template import MAX_LENGTH, MIN_LENGTH, valid_lengths  # noqa: F401 (the kernels' length range)
 
 
@@ -110,3 +110,9 @@ fast_forces_jit = _specialise(_batch_array.batch_forces, "fast", run_sweep=fast_
                               design_forces=design_forces_fast)
 generic_forces_jit = _specialise(_batch_array.batch_forces, "generic", run_sweep=generic_sweep,
                                  make_context=generic_context_of, design_forces=design_forces_any)
+#: The batch loop around a topology's generated loop of whole steps (``_codegen``; arguments as
+#: ``fast_batch_jit``'s and ``fast_forces_jit``'s, then ``whole``, that loop as a first-class function):
+#: compiled once for every topology.
+whole_batch_jit = _specialise(_batch_array.batch_whole_plain, "whole", run_resumable=fast_sweep_resumable)
+whole_forces_jit = _specialise(_batch_array.batch_whole_forces, "whole", run_resumable=fast_sweep_resumable,
+                               design_forces=design_forces_fast)

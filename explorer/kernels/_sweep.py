@@ -26,6 +26,7 @@ other side; samples in between stay NaN (seed 004 leaves unreachable angles empt
 import types
 from pathlib import Path
 
+import numpy as np
 from numba import njit
 
 from ._kinds_array import fast_step
@@ -139,20 +140,34 @@ ARRAY |= {"fast_enter": lambda args: [], "fast_place": ARRAY["place"], "fast_ste
 #: seconds of compile time, and the general loop takes those steps the same way.
 ARRAY_SECTIONS = {"whole_steps": False}
 
-# The sweep's own variables that live across the loop of whole steps, in the resumable form's int64
-# and float64 slots (``si``, ``sf``; si[0]: 0 a design's first call, 1 a call after the loop of whole
-# steps); the loop's inputs the caller reads beside them.
-_SAVED_INT = ("status", "fail_block", "iters", "reached", "back", "phase", "k", "kr", "then")
-_SAVED_FLOAT = ("hp", "fail_t", "fail_end")
-#: (slot of si or sf, name) of what the caller's loop of whole steps reads and (the first four) writes back
-RESUME_SLOTS = (("si", 3, "iters"), ("si", 4, "reached"), ("si", 7, "k"), ("sf", 0, "hp"), ("si", 10, "n_steps"),
-                ("si", 11, "S"), ("sf", 3, "dt"), ("sf", 4, "dmin"))
+# The resumable form's int64 and float64 slots (``si``, ``sf``): si[0] says whether a call is a design's
+# first (0) or follows the loop of whole steps (1); then the sweep's own variables that live across
+# that loop, and the loop's other inputs.
+_SAVED = {"si": ("status", "fail_block", "iters", "reached", "back", "phase", "k", "kr", "then", "n_steps", "S"),
+          "sf": ("hp", "fail_t", "fail_end", "dt", "dmin")}
+_SLOT = {name: (arr, j + (arr == "si")) for arr, names in _SAVED.items() for j, name in enumerate(names)}
+#: The slots' sizes: si, sf (the caller makes them, :func:`sweep_scratch`)
+SLOTS = (len(_SAVED["si"]) + 1, len(_SAVED["sf"]))
+#: (array, slot, name) of what the caller's loop of whole steps reads, the first four also what it writes back
+RESUME_SLOTS = tuple((*_SLOT[n], n) for n in ("iters", "reached", "k", "hp", "n_steps", "S", "dt", "dmin"))
+# restored on a call after the loop (n_steps, S, dt and dmin the sweep computes again, the same)
+_RESTORED = [n for n in _SLOT if n not in ("n_steps", "S", "dt", "dmin")]
+
+
+@njit(cache=True, nogil=True)
+def sweep_scratch(nv):
+    """The resumable sweep's scratch, made once per batch (a shared kernel: np.empty's implementations
+    would compile again in every caller): room for the driver's values at one parameter, d (6,); the
+    state, each (nv, 2): the current configuration P0, V0, A0, the tangent before V0 Vp, the trial one
+    P1, V1, A1, the configuration at sample 0 P_first, V_first, A_first; the saved variables si, sf
+    (:data:`SLOTS`: int64, float64)."""
+    return (np.empty(6), np.empty((nv, 2)), np.empty((nv, 2)), np.empty((nv, 2)), np.empty((nv, 2)), np.empty((nv, 2)),
+            np.empty((nv, 2)), np.empty((nv, 2)), np.empty((nv, 2)), np.empty((nv, 2)), np.empty((nv, 2)),
+            np.zeros(SLOTS[0], dtype=np.int64), np.zeros(SLOTS[1]))
 
 
 def _save(flag: int) -> list[str]:
-    return ([f"si[0] = {flag}"] + [f"si[{j + 1}] = {n}" for j, n in enumerate(_SAVED_INT)]
-            + [f"sf[{j}] = {n}" for j, n in enumerate(_SAVED_FLOAT)]
-            + ["si[10] = n_steps", "si[11] = S", "sf[3] = dt", "sf[4] = dmin"])
+    return [f"si[0] = {flag}"] + [f"{arr}[{j}] = {n}" for n, (arr, j) in _SLOT.items()]
 
 
 #: The resumable array form (``sweep_resumable``): the array form, its state made by the caller, which
@@ -181,8 +196,7 @@ RESUMABLE = dict(ARRAY) | {
         "            Vp[v, ax] = 0.0",
         "            A0[v, ax] = 0.0",
         "            A1[v, ax] = 0.0"],
-    "reenter": lambda args: ["if resumed:"] + [f"    {n} = si[{j + 1}]" for j, n in enumerate(_SAVED_INT)]
-                            + [f"    {n} = sf[{j}]" for j, n in enumerate(_SAVED_FLOAT)],
+    "reenter": lambda args: ["if resumed:"] + [f"    {n} = {_SLOT[n][0]}[{_SLOT[n][1]}]" for n in _RESTORED],
     "result": lambda args: [f"return 0, {args}"],
 }
 RESUMABLE_SECTIONS = {"whole_steps": lambda: [
@@ -195,7 +209,7 @@ _RESUMABLE_DEF = ("def sweep_resumable(ctx, topo, drv, opts, P_init, restart_at,
                   "shortest, tol,\n                    out_pos, out_vel, out_acc, P0, V0, Vp, A0, P1, V1, A1, P_first, "
                   "V_first, A_first, d, si, sf):\n    \"\"\"The sweep (:func:`sweep`, the same arguments first) that "
                   "leaves the loop of whole steps to its caller\n    (``_sweep.RESUMABLE``); the state in the "
-                  "arrays after ``out_acc`` (each (n_vertices, 2)), d (6,), si\n    (12,) int64, sf (5,) float64. "
+                  "arrays after ``out_acc`` (each (n_vertices, 2)), d (6,), si\n    (SLOTS[0],) int64, sf (SLOTS[1],) float64. "
                   "Returns (1, ...) where the caller takes the whole steps, else (0,\n    status, fail_t, fail_end, "
                   "fail_block, iters).\n    \"\"\"\n")
 
@@ -258,6 +272,33 @@ def batch_array_dialect(forces: bool) -> dict:
     }
 
 
+#: The batch template's form around a topology's generated loop of whole steps (``_codegen``): each
+#: design's sweep the resumable array form (the global ``run_resumable``), called until it is done, the
+#: loop of whole steps (``whole``, a first-class function argument: this batch loop is compiled once
+#: for every topology, the loop once per topology) taken between its calls.
+def batch_whole_dialect(forces: bool) -> dict:
+    state = ["maxit = opts.maxit",
+             "T = drv.table",
+             "d, P0, V0, Vp, A0, P1, V1, A1, P_first, V_first, A_first, si, sf = sweep_scratch(designs.start.shape[1])"]
+    if forces:
+        state.append("fs = force_scratch(drv.table.shape[0], designs.start.shape[1], fmodel, topo)")
+    return {
+        "batch_state": lambda args: state,
+        "sweep": lambda args: [
+            "tab = designs.table[i]",
+            "si[0] = 0",
+            "while True:",
+            "    more, status, fail_t, fail_end, fail_block, iters = run_resumable(",
+            "        tab, topo, drv, opts, designs.start[i], designs.restart_at[i], designs.restart_pos[i], signs, cx, cy,",
+            "        scale, shortest, tol, out_pos, out_vel, out_acc, P0, V0, Vp, A0, P1, V1, A1, P_first, V_first, A_first,",
+            "        d, si, sf)",
+            "    if more == 0:",
+            "        break",
+            "    whole(T, designs.start[i], tab, signs, cx, cy, scale, tol, maxit, out_pos, out_vel, out_acc, P0, V0, Vp,",
+            "          A0, si, sf)"],
+    }
+
+
 _BATCH_MODULE = Path(__file__).with_name("_batch_array.py")
 _BATCH_HEADER = '''"""The batch loop's array form: rendered from ``_sweep_template.batch`` by ``_sweep.batch_module_source``; do not edit.
 
@@ -271,18 +312,21 @@ of :func:`batch_plain` and :func:`batch_forces` with the globals ``run_sweep``, 
 import numpy as np
 
 from ._forces import force_scratch
-from ._sweep_template import STATUS_INVALID, STATUS_OK, valid_lengths
+from ._sweep import sweep_scratch
+from ._sweep_template import STATUS_OK, invalid_design, valid_lengths
 
-# Bound in each jitted copy (``_batch``): the sweep, the step's context of design i, the forces effect.
+# Bound in each jitted copy (``_batch``): the sweep, the step's context of design i, the forces effect,
+# the resumable sweep.
 run_sweep = None
 make_context = None
 design_forces = None
+run_resumable = None
 '''
 
 
 def batch_module_source() -> str:
     """The text of ``_batch_array.py``: the batch template rendered in the array dialect, without and
-    with forces."""
+    with forces, and around a generated loop of whole steps (:func:`batch_whole_dialect`)."""
     out = _BATCH_HEADER
     for forces in (False, True):
         src = render(batch_array_dialect(forces), {"plain": not forces, "forces": forces}, template="batch")
@@ -291,6 +335,15 @@ def batch_module_source() -> str:
         else:
             src = src.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
                               "def batch_plain(topo, drv, opts, signs, designs, outs):", 1)
+        out += "\n\n" + src
+    for forces in (False, True):
+        src = render(batch_whole_dialect(forces), {"plain": not forces, "forces": forces}, template="batch")
+        if forces:
+            src = src.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
+                              "def batch_whole_forces(topo, drv, opts, signs, fmodel, designs, outs, frows, whole):", 1)
+        else:
+            src = src.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
+                              "def batch_whole_plain(topo, drv, opts, signs, designs, outs, whole):", 1)
         out += "\n\n" + src
     return out
 

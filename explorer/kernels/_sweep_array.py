@@ -284,7 +284,7 @@ def sweep_resumable(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs
                     out_pos, out_vel, out_acc, P0, V0, Vp, A0, P1, V1, A1, P_first, V_first, A_first, d, si, sf):
     """The sweep (:func:`sweep`, the same arguments first) that leaves the loop of whole steps to its caller
     (``_sweep.RESUMABLE``); the state in the arrays after ``out_acc`` (each (n_vertices, 2)), d (6,), si
-    (12,) int64, sf (5,) float64. Returns (1, ...) where the caller takes the whole steps, else (0,
+    (SLOTS[0],) int64, sf (SLOTS[1],) float64. Returns (1, ...) where the caller takes the whole steps, else (0,
     status, fail_t, fail_end, fail_block, iters).
     """
     tip = topo.tip
@@ -364,11 +364,11 @@ def sweep_resumable(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs
                 si[7] = k
                 si[8] = kr
                 si[9] = then
+                si[10] = n_steps
+                si[11] = S
                 sf[0] = hp
                 sf[1] = fail_t
                 sf[2] = fail_end
-                si[10] = n_steps
-                si[11] = S
                 sf[3] = dt
                 sf[4] = dmin
                 return 1, status, fail_t, fail_end, fail_block, iters

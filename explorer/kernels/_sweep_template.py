@@ -104,6 +104,31 @@ def valid_lengths(L, scale):
     return ok
 
 
+@njit(cache=True, nogil=True)
+def invalid_design(outs, i):
+    """Design i's outputs (``_inputs.Outputs``) as an invalid design's: NaN rows, status invalid, no
+    failure block, no iterations. A kernel of its own, shared by every batch kernel: written out in each
+    generated kernel it cost 0.5 CPU-s of its compile. (Loops: a slice assignment compiles for about
+    a second more.)"""
+    for r_ in range(outs.pos.shape[1]):
+        for j_ in range(outs.pos.shape[2]):
+            outs.pos[i, r_, j_, 0] = np.nan
+            outs.pos[i, r_, j_, 1] = np.nan
+    for r_ in range(outs.vel.shape[1]):
+        for j_ in range(outs.vel.shape[2]):
+            outs.vel[i, r_, j_, 0] = np.nan
+            outs.vel[i, r_, j_, 1] = np.nan
+    for r_ in range(outs.acc.shape[1]):
+        for j_ in range(outs.acc.shape[2]):
+            outs.acc[i, r_, j_, 0] = np.nan
+            outs.acc[i, r_, j_, 1] = np.nan
+    outs.status[i] = STATUS_INVALID
+    outs.fail_t[i] = 0.0
+    outs.fail_end[i] = np.nan
+    outs.fail_block[i] = -1
+    outs.iters[i] = 0
+
+
 @njit(cache=True)
 def status_of(code):
     """Map a step's trouble code to the per-variant status it ends a sweep with."""
@@ -355,24 +380,7 @@ def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):
         L = designs.dist[i]
         scale = designs.scale[i]
         if not valid_lengths(L, scale):
-            # NaN rows, as loops (a slice assignment compiles for about a second more)
-            for r_ in range(outs.pos.shape[1]):
-                for j_ in range(outs.pos.shape[2]):
-                    outs.pos[i, r_, j_, 0] = np.nan
-                    outs.pos[i, r_, j_, 1] = np.nan
-            for r_ in range(outs.vel.shape[1]):
-                for j_ in range(outs.vel.shape[2]):
-                    outs.vel[i, r_, j_, 0] = np.nan
-                    outs.vel[i, r_, j_, 1] = np.nan
-            for r_ in range(outs.acc.shape[1]):
-                for j_ in range(outs.acc.shape[2]):
-                    outs.acc[i, r_, j_, 0] = np.nan
-                    outs.acc[i, r_, j_, 1] = np.nan
-            outs.status[i] = STATUS_INVALID
-            outs.fail_t[i] = 0.0
-            outs.fail_end[i] = np.nan
-            outs.fail_block[i] = -1
-            outs.iters[i] = 0
+            invalid_design(outs, i)
             continue
         cx = designs.center[i, 0]
         cy = designs.center[i, 1]
