@@ -9,8 +9,9 @@ it again, and a cache built once serves every plan.
 For every row they are handed, the batch kernels check the variant's lengths and run
 :func:`~._sweep.sweep` (and, with forces, the forces effect), serially and without the GIL:
 :func:`~._rows.parallel_rows` runs them in parallel over blocks of rows. Their per-design loop is
-written once, ``_sweep_template.batch``, rendered here in the array form (``_batch_array.py``) and in
-the code generated per topology in the scalar form (``_codegen``).
+written once, ``_sweep_template.batch``, rendered in the array form (``_batch_array.py``): around
+the table-driven sweep, and around the resumable sweep and a topology's generated loop of whole steps
+(``whole_batch_jit``, ``whole_forces_jit``: ``_codegen``).
 """
 
 import types

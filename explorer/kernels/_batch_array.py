@@ -24,7 +24,8 @@ run_resumable = None
 def batch_plain(topo, drv, opts, signs, designs, outs):
     """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
     with forces, the forces effect of each design into ``frows``): the one per-design loop of every
-    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
 
     topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
     ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
@@ -69,7 +70,8 @@ def batch_plain(topo, drv, opts, signs, designs, outs):
 def batch_forces(topo, drv, opts, signs, fmodel, designs, outs, frows):
     """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
     with forces, the forces effect of each design into ``frows``): the one per-design loop of every
-    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
 
     topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
     ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
@@ -134,7 +136,8 @@ def batch_forces(topo, drv, opts, signs, fmodel, designs, outs, frows):
 def batch_whole_plain(topo, drv, opts, signs, designs, outs, whole):
     """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
     with forces, the forces effect of each design into ``frows``): the one per-design loop of every
-    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
 
     topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
     ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
@@ -183,7 +186,8 @@ def batch_whole_plain(topo, drv, opts, signs, designs, outs, whole):
 def batch_whole_forces(topo, drv, opts, signs, fmodel, designs, outs, frows, whole):
     """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
     with forces, the forces effect of each design into ``frows``): the one per-design loop of every
-    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
 
     topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
     ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the

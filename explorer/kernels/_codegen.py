@@ -1,4 +1,4 @@
-"""Code generated per topology: the sweep with every block of one plan written out inline.
+"""Code generated per topology: the sweep's loop of whole steps with every block of one plan written out inline.
 
 Equation-based compilers reach the hardware's limit by generating straight-line code for each model
 once. This module does that for plans whose block kinds all have a scalar form (``SCALAR`` in the
@@ -11,30 +11,33 @@ it writes a Numba kernel in which
   ``VX3``, previous tangent ``WX3``, trial position ``x3`` and tangent ``vx3`` (second derivative
   ``ZX3``, trial ``zx3``) (the table-driven kernels keep these in (n, 2) arrays and copy them at
   every step);
-* every block's numbers (squared lengths, assembly limits, branch sign) are scalars loaded once per
-  design, not record fields read at every step;
+* every block's numbers (squared lengths, assembly limits, branch sign) are scalars loaded when the
+  loop starts (once per design unless a step needs refining), not record fields read at every step;
 * each block's Newton solve, checks, tangent and second derivative are written inline in plan order,
   with its vertex and parents as names, not indices: its kind's scalar snippets.
 
-The kernel is the batch template (``_sweep_template.batch``, the one per-design loop) with, for each
-design, the sweep template's loop of whole forward steps (its ``whole_steps`` section, where a sweep
-takes nearly all its steps) rendered in this module's scalar dialect (:func:`scalar_dialect`), the
-kinds' step written out block by block. Everything else of the sweep (sample 0, refined steps, the
-backward sweep after a failure, resumes, the closing check, the failure reports) is the template's
-resumable array form (``_sweep.fast_sweep_resumable``), compiled once for every topology and called
-until the design is done: it hands the loop of whole steps to the generated code and takes over again
-where the loop stops. The same continuation, the same arithmetic in the same order. (Written out per
-topology, that bookkeeping, every vertex's state copied, restored and checked at a dozen places, was
-over half of a generated kernel's compile.) With forces, each ok design's forces effect follows its
-sweep in the same loop (``_forces.design_forces_fast``). Its results are the table-driven kernel's
-bit for bit (tests/test_codegen.py checks positions, velocities, accelerations, statuses, failure
-angles and blocks and iteration counts on thousands of variants of every built-in leg;
-tests/test_forces.py the forces); it is only faster. Plans with a kind without a scalar form (coupled
+The generated module holds the sweep template's loop of whole forward steps (its ``whole_steps``
+section, where a sweep takes nearly all its steps) rendered in this module's scalar dialect
+(:func:`scalar_dialect`), the kinds' step written out block by block. Everything else is compiled
+once for every topology: the batch loop (``_sweep_template.batch`` rendered around that loop,
+``_batch.whole_batch_jit`` / ``whole_forces_jit``) and the rest of the sweep (sample 0, refined
+steps, the backward sweep after a failure, resumes, the closing check, the failure reports: the
+template's resumable array form, ``_sweep.fast_sweep_resumable``), which hands the loop of whole
+steps to the generated code and takes over again where the loop stops. The batch loop calls the
+generated loop as a Numba first-class function (:class:`GeneratedKernel`), so neither is linked into
+the other: a new topology compiles its loop and nothing else (2.0 CPU-s against 5.7 before the
+change; LLVM re-optimises and re-emits every function linked into a kernel, and the per-vertex
+bookkeeping written out at a dozen holes of the sweep was over half of the old compile). The same
+continuation, the same arithmetic in the same order: its results are the table-driven kernel's bit for
+bit (tests/test_codegen.py checks positions, velocities, accelerations, statuses, failure angles and
+blocks and iteration counts on thousands of variants of every built-in leg; tests/test_forces.py the
+forces); it is only faster. With forces, each ok design's forces effect follows its sweep in the
+shared batch loop (``_forces.design_forces_fast``). Plans with a kind without a scalar form (coupled
 blocks, sliders) and the dense method keep the table-driven kernels.
 
 The module is written once per topology into the keyed kernel cache folder (``generated/`` under
 ``_cache.cache_bases``, so changed explorer code gets fresh modules), named by a hash of its source,
-and its kernel is cached by Numba like the others.
+and its ``kernel`` (the loop) is cached by Numba like the others.
 """
 
 from __future__ import annotations

@@ -9,8 +9,10 @@ home, with *holes* where the two forms of the sweep keep their state differently
   ``_sweep._specialise`` binds to the fast DYAD / ATTACH step or the generic one. The rendering is
   committed as ``_sweep_array.py`` (so lint, coverage and tracebacks see it); tests/test_sweep_template.py
   re-renders it and compares the text;
-* the **scalar form** (``_codegen``'s dialect): one topology's kernel, every vertex's state in local
-  scalars and every block written out, rendered when a topology is first simulated.
+* the **scalar form** (``_codegen``'s dialect): one topology's loop of whole steps (the
+  ``whole_steps`` section), every vertex's state in local scalars and every block written out,
+  rendered when a topology is first simulated; the rest of its sweep is the array form made
+  resumable (``_sweep.RESUMABLE``, also in ``_sweep_array.py``), shared by every topology.
 
 A hole is one statement, ``[targets =] hole.NAME(arguments)`` or ``return hole.NAME(...)``: a dialect
 replaces the whole line with its own statements, at the line's indentation. The targets and arguments
@@ -363,7 +365,8 @@ def sweep(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, 
 def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):
     """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
     with forces, the forces effect of each design into ``frows``): the one per-design loop of every
-    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
 
     topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
     ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
@@ -423,8 +426,8 @@ def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):
 
 
 #: The batch template's holes and sections (see :func:`batch`): ``batch_state`` (the kernel's
-#: scratch, before the loop over designs), ``sweep`` (design i's sweep: a call, or the sweep inline,
-#: leaving its five results in the names it binds); sections ``plain`` (the sweep writes the outputs)
+#: scratch, before the loop over designs), ``sweep`` (design i's sweep: calls, leaving its five
+#: results in the names it binds); sections ``plain`` (the sweep writes the outputs)
 #: and ``forces`` (it writes per-design scratch; the forces effect and the copy follow).
 BATCH_HOLES = {
     "batch_state": ("", ""),
