@@ -49,19 +49,16 @@ def _place(x):
             f"A1[tip, 1] = scale * {indexed(x, 5)}"]
 
 
+# The names both array forms' state binds first (the topology's and options' fields the holes read).
+_NAMES = ["tip = topo.tip", "moving = topo.moving", "out_idx = topo.out_idx", "maxit = opts.maxit",
+          "want_vel = opts.want_vel", "want_acc = opts.want_acc", "nv = P_init.shape[0]"]
+
 #: The array form's holes (see ``_sweep_template``). State: P0, V0, A0 the current configuration, Vp
 #: the tangent before V0, P1, V1, A1 the trial one, *_first the configuration at sample 0; each step
 #: and copy written as a loop (a slice assignment compiles a shape-mismatch error message, seconds of
 #: compile time for nothing; rebinding arrays costs atomic reference counting in the hot loop).
 ARRAY = {
-    "state": lambda args: [
-        "tip = topo.tip",
-        "moving = topo.moving",
-        "out_idx = topo.out_idx",
-        "maxit = opts.maxit",
-        "want_vel = opts.want_vel",
-        "want_acc = opts.want_acc",
-        "nv = P_init.shape[0]",
+    "state": lambda args: _NAMES + [
         "P0 = P_init.copy()",
         "P1 = P_init.copy()",
         "V0 = np.zeros((nv, 2))",
@@ -177,14 +174,7 @@ def _save(flag: int) -> list[str]:
 #: (``_codegen``) calls it, compiled once for every topology, and writes only the loop of whole steps
 #: itself, in scalars.
 RESUMABLE = dict(ARRAY) | {
-    "state": lambda args: [
-        "tip = topo.tip",
-        "moving = topo.moving",
-        "out_idx = topo.out_idx",
-        "maxit = opts.maxit",
-        "want_vel = opts.want_vel",
-        "want_acc = opts.want_acc",
-        "nv = P_init.shape[0]",
+    "state": lambda args: _NAMES + [
         "resumed = si[0] != 0",
         "if not resumed:",
         "    for v in range(nv):",
