@@ -128,7 +128,7 @@ def test_the_generated_base_leg_stops_at_the_same_singular_sample_and_block():
     finally:
         _simulate.parallel_rows = real
     fn, (topo, _, _, _, fm), (des, _, fr) = cap["args"]
-    leg = sys.modules[fn.py_func.__module__].base_leg
+    leg = sys.modules[fn.whole.py_func.__module__].base_leg  # the generated module (its loop of whole steps)
     allv = explorer.simulate_batch(mech, mech.lengths[None], None, 72, vertices="all", accelerations=True,
                                    kernel="general")
     names = list(mech.vertices)

@@ -9,8 +9,9 @@ it again, and a cache built once serves every plan.
 For every row they are handed, the batch kernels check the variant's lengths and run
 :func:`~._sweep.sweep` (and, with forces, the forces effect), serially and without the GIL:
 :func:`~._rows.parallel_rows` runs them in parallel over blocks of rows. Their per-design loop is
-written once, ``_sweep_template.batch``, rendered here in the array form (``_batch_array.py``) and in
-the code generated per topology in the scalar form (``_codegen``).
+written once, ``_sweep_template.batch``, rendered in the array form (``_batch_array.py``): around
+the table-driven sweep, and around the resumable sweep and a topology's generated loop of whole steps
+(``whole_batch_jit``, ``whole_forces_jit``: ``_codegen``).
 """
 
 import types
@@ -24,7 +25,7 @@ from ._forces import design_forces_any, design_forces_fast
 from ._kinds_array import block_table, place_closed
 from ._rows import parallel_rows
 from ._step import generic_context
-from ._sweep import fast_sweep, generic_sweep
+from ._sweep import fast_sweep, fast_sweep_resumable, generic_sweep
 from ._sweep_template import MAX_LENGTH, MIN_LENGTH, valid_lengths  # noqa: F401 (the kernels' length range)
 
 
@@ -110,3 +111,24 @@ fast_forces_jit = _specialise(_batch_array.batch_forces, "fast", run_sweep=fast_
                               design_forces=design_forces_fast)
 generic_forces_jit = _specialise(_batch_array.batch_forces, "generic", run_sweep=generic_sweep,
                                  make_context=generic_context_of, design_forces=design_forces_any)
+#: The batch loop around a topology's generated loop of whole steps (``_codegen``; arguments as
+#: ``fast_batch_jit``'s and ``fast_forces_jit``'s, then ``whole``, that loop as a first-class function):
+#: compiled once for every topology.
+whole_batch_jit = _specialise(_batch_array.batch_whole_plain, "whole", run_resumable=fast_sweep_resumable)
+whole_forces_jit = _specialise(_batch_array.batch_whole_forces, "whole", run_resumable=fast_sweep_resumable,
+                               design_forces=design_forces_fast)
+
+
+_WHOLE_FORCES: dict = {}  # generated module name -> its forces batch loop
+
+
+def whole_forces_with(name: str, design_forces):
+    """The forces batch loop around a topology's generated loop of whole steps (``whole_forces_jit``'s
+    arguments) with ``design_forces``, the forces effect with a base leg generated for the topology and
+    its members (``_forces.design_forces_with``), in place of ``_forces.design_forces_fast``: jitted
+    (and cached) under the generated module's ``name``, once per process."""
+    fn = _WHOLE_FORCES.get(name)
+    if fn is None:
+        fn = _WHOLE_FORCES[name] = _specialise(_batch_array.batch_whole_forces, f"whole_{name}",
+                                               run_resumable=fast_sweep_resumable, design_forces=design_forces)
+    return fn

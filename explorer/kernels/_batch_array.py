@@ -10,18 +10,22 @@ of :func:`batch_plain` and :func:`batch_forces` with the globals ``run_sweep``, 
 import numpy as np
 
 from ._forces import force_scratch
-from ._sweep_template import STATUS_INVALID, STATUS_OK, valid_lengths
+from ._sweep import sweep_scratch
+from ._sweep_template import STATUS_OK, invalid_design, valid_lengths
 
-# Bound in each jitted copy (``_batch``): the sweep, the step's context of design i, the forces effect.
+# Bound in each jitted copy (``_batch``): the sweep, the step's context of design i, the forces effect,
+# the resumable sweep.
 run_sweep = None
 make_context = None
 design_forces = None
+run_resumable = None
 
 
 def batch_plain(topo, drv, opts, signs, designs, outs):
     """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
     with forces, the forces effect of each design into ``frows``): the one per-design loop of every
-    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
 
     topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
     ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
@@ -44,24 +48,7 @@ def batch_plain(topo, drv, opts, signs, designs, outs):
         L = designs.dist[i]
         scale = designs.scale[i]
         if not valid_lengths(L, scale):
-            # NaN rows, as loops (a slice assignment compiles for about a second more)
-            for r_ in range(outs.pos.shape[1]):
-                for j_ in range(outs.pos.shape[2]):
-                    outs.pos[i, r_, j_, 0] = np.nan
-                    outs.pos[i, r_, j_, 1] = np.nan
-            for r_ in range(outs.vel.shape[1]):
-                for j_ in range(outs.vel.shape[2]):
-                    outs.vel[i, r_, j_, 0] = np.nan
-                    outs.vel[i, r_, j_, 1] = np.nan
-            for r_ in range(outs.acc.shape[1]):
-                for j_ in range(outs.acc.shape[2]):
-                    outs.acc[i, r_, j_, 0] = np.nan
-                    outs.acc[i, r_, j_, 1] = np.nan
-            outs.status[i] = STATUS_INVALID
-            outs.fail_t[i] = 0.0
-            outs.fail_end[i] = np.nan
-            outs.fail_block[i] = -1
-            outs.iters[i] = 0
+            invalid_design(outs, i)
             continue
         cx = designs.center[i, 0]
         cy = designs.center[i, 1]
@@ -83,7 +70,8 @@ def batch_plain(topo, drv, opts, signs, designs, outs):
 def batch_forces(topo, drv, opts, signs, fmodel, designs, outs, frows):
     """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
     with forces, the forces effect of each design into ``frows``): the one per-design loop of every
-    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
 
     topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
     ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
@@ -107,24 +95,7 @@ def batch_forces(topo, drv, opts, signs, fmodel, designs, outs, frows):
         L = designs.dist[i]
         scale = designs.scale[i]
         if not valid_lengths(L, scale):
-            # NaN rows, as loops (a slice assignment compiles for about a second more)
-            for r_ in range(outs.pos.shape[1]):
-                for j_ in range(outs.pos.shape[2]):
-                    outs.pos[i, r_, j_, 0] = np.nan
-                    outs.pos[i, r_, j_, 1] = np.nan
-            for r_ in range(outs.vel.shape[1]):
-                for j_ in range(outs.vel.shape[2]):
-                    outs.vel[i, r_, j_, 0] = np.nan
-                    outs.vel[i, r_, j_, 1] = np.nan
-            for r_ in range(outs.acc.shape[1]):
-                for j_ in range(outs.acc.shape[2]):
-                    outs.acc[i, r_, j_, 0] = np.nan
-                    outs.acc[i, r_, j_, 1] = np.nan
-            outs.status[i] = STATUS_INVALID
-            outs.fail_t[i] = 0.0
-            outs.fail_end[i] = np.nan
-            outs.fail_block[i] = -1
-            outs.iters[i] = 0
+            invalid_design(outs, i)
             continue
         cx = designs.center[i, 0]
         cy = designs.center[i, 1]
@@ -136,6 +107,126 @@ def batch_forces(topo, drv, opts, signs, fmodel, designs, outs, frows):
         status, fail_t, fail_end, fail_block, iters = run_sweep(
             make_context(opts, topo, designs, i, known), topo, drv, opts, designs.start[i], designs.restart_at[i],
             designs.restart_pos[i], signs, cx, cy, scale, shortest, tol, out_pos, out_vel, out_acc)
+        if status == STATUS_OK:
+            design_forces(i, designs.table[i], topo, designs.uv[i], designs.slide[i], cx, cy, fmodel, frows, fs)
+        # the requested rows of the scratch, as the plain sweep stores them
+        oi = fmodel.out_idx
+        for r_ in range(outs.pos.shape[1]):
+            for j_ in range(oi.shape[0]):
+                v_ = oi[j_]
+                outs.pos[i, r_, j_, 0] = fs.pos[r_, v_, 0]
+                outs.pos[i, r_, j_, 1] = fs.pos[r_, v_, 1]
+        for r_ in range(outs.vel.shape[1]):
+            for j_ in range(oi.shape[0]):
+                v_ = oi[j_]
+                outs.vel[i, r_, j_, 0] = fs.vel[r_, v_, 0]
+                outs.vel[i, r_, j_, 1] = fs.vel[r_, v_, 1]
+        for r_ in range(outs.acc.shape[1]):
+            for j_ in range(oi.shape[0]):
+                v_ = oi[j_]
+                outs.acc[i, r_, j_, 0] = fs.acc[r_, v_, 0]
+                outs.acc[i, r_, j_, 1] = fs.acc[r_, v_, 1]
+        outs.status[i] = status
+        outs.fail_t[i] = fail_t
+        outs.fail_end[i] = fail_end
+        outs.fail_block[i] = fail_block
+        outs.iters[i] = iters
+
+
+def batch_whole_plain(topo, drv, opts, signs, designs, outs, whole):
+    """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
+    with forces, the forces effect of each design into ``frows``): the one per-design loop of every
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
+
+    topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
+    ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
+    forces effect's shared inputs and per-row inputs and outputs (``_forces.ForceModel`` and
+    ``ForceRows``; without forces the kernel takes neither). The per-row arguments come last
+    (``designs``, ``outs``, ``frows``), for ``_rows.parallel_rows``. A design with a length outside the valid range is
+    "invalid", its rows NaN. With forces (section ``forces``) the sweep stores every vertex's
+    position, tangent and second derivative in per-design scratch, the forces effect reads them
+    there when the design is ok, and the requested rows (``fmodel.out_idx``) are copied out: a forces
+    study holds no position array it does not store.
+    """
+    maxit = opts.maxit
+    T = drv.table
+    d, P0, V0, Vp, A0, P1, V1, A1, P_first, V_first, A_first, si, sf = sweep_scratch(designs.start.shape[1])
+    for i in range(designs.scale.shape[0]):
+        L = designs.dist[i]
+        scale = designs.scale[i]
+        if not valid_lengths(L, scale):
+            invalid_design(outs, i)
+            continue
+        cx = designs.center[i, 0]
+        cy = designs.center[i, 1]
+        shortest = designs.shortest[i]
+        tol = designs.tol[i]
+        out_pos = outs.pos[i]
+        out_vel = outs.vel[i]
+        out_acc = outs.acc[i]
+        tab = designs.table[i]
+        si[0] = 0
+        while True:
+            more, status, fail_t, fail_end, fail_block, iters = run_resumable(
+                tab, topo, drv, opts, designs.start[i], designs.restart_at[i], designs.restart_pos[i], signs, cx, cy,
+                scale, shortest, tol, out_pos, out_vel, out_acc, P0, V0, Vp, A0, P1, V1, A1, P_first, V_first, A_first,
+                d, si, sf)
+            if more == 0:
+                break
+            whole(T, designs.start[i], tab, signs, cx, cy, scale, tol, maxit, out_pos, out_vel, out_acc, P0, V0, Vp,
+                  A0, si, sf)
+        outs.status[i] = status
+        outs.fail_t[i] = fail_t
+        outs.fail_end[i] = fail_end
+        outs.fail_block[i] = fail_block
+        outs.iters[i] = iters
+
+
+def batch_whole_forces(topo, drv, opts, signs, fmodel, designs, outs, frows, whole):
+    """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
+    with forces, the forces effect of each design into ``frows``): the one per-design loop of every
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
+
+    topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
+    ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
+    forces effect's shared inputs and per-row inputs and outputs (``_forces.ForceModel`` and
+    ``ForceRows``; without forces the kernel takes neither). The per-row arguments come last
+    (``designs``, ``outs``, ``frows``), for ``_rows.parallel_rows``. A design with a length outside the valid range is
+    "invalid", its rows NaN. With forces (section ``forces``) the sweep stores every vertex's
+    position, tangent and second derivative in per-design scratch, the forces effect reads them
+    there when the design is ok, and the requested rows (``fmodel.out_idx``) are copied out: a forces
+    study holds no position array it does not store.
+    """
+    maxit = opts.maxit
+    T = drv.table
+    d, P0, V0, Vp, A0, P1, V1, A1, P_first, V_first, A_first, si, sf = sweep_scratch(designs.start.shape[1])
+    fs = force_scratch(drv.table.shape[0], designs.start.shape[1], fmodel, topo)
+    for i in range(designs.scale.shape[0]):
+        L = designs.dist[i]
+        scale = designs.scale[i]
+        if not valid_lengths(L, scale):
+            invalid_design(outs, i)
+            continue
+        cx = designs.center[i, 0]
+        cy = designs.center[i, 1]
+        shortest = designs.shortest[i]
+        tol = designs.tol[i]
+        out_pos = fs.pos
+        out_vel = fs.vel
+        out_acc = fs.acc
+        tab = designs.table[i]
+        si[0] = 0
+        while True:
+            more, status, fail_t, fail_end, fail_block, iters = run_resumable(
+                tab, topo, drv, opts, designs.start[i], designs.restart_at[i], designs.restart_pos[i], signs, cx, cy,
+                scale, shortest, tol, out_pos, out_vel, out_acc, P0, V0, Vp, A0, P1, V1, A1, P_first, V_first, A_first,
+                d, si, sf)
+            if more == 0:
+                break
+            whole(T, designs.start[i], tab, signs, cx, cy, scale, tol, maxit, out_pos, out_vel, out_acc, P0, V0, Vp,
+                  A0, si, sf)
         if status == STATUS_OK:
             design_forces(i, designs.table[i], topo, designs.uv[i], designs.slide[i], cx, cy, fmodel, frows, fs)
         # the requested rows of the scratch, as the plain sweep stores them

@@ -1,4 +1,4 @@
-"""Code generated per topology: the sweep with every block of one plan written out inline.
+"""Code generated per topology: the sweep's loop of whole steps with every block of one plan written out inline.
 
 Equation-based compilers reach the hardware's limit by generating straight-line code for each model
 once. This module does that for plans whose block kinds all have a scalar form (``SCALAR`` in the
@@ -7,32 +7,41 @@ legs, the four-bar): for one topology (its blocks' rows of the lowered plan, the
 vertices to store, whether velocities and accelerations are stored, whether the forces effect runs)
 it writes a Numba kernel in which
 
-* every vertex's state is a local scalar: position ``X3``, tangent ``VX3``, previous tangent
-  ``WX3``, trial position ``x3`` and tangent ``vx3`` (second derivative ``ZX3``, trial ``zx3``)
-  (the table-driven kernels keep these in (n, 2) arrays and copy them at every step);
-* every block's numbers (squared lengths, assembly limits, branch sign) are scalars loaded once per
-  design, not record fields read at every step;
+* in the loop of whole steps, every vertex's state is a local scalar: position ``X3``, tangent
+  ``VX3``, previous tangent ``WX3``, trial position ``x3`` and tangent ``vx3`` (second derivative
+  ``ZX3``, trial ``zx3``) (the table-driven kernels keep these in (n, 2) arrays and copy them at
+  every step);
+* every block's numbers (squared lengths, assembly limits, branch sign) are scalars loaded when the
+  loop starts (once per design unless a step needs refining), not record fields read at every step;
 * each block's Newton solve, checks, tangent and second derivative are written inline in plan order,
   with its vertex and parents as names, not indices: its kind's scalar snippets.
 
-The kernel is the batch template (``_sweep_template.batch``, the one per-design loop) with the sweep
-template (``_sweep_template.sweep``, the sweep's one source) inline, both rendered in this module's
-scalar dialect (:func:`scalar_dialect`), the kinds' table-driven step written out block by block: the
-same continuation, refinement, backward sweep after a failure, checks and failure reports, the same
-arithmetic in the same order, plus the template's loop of whole steps (which the array form drops).
-With forces, each ok design's forces effect follows its sweep in the same loop, its base leg (loads,
-multipliers and member forces at every sample) generated for the topology and its members too
-(``_forces_scalar``, rendered from the kinds' ``forces_geometry`` and ``reactions`` snippets and the
-equation types' ``PULL_SCALAR``; written only into a forces kernel's module, compiled as its own
-function). Its results are the table-driven kernel's bit for bit
-(tests/test_codegen.py checks positions, velocities, accelerations, statuses, failure angles and
-blocks and iteration counts on thousands of variants of every built-in leg; tests/test_forces_scalar.py
-the forces); it is only faster. Plans with a kind without a scalar form (coupled blocks, sliders) and the
-dense method keep the table-driven kernels.
+The generated module holds the sweep template's loop of whole forward steps (its ``whole_steps``
+section, where a sweep takes nearly all its steps) rendered in this module's scalar dialect
+(:func:`scalar_dialect`), the kinds' step written out block by block. Everything else is compiled
+once for every topology: the batch loop (``_sweep_template.batch`` rendered around that loop,
+``_batch.whole_batch_jit`` / ``whole_forces_jit``) and the rest of the sweep (sample 0, refined
+steps, the backward sweep after a failure, resumes, the closing check, the failure reports: the
+template's resumable array form, ``_sweep.fast_sweep_resumable``), which hands the loop of whole
+steps to the generated code and takes over again where the loop stops. The batch loop calls the
+generated loop as a Numba first-class function (:class:`GeneratedKernel`), so neither is linked into
+the other: a new topology compiles its loop and nothing else (2.0 CPU-s against 5.7 before the
+change; LLVM re-optimises and re-emits every function linked into a kernel, and the per-vertex
+bookkeeping written out at a dozen holes of the sweep was over half of the old compile). The same
+continuation, the same arithmetic in the same order: its results are the table-driven kernel's bit for
+bit (tests/test_codegen.py checks positions, velocities, accelerations, statuses, failure angles and
+blocks and iteration counts on thousands of variants of every built-in leg; tests/test_forces.py the
+forces); it is only faster. With forces, each ok design's forces effect follows its sweep in the
+batch loop: its base leg (loads, multipliers and member forces at every sample) generated for the
+topology and its members too (``_forces_scalar``, rendered from the kinds' ``forces_geometry`` and
+``reactions`` snippets and the equation types' ``PULL_SCALAR``; written only into a forces kernel's
+module, where the batch loop is compiled for it; tests/test_forces_scalar.py), else
+``_forces.design_forces_fast``. Plans with a kind without a scalar form (coupled
+blocks, sliders) and the dense method keep the table-driven kernels.
 
 The module is written once per topology into the keyed kernel cache folder (``generated/`` under
 ``_cache.cache_bases``, so changed explorer code gets fresh modules), named by a hash of its source,
-and its kernel is cached by Numba like the others.
+and its ``kernel`` (the loop) is cached by Numba like the others.
 """
 
 from __future__ import annotations
@@ -42,54 +51,32 @@ import importlib.util
 import os
 import sys
 import tempfile
-import textwrap
 import threading
 from pathlib import Path
 
-import numpy as np
-from numba import njit
+from numba import typeof, types
 
 from ..kinds import KINDS
 from ._cache import GENERATED_PREFIX, KEY, cache_bases
 from ._forces_scalar import base_leg_source, force_key, scalar_forces
+from ._sweep import RESUMABLE, RESUME_SLOTS
 from ._sweep_template import indexed, render
 
 _HEADER = '''\
 """Generated by explorer.kernels._codegen for one topology; do not edit (regenerated on demand)."""
 import numpy as np
 from numba import njit
-from explorer.kinds._common import SUSPECT
-from explorer.kernels._codegen import scalar_scratch, unreached_rows
-from explorer.kernels._drive import drive
 {imports}
-from explorer.kernels._sweep_template import (status_of, valid_lengths, MAX_FORCED, MAX_FORCED_SPAN, REFINE_LEVELS,
-                                              STATUS_BRANCH, STATUS_INVALID, STATUS_OK)
 
 
 @njit(cache=True, nogil=True)
+def kernel(T, P_init, tab, signs, cx, cy, scale, tol, maxit, out_pos, out_vel, out_acc, P0, V0, Vp, A0, si, sf):
+    """This topology's loop of whole forward steps: the sweep template's ``whole_steps`` section in the
+    scalar dialect of ``explorer.kernels._codegen``, taken between calls of the resumable sweep by the
+    shared batch loop (``_batch.whole_batch_jit``), which passes its state (P0, V0, Vp, A0), its saved
+    variables (si, sf) and design i's T = drv.table, P_init = designs.start[i], tab = designs.table[i],
+    signs, crank centre and radius, tol, maxit and output rows."""
 '''
-
-
-@njit(cache=True, nogil=True)
-def scalar_scratch(nv):
-    """The generated kernel's scratch: room for the driver's values at one parameter (6,) and the
-    configuration at sample 0 (nv, 6): position, tangent, second derivative of each vertex."""
-    return np.empty(6), np.empty((nv, 6))
-
-
-@njit(cache=True, nogil=True)
-def unreached_rows(out_pos, out_vel, out_acc, k, want_vel, want_acc):
-    """Sample k's stored rows set to NaN (its velocities if ``want_vel``, accelerations if
-    ``want_acc``): the scalar form's ``unreached`` hole, shared by every generated kernel."""
-    for j in range(out_pos.shape[1]):
-        out_pos[k, j, 0] = np.nan
-        out_pos[k, j, 1] = np.nan
-        if want_vel:
-            out_vel[k, j, 0] = np.nan
-            out_vel[k, j, 1] = np.nan
-        if want_acc:
-            out_acc[k, j, 0] = np.nan
-            out_acc[k, j, 1] = np.nan
 
 
 def _blocks(topo) -> list[tuple]:
@@ -121,12 +108,17 @@ def _placed_used(topo, blocks, out_idx):
 
 
 def scalar_dialect(topo, want_vel: bool, want_acc: bool = False) -> dict:
-    """The scalar form's holes (``_sweep_template``) for ``topo``: vertex v's position ``X{v}``,
-    ``Y{v}``, tangent ``VX{v}``, ``VY{v}``, previous tangent ``WX{v}``, ``WY{v}``, trial position
-    ``x{v}``, ``y{v}`` and tangent ``vx{v}``, ``vy{v}``, and with ``want_acc`` second derivative
-    ``ZX{v}``, ``ZY{v}`` and trial ``zx{v}``, ``zy{v}``; the configuration at sample 0 in the rows of
-    ``F``; the rows of ``topo.out_idx`` stored (with velocities if ``want_vel``, accelerations if
-    ``want_acc``). The sweep's results stay in the names it binds (the batch template reads them)."""
+    """The generated kernel's holes (``_sweep_template``) for ``topo``: those of the loop of whole steps
+    (the template's ``whole_steps`` section, where a sweep takes nearly all its steps), the only part
+    of the sweep written per topology. There every vertex's state is a local scalar and every block
+    is written out: vertex v's position ``X{v}``, ``Y{v}``, tangent ``VX{v}``, ``VY{v}``, previous
+    tangent ``WX{v}``, ``WY{v}``, trial position ``x{v}``, ``y{v}`` and tangent ``vx{v}``, ``vy{v}``,
+    and with ``want_acc`` second derivative ``ZX{v}``, ``ZY{v}`` and trial ``zx{v}``, ``zy{v}``; the
+    rows of ``topo.out_idx`` stored (with velocities if ``want_vel``, accelerations if ``want_acc``).
+    The loop loads them from the resumable sweep's arrays on entry and writes them back on leaving.
+    The rest of the sweep (sample 0, refined steps, the backward sweep, resumes, the closing check)
+    is the resumable array form (``_sweep.RESUMABLE``, whose holes these are too), compiled once for
+    every topology: the same arithmetic in the same order, so the same results bit for bit."""
     blocks = _blocks(topo)
     tip = int(topo.tip)
     out_idx = [int(v) for v in topo.out_idx]
@@ -154,96 +146,116 @@ def scalar_dialect(topo, want_vel: bool, want_acc: bool = False) -> dict:
                 out += [f"out_acc[{sample}, {j}, 0] = ZX{v}", f"out_acc[{sample}, {j}, 1] = ZY{v}"]
         return out
 
-    def acc(*lines):
-        return list(lines) if want_acc else []
-
-    return {
-        # the state is loaded into scalars by the kernel before the sweep; d is the kernel's, one per batch
-        "state": lambda args: [],
-        # where the first pass left off (``_vector``), and its configuration there made the state, at rest
-        "restart": lambda args: ["kf = designs.restart_at[i, 0]", "kb = designs.restart_at[i, 1]"],
-        "resume": lambda j: [ln for v in placed for ln in (
-            f"X{v} = designs.restart_pos[i, {j}, {v}, 0]", f"Y{v} = designs.restart_pos[i, {j}, {v}, 1]",
-            f"VX{v} = 0.0", f"VY{v} = 0.0", f"WX{v} = 0.0", f"WY{v} = 0.0", *acc(f"ZX{v} = 0.0", f"ZY{v} = 0.0"))],
-        "place": place,
+    # each placed vertex's scalars, and the resumable sweep's arrays they live in outside the loop
+    pairs = [("X", "P0", 0), ("Y", "P0", 1), ("VX", "V0", 0), ("VY", "V0", 1), ("WX", "Vp", 0), ("WY", "Vp", 1)]
+    if want_acc:
+        pairs += [("ZX", "A0", 0), ("ZY", "A0", 1)]
+    return RESUMABLE | {
+        "fast_enter": lambda args: [f"{n}{v} = {a}[{v}, {ax}]" for v in placed for n, a, ax in pairs],
+        "fast_place": place,
         # the step's one-pass loop: a failing block's 'break' leaves it
-        # chk: checks as a plain bool; the template's loop of whole steps sets checks = True, a literal
-        # that Numba would type (and compile place_dyad for) separately: ~1 CPU-s more on a cold cache
-        "step": lambda args: ["c2 = 0.5 * h * h / hp if hp != 0.0 else 0.0", "code = 0", "blk = -1",
-                              "chk = bool(checks)", "for _once in range(1):"] + ["    " + ln if ln.strip() else ln for ln in step],
+        # chk: checks as a plain bool; the loop sets checks = True, a literal that Numba would type (and
+        # compile place_dyad for) separately: ~1 CPU-s more on a cold cache
+        "fast_step": lambda args: ["c2 = 0.5 * h * h / hp if hp != 0.0 else 0.0", "code = 0", "blk = -1",
+                                   "chk = bool(checks)", "for _once in range(1):"] + ["    " + ln if ln.strip() else ln
+                                                                                     for ln in step],
         # the previous tangent kept, the trial state made current
-        "accept": lambda args: [ln for v in placed for ln in (f"WX{v} = VX{v}", f"WY{v} = VY{v}", f"VX{v} = vx{v}",
-                                                              f"VY{v} = vy{v}", f"X{v} = x{v}", f"Y{v} = y{v}",
-                                                              *acc(f"ZX{v} = zx{v}", f"ZY{v} = zy{v}"))],
-        "keep_first": lambda args: [ln for v in placed for ln in (
-            f"WX{v} = VX{v}", f"WY{v} = VY{v}", f"F[{v}, 0] = X{v}", f"F[{v}, 1] = Y{v}", f"F[{v}, 2] = VX{v}",
-            f"F[{v}, 3] = VY{v}", *acc(f"F[{v}, 4] = ZX{v}", f"F[{v}, 5] = ZY{v}"))],
-        "restore_first": lambda args: [ln for v in placed for ln in (
-            f"X{v} = F[{v}, 0]", f"Y{v} = F[{v}, 1]", f"VX{v} = F[{v}, 2]", f"VY{v} = F[{v}, 3]",
-            f"WX{v} = F[{v}, 2]", f"WY{v} = F[{v}, 3]", *acc(f"ZX{v} = F[{v}, 4]", f"ZY{v} = F[{v}, 5]"))],
-        "store": store,
-        "closing_gap": lambda args: ["gap = 0.0"] + [f"gap = max(gap, abs(X{v} - F[{v}, 0]) + abs(Y{v} - F[{v}, 1]))"
-                                                     for v in placed],
-        # a shared kernel (compiled once, cached), not rows of literal stores written per topology
-        # (opts' flags are the ones this code was written for, and not literals: one signature for all)
-        "unreached": lambda k: [f"unreached_rows(out_pos, out_vel, out_acc, {k}, opts.want_vel, opts.want_acc)"],
-        # the five results stay in the names the sweep binds (status, fail_t, ...): the batch template reads them
-        "result": lambda args: [],
+        "fast_accept": lambda args: [ln for v in placed for ln in (
+            f"WX{v} = VX{v}", f"WY{v} = VY{v}", f"VX{v} = vx{v}", f"VY{v} = vy{v}", f"X{v} = x{v}", f"Y{v} = y{v}",
+            *((f"ZX{v} = zx{v}", f"ZY{v} = zy{v}") if want_acc else ()))],
+        "fast_store": store,
+        "fast_leave": lambda args: [f"{a}[{v}, {ax}] = {n}{v}" for v in placed for n, a, ax in pairs],
     }
 
 
-#: The scalar form keeps the loop of whole steps (the common case, without the refining loop's bookkeeping).
+#: The generated kernel writes the loop of whole steps (the common case, without the refining loop's bookkeeping).
 SCALAR_SECTIONS = {"whole_steps": True}
 
 
 def source(topo, want_vel: bool, want_acc: bool = False, forces: bool = False) -> str:
     """The generated module's source for ``topo`` (``_inputs.Topology``), storing positions and, if
-    ``want_vel``, velocities (``want_acc``: accelerations) of ``topo.out_idx``: the batch template
-    (``_sweep_template.batch``) with the sweep template inline, both rendered in the scalar dialect, each
-    design's numbers loaded into scalars before its sweep. ``forces``: the forces effect's kernel (every
-    vertex with its rates into scratch, then the forces effect of the design): given the forces' shared
-    inputs (``_forces.ForceModel``), with the base leg generated for this topology and its members
-    (``_forces_scalar``) where its kinds allow; True, or kinds without it: ``_forces.design_forces_fast``."""
+    ``want_vel``, velocities (``want_acc``: accelerations) of ``topo.out_idx``: its ``kernel``, the loop
+    of whole steps (:func:`scalar_dialect`), each block's numbers loaded into scalars first. The batch
+    loop and the rest of the sweep are shared by every topology (``_batch.whole_batch_jit``, with
+    ``forces`` ``whole_forces_jit``: the same source serves both). ``forces`` given as the forces' shared
+    inputs (``_forces.ForceModel``) where the topology's kinds allow: the module also holds the base leg
+    generated for it and its members (``_forces_scalar``) and its ``design_forces``."""
     blocks = _blocks(topo)
     out_idx = [int(v) for v in topo.out_idx]
     placed, used = _placed_used(topo, blocks, out_idx)
     const = sorted(used - set(placed))  # fixed (or unmoved) vertices: at their start, at rest
-    init = ["P = designs.start[i]", "tab = designs.table[i]", "tol2 = tol * tol"]
+    body = ["tol2 = tol * tol"]
     rest = ("zx{v} = 0.0", "zy{v} = 0.0", "ZX{v} = 0.0", "ZY{v} = 0.0") if want_acc else ()
     for c in const:
-        init += [f"X{c} = P[{c}, 0]", f"Y{c} = P[{c}, 1]", f"x{c} = X{c}", f"y{c} = Y{c}",
+        body += [f"X{c} = P_init[{c}, 0]", f"Y{c} = P_init[{c}, 1]", f"x{c} = X{c}", f"y{c} = Y{c}",
                  f"VX{c} = 0.0", f"VY{c} = 0.0", f"vx{c} = 0.0", f"vy{c} = 0.0", *(r.format(v=c) for r in rest)]
-    for v in placed:
-        init += [f"X{v} = P[{v}, 0]", f"Y{v} = P[{v}, 1]", f"x{v} = X{v}", f"y{v} = Y{v}",
-                 f"VX{v} = 0.0", f"VY{v} = 0.0", f"vx{v} = 0.0", f"vy{v} = 0.0", f"WX{v} = 0.0", f"WY{v} = 0.0",
-                 *(r.format(v=v) for r in rest)]
     for mod, names in blocks:
-        init += mod.SCALAR["init"].format(**names).splitlines()
-    sweep = textwrap.dedent(render(scalar_dialect(topo, want_vel, want_acc), SCALAR_SECTIONS, body_only=True))
-    # d: the driver's values; F: the configuration at sample 0 (closing check, backward sweep). Made by a
-    # shared kernel: np.empty's implementations would compile again in every process that compiles a
-    # generated kernel (0.3-0.5 CPU-s); a cached kernel's are loaded with it
-    state = ["maxit = opts.maxit", "d, F = scalar_scratch(designs.start.shape[1])"]
-    if forces:
-        state.append("fs = force_scratch(drv.table.shape[0], designs.start.shape[1], fmodel, topo)")
-    batch = render({"batch_state": lambda args: state, "sweep": lambda args: init + sweep.splitlines()},
-                   {"plain": not forces, "forces": forces}, template="batch")
-    if forces:
-        batch = batch.replace("def batch(", "def kernel(", 1)
-    else:
-        batch = batch.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
-                              "def kernel(topo, drv, opts, signs, designs, outs):", 1)
+        body += mod.SCALAR["init"].format(**names).splitlines()
+    body += [f"{name} = {arr}[{j}]" for arr, j, name in RESUME_SLOTS]
+    body += render(scalar_dialect(topo, want_vel, want_acc), SCALAR_SECTIONS, only="whole_steps").splitlines()
+    body += [f"{arr}[{j}] = {name}" for arr, j, name in RESUME_SLOTS[:4]] + ["return 0"]
     imports = {ln for mod, _ in blocks for ln in mod.SCALAR["imports"].splitlines() if ln.strip()}
     tail = ""
     if forces and not isinstance(forces, bool) and scalar_forces(topo):
-        # the base leg generated for this topology and these members (``_forces_scalar``), its own entry point
+        # the base leg generated for this topology and these members (``_forces_scalar``): the module's
+        # ``design_forces``, which the forces batch loop (compiled for it, :class:`GeneratedKernel`) calls
         name, leg = base_leg_source(topo, forces)
-        imports.add("from explorer.kernels._forces import SINGULAR_TOL, active, copy_21, design_forces_with, "
-                    "force_scratch")
+        imports.add("from explorer.kernels._forces import SINGULAR_TOL, active, copy_21, design_forces_with")
         tail = f"\n\n{leg}\n\ndesign_forces = design_forces_with(base_leg, {name!r})\n"
-    elif forces:
-        imports.add("from explorer.kernels._forces import design_forces_fast as design_forces, force_scratch")
-    return _HEADER.replace("{imports}", "\n".join(sorted(imports))) + batch + tail
+    return (_HEADER.replace("{imports}", "\n".join(sorted(imports)))
+            + "".join(f"    {ln}\n" if ln.strip() else "\n" for ln in body) + tail)
+
+
+class GeneratedKernel:
+    """A topology's generated kernel as the batch kernels' callers see it (``_simulate``,
+    ``_rows.parallel_rows``): called with a batch kernel's arguments ((topo, drv, opts, signs, designs,
+    outs), with forces (topo, drv, opts, signs, fmodel, designs, outs, frows)), it runs the shared batch
+    loop (``_batch.whole_batch_jit`` or ``whole_forces_jit``) with the topology's loop of whole steps
+    ``whole`` (the generated module's ``kernel``) as a first-class function: Numba compiles that batch
+    loop once for every topology (once per argument types, and caches it) and only ``whole`` per
+    topology, and links neither into the other."""
+
+    def __init__(self, whole, forces, design_forces=None, name: str = ""):
+        from ._batch import whole_batch_jit, whole_forces_jit, whole_forces_with
+
+        self.whole = whole
+        self.forces = bool(forces)
+        self.batch = whole_forces_jit if forces else whole_batch_jit
+        if forces and design_forces is not None:  # the forces effect with the base leg generated for this
+            # topology and its members (``_forces_scalar``): the forces batch loop compiled for it
+            self.batch = whole_forces_with(name, design_forces)
+        self._entry: dict = {}  # argument types -> the batch loop's compiled entry point for them
+
+    @property
+    def signatures(self):
+        """The loop of whole steps' compiled signatures (empty: not compiled or loaded yet)."""
+        return self.whole.signatures
+
+    def __call__(self, *args):
+        key = tuple(typeof(a) for a in args)
+        entry = self._entry.get(key)
+        if entry is None:
+            with _LOCK:
+                sig = key + (types.FunctionType(_whole_signature(key, self.forces)),)
+                self.batch.compile(sig)
+                # called through its entry point: the dispatcher would type ``whole`` as this one
+                # dispatcher and compile the batch loop again for it
+                entry = self._entry[key] = self.batch.overloads[sig].entry_point
+        entry(*args, self.whole)
+
+
+def _whole_signature(key: tuple, forces: bool):
+    """The generated ``kernel``'s signature, from the batch arguments' Numba types ``key``."""
+    drv, signs, designs = key[1], key[3], key[5 if forces else 4]
+
+    def field(tup, name, drop=0):
+        t = tup.types[tup.fields.index(name)]
+        return t.copy(ndim=t.ndim - drop, layout="C") if drop else t
+
+    f2, f3 = types.float64[:, ::1], types.float64[:, :, ::1]
+    return types.int64(field(drv, "table"), field(designs, "start", 1), field(designs, "table", 1), signs,
+                       types.float64, types.float64, types.float64, types.float64, types.int64, f3, f3, f3,
+                       f2, f2, f2, f2, types.int64[::1], types.float64[::1])
 
 
 _LOADED: dict = {}
@@ -301,7 +313,7 @@ def is_ready(topo, want_vel: bool, want_acc: bool = False, forces=False) -> bool
     if name is None:
         name = _NAMES[tkey] = f"{GENERATED_PREFIX}{_key_of(source(topo, want_vel, want_acc, forces))}"
     loaded = _LOADED.get(name[len(GENERATED_PREFIX):])
-    if loaded is not None and loaded.signatures:
+    if loaded is not None and loaded.kernel.signatures:
         return True
     return any((f / f"{name}.py").is_file() and any(f.glob(f"{name}.kernel-*.nbi")) for f in _folders())
 
@@ -325,8 +337,8 @@ def _load(tkey, topo, want_vel: bool, want_acc: bool, forces):
     src = source(topo, want_vel, want_acc, forces)
     key = _key_of(src)
     if key in _LOADED:
-        _BY_TOPOLOGY[tkey] = _LOADED[key]
-        return _LOADED[key]
+        _BY_TOPOLOGY[tkey] = _kernel_of(_LOADED[key], forces)
+        return _BY_TOPOLOGY[tkey]
     name = f"{GENERATED_PREFIX}{key}"
     folder = _folder()
     path = folder / f"{name}.py"
@@ -345,5 +357,11 @@ def _load(tkey, topo, want_vel: bool, want_acc: bool, forces):
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
-    _LOADED[key] = _BY_TOPOLOGY[tkey] = module.kernel
-    return module.kernel
+    _LOADED[key] = module
+    _BY_TOPOLOGY[tkey] = _kernel_of(module, forces)
+    return _BY_TOPOLOGY[tkey]
+
+
+def _kernel_of(module, forces) -> GeneratedKernel:
+    """The :class:`GeneratedKernel` of a generated module (with its generated forces effect, if it has one)."""
+    return GeneratedKernel(module.kernel, forces, getattr(module, "design_forces", None), module.__name__)

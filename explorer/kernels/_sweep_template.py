@@ -9,8 +9,10 @@ home, with *holes* where the two forms of the sweep keep their state differently
   ``_sweep._specialise`` binds to the fast DYAD / ATTACH step or the generic one. The rendering is
   committed as ``_sweep_array.py`` (so lint, coverage and tracebacks see it); tests/test_sweep_template.py
   re-renders it and compares the text;
-* the **scalar form** (``_codegen``'s dialect): one topology's kernel, every vertex's state in local
-  scalars and every block written out, rendered when a topology is first simulated.
+* the **scalar form** (``_codegen``'s dialect): one topology's loop of whole steps (the
+  ``whole_steps`` section), every vertex's state in local scalars and every block written out,
+  rendered when a topology is first simulated; the rest of its sweep is the array form made
+  resumable (``_sweep.RESUMABLE``, also in ``_sweep_array.py``), shared by every topology.
 
 A hole is one statement, ``[targets =] hole.NAME(arguments)`` or ``return hole.NAME(...)``: a dialect
 replaces the whole line with its own statements, at the line's indentation. The targets and arguments
@@ -38,10 +40,17 @@ The holes:
 * ``gap = hole.closing_gap()``: the largest |Δx| + |Δy| between the state and the configuration at sample 0;
 * ``hole.unreached(k)``: sample k's rows set to NaN;
 * ``return hole.result(status, fail_t, fail_end, fail_block, iters)``: the design's outcome;
+* ``hole.reenter()``: before the loop of moves, the sweep's own variables set (a dialect whose sweep
+  leaves off at the loop of whole steps and is called again there restores them here);
 * section ``whole_steps``: whole forward steps in a loop of their own, each accepted at its first try
   (the scalar form's fast path; the array form drops it: inlining the step twice there costs seconds
   of compile time). The first step that needs more leaves that loop untaken and is taken by the
-  general loop, whole and then halved, so the results are the same bit for bit.
+  general loop, whole and then halved, so the results are the same bit for bit. Its own holes let a
+  dialect keep the state differently in that loop: ``hole.fast_enter()`` and ``hole.fast_leave()``
+  before and after it (the state loaded into the loop's form, and written back), and
+  ``fast_place``, ``fast_step``, ``fast_accept``, ``fast_store``: ``place``, ``step``, ``accept``,
+  ``store`` in that loop. (The generated kernels keep their state in scalars in this loop alone, and
+  in arrays, through code shared by every topology, elsewhere: ``_codegen``.)
 
 Constants and :func:`status_of` live here, beside the template that uses them (``_sweep``
 re-exports them: the status codes are public).
@@ -95,6 +104,31 @@ def valid_lengths(L, scale):
     for e in range(L.shape[0]):
         ok = ok and MIN_LENGTH <= L[e] <= MAX_LENGTH
     return ok
+
+
+@njit(cache=True, nogil=True)
+def invalid_design(outs, i):
+    """Design i's outputs (``_inputs.Outputs``) as an invalid design's: NaN rows, status invalid, no
+    failure block, no iterations. A kernel of its own, shared by every batch kernel: written out in each
+    generated kernel it cost 0.5 CPU-s of its compile. (Loops: a slice assignment compiles for about
+    a second more.)"""
+    for r_ in range(outs.pos.shape[1]):
+        for j_ in range(outs.pos.shape[2]):
+            outs.pos[i, r_, j_, 0] = np.nan
+            outs.pos[i, r_, j_, 1] = np.nan
+    for r_ in range(outs.vel.shape[1]):
+        for j_ in range(outs.vel.shape[2]):
+            outs.vel[i, r_, j_, 0] = np.nan
+            outs.vel[i, r_, j_, 1] = np.nan
+    for r_ in range(outs.acc.shape[1]):
+        for j_ in range(outs.acc.shape[2]):
+            outs.acc[i, r_, j_, 0] = np.nan
+            outs.acc[i, r_, j_, 1] = np.nan
+    outs.status[i] = STATUS_INVALID
+    outs.fail_t[i] = 0.0
+    outs.fail_end[i] = np.nan
+    outs.fail_block[i] = -1
+    outs.iters[i] = 0
 
 
 @njit(cache=True)
@@ -174,6 +208,7 @@ def sweep(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, 
     k = 0
     kr = 0  # the sample a resume (phase 3) solves, and the phase it goes on in
     then = 1
+    hole.reenter()
     while True:  # one move per pass, from parameter t0 to t1 (either direction)
         if phase == 0:
             t0 = 0.0
@@ -188,25 +223,27 @@ def sweep(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, 
                 # The common case in a loop of its own: whole steps forward, each accepted at its first
                 # try. The first step that needs more (refinement, or a failure) leaves it untaken and
                 # is taken below, whole and then halved, as every other step is.
+                hole.fast_enter()
                 while k < n_steps:
                     h = (k + 1) * dt - k * dt
                     if not abs(h) > 1.5 * dmin:
                         break
                     checks = True
                     row = k + 1 if k + 1 < S else 0
-                    hole.place(T[row])
+                    hole.fast_place(T[row])
                     iters_before = iters
-                    code, blk, iters = hole.step(h, hp, checks, iters)
+                    code, blk, iters = hole.fast_step(h, hp, checks, iters)
                     if code != 0:
                         iters = iters_before
                         break
-                    hole.accept()
+                    hole.fast_accept()
                     hp = h
                     if k + 1 < S:
                         sample = k + 1
                         reached = k + 2
-                        hole.store(sample)
+                        hole.fast_store(sample)
                     k += 1
+                hole.fast_leave()
             if k >= n_steps:
                 break
             # the last step of a crank cycle returns to θ = 2π, whose driver values are sample 0's
@@ -328,7 +365,8 @@ def sweep(ctx, topo, drv, opts, P_init, restart_at, restart_pos, signs, cx, cy, 
 def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):
     """Every design (row) of ``designs`` through the sweep, serially, writing ``outs`` in place (and,
     with forces, the forces effect of each design into ``frows``): the one per-design loop of every
-    sweep kernel, rendered with the sweep inline (the scalar form) or calling it (the array form).
+    sweep kernel, rendered calling the sweep (the array form), or calling the resumable sweep and a
+    topology's generated loop of whole steps by turns (``_sweep.batch_whole_dialect``).
 
     topo, drv, opts, designs, outs: the ``_inputs`` named tuples (``designs`` set up by
     ``_batch.setup``); signs (n_blocks,): the nominal's branch of each block; fmodel, frows: the
@@ -345,24 +383,7 @@ def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):
         L = designs.dist[i]
         scale = designs.scale[i]
         if not valid_lengths(L, scale):
-            # NaN rows, as loops (a slice assignment compiles for about a second more)
-            for r_ in range(outs.pos.shape[1]):
-                for j_ in range(outs.pos.shape[2]):
-                    outs.pos[i, r_, j_, 0] = np.nan
-                    outs.pos[i, r_, j_, 1] = np.nan
-            for r_ in range(outs.vel.shape[1]):
-                for j_ in range(outs.vel.shape[2]):
-                    outs.vel[i, r_, j_, 0] = np.nan
-                    outs.vel[i, r_, j_, 1] = np.nan
-            for r_ in range(outs.acc.shape[1]):
-                for j_ in range(outs.acc.shape[2]):
-                    outs.acc[i, r_, j_, 0] = np.nan
-                    outs.acc[i, r_, j_, 1] = np.nan
-            outs.status[i] = STATUS_INVALID
-            outs.fail_t[i] = 0.0
-            outs.fail_end[i] = np.nan
-            outs.fail_block[i] = -1
-            outs.iters[i] = 0
+            invalid_design(outs, i)
             continue
         cx = designs.center[i, 0]
         cy = designs.center[i, 1]
@@ -405,8 +426,8 @@ def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):
 
 
 #: The batch template's holes and sections (see :func:`batch`): ``batch_state`` (the kernel's
-#: scratch, before the loop over designs), ``sweep`` (design i's sweep: a call, or the sweep inline,
-#: leaving its five results in the names it binds); sections ``plain`` (the sweep writes the outputs)
+#: scratch, before the loop over designs), ``sweep`` (design i's sweep: calls, leaving its five
+#: results in the names it binds); sections ``plain`` (the sweep writes the outputs)
 #: and ``forces`` (it writes per-design scratch; the forces effect and the copy follow).
 BATCH_HOLES = {
     "batch_state": ("", ""),
@@ -429,6 +450,13 @@ HOLES = {
     "closing_gap": ("gap", ""),
     "unreached": ("", "k"),
     "result": ("return", "status, fail_t, fail_end, fail_block, iters"),
+    "reenter": ("", ""),
+    "fast_enter": ("", ""),
+    "fast_place": ("", None),
+    "fast_step": ("code, blk, iters", "h, hp, checks, iters"),
+    "fast_accept": ("", ""),
+    "fast_store": ("", "sample"),
+    "fast_leave": ("", ""),
 }
 #: Sections a dialect keeps or drops.
 SECTIONS = ("whole_steps",)
@@ -457,13 +485,15 @@ def indexed(x: str, i: int) -> str:
     return f"{m.group(1)}[{m.group(2)}, {i}]" if m else f"{x}[{i}]"
 
 
-def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int = 0, template: str = "sweep") -> str:
+def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int = 0, template: str = "sweep",
+           only: str | None = None) -> str:
     """The template with every hole filled: ``holes[name](args)`` gives a hole's lines (a list of
     str, indented relative to the hole; ``args`` the argument text), ``sections[name]`` whether a
-    section's body is kept. ``body_only``: the function's statements without its def line and
-    docstring (for inlining into a kernel). Every line moves right by ``indent`` spaces. ``template``:
-    "sweep" (:func:`sweep`, :data:`HOLES`, :data:`SECTIONS`) or "batch" (:func:`batch`,
-    :data:`BATCH_HOLES`, :data:`BATCH_SECTIONS`)."""
+    section's body is kept, or a function giving the lines that replace the whole section (indented
+    relative to its ``if``). ``body_only``: the function's statements without its def line and
+    docstring (for inlining into a kernel). ``only``: the body of that section alone (at indentation 0).
+    Every line moves right by ``indent`` spaces. ``template``: "sweep" (:func:`sweep`, :data:`HOLES`,
+    :data:`SECTIONS`) or "batch" (:func:`batch`, :data:`BATCH_HOLES`, :data:`BATCH_SECTIONS`)."""
     if template == "sweep":
         (lines, first), table, known = _template(), HOLES, SECTIONS
     else:
@@ -471,6 +501,7 @@ def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int 
     out: list[str] = []
     drop_below = None  # inside a dropped section: lines indented deeper than this
     dedent = []  # kept sections' indentation levels: their bodies move left by 4
+    within = None  # with ``only``: that section's indentation while inside it
     for n, line in enumerate(lines):
         if body_only and n < first:
             continue
@@ -482,6 +513,8 @@ def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int 
                 drop_below = None
             while dedent and ind <= dedent[-1]:
                 dedent.pop()
+            if within is not None and ind <= within:
+                within = None
         elif drop_below is not None:
             continue
         m = _SECTION.match(line)
@@ -489,11 +522,23 @@ def render(holes: dict, sections: dict, *, body_only: bool = False, indent: int 
             name = m.group("name")
             if name not in known:
                 raise ValueError(f"{template} template: unknown section {name!r}")
+            if only is not None:
+                if name == only:
+                    within = ind
+                    continue
+            elif callable(sections[name]):
+                out += [" " * (ind + indent - 4 * len(dedent)) + ln if ln.strip() else "" for ln in sections[name]()]
+                drop_below = ind
+                continue
             if sections[name]:
                 dedent.append(ind)
             else:
                 drop_below = ind
             continue
+        if only is not None:
+            if within is None:
+                continue
+            ind -= within + 4  # the section's body at indentation 0
         shift = indent - 4 * len(dedent)
         m = _HOLE.match(line)
         if m:
