@@ -528,8 +528,9 @@ KERNELS = ("auto", "general", "generated")
 #: for every topology. Every built-in leg has at most 6 blocks.
 GENERATED_MAX_BLOCKS = 12
 
-#: Kernel "auto" compiles a topology's generated kernel (10-15 CPU-s on a 2-core machine, once per
-#: topology and set of outputs, then cached on disk) only where it costs nothing now (compiled in this
+#: Kernel "auto" compiles a topology's generated kernel (about 2 CPU-s for its loop of whole steps on a
+#: 2-core machine, ~10 more for a forces kernel's generated base leg and batch loop; once per topology
+#: and set of outputs, then cached on disk) only where it costs nothing now (compiled in this
 #: process, or cached by an earlier run or ``explorer warm``) or the job is at least this many
 #: configurations (designs x samples). The generated code is 1.3-1.4x as fast as the general kernel
 #: (Jansen, 10,000 x 360: 0.47 against 0.62 CPU-s), a saving of ~0.04 µs a configuration: a single
