@@ -318,23 +318,13 @@ def batch_module_source() -> str:
     """The text of ``_batch_array.py``: the batch template rendered in the array dialect, without and
     with forces, and around a generated loop of whole steps (:func:`batch_whole_dialect`)."""
     out = _BATCH_HEADER
-    for forces in (False, True):
-        src = render(batch_array_dialect(forces), {"plain": not forces, "forces": forces}, template="batch")
-        if forces:
-            src = src.replace("def batch(", "def batch_forces(", 1)
-        else:
+    for dialect, name, extra in ((batch_array_dialect, "batch", ""), (batch_whole_dialect, "batch_whole", ", whole")):
+        for forces in (False, True):
+            src = render(dialect(forces), {"plain": not forces, "forces": forces}, template="batch")
+            args = "topo, drv, opts, signs, fmodel, designs, outs, frows" if forces else "topo, drv, opts, signs, designs, outs"
             src = src.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
-                              "def batch_plain(topo, drv, opts, signs, designs, outs):", 1)
-        out += "\n\n" + src
-    for forces in (False, True):
-        src = render(batch_whole_dialect(forces), {"plain": not forces, "forces": forces}, template="batch")
-        if forces:
-            src = src.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
-                              "def batch_whole_forces(topo, drv, opts, signs, fmodel, designs, outs, frows, whole):", 1)
-        else:
-            src = src.replace("def batch(topo, drv, opts, signs, fmodel, designs, outs, frows):",
-                              "def batch_whole_plain(topo, drv, opts, signs, designs, outs, whole):", 1)
-        out += "\n\n" + src
+                              f"def {name}_{'forces' if forces else 'plain'}({args}{extra}):", 1)
+            out += "\n\n" + src
     return out
 
 
