@@ -533,6 +533,9 @@ def test_the_save_menu_is_the_export_registry(client):
         del EXPORTS["toyjson"]
     r = _post(c, "/api/save", {"design": design_data(session.reference), "path": "t.csv", "format": "csv"})
     assert r.status_code == 400 and "expected one of" in r.get_json()["error"]
+    for wrong in (["toml"], {"toml": 1}):  # not a format name at all: refused the same way, not an internal error
+        r = _post(c, "/api/save", {"design": design_data(session.reference), "path": "t.toml", "format": wrong})
+        assert r.status_code == 400 and "expected one of" in r.get_json()["error"], r.get_json()
 
 
 @pytest.mark.slow

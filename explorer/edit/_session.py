@@ -259,7 +259,7 @@ class EditSession:
         from ..fabrication import export_design, export_toml
 
         mech = self.parse(data)
-        if fmt not in SAVE_FORMATS:
+        if not isinstance(fmt, str) or fmt not in SAVE_FORMATS:  # (a list or an object: not a format either)
             raise UserError(f"format: expected one of {', '.join(SAVE_FORMATS)}, got {fmt!r}")
         force = force is True
         p = self._resolve(path)
